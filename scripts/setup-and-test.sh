@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Installs everything the test suite needs on a fresh Debian/Ubuntu machine and runs it:
+#   the ODE C library (Debian package libode8, used through ctypes),
+#   vrcal with its test and engine extras (pytest, hypothesis, MuJoCo, PyBullet),
+#   then the whole test suite.
+# Run it inside a virtual environment (see README.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if ! ldconfig -p 2>/dev/null | grep -q 'libode\.so'; then
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libode8
+fi
+python -m pip install --quiet --upgrade pip
+python -m pip install --quiet ".[test,engines]"
+python -m pytest -q "$@"

@@ -1,0 +1,67 @@
+"""Writing output files atomically: a temporary file beside the target, renamed at the end.
+
+A failed run leaves no partial output file behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import yaml
+
+from vrcal.errors import UsageError
+
+
+def atomic_write(path, data):
+    """Write ``data`` (str or bytes) to ``path`` through a temporary file and a rename.
+
+    Raises
+    ------
+    UsageError
+        when the directory does not exist or cannot be written (exit status 2).
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise UsageError(f"cannot write '{path}': it is a directory")
+    if not directory.is_dir():
+        raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
+    mode = "wb" if isinstance(data, (bytes, bytearray)) else "w"
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    except OSError as exc:
+        raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8", "newline": "\n"})) as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except OSError as exc:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_savefig(fig, path, **kwargs):
+    """Save a matplotlib figure atomically (format from the path's suffix)."""
+    import io
+
+    buf = io.BytesIO()
+    fmt = Path(path).suffix.lstrip(".") or "png"
+    fig.savefig(buf, format=fmt, **kwargs)
+    atomic_write(path, buf.getvalue())
+
+
+def dumps(data, fmt):
+    """Serialise a nested dict to 'json' or 'yaml' text with sorted keys (repeatable output)."""
+    if fmt == "json":
+        return json.dumps(data, indent=2, sort_keys=True) + "\n"
+    if fmt == "yaml":
+        return yaml.safe_dump(data, sort_keys=True, default_flow_style=False)
+    raise UsageError(f"unknown format '{fmt}' (known: json, yaml)")
