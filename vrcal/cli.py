@@ -129,8 +129,22 @@ def pair(ctx, body_a, body_b, K, as_paper, fmt):
     emit(dumps(result, fmt), None)
 
 
-# --------------------------------------------------------------------------- more commands
-# Each block below registers the commands of one part of vrcal.
+# --------------------------------------------------------------------------- plots and Table 2 (part: plots/table2)
+
+# (plot group and table2 command go here)
+
+# --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
+
+# (simulate and discover commands go here)
+
+# --------------------------------------------------------------------------- engines (part: export/verify)
+
+# (export and verify commands go here)
+
+# --------------------------------------------------------------------------- scenes (part: scene)
+
+# (scene command goes here)
+
 
 
 def run():  # pragma: no cover - used by python -m
