@@ -1,0 +1,175 @@
+"""End-to-end tests of the core commands: click's runner and the installed ``vrcal`` command."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from vrcal import __version__
+from vrcal.cli import main
+
+
+def run(*args):
+    return CliRunner().invoke(main, list(args))
+
+
+def test_version_and_help():
+    result = run("--version")
+    assert result.exit_code == 0 and __version__ in result.output
+    result = run("--help")
+    assert result.exit_code == 0 and "Examples" in result.output
+
+
+def test_every_command_has_help_with_an_example():
+    def walk(group, path):
+        for name, cmd in group.commands.items():
+            yield [*path, name], cmd
+            if hasattr(cmd, "commands"):
+                yield from walk(cmd, [*path, name])
+
+    for path, cmd in walk(main, []):
+        result = run(*path, "--help")
+        assert result.exit_code == 0, path
+        if not hasattr(cmd, "commands"):
+            assert "vrcal " in result.output.split("Example", 1)[-1], f"{' '.join(path)} --help has no example"
+
+
+def test_fit_json_has_the_documented_keys(tmp_path):
+    out = tmp_path / "b.json"
+    result = run("fit", "basketball", "--format", "json", "-o", str(out))
+    assert result.exit_code == 0, result.output
+    data = json.loads(out.read_text())
+    assert {"ball", "K_per_s", "epsilon", "T_s", "family"} <= set(data)
+    assert set(data["epsilon"]) == {"min", "nominal", "max"}
+    assert all(set(m) == {"x_m", "v_m_per_s"} for m in data["family"])
+
+
+def test_fit_yaml_to_stdout_is_repeatable():
+    a, b = run("fit", "tennis"), run("fit", "tennis")
+    assert a.exit_code == 0 and a.output == b.output
+    assert yaml.safe_load(a.output)["ball"] == "tennis"
+
+
+def test_fit_as_paper_shows_paper_value():
+    data = yaml.safe_load(run("fit", "basketball", "--as-paper").output)
+    assert data["epsilon"]["nominal"] == pytest.approx(0.85, abs=0.001)
+
+
+def test_fit_fixed_x():
+    data = yaml.safe_load(run("fit", "football", "--x", "0.02", "--K", "4").output)
+    assert data["fixed"]["x_m"] == 0.02
+    assert data["fixed"]["v_m_per_s"]["min"] < data["fixed"]["v_m_per_s"]["max"]
+
+
+def test_pair_command():
+    result = run("pair", "basketball", "floor", "--format", "json")
+    assert result.exit_code == 0
+    data = json.loads(result.output)
+    assert data["epsilon"] == pytest.approx(data["bodies"][0]["epsilon_on_rigid_floor"])
+
+
+def test_user_standards_file(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump({"schema_version": 1, "balls": {"superball": {
+        "name": "Superball", "association": "none", "rule": "own drop test", "official": False,
+        "mass_kg": {"min": 0.02, "max": 0.02}, "diameter_m": {"min": 0.04, "max": 0.04},
+        "drop_height_m": 1.0, "drop_measured_to": "bottom", "rebound_m": {"min": 0.81, "max": 0.81},
+        "rebound_measured_to": "bottom", "floor": "concrete", "conditions": "room"}}}))
+    for args in (["--standards", str(path), "fit", "superball"], ["fit", "superball", "--standards", str(path)]):
+        result = run(*args)
+        assert result.exit_code == 0, result.output
+        assert yaml.safe_load(result.output)["epsilon"]["nominal"] == pytest.approx(0.9)
+
+
+BAD_INPUTS = [
+    (["fit", "baskteball"], 2, "did you mean 'basketball'"),
+    (["fit", "basketball", "--K", "0"], 2, "K must be"),
+    (["fit", "basketball", "--K", "-1"], 2, "K must be"),
+    (["fit", "basketball", "--K", "abc"], 2, "is not a valid float"),
+    (["fit", "basketball", "--x", "-0.1"], 2, "--x must be"),
+    (["fit", "basketball", "--x", "0.1", "--v", "1"], 2, "not both"),
+    (["fit", "basketball", "--n", "0"], 2, "--n must be"),
+    (["fit"], 2, "Missing argument"),
+    (["pair", "basketball", "x=1"], 2, "x=DEPTH"),
+]
+
+
+@pytest.mark.parametrize("args,code,message", BAD_INPUTS, ids=[" ".join(a) for a, _, _ in BAD_INPUTS])
+def test_bad_input_is_one_line_with_exit_status(args, code, message):
+    result = run(*args)
+    assert result.exit_code == code
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vrcal: error:") and message in lines[0]
+    assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize(
+    "content,message",
+    [
+        ("schema_version: 1\nballs: {a: [1\n", "malformed YAML"),
+        ("schema_version: 1\nballs:\n  a: {name: x}\n", "balls.a"),
+    ],
+)
+def test_bad_standards_file_is_a_data_error(tmp_path, content, message):
+    path = tmp_path / "s.yaml"
+    path.write_text(content)
+    result = run("--standards", str(path), "fit", "a")
+    assert result.exit_code == 1
+    assert message in result.stderr and str(path) in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_h_above_H_in_user_file_is_a_data_error(tmp_path):
+    from importlib import resources
+
+    doc = yaml.safe_load(resources.files("vrcal").joinpath("standards.yaml").read_text())
+    doc["balls"]["volleyball"]["rebound_m"]["max"] = 1.2
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    result = run("--standards", str(path), "fit", "volleyball")
+    assert result.exit_code == 1 and "cannot rebound higher" in result.stderr
+
+
+def test_unwritable_output_leaves_no_file(tmp_path):
+    missing_dir = tmp_path / "no" / "such" / "dir" / "out.yaml"
+    result = run("fit", "basketball", "-o", str(missing_dir))
+    assert result.exit_code == 2 and "does not exist" in result.stderr
+    result = run("fit", "basketball", "-o", str(tmp_path))
+    assert result.exit_code == 2 and "is a directory" in result.stderr
+
+
+def test_failed_run_does_not_touch_existing_output(tmp_path):
+    out = tmp_path / "b.yaml"
+    out.write_text("previous\n")
+    result = run("fit", "basketball", "--K", "-1", "-o", str(out))
+    assert result.exit_code == 2
+    assert out.read_text() == "previous\n"
+    assert list(tmp_path.iterdir()) == [out]
+
+
+def _installed_vrcal():
+    exe = shutil.which("vrcal", path=os.path.dirname(sys.executable)) or shutil.which("vrcal")
+    if exe is None:
+        pytest.skip("the vrcal command is not installed in this environment")
+    return exe
+
+
+def test_installed_command_end_to_end(tmp_path):
+    exe = _installed_vrcal()
+    out = tmp_path / "basketball.json"
+    done = subprocess.run([exe, "fit", "basketball", "--format", "json", "-o", str(out)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(out.read_text())["ball"] == "basketball"
+    bad = subprocess.run([exe, "fit", "nosuchball"], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "Traceback" not in bad.stderr
+
+
+def test_python_dash_m():
+    done = subprocess.run([sys.executable, "-m", "vrcal", "--version"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and __version__ in done.stdout

@@ -1,0 +1,98 @@
+"""Tests of vrcal.inverse: epsilon -> (x, v) families and the two-body pair (Eqs. 6, 7, 10 of [1])."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal import restitution as eq
+from vrcal.errors import UsageError
+from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, pair
+from vrcal.standards import ball_epsilon, get_ball
+
+
+@pytest.mark.parametrize("key", ["basketball", "volleyball", "football", "tennis", "table_tennis"])
+@pytest.mark.parametrize("K", [0.5, DEFAULT_K_PER_S, 40.0])
+def test_family_members_give_the_nominal_epsilon_back(key, K):
+    result = fit_ball(key, K, n=7)
+    eps = result["epsilon"]["nominal"]
+    assert eps == pytest.approx(ball_epsilon(get_ball(key)).nominal, rel=1e-15)
+    assert len(result["family"]) == 7
+    R = get_ball(key).radius_m
+    for member in result["family"]:
+        assert 0 < member["x_m"] <= R * (1 + 1e-12)
+        forward = eq.epsilon_single(member["x_m"], member["v_m_per_s"], K)
+        assert forward == pytest.approx(eps, rel=1e-12)
+
+
+def test_json_keys_required_by_the_issue():
+    result = fit_ball("basketball")
+    for key in ("ball", "K_per_s", "epsilon", "T_s", "family"):
+        assert key in result
+    for level in ("min", "nominal", "max"):
+        assert level in result["epsilon"] and level in result["T_s"]
+    # T is larger for smaller epsilon (Eq. 7)
+    assert result["T_s"]["min"] > result["T_s"]["nominal"] > result["T_s"]["max"]
+
+
+def test_fixed_x_gives_v_range_and_fixed_v_gives_x_range():
+    K = 4.0
+    fx = fit_ball("football", K, x_m=0.02)["fixed"]
+    for level in ("min", "nominal", "max"):
+        eps = fit_ball("football", K)["epsilon"][level]
+        assert eq.epsilon_single(0.02, fx["v_m_per_s"][level], K) == pytest.approx(eps, rel=1e-12)
+    fv = fit_ball("football", K, v_m_per_s=0.3)["fixed"]
+    assert fv["x_m"]["min"] > fv["x_m"]["max"]  # smaller epsilon needs a deeper virtual body (Sec. 5 of [1])
+
+
+def test_x_and_v_together_is_a_usage_error():
+    with pytest.raises(UsageError, match="not both"):
+        fit_ball("football", 4.0, x_m=0.01, v_m_per_s=0.1)
+
+
+@pytest.mark.parametrize("K", [0.0, -3.0, float("nan")])
+def test_bad_K(K):
+    with pytest.raises(UsageError, match="K must be"):
+        fit_ball("tennis", K)
+
+
+def test_as_paper_basketball_is_085():
+    """Table 1 of [1]: basketball epsilon 0.85 (1.3 m rebound from 1.8 m, no point correction)."""
+    assert fit_ball("basketball", as_paper=True)["epsilon"]["nominal"] == pytest.approx(0.85, abs=0.001)
+
+
+def test_pair_is_product_of_single_epsilons_and_independent_of_K():
+    """Eq. (6): the contact times add, so epsilon_AB = epsilon_A * epsilon_B for balls calibrated on a rigid floor."""
+    eps_b = ball_epsilon(get_ball("basketball")).nominal
+    eps_t = ball_epsilon(get_ball("tennis")).nominal
+    for K in (0.7, 4.0, 60.0):
+        result = pair("basketball", "tennis", K)
+        assert result["epsilon"] == pytest.approx(eps_b * eps_t, rel=1e-12)
+
+
+def test_pair_with_floor_and_explicit_bodies():
+    assert pair("tennis", "floor")["epsilon"] == pytest.approx(ball_epsilon(get_ball("tennis")).nominal, rel=1e-12)
+    result = pair("x=0.01,v=0.1", "x=0.03,v=0.5", 4.0)
+    assert result["T_s"] == pytest.approx(0.08)
+    assert result["epsilon"] == pytest.approx(math.exp(-0.32))
+    with pytest.raises(UsageError, match="x=DEPTH"):
+        pair("x=0.01", "floor")
+
+
+def test_family_spacing():
+    x, v = family(0.05, 0.1, 4)
+    np.testing.assert_allclose(x, [0.025, 0.05, 0.075, 0.1])
+    np.testing.assert_allclose(v, x / 0.1)
+    with pytest.raises(UsageError):
+        family(0.05, 0.1, 0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(eps=st.floats(0.01, 0.999), K=st.floats(0.01, 100.0))
+def test_fit_then_forward_round_trip(eps, K):
+    """Property: for any epsilon in (0, 1) and K > 0 the inverted family gives epsilon back to 1e-12."""
+    T = eq.contact_time_from_epsilon_s(eps, K)
+    x, v = family(T, 0.1, 5)
+    np.testing.assert_allclose(eq.epsilon_single(x, v, K), eps, rtol=1e-12)
