@@ -115,6 +115,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         "mass_kg": ball.mass_kg.nominal,
         "diameter_m": ball.diameter_m.nominal,
         "equations": "epsilon = exp(-K*T) (Eq. 7), T = x/(2*v) (Eq. 10), epsilon = sqrt(h/H) (Eq. 9)",
+        "notes": list(ball.departures),
     }
     if T["nominal"] == 0:
         out["family"] = [{"x_m": 0.0, "v_m_per_s": None}]
