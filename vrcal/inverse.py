@@ -29,7 +29,8 @@ DEFAULT_K_PER_S = 4.0
 _LEVELS = ("min", "nominal", "max")
 
 
-def _check_K(K_per_s):
+def check_K(K_per_s):
+    """K [1/s] as a float; UsageError unless it is a finite number > 0."""
     if not (isinstance(K_per_s, (int, float)) and math.isfinite(K_per_s) and K_per_s > 0):
         raise UsageError(f"K must be a finite number > 0 [1/s], got {K_per_s!r}")
     return float(K_per_s)
@@ -94,7 +95,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     """
     if isinstance(ball, str):
         ball = get_ball(ball)
-    K = _check_K(K_per_s)
+    K = check_K(K_per_s)
     if x_m is not None and v_m_per_s is not None:
         raise UsageError("give --x or --v, not both")
     window = ball_epsilon(ball, as_paper=as_paper)
@@ -181,7 +182,7 @@ def pair(spec_a, spec_b, K_per_s=DEFAULT_K_PER_S, standards=None, as_paper=False
         each body's x, v, T and its own epsilon against a rigid floor, the pair's T and
         epsilon; JSON-ready.
     """
-    K = _check_K(K_per_s)
+    K = check_K(K_per_s)
     bodies = [parse_body(s, K, standards, as_paper) for s in (spec_a, spec_b)]
     (name_a, a, eps_a), (name_b, b, eps_b) = bodies
     T = eq.contact_time_pair_s(a.x_m, a.v_m_per_s, b.x_m, b.v_m_per_s)
