@@ -1,0 +1,107 @@
+"""Physics engines: export calibrated restitution to real engines and verify it there.
+
+Registry
+--------
+:data:`ENGINES` maps an engine name to an :class:`Engine` entry: the module that writes its
+file, the file format, whether vrcal can run it (``runs``), the package that provides it and
+the install hint used in :class:`vrcal.errors.EngineUnavailable`. ``mujoco`` and ``bullet``
+come from PyPI (``pip install 'vrcal[engines]'``); ``ode`` is the system's C library (Debian
+``libode8``) loaded with ctypes by :mod:`vrcal.engines.ode_ctypes`; ``gazebo`` and ``tables``
+(PhysX/Unity/Box2D) are exported only, no runtime is needed or used.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from vrcal.errors import EngineUnavailable, UsageError
+
+
+@dataclass(frozen=True)
+class Engine:
+    """One entry of the engine registry."""
+
+    name: str
+    module: str
+    fmt: str            # "xml", "json", "sdf", "text"
+    runs: bool          # vrcal can run the drop test in it
+    package: str        # what provides the runtime
+    install: str        # how to install it
+    default_dt_s: float
+    description: str
+
+
+ENGINES = {
+    "mujoco": Engine("mujoco", "vrcal.engines.mujoco", "xml", True, "mujoco (PyPI)",
+                     "pip install mujoco (or pip install 'vrcal[engines]')", 2.5e-5,
+                     "MJCF model; restitution as a damped-spring contact (solref direct form)"),
+    "ode": Engine("ode", "vrcal.engines.ode", "json", True, "libode8 (Debian)",
+                  "apt-get install libode8", 2e-4,
+                  "contact surface (dContactBounce, bounce, bounce_vel) and world settings"),
+    "bullet": Engine("bullet", "vrcal.engines.bullet", "json", True, "pybullet (PyPI)",
+                     "pip install pybullet (or pip install 'vrcal[engines]')", 2e-4,
+                     "changeDynamics / setPhysicsEngineParameter keyword arguments"),
+    "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 2e-4,
+                     "SDF 1.7 world, ODE physics, <bounce> on both surfaces"),
+    "tables": Engine("tables", "vrcal.engines.tables", "text", False, "none (export only)", "", 1e-3,
+                     "value and combine mode for PhysX, Unity and Box2D"),
+}
+
+
+def get_engine(name):
+    """The registry entry of ``name``; :class:`UsageError` naming the known engines otherwise."""
+    key = str(name).strip().lower()
+    aliases = {"pybullet": "bullet", "physx": "tables", "unity": "tables", "box2d": "tables", "sdf": "gazebo"}
+    key = aliases.get(key, key)
+    if key not in ENGINES:
+        raise UsageError(f"unknown engine '{name}' (known: {', '.join(ENGINES)})")
+    return ENGINES[key]
+
+
+def load(name):
+    """Import the module of engine ``name``."""
+    return importlib.import_module(get_engine(name).module)
+
+
+def require_runtime(name):
+    """Check that vrcal can run engine ``name`` here; returns its version string.
+
+    Raises
+    ------
+    UsageError
+        the engine has no runtime in vrcal (gazebo, tables)
+    EngineUnavailable
+        the engine is not installed (the message names the package)
+    """
+    engine = get_engine(name)
+    if not engine.runs:
+        runnable = ", ".join(k for k, e in ENGINES.items() if e.runs)
+        raise UsageError(f"vrcal cannot run {engine.name} (export only); verify works with: {runnable}")
+    return load(engine.name).version()
+
+
+def availability():
+    """``{engine: version string or the EngineUnavailable message}`` for every runnable engine."""
+    out = {}
+    for name, engine in ENGINES.items():
+        if engine.runs:
+            try:
+                out[name] = require_runtime(name)
+            except EngineUnavailable as exc:
+                out[name] = f"unavailable: {exc}"
+    return out
+
+
+def engine_table():
+    """A plain-text table of the registry with what is installed here (for ``vrcal engines``)."""
+    found = availability()
+    lines = [f"{'engine':<8} {'file':<5} {'default dt':>10}  {'verify':<44} provides"]
+    for name, e in ENGINES.items():
+        status = found.get(name, "export only")
+        dt = f"{e.default_dt_s:g}" if name != "tables" else "-"
+        lines.append(f"{name:<8} {e.fmt:<5} {dt:>10}  {status[:44]:<44} {e.description}")
+    missing = [f"{n}: {e.install}" for n, e in ENGINES.items() if found.get(n, "").startswith("unavailable")]
+    if missing:
+        lines.append("install: " + "; ".join(missing))
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,190 @@
+"""ODE (Open Dynamics Engine): restitution through the contact's ``bounce``, export and drop test.
+
+ODE takes restitution directly: ``dContact.surface.mode |= dContactBounce``, ``bounce`` = epsilon
+in [0, 1], and ``bounce_vel`` [m/s], the smallest incoming normal speed that bounces (slower
+impacts do not bounce at all). There is no mixing rule: the near callback fills every contact,
+so it must set the pair's epsilon itself (Eq. 6 of [1]: the product of the two bodies' values
+for bodies calibrated at the same K).
+
+The runner drives the system's libode (Debian package libode8) through
+:mod:`vrcal.engines.ode_ctypes`; vrcal compiles nothing.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+
+import numpy as np
+
+from vrcal.engines import ode_ctypes as O
+from vrcal.engines.common import flight_time_s, measure_ratios, phase_shifts_m
+from vrcal.errors import UsageError
+
+#: Default ODE time step [s].
+DEFAULT_DT_S = 2e-4
+
+#: Smallest incoming speed that bounces [m/s].
+BOUNCE_VEL_M_PER_S = 0.01
+
+#: World constraint force mixing: tiny (1e-5 already costs 1 % of epsilon).
+WORLD_CFM = 1e-10
+
+#: World error reduction. ODE's contact takes the larger of the bounce speed and the ERP
+#: push-out speed ``erp * depth / dt``: with 0.2 a ball 1 mm deep at dt = 1e-4 leaves at 2 m/s
+#: whatever its bounce (tests/test_engines_ode_ctypes.py). 0 keeps the bounce exact; in the
+#: drop tests 0 and 0.2 agreed to 1e-4 because the depth stays below v dt.
+WORLD_ERP = 0.0
+
+
+def export_params(setup, n_bounces=3, pair=None):
+    """The ODE settings (JSON-ready dict) that reproduce ``setup.epsilon``.
+
+    Parameters
+    ----------
+    setup : DropSetup
+    n_bounces : int
+        bounces the settings must survive: ``bounce_vel`` must stay below the impact speed
+        of the last one
+    pair : dict, optional
+        ``{"name": ..., "epsilon": ..., "ball2": ..., "epsilon_ball2": ...}`` for ``--against``
+
+    Returns
+    -------
+    dict
+    """
+    v_last = setup.impact_speed_m_per_s * setup.epsilon ** (n_bounces - 1)
+    if BOUNCE_VEL_M_PER_S >= v_last:
+        raise UsageError(f"bounce_vel {BOUNCE_VEL_M_PER_S} m/s is not below the last impact speed {v_last:.3g} m/s")
+    out = {
+        "engine": "ode",
+        "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
+                 "drop_height_m": setup.drop_height_m},
+        "target_epsilon": setup.epsilon,
+        "world": {"dt": setup.dt_s, "erp": WORLD_ERP, "cfm": WORLD_CFM,
+                  "gravity": [0.0, 0.0, -setup.g_m_per_s2], "step": "dWorldStep"},
+        "contact": {
+            "mode": ["dContactBounce"],
+            "mode_value": O.dContactBounce,
+            "mu": 0.0,
+            "bounce": setup.epsilon,
+            "bounce_vel": BOUNCE_VEL_M_PER_S,
+        },
+        "notes": [
+            f"impacts slower than bounce_vel = {BOUNCE_VEL_M_PER_S} m/s do not bounce "
+            f"(the last verified impact is at {v_last:.3g} m/s)",
+            "keep CFM tiny: world CFM 1e-5 already lowers epsilon by about 1 %; soft_cfm eats energy too",
+            "erp = 0: ODE's contact leaves at max(bounce speed, erp*depth/dt); with the default 0.2 a slow or "
+            "deep contact leaves faster than epsilon allows (and without dContactBounce ERP fakes epsilon ~ 0.14)",
+            "mu is free: friction does not change a vertical drop",
+        ],
+    }
+    if pair:
+        out["pairs"] = {
+            f"{setup.ball}/floor": setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon,
+            f"{pair['ball2']}/floor": pair["epsilon_ball2"],
+            f"{setup.ball}/{pair['ball2']}": pair["epsilon"],
+        }
+        out["notes"].append(
+            "ODE has no mixing rule: in the near callback set contact.surface.bounce to the PAIR's value "
+            "from 'pairs' (Eq. 6: the product of the two bodies' epsilons)"
+        )
+    return out
+
+
+def version():
+    """Name of the loaded C library and its precision, e.g. ``libode.so.8, double precision``."""
+    import os
+
+    lib = O.load_ode()
+    return f"{os.path.basename(str(lib._name))}, double precision"
+
+
+def run_drop(params, drop_height_m, duration_s):
+    """Drop the ball of an exported ODE parameter set once; returns (z_m, v_m_per_s) per step."""
+    lib = O.load_ode()
+    world_p, contact_p, ball = params["world"], params["contact"], params["ball"]
+    dt = float(world_p["dt"])
+    world = lib.dWorldCreate()
+    space = lib.dHashSpaceCreate(None)
+    group = lib.dJointGroupCreate(0)
+    try:
+        lib.dWorldSetGravity(world, *[float(x) for x in world_p["gravity"]])
+        lib.dWorldSetERP(world, float(world_p["erp"]))
+        lib.dWorldSetCFM(world, float(world_p["cfm"]))
+        body = lib.dBodyCreate(world)
+        R = float(ball["radius_m"])
+        mass = O.sphere_mass(float(ball["mass_kg"]), R)
+        lib.dBodySetMass(body, ctypes.byref(mass))
+        sphere = lib.dCreateSphere(space, R)
+        lib.dGeomSetBody(sphere, body)
+        lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
+        lib.dBodySetPosition(body, 0.0, 0.0, drop_height_m + R)
+        mode = 0
+        for flag in contact_p["mode"]:
+            mode |= getattr(O, flag)
+        surf = O.surface(mode, float(contact_p["mu"]), bounce=float(contact_p["bounce"]),
+                         bounce_vel=float(contact_p["bounce_vel"]))
+        step = getattr(lib, world_p.get("step", "dWorldStep"))
+        n = int(math.ceil(duration_s / dt))
+        z = np.empty(n + 1)
+        v = np.empty(n + 1)
+        z[0], v[0] = drop_height_m, 0.0
+
+        def near(o1, o2):
+            O.add_contacts(lib, world, group, o1, o2, surf, 1)
+
+        for i in range(1, n + 1):
+            O.collide_pairs(lib, space, near)
+            step(world, dt)
+            lib.dJointGroupEmpty(group)
+            z[i] = lib.dBodyGetPosition(body)[2] - R
+            v[i] = lib.dBodyGetLinearVel(body)[2]
+        return z, v, dt, -float(world_p["gravity"][2])
+    finally:
+        lib.dJointGroupDestroy(group)
+        lib.dSpaceDestroy(space)
+        lib.dWorldDestroy(world)
+
+
+def drop_test(params, setup, n_bounces, n_phases):
+    """Run the exported settings in libode; apex and velocity ratios, shape (n_phases, n_bounces)."""
+    shifts = phase_shifts_m(setup, n_phases)
+    apex, vel = [], []
+    for shift in shifts:
+        H = setup.drop_height_m + shift
+        duration = flight_time_s(H, setup.epsilon, n_bounces, setup.g_m_per_s2) * 1.05
+        z, v, dt, g = run_drop(params, H, duration)
+        a, b = measure_ratios(z, v, H, dt, g, n_bounces)
+        apex.append(a)
+        vel.append(b)
+    return shifts, np.array(apex), np.array(vel)
+
+
+C_SNIPPET = """\
+/* near callback: every ball/floor contact bounces with the calibrated epsilon */
+static void near_callback(void *data, dGeomID o1, dGeomID o2)
+{{
+    dContact c[4];
+    int i, n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
+    for (i = 0; i < n; i++) {{
+        c[i].surface.mode = dContactBounce;          /* no dContactSoftCFM: keep CFM tiny */
+        c[i].surface.mu = 0.0;                       /* your friction; a vertical drop ignores it */
+        c[i].surface.bounce = {bounce};            /* epsilon ({ball}) */
+        c[i].surface.bounce_vel = {bounce_vel};             /* m/s: slower impacts do not bounce */
+        dJointAttach(dJointCreateContact(world, contact_group, &c[i]),
+                     dGeomGetBody(o1), dGeomGetBody(o2));
+    }}
+}}
+/* world: */
+dWorldSetERP(world, {erp});
+dWorldSetCFM(world, {cfm});
+/* each step: dSpaceCollide(space, 0, near_callback); dWorldStep(world, {dt}); dJointGroupEmpty(contact_group); */
+"""
+
+
+def c_snippet(params):
+    """The near callback and world settings in C for an exported parameter set."""
+    return C_SNIPPET.format(bounce=f"{params['contact']['bounce']:.6f}", ball=params["ball"]["name"],
+                            bounce_vel=params["contact"]["bounce_vel"], erp=params["world"]["erp"],
+                            cfm=params["world"]["cfm"], dt=params["world"]["dt"])
