@@ -18,7 +18,27 @@ from vrcal.errors import VrcalError
 
 
 class VrcalGroup(click.Group):
-    """Turns every library error into ``vrcal: error: MESSAGE`` and its exit status."""
+    """Turns every error into one line ``vrcal: error: MESSAGE`` on stderr and an exit status.
+
+    Library errors (:class:`VrcalError`) exit 1 (data) or 2 (usage); click's own usage
+    errors (a bad option value, a missing argument) exit 2 -- without click's
+    multi-line usage block.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.ClickException as exc:
+            command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
+            hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
+            click.echo(f"vrcal: error: {exc.format_message()}{hint}", err=True)
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("vrcal: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
 
     def invoke(self, ctx):
         try:
@@ -54,7 +74,21 @@ def standards_of(ctx):
     """The standards the user chose (``--standards FILE``) or the shipped ones."""
     from vrcal.standards import load_standards
 
-    return load_standards(ctx.find_root().obj.get("standards_file"))
+    return load_standards((ctx.find_root().obj or {}).get("standards_file"))
+
+
+def _remember_standards(ctx, _param, value):
+    if value is not None:
+        root = ctx.find_root()
+        root.obj = dict(root.obj or {}, standards_file=value)
+    return value
+
+
+#: ``--standards FILE`` on a command (the same as the group's option).
+STANDARDS_OPTION = click.option(
+    "--standards", "standards_file", type=click.Path(dir_okay=False), default=None, expose_value=False,
+    is_eager=True, callback=_remember_standards, help="Use this standards YAML instead of the shipped one.",
+)
 
 
 def emit(text, output):
@@ -75,7 +109,7 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 # --------------------------------------------------------------------------- core (standards, inverse)
 
 
-@main.command()
+@main.command(short_help="Parameter file of a ball: epsilon, T and its (x, v) family.")
 @click.argument("ball")
 @K_OPTION
 @click.option("--x", "x_m", type=float, default=None, help="Fix the virtual body's depth x [m]; gives v.")
@@ -84,6 +118,7 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
 @click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of BALL: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
@@ -103,12 +138,13 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     emit(dumps(result, fmt), output)
 
 
-@main.command()
+@main.command(short_help="epsilon of two colliding bodies (Eqs. 6 and 7).")
 @click.argument("body_a")
 @click.argument("body_b")
 @K_OPTION
 @click.option("--as-paper", is_flag=True, help="Balls use the paper's Table 1 heights as printed.")
 @click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@STANDARDS_OPTION
 @click.pass_context
 def pair(ctx, body_a, body_b, K, as_paper, fmt):
     """epsilon of two colliding bodies from their virtual bodies (Eqs. 6 and 7).
@@ -131,19 +167,361 @@ def pair(ctx, body_a, body_b, K, as_paper, fmt):
 
 # --------------------------------------------------------------------------- plots and Table 2 (part: plots/table2)
 
-# (plot group and table2 command go here)
+@main.group(short_help="Figures 4-7 of the paper (plot curves).")
+def plot():
+    """Figures of the paper (Figs. 4-7) drawn from the model equations.
+
+    \b
+    Examples:
+      vrcal plot curves -o figures
+    """
+
+
+def _output_dir(path):
+    """The -o directory of ``plot curves``: created when its parent exists."""
+    from pathlib import Path
+
+    from vrcal.errors import UsageError
+
+    d = Path(path)
+    if d.is_dir():
+        return d
+    if d.exists():
+        raise UsageError(f"-o '{d}' exists and is not a directory")
+    parent = d.parent if str(d.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"cannot create -o '{d}': its parent directory '{parent}' does not exist")
+    try:
+        d.mkdir()
+    except OSError as exc:
+        raise UsageError(f"cannot create -o '{d}': {exc.strerror or exc}") from None
+    return d
+
+
+@plot.command("curves", short_help="Write Figs. 4-7 of the paper as PNGs.")
+@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=".", show_default=True,
+              help="Directory for the PNGs (created if its parent exists).")
+@K_OPTION
+@click.option("--ball", default="basketball", show_default=True, help="Ball of Fig. 7.")
+@click.option("--as-paper", is_flag=True, help="Fig. 7 uses the paper's Table 1 heights as printed.")
+@STANDARDS_OPTION
+@click.pass_context
+def plot_curves(ctx, out_dir, K, ball, as_paper):
+    """Write Figs. 4-7 as PNGs: ε vs T, ε vs v_A2, ε vs x_A, and a ball's (x, v) band.
+
+    \b
+    Examples:
+      vrcal plot curves -o figures
+      vrcal plot curves -o figures --K 4 --ball table_tennis
+      vrcal plot curves -o figures --ball basketball --as-paper
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from vrcal.fileio import atomic_savefig
+    from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.plots import curve_figures
+
+    figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
+    try:
+        d = _output_dir(out_dir)
+        for name in sorted(figures):
+            atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
+            click.echo(str(d / name))
+    finally:
+        for fig in figures.values():
+            plt.close(fig)
+
+
+@main.command(short_help="Table 2 regenerated from the standards; --compare-paper checks the paper's.")
+@K_OPTION
+@click.option("--format", "fmt", type=click.Choice(["markdown", "csv", "json"]), default="markdown",
+              show_default=True)
+@click.option("--compare-paper", is_flag=True,
+              help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
+@click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@STANDARDS_OPTION
+@click.pass_context
+def table2(ctx, K, fmt, compare_paper, as_paper, output):
+    """Table 2 regenerated from the standards: ε, T (Eq. 7) and a virtual body x, v (Eq. 10).
+
+    Every ball of the standards, in file order; x = R/2, v = x/(2T). With
+    --compare-paper: the K each row of the paper's Table 2 implies under Eq. (10) as
+    printed and with x and v interchanged, and the least-squares K of each reading.
+
+    \b
+    Examples:
+      vrcal table2
+      vrcal table2 --K 4 --format csv
+      vrcal table2 --compare-paper
+    """
+    from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.table2 import table2_text
+
+    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
+    emit(text, output)
 
 # --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
 
 # (simulate and discover commands go here)
 
+
+@main.command(short_help="Simulate a drop test (exact impacts, optional effects) and write CSV data.")
+@click.argument("ball")
+@click.option("--drop", "drop_m", type=float, default=None,
+              help="Drop height of the ball's bottom [m] (default: the standard's).")
+@click.option("--bounces", type=int, default=10, show_default=True, help="Number of floor impacts.")
+@click.option("--epsilon", type=float, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
+@K_OPTION
+@click.option("--x", "x_m", type=float, default=None, help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
+@click.option("--v", "v_m_per_s", type=float, default=None, help="Virtual body speed v [m/s] (with --x).")
+@click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
+              help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
+                   "height_offset, buoyancy.")
+@click.option("--fs", "fs_hz", type=float, default=240.0, show_default=True, help="Trajectory frame rate [Hz].")
+@click.option("--noise", "noise_m", type=float, default=0.0, show_default=True,
+              help="Gaussian noise on heights [m].")
+@click.option("--jitter", "jitter_s", type=float, default=0.0, show_default=True,
+              help="Gaussian noise on impact times [s].")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--still", "still_s", type=float, default=0.2, show_default=True,
+              help="Still segment before release [s].")
+@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (a ball outside the standards).")
+@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m].")
+@click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes"]), default="trajectory",
+              show_default=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@STANDARDS_OPTION
+@click.pass_context
+def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs_hz, noise_m, jitter_s, seed,
+             still_s, mass_kg, diameter_m, fmt, output):
+    """Simulate a drop test of BALL (event-driven, exact impacts) and write CSV data.
+
+    \b
+    Examples:
+      vrcal simulate table_tennis --bounces 5 --format apexes
+      vrcal simulate table_tennis --effect air_drag --noise 0.001 -o tt.csv
+      vrcal simulate basketball --effect contact_duration:contact_time_s=0.008 --format impacts
+      vrcal simulate marble --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
+    """
+    from vrcal.simulate import simulate_csv
+
+    text = simulate_csv(ball, kind=fmt, drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K,
+                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=fs_hz, noise_m=noise_m,
+                        jitter_s=jitter_s, seed=seed, still_s=still_s, mass_kg=mass_kg, diameter_m=diameter_m,
+                        standards=standards_of(ctx))
+    emit(text, output)
+
+
+@main.command()
+@click.argument("data", type=click.Path(dir_okay=False))
+@click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
+@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (overrides the standard's).")
+@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m] (overrides the standard's).")
+@click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
+@click.option("--scale", "scale_m_per_px", type=float, default=None, help="Metres per pixel of a video track.")
+@click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
+@click.option("--fs", "fs_hz", type=float, default=None, help="Frame rate [Hz] when the file has no time column.")
+@click.option("--floor", "floor_m", type=float, default=None,
+              help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
+                   "when the heights are clearly not floor-referenced).")
+@click.option("--noise", type=float, default=None,
+              help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
+                   "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
+@click.option("--g", "g_m_per_s2", type=float, default=9.80665, show_default=True, help="Gravity [m/s^2].")
+@click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
+              help="Also write the result as JSON (sorted keys) here.")
+@click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
+              help="Write report.txt, discover.json and the figure discover.png into this directory.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
+@STANDARDS_OPTION
+@click.pass_context
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, fs_hz, floor_m, noise,
+             g_m_per_s2, json_file, report_dir, quiet):
+    """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
+
+    Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
+    by BIC with a materiality test; repeats until nothing material is left. Prints the report.
+
+    \b
+    Examples:
+      vrcal simulate tennis --effect air_drag --noise 0.002 -o drop.csv
+      vrcal discover drop.csv --ball tennis
+      vrcal discover drop.csv --ball tennis --json result.json --report out
+      vrcal discover drop.csv --ball golf --mass 0.0459 --diameter 0.0427
+    """
+    import os
+
+    from vrcal.discover import discover_file
+    from vrcal.fileio import atomic_savefig, atomic_write, dumps
+    from vrcal.report import REPORT_FILES, discovery_figure, fit_report
+
+    def progress(rnd, i, n, name):
+        if not quiet:
+            click.echo(f"discover: round {rnd}, candidate {i}/{n}: fitting {name}", err=True)
+
+    result = discover_file(data, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m, g_m_per_s2=g_m_per_s2,
+                           standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
+                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise)
+    text = fit_report(result)
+    if json_file:
+        emit(dumps(result.as_dict(), "json"), json_file)
+    if report_dir:
+        try:
+            os.makedirs(report_dir, exist_ok=True)
+        except OSError as exc:
+            raise click.UsageError(f"cannot create '{report_dir}': {exc.strerror or exc}") from None
+        atomic_write(os.path.join(report_dir, REPORT_FILES["text"]), text)
+        atomic_write(os.path.join(report_dir, REPORT_FILES["json"]), dumps(result.as_dict(), "json"))
+        atomic_savefig(discovery_figure(result), os.path.join(report_dir, REPORT_FILES["figure"]), dpi=120)
+        click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
+    emit(text, None)
+
 # --------------------------------------------------------------------------- engines (part: export/verify)
 
 # (export and verify commands go here)
 
+_ENGINE_NAMES = ["mujoco", "ode", "bullet", "gazebo", "tables", "physx", "unity", "box2d"]
+
+
+@main.command("export")
+@click.argument("ball")
+@click.option("--engine", "engine", type=click.Choice(_ENGINE_NAMES, case_sensitive=False), required=True,
+              help="Engine to export for (physx/unity/box2d = tables).")
+@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
+@click.option("--dt", "dt_s", type=float, default=None,
+              help="Engine time step [s] (default per engine: mujoco 2.5e-5, others 2e-4).")
+@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair).")
+@click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
+@K_OPTION
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@STANDARDS_OPTION
+@click.pass_context
+def export_cmd(ctx, ball, engine, epsilon, dt_s, floor, against, K, output):
+    """Export BALL's calibrated epsilon to a physics engine's own file.
+
+    mujoco: MJCF model; ode, bullet: JSON settings with a paste-ready snippet;
+    gazebo: SDF world; tables: PhysX/Unity/Box2D values and combine modes.
+
+    \b
+    Examples:
+      vrcal export basketball --engine mujoco -o basketball.xml
+      vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
+      vrcal export basketball --engine bullet --against volleyball
+      vrcal export football --engine gazebo --epsilon 0.8 -o football.sdf
+    """
+    from vrcal.engines.export import export
+    from vrcal.inverse import DEFAULT_K_PER_S
+
+    result = export(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, against=against,
+                    standards=standards_of(ctx), K_per_s=DEFAULT_K_PER_S if K is None else K)
+    emit(result.text, output)
+
+
+@main.command("verify")
+@click.argument("ball")
+@click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet"], case_sensitive=False),
+              required=True, help="Engine to run the drop test in.")
+@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
+@click.option("--dt", "dt_s", type=float, default=None, help="Engine time step [s] (default per engine).")
+@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED'.")
+@click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Verify this file written by 'vrcal export' instead of a fresh export.")
+@click.option("--tolerance", type=float, default=0.005, show_default=True,
+              help="Largest accepted |achieved - target| epsilon; exit status 1 above it.")
+@click.option("--bounces", "n_bounces", type=int, default=3, show_default=True, help="Bounces per drop.")
+@click.option("--phases", "n_phases", type=int, default=4, show_default=True,
+              help="Drops with the impact moved across one time step.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@STANDARDS_OPTION
+@click.pass_context
+def verify_cmd(ctx, ball, engine, epsilon, dt_s, floor, file, tolerance, n_bounces, n_phases, fmt):
+    """Load BALL's exported settings into the real engine and run the drop test.
+
+    Reports the achieved epsilon (apex and velocity ratios per bounce and contact phase)
+    against the target; exit status 1 when the error exceeds --tolerance.
+
+    \b
+    Examples:
+      vrcal verify basketball --engine mujoco
+      vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
+      vrcal export basketball --engine bullet -o b.json && vrcal verify basketball --engine bullet --file b.json
+    """
+    from pathlib import Path
+
+    from vrcal.engines.verify import format_report, verify
+    from vrcal.fileio import dumps
+
+    text = Path(file).read_text(encoding="utf-8") if file else None
+    result = verify(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
+                    tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text)
+    emit(format_report(result) if fmt == "text" else dumps(result.as_dict(), "json"), None)
+    if not result.passed:
+        click.echo(f"vrcal: error: epsilon error {result.error:.4g} exceeds the tolerance {tolerance:g}", err=True)
+        return 1
+    return 0
+
+
+@main.command("engines")
+def engines_cmd():
+    """List the engines vrcal exports to, and which of them it can run here.
+
+    \b
+    Examples:
+      vrcal engines
+    """
+    from vrcal.engines import engine_table
+
+    emit(engine_table(), None)
+
 # --------------------------------------------------------------------------- scenes (part: scene)
 
-# (scene command goes here)
+@main.command()
+@click.argument("scene_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Directory for the outputs [default: ./NAME, NAME = the scene file's name without suffix].")
+@click.option("--engine", type=click.Choice(["vrcal", "ode"]), default="vrcal", show_default=True,
+              help="vrcal's event-driven simulator, or the real ODE library (libode8).")
+@click.option("--compare", is_flag=True, help="Run both engines and report where they differ (apexes, impacts).")
+@click.option("--ode-dt", "ode_dt_s", type=float, default=None, show_default="1e-4",
+              help="ODE's fixed time step [s].")
+@click.option("--no-animation", is_flag=True, help="Skip the GIF (the slowest output).")
+@STANDARDS_OPTION
+@click.pass_context
+def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
+    """Run a multi-body SCENE_FILE (YAML): spheres bouncing on a floor and on each other.
+
+    At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
+    impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
+    and scene.gif (side view) into the output directory and prints a summary. The scene file
+    schema is in docs/readme/scenes.md and examples/*.yaml.
+
+    \b
+    Examples:
+      vrcal scene examples/figure8-basketball.yaml
+      vrcal scene examples/stack-drop.yaml --engine ode -o stack-ode
+      vrcal scene examples/figure9-five-balls.yaml --compare -o five
+    """
+    from pathlib import Path
+
+    from vrcal.errors import UsageError
+    from vrcal.fileio import atomic_write
+    from vrcal.scene_output import run_scene
+
+    run = run_scene(scene_file, engine=engine, compare=compare, ode_dt_s=ode_dt_s, standards=standards_of(ctx),
+                    animate=not no_animation)
+    directory = Path(out_dir) if out_dir else Path(Path(scene_file).stem)
+    try:
+        directory.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create output directory '{directory}': {exc.strerror or exc}") from None
+    click.echo(run.summary, nl=False)
+    for name in sorted(run.files):
+        atomic_write(directory / name, run.files[name])
+        click.echo(f"wrote {directory / name}", err=True)
 
 
 
