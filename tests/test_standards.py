@@ -131,5 +131,5 @@ def test_yaml_is_loaded_safely(tmp_path):
 
 
 def test_missing_file(tmp_path):
-    with pytest.raises(DataError, match="cannot read standards file"):
+    with pytest.raises(UsageError, match="no such standards file"):
         load_standards(tmp_path / "nope.yaml")

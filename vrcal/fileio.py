@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from vrcal.errors import UsageError
+from vrcal.errors import DataError, UsageError
 
 
 def atomic_write(path, data):
@@ -72,3 +72,43 @@ def dumps(data, fmt):
     if fmt == "yaml":
         return yaml.safe_dump(data, sort_keys=True, default_flow_style=False)
     raise UsageError(f"unknown format '{fmt}' (known: json, yaml)")
+
+
+def parse_yaml(text, where):
+    """The document in YAML ``text`` (safe loader only); ``where`` names it in errors.
+
+    Raises
+    ------
+    DataError
+        malformed YAML, with the line when the parser knows it (``where:LINE: ...``)
+    """
+    try:
+        return yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = f":{mark.line + 1}" if mark is not None else ""
+        raise DataError(f"{where}{line}: malformed YAML: {exc.problem or exc.context}") from None
+    except yaml.YAMLError as exc:
+        raise DataError(f"{where}: malformed YAML: {exc}") from None
+
+
+def read_yaml(path, what):
+    """The YAML document in the file ``path``; ``what`` names the kind of file in errors.
+
+    Raises
+    ------
+    UsageError
+        the file does not exist (exit status 2)
+    DataError
+        the file cannot be read, is not UTF-8 text, or is malformed YAML (exit status 1)
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such {what} file") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read {what} file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a UTF-8 text file") from None
+    return parse_yaml(text, str(path))

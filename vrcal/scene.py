@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
+from vrcal.fileio import read_yaml
 
 from vrcal import restitution as eq
 from vrcal.errors import DataError, UsageError
@@ -215,22 +215,7 @@ def load_scene(path, standards=None):
         (with the body and the field)
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UsageError(f"{path}: no such scene file") from None
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read scene file: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a UTF-8 text file") from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = f":{mark.line + 1}" if mark is not None else ""
-        raise DataError(f"{path}{line}: malformed YAML: {exc.problem or exc.context}") from None
-    except yaml.YAMLError as exc:
-        raise DataError(f"{path}: malformed YAML: {exc}") from None
+    doc = read_yaml(path, "scene")
     return validate_scene(doc, str(path), default_name=path.stem, standards=standards)
 
 

@@ -14,7 +14,7 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
-import yaml
+from vrcal.fileio import parse_yaml, read_yaml
 
 from vrcal.errors import DataError, UsageError
 from vrcal.restitution import POINT_OFFSET_DIAMETERS, epsilon_from_heights, height_to_bottom_m
@@ -125,29 +125,12 @@ def load_standards(path=None):
 @lru_cache(maxsize=1)
 def _load_default():
     src = _default_path()
-    return _parse(src.read_text(encoding="utf-8"), "vrcal/standards.yaml")
+    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml"),
+                              "vrcal/standards.yaml")
 
 
 def _load_file(path):
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read standards file: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a UTF-8 text file") from None
-    return _parse(text, str(path))
-
-
-def _parse(text, where):
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = f":{mark.line + 1}" if mark is not None else ""
-        raise DataError(f"{where}{line}: malformed YAML: {exc.problem or exc.context}") from None
-    except yaml.YAMLError as exc:
-        raise DataError(f"{where}: malformed YAML: {exc}") from None
-    return validate_standards(doc, where)
+    return validate_standards(read_yaml(path, "standards"), str(path))
 
 
 def validate_standards(doc, where="standards"):

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from vrcal.engines.common import flight_time_s, measure_ratios, phase_shifts_m
+from vrcal.engines.common import stepped_drop_test
 from vrcal.errors import EngineUnavailable, UsageError
 
 #: Default Bullet time step [s].
@@ -143,16 +143,7 @@ def run_drop(params, drop_height_m, duration_s):
 
 def drop_test(params, setup, n_bounces, n_phases):
     """Run the exported settings in PyBullet; apex and velocity ratios, shape (n_phases, n_bounces)."""
-    shifts = phase_shifts_m(setup, n_phases)
-    apex, vel = [], []
-    for shift in shifts:
-        H = setup.drop_height_m + shift
-        duration = flight_time_s(H, setup.epsilon, n_bounces, setup.g_m_per_s2) * 1.05
-        z, v, dt, g = run_drop(params, H, duration)
-        a, b = measure_ratios(z, v, H, dt, g, n_bounces)
-        apex.append(a)
-        vel.append(b)
-    return shifts, np.array(apex), np.array(vel)
+    return stepped_drop_test(run_drop, params, setup, n_bounces, n_phases)
 
 
 PY_SNIPPET = """\

@@ -228,3 +228,23 @@ class VerifyResult:
             "velocity_ratios": np.round(self.velocity_ratios, 6).tolist(),
             "error": self.error, "passed": self.passed, "settings": self.settings,
         }
+
+
+def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases):
+    """The drop test of a time-stepping engine, once per contact phase.
+
+    ``run_drop(params, drop_height_m, duration_s)`` runs one drop and returns the sampled
+    bottom height z [m] and vertical velocity v [m/s] of every step, the step dt [s] and g
+    [m/s^2]. Returns the height shifts [m] and the apex and velocity ratios, each of shape
+    (n_phases, n_bounces).
+    """
+    shifts = phase_shifts_m(setup, n_phases)
+    apex, vel = [], []
+    for shift in shifts:
+        H = setup.drop_height_m + shift
+        duration = flight_time_s(H, setup.epsilon, n_bounces, setup.g_m_per_s2) * 1.05
+        z, v, dt, g = run_drop(params, H, duration)
+        a, b = measure_ratios(z, v, H, dt, g, n_bounces)
+        apex.append(a)
+        vel.append(b)
+    return shifts, np.array(apex), np.array(vel)

@@ -100,7 +100,7 @@ def format_report(result):
              f"    engine         = {r.engine} ({r.engine_version})",
              f"    ball           = {r.ball}",
              f"    time step      = {r.dt_s:g} s",
-             f"    settings       = " + ", ".join(f"{k}={v}" for k, v in sorted(r.settings.items())),
+             "    settings       = " + ", ".join(f"{k}={v}" for k, v in sorted(r.settings.items())),
              "[[Target]]",
              f"    epsilon        = {r.target:.6f}"]
     lines += [f"    from           = {n}" for n in r.notes]
