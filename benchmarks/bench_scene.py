@@ -8,6 +8,7 @@ and apex-height differences). ODE missing is reported and skipped. Prints number
 """
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -41,8 +42,10 @@ def main():
                 print(f"{scene.name:<22} ode: {exc}")
                 break
             cmp = compare_results(exact, res)
+            dh = cmp.max_apex_difference_m
+            dh_text = f"{'no match':>13}" if math.isnan(dh) else f"{dh:13.3g}"
             print(f"{scene.name:<22} {'ode ' + format(dt, 'g'):<12} {wall:9.3f} {len(res.contacts):8d} "
-                  f"{cmp.max_impact_time_difference_s:13.3g} {cmp.max_apex_difference_m:13.3g}"
+                  f"{cmp.max_impact_time_difference_s:13.3g} {dh_text}"
                   + (f"  ({cmp.solver_messages} ODE solver messages)" if cmp.solver_messages else ""))
 
 

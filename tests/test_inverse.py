@@ -33,18 +33,26 @@ def test_json_keys_required_by_the_issue():
         assert key in result
     for level in ("min", "nominal", "max"):
         assert level in result["epsilon"] and level in result["T_s"]
-    # T is larger for smaller epsilon (Eq. 7)
-    assert result["T_s"]["min"] > result["T_s"]["nominal"] > result["T_s"]["max"]
+    # min and max are bounds by value; the shortest T belongs to epsilon max (Eq. 7)
+    assert result["T_s"]["min"] < result["T_s"]["nominal"] < result["T_s"]["max"]
+    K = result["K_per_s"]
+    assert result["T_s"]["min"] == pytest.approx(-math.log(result["epsilon"]["max"]) / K, rel=1e-12)
+    assert result["T_s"]["max"] == pytest.approx(-math.log(result["epsilon"]["min"]) / K, rel=1e-12)
 
 
 def test_fixed_x_gives_v_range_and_fixed_v_gives_x_range():
     K = 4.0
     fx = fit_ball("football", K, x_m=0.02)["fixed"]
     for level in ("min", "nominal", "max"):
+        # a faster virtual body at fixed x gives a larger epsilon: v min..max maps to epsilon min..max
         eps = fit_ball("football", K)["epsilon"][level]
         assert eq.epsilon_single(0.02, fx["v_m_per_s"][level], K) == pytest.approx(eps, rel=1e-12)
     fv = fit_ball("football", K, v_m_per_s=0.3)["fixed"]
-    assert fv["x_m"]["min"] > fv["x_m"]["max"]  # smaller epsilon needs a deeper virtual body (Sec. 5 of [1])
+    eps = fit_ball("football", K)["epsilon"]
+    # a deeper virtual body gives a smaller epsilon (Sec. 5 of [1]): x max belongs to epsilon min
+    assert fv["x_m"]["min"] < fv["x_m"]["nominal"] < fv["x_m"]["max"]
+    assert eq.epsilon_single(fv["x_m"]["max"], 0.3, K) == pytest.approx(eps["min"], rel=1e-12)
+    assert eq.epsilon_single(fv["x_m"]["min"], 0.3, K) == pytest.approx(eps["max"], rel=1e-12)
 
 
 def test_x_and_v_together_is_a_usage_error():

@@ -219,5 +219,14 @@ def test_plot_heights_returns_the_axes_with_one_line_per_body():
     res = simulate_scene(load_scene(EXAMPLES / "figure9-five-balls.yaml"))
     ax = plot_heights(res)
     assert len(ax.get_lines()) == 5
-    np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), res.bottom_height_m()[:, 0])
+    # the line holds every sample and touches the floor (0) at each of the body's floor contacts
+    line = ax.get_lines()[0]
+    t_line, z_line = line.get_xdata(), line.get_ydata()
+    name = res.scene.names[0]
+    t_floor = [c.t_s for c in res.contacts if c.body_a == name and c.body_b == "floor"]
+    assert t_floor and t_line.size == res.t_s.size + len(t_floor)
+    assert np.all(np.diff(t_line) >= 0)
+    sampled = ~np.isin(t_line, t_floor)
+    np.testing.assert_allclose(z_line[sampled], res.bottom_height_m()[:, 0])
+    np.testing.assert_array_equal(z_line[np.isin(t_line, t_floor)], 0.0)
     plt.close(ax.figure)

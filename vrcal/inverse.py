@@ -100,7 +100,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         raise UsageError("give --x or --v, not both")
     window = ball_epsilon(ball, as_paper=as_paper)
     eps = window.as_dict()
-    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in _LEVELS}
+    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in _LEVELS}  # keyed by the epsilon level
     R = ball.radius_m
     out = {
         "ball": ball.key,
@@ -110,7 +110,9 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         "convention": window.convention,
         "K_per_s": K,
         "epsilon": eps,
-        "T_s": T,
+        "T_s": _bounds(T),
+        "bounds": "min and max are the smallest and largest value of each quantity over epsilon min..max; "
+                  "the shortest T, the fastest v (at fixed x) and the shallowest x (at fixed v) give epsilon max",
         "drop_height_m": window.drop_height_m,
         "rebound_height_m": window.rebound_m.as_dict(),
         "mass_kg": ball.mass_kg.nominal,
@@ -128,7 +130,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
         out["fixed"] = {
             "x_m": float(x_m),
-            "v_m_per_s": {k: _or_inf(lambda t: eq.virtual_speed_m_per_s(x_m, t), T[k]) for k in _LEVELS},
+            "v_m_per_s": _bounds({k: _or_inf(lambda t: eq.virtual_speed_m_per_s(x_m, t), T[k]) for k in _LEVELS}),
         }
         if x_m > R:
             out["fixed"]["warning"] = f"x = {x_m:g} m is deeper than the ball's radius {R:g} m"
@@ -137,9 +139,15 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
         out["fixed"] = {
             "v_m_per_s": float(v_m_per_s),
-            "x_m": {k: eq.virtual_depth_m(v_m_per_s, T[k]) for k in _LEVELS},
+            "x_m": _bounds({k: eq.virtual_depth_m(v_m_per_s, T[k]) for k in _LEVELS}),
         }
     return out
+
+
+def _bounds(by_level):
+    """{min, nominal, max} of a quantity given per epsilon level: min and max by value."""
+    lo, hi = sorted((by_level["min"], by_level["max"]))
+    return {"min": lo, "nominal": by_level["nominal"], "max": hi}
 
 
 def _or_inf(fn, T):

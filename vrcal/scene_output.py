@@ -77,13 +77,12 @@ def plot_heights(result, ax=None, other=None):
 
     if ax is None:
         _fig, ax = plt.subplots(figsize=(7, 4))
-    bottom = result.bottom_height_m()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for b, name in enumerate(result.scene.names):
         c = colours[b % len(colours)]
-        ax.plot(result.t_s, bottom[:, b], color=c, lw=1.4, label=f"{name} ({result.engine})")
+        ax.plot(*_bottom_with_floor_contacts(result, b), color=c, lw=1.4, label=f"{name} ({result.engine})")
         if other is not None:
-            ax.plot(other.t_s, other.bottom_height_m()[:, b], color=c, lw=1.0, ls="--",
+            ax.plot(*_bottom_with_floor_contacts(other, b), color=c, lw=1.0, ls="--",
                     label=f"{name} ({other.engine})")
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("height of the ball's bottom [m]")
@@ -94,7 +93,21 @@ def plot_heights(result, ax=None, other=None):
     return ax
 
 
-def animation_gif(result, *, max_frames=150, fps=None, dpi=60):
+def _bottom_with_floor_contacts(result, b):
+    """Times [s] and bottom heights [m] of body ``b``: the samples plus its floor contacts.
+
+    The samples are ``sample_dt_s`` apart and miss the instant of each floor contact, so a
+    curve through them alone turns above the floor; at a floor contact the bottom is at 0.
+    """
+    name = result.scene.names[b]
+    t_contact = np.array([c.t_s for c in result.contacts if c.body_a == name and c.body_b == "floor"], dtype=float)
+    t = np.concatenate([result.t_s, t_contact])
+    z = np.concatenate([result.bottom_height_m()[:, b], np.zeros_like(t_contact)])
+    order = np.argsort(t, kind="stable")
+    return t[order], z[order]
+
+
+def animation_gif(result, *, max_frames=150, fps=None, dpi=80):
     """A side view (x-z plane) of the scene as an animated GIF, the paper's Figure 9.
 
     Parameters
@@ -120,7 +133,7 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=60):
     Each ball carries a radius line that turns with its spin about the y axis.
     """
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Patch
     from PIL import Image
 
     n_t = len(result.t_s)
@@ -131,7 +144,7 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=60):
     x_hi = float(np.max(pos[:, :, 0] + radii)) + 0.1
     z_hi = float(np.max(pos[:, :, 2] + radii)) * 1.08
     width = max(3.0, min(8.0, 3.6 * (x_hi - x_lo) / z_hi + 1.0))
-    fig, ax = plt.subplots(figsize=(width, 4.0), dpi=dpi)
+    fig, ax = plt.subplots(figsize=(width + 1.6, 4.0), dpi=dpi)
     ax.set_xlim(x_lo, x_hi)
     ax.set_ylim(-0.03 * z_hi, z_hi)
     ax.set_aspect("equal")
@@ -139,8 +152,11 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=60):
     ax.set_xlabel("x [m]")
     ax.set_ylabel("z [m]")
     ax.set_title(f"{result.scene.name} ({result.engine})", fontsize=9)
-    fig.tight_layout()
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    ax.legend(handles=[Patch(fc=colours[b % len(colours)], ec="k", label=body.name)
+                       for b, body in enumerate(result.scene.bodies)],
+              loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7, frameon=False)
+    fig.tight_layout()
     circles, marks = [], []
     for b in range(len(result.scene.bodies)):
         c = Circle((0.0, 0.0), radii[b], fc=colours[b % len(colours)], ec="k", alpha=0.85, animated=True)

@@ -99,9 +99,11 @@ def engine_table():
     lines = [f"{'engine':<8} {'file':<5} {'default dt':>10}  {'verify':<44} provides"]
     for name, e in ENGINES.items():
         status = found.get(name, "export only")
+        if status.startswith("unavailable"):
+            status = "not installed here (see below)"
         dt = f"{e.default_dt_s:g}" if name != "tables" else "-"
         lines.append(f"{name:<8} {e.fmt:<5} {dt:>10}  {status[:44]:<44} {e.description}")
-    missing = [f"{n}: {e.install}" for n, e in ENGINES.items() if found.get(n, "").startswith("unavailable")]
+    missing = [f"{n}: {found[n][len('unavailable: '):]}" for n in ENGINES if found.get(n, "").startswith("unavailable")]
     if missing:
-        lines.append("install: " + "; ".join(missing))
+        lines.extend(missing)
     return "\n".join(lines) + "\n"
