@@ -9,9 +9,16 @@ Prints
   order); also the false-positive rate on clean data and the largest relative error
   of the recovered parameters.
 
+With ``--misses`` it also says, for every single-effect case named wrongly, how well the
+named rival fits compared with the planted effect (chi-square at the data's noise sigma,
+round 1) and whether the rival's parameter is physically plausible (inside the 95 %
+highest-density region of its prior density, :mod:`vrcal.effects`): a miss where the rival
+fits as well with a plausible value is one the data cannot decide.
+
 Usage:
     python benchmarks/bench_discover.py                 # 100 seeds per case
     python benchmarks/bench_discover.py --seeds 20 --kinds trajectory
+    python benchmarks/bench_discover.py --kinds impacts apexes --misses
 """
 
 from __future__ import annotations
@@ -60,8 +67,34 @@ def timing(repeats=5):
     return t.size, float(np.median(times)), result
 
 
-def sweep(kind, planted, seeds):
-    """Detection statistics of one planted case over ``seeds`` seeds."""
+def plausible(param, value, ball, mass=0.95):
+    """True when ``value`` lies in the highest-density region holding ``mass`` of the parameter's
+    prior density (numerically, within its bounds; a union of intervals for a multimodal prior)."""
+    x = np.linspace(param.bounds[0], param.bounds[1], 200001)
+    d = param.prior_pdf(x, ball)
+    top = np.sort(d)[::-1]
+    cum = np.cumsum(top) / np.sum(top)
+    level = top[min(int(np.searchsorted(cum, mass)), top.size - 1)]
+    return bool(param.prior_pdf(value, ball) >= level)
+
+
+def miss_diagnosis(d, planted, truth=None):
+    """(rival, chi2 of the rival - chi2 of the planted effect, rival's parameter, plausible?) of a
+    wrongly named single-effect case, from round 1 (chi-square at the discovery's noise sigma)."""
+    first = {c.name: c for c in d.rounds[0]}
+    rival = d.effects[0] if d.effects else None
+    if rival is None or planted not in first or rival not in first:
+        return rival, float("nan"), float("nan"), False
+    sigma2 = d.noise_floor ** 2
+    dchi2 = (first[rival].fit.rss - first[planted].fit.rss) / sigma2
+    p = EFFECTS[rival].parameters[0]
+    value = first[rival].fit.effect_values[rival][p.name]
+    return rival, float(dchi2), float(value), plausible(p, value, d.ball)
+
+
+def sweep(kind, planted, seeds, misses=None):
+    """Detection statistics of one planted case over ``seeds`` seeds (``misses``: a list that
+    collects :func:`miss_diagnosis` of each wrongly named single-effect case)."""
     named = Counter()
     errors = {}
     correct = 0
@@ -83,6 +116,8 @@ def sweep(kind, planted, seeds):
                 for p, true in truth["effects"][name].items():
                     got = d.final.effect_values[name][p]
                     errors.setdefault(f"{name}.{p}", []).append(abs(got / true - 1.0))
+        elif misses is not None and len(planted) == 1:
+            misses.append((seed, truth["ball"], *miss_diagnosis(d, planted[0], truth)))
     return correct, covered, named, errors, elapsed / max(seeds, 1)
 
 
@@ -90,7 +125,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=100, help="seeds per case (default 100)")
     ap.add_argument("--kinds", nargs="*", default=list(CASES), help="data kinds to sweep")
+    ap.add_argument("--misses", action="store_true",
+                    help="diagnose every wrongly named single-effect case (rival's fit and plausibility)")
     args = ap.parse_args(argv)
+    diagnoses = []
     n, wall, result = timing()
     print(f"discover on a {n}-sample trajectory: {wall * 1000:.0f} ms (median of 5; target < 1000 ms); "
           f"named {result.effects}")
@@ -100,12 +138,24 @@ def main(argv=None):
     for kind in args.kinds:
         for planted in CASES[kind]:
             assert all(kind in EFFECTS[p].kinds for p in planted)
-            correct, covered, named, errors, per = sweep(kind, planted, args.seeds)
+            misses = [] if args.misses else None
+            correct, covered, named, errors, per = sweep(kind, planted, args.seeds, misses)
+            if misses:
+                diagnoses.append((kind, planted[0], misses))
             err = ", ".join(f"{k.split('.')[-1]} {100 * max(v):.1f}%" for k, v in sorted(errors.items())) or "-"
             label = " + ".join(planted) or "(clean)"
             print(f"{kind:<11s} {label:<50s} {100.0 * correct / args.seeds:>6.1f}% {100.0 * covered / args.seeds:>6.1f}%  "
                   f"{err:>11s} {per * 1000:>7.0f}  "
                   f"{dict(named.most_common())}", flush=True)
+    for kind, planted, misses in diagnoses:
+        dchi2 = np.array([m[3] for m in misses])
+        n_plausible = sum(bool(m[5]) for m in misses)
+        print(f"misses {kind}/{planted}: {len(misses)}; the named rival fits better (dchi2 < 0) in "
+              f"{int(np.sum(dchi2 < 0))}, within |dchi2| < 4 in {int(np.sum(np.abs(dchi2) < 4))}; its parameter is "
+              f"inside the 95 % highest-density region of its prior in {n_plausible}")
+        for seed, ball, rival, d, value, ok in misses:
+            print(f"    seed {seed:3d} {ball:<13s} named {rival}: dchi2 {d:+7.2f}, parameter {value:.4g}"
+                  f"{'' if ok else ' (implausible)'}")
 
 
 if __name__ == "__main__":

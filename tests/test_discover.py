@@ -92,17 +92,22 @@ def test_two_hidden_effects_are_both_named(pair):
     assert rate >= 0.95, f"{pair}: both named in {rate:.0%}; wrong: {wrong}"
 
 
-@pytest.mark.parametrize("kind,name", [("impacts", "air_drag"), ("impacts", "velocity_dependent_restitution"),
-                                       ("impacts", "contact_duration"), ("apexes", "air_drag"),
-                                       ("apexes", "velocity_dependent_restitution"), ("apexes", "height_offset")])
-def test_impacts_and_apexes_name_the_effect_or_its_confusable_rival(kind, name):
+@pytest.mark.parametrize("kind,name,min_exact", [
+    ("impacts", "air_drag", 0.9), ("impacts", "velocity_dependent_restitution", 0.9),
+    ("impacts", "contact_duration", 0.9), ("apexes", "air_drag", 0.9),
+    ("apexes", "velocity_dependent_restitution", 0.55), ("apexes", "height_offset", 0.9)])
+def test_impacts_and_apexes_name_the_effect_or_its_confusable_rival(kind, name, min_exact):
     """Impact times and apex heights cannot always tell drag, a speed-dependent epsilon and a
     contact time apart (CONFUSABLE): the planted effect must be named, or named as the
-    ambiguous alternative of the winner -- never silently replaced."""
+    ambiguous alternative of the winner -- never silently replaced. Ranked by the evidence
+    with the registry's prior densities, the planted effect is named exactly in 97-100 % of
+    the benchmark's seeds, except a speed-dependent epsilon in apex heights (83 %: plausible
+    air drag fits those as well)."""
     exact, covered, results = sweep(kind, (name,), range(12))
     assert covered >= 0.95, f"{kind}/{name}: covered in {covered:.0%} (exact {exact:.0%})"
     # better than a coin flip between confusable rivals (the benchmark reports the rates)
     assert exact >= 0.55, f"{kind}/{name}: exact in {exact:.0%}"
+    assert exact >= min_exact, f"{kind}/{name}: exact in {exact:.0%}"
     for d, _ in results:
         for winner, alts in d.ambiguous.items():
             assert any({winner, *alts} <= g for g in CONFUSABLE[kind]) or len(alts) > 0
@@ -118,7 +123,7 @@ def test_only_candidates_the_kind_can_show_are_tried():
         discover(data, ball_of(truth), candidates=["height_offset"])
 
 
-def test_ranking_is_by_bic_and_the_winner_is_material():
+def test_ranking_is_by_evidence_and_the_winner_is_material():
     data, truth = hidden_effect_case(3, "trajectory", ("air_drag",))
     d = discover(data, ball_of(truth))
     first = d.rounds[0]
@@ -126,6 +131,28 @@ def test_ranking_is_by_bic_and_the_winner_is_material():
     win = [c for c in first if c.verdict.startswith("named")][0]
     assert win.material and win.delta_bic >= d.thresholds.delta_bic and win.in_prior
     assert win.score == min(c.score for c in first if c.material)
+    # the score is -2 ln Z; the Bayes factor against the current model is its difference
+    assert all(np.isfinite(c.evidence) and np.isfinite(c.two_ln_bayes) for c in first)
+    assert win.score == win.evidence and win.two_ln_bayes > 0
+    # a trajectory's chi-square gaps are far larger than the priors: the same order as the BIC
+    material = [c for c in first if c.material]
+    assert [c.name for c in material] == [c.name for c in sorted(material, key=lambda c: c.fit.bic)]
+
+
+@pytest.mark.parametrize("seed", [8, 24, 25, 29])
+def test_a_stand_in_with_an_implausible_parameter_loses_to_the_planted_effect(seed):
+    """Impact times with a contact time of a large inflated ball: a speed-dependent epsilon with
+    an exponent of 0.01-0.03 fits them as well or better (lower BIC), but the viscoelastic
+    exponent is 1/5; the evidence with the registry's priors names the contact time."""
+    data, truth = hidden_effect_case(seed, "impacts", ("contact_duration",))
+    d = discover(data, ball_of(truth))
+    assert d.effects == ["contact_duration"], (seed, d.effects)
+    first = {c.name: c for c in d.rounds[0]}
+    vdr = first["velocity_dependent_restitution"]
+    assert vdr.fit.effect_values["velocity_dependent_restitution"]["exponent"] < 0.05
+    assert vdr.fit.bic < first["contact_duration"].fit.bic
+    tau = d.final.effect_values["contact_duration"]["contact_time_s"]
+    assert tau == pytest.approx(truth["effects"]["contact_duration"]["contact_time_s"], rel=0.2)
 
 
 def test_progress_callback_sees_every_candidate():
@@ -142,6 +169,8 @@ def test_as_dict_has_the_stable_keys_and_is_json():
     assert JSON_KEYS <= set(out)
     json.dumps(out)
     assert out["effects"] == ["contact_duration"]
+    assert all({"bic", "two_ln_bayes_factor"} <= set(c) for c in out["candidates"])
+    assert out["ambiguous_odds"] == {}
     assert set(out["parameters"]) == {"contact_duration"}
     assert all({"name", "gap", "score"} <= set(c) for c in out["candidates"])
     assert out["gap_after"] < out["gap_before"]

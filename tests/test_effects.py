@@ -15,6 +15,7 @@ from vrcal.effects import (
     drag_constant_per_m,
     epsilon_from_heights_with_drag,
     format_effect_spec,
+    inflated_contact_time_s,
     parse_effect_spec,
     resolve_effects,
     restitution_at_speed,
@@ -172,3 +173,54 @@ def test_drop_test_epsilon_with_drag_inverts_the_simulation(H, eps, cd):
     if cd > 0.05:
         assert math.sqrt(d.apex_heights_m[0, 1] / H) < eps
     assert epsilon_from_heights_with_drag(0.25, 0.305, 0.0) == math.sqrt(0.25 / 0.305)
+
+
+# --------------------------------------------------------------------------- prior densities
+
+BASKETBALL = BallProperties(0.6, 0.24, "basketball")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_prior_density_is_proper_and_peaks_in_the_plausible_range(name):
+    for ball in (TT, BASKETBALL):
+        for p in EFFECTS[name].parameters:
+            x = np.linspace(p.bounds[0], p.bounds[1], 400001)
+            d = p.prior_pdf(x, ball)
+            assert np.all(np.isfinite(d)) and np.all(d >= 0)
+            mass = float(np.sum(0.5 * (d[1:] + d[:-1]) * np.diff(x)))
+            assert 0.9 < mass < 1.0 + 1e-3, (name, ball.name, mass)   # proper (the bounds cut a little)
+            mode = x[np.argmax(d)]
+            assert p.prior[0] <= mode <= p.prior[1], (name, mode)
+            assert p.prior_description(ball)
+
+
+def test_prior_densities_encode_the_physics():
+    drag = EFFECTS["air_drag"].parameter("drag_coefficient")
+    # a sphere below the drag crisis: C_d = 0.47 is far more probable than 0.1 or 1.5
+    assert drag.prior_pdf(0.47) > 100 * drag.prior_pdf(0.1)
+    assert drag.prior_pdf(0.47) > 100 * drag.prior_pdf(1.5)
+    p = EFFECTS["velocity_dependent_restitution"].parameter("exponent")
+    # the viscoelastic 1/5 against a nearly constant epsilon (p = 0.02) or a negative exponent
+    assert p.prior_pdf(0.2) > 10 * p.prior_pdf(0.02)
+    assert p.prior_pdf(-0.1) == 0.0
+    tau = EFFECTS["contact_duration"].parameter("contact_time_s")
+    # the contact time's scale follows the ball: 2 ms is typical for table tennis, not for a basketball
+    assert tau.prior_pdf(0.002, TT) > tau.prior_pdf(0.002, BASKETBALL)
+    assert tau.prior_pdf(0.010, BASKETBALL) > tau.prior_pdf(0.010, TT)
+    off = EFFECTS["height_offset"].parameter("offset_m")
+    # the tracked point is the bottom, the centre or the top: D/2 beats 3 D/4
+    assert off.prior_pdf(0.12, BASKETBALL) > 10 * off.prior_pdf(0.18, BASKETBALL)
+    with pytest.raises(UsageError, match="depends on the ball"):
+        tau.prior_pdf(0.005)
+
+
+def test_inflated_contact_time():
+    # pi sqrt(m / (pi D p)), computed by hand for a tennis ball at 60 kPa
+    assert inflated_contact_time_s(0.0577, 0.067) == pytest.approx(
+        math.pi * math.sqrt(0.0577 / (math.pi * 0.067 * 60e3)), rel=1e-12)
+    # the scale of measured contact times: about 2 ms table tennis, 5-7 ms tennis, 10-12 ms basketball
+    assert 0.001 < inflated_contact_time_s(0.0027, 0.040) < 0.003
+    assert 0.004 < inflated_contact_time_s(0.0577, 0.067) < 0.008
+    assert 0.008 < inflated_contact_time_s(0.6, 0.24) < 0.014
+    # a harder ball (higher pressure) has a shorter contact
+    assert inflated_contact_time_s(0.6, 0.24, 120e3) < inflated_contact_time_s(0.6, 0.24, 60e3)

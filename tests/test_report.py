@@ -44,6 +44,13 @@ def test_report_shows_the_named_effect_as_an_equation_with_uncertainty(drag):
     for c in d.candidates:
         assert c.name in table
     assert "named" in table
+    # ranked by the evidence: the named row is the best of its round (d2lnZ 0.0)
+    assert "d2lnZ" in table
+    rows = [row for row in table.splitlines() if row.split() and row.split()[0].isdigit()]
+    named_row = next(row for row in rows if row.rstrip().endswith("named"))
+    assert " 0.0 " in named_row
+    # the prior density of the named parameter is shown
+    assert "density log-normal, median 0.47" in named
     gap = text.split("[[Gap]]")[1]
     assert f"{d.gap_before * 1e3:.3f} mm" in gap and f"{d.gap_after * 1e3:.3f} mm" in gap
 
@@ -67,7 +74,13 @@ def test_ambiguity_is_reported():
     for seed in range(40):
         d, _ = case("apexes", ("velocity_dependent_restitution",), seed)
         if d.ambiguous:
-            assert "AMBIGUOUS" in fit_report(d)
+            text = fit_report(d)
+            assert "AMBIGUOUS" in text
+            # with the odds of the named effect against each ambiguous rival (>= 1: it was named)
+            assert "posterior odds for" in text
+            odds = d.as_dict()["ambiguous_odds"]
+            assert set(odds) == set(d.ambiguous)
+            assert all(set(v) == set(d.ambiguous[k]) and min(v.values()) >= 1.0 for k, v in odds.items())
             return
     pytest.skip("no ambiguous case in 40 seeds")
 

@@ -107,6 +107,60 @@ def test_fit_with_an_effect_reports_prior_and_values():
     assert fit.bic == pytest.approx(res.bic(fit.rss, fit.n, fit.k))
 
 
+def test_evidence_of_the_baseline_is_chi2_plus_the_fisher_volume():
+    data = drop("impacts", jitter=0.0002, seed=3)
+    fit = res.fit_model(res.make_problem(data, TENNIS), ())
+    sigma = 0.0002
+    F = fit.extra["jtj"] / sigma**2
+    expected = fit.rss / sigma**2 + np.linalg.slogdet(F / (2 * math.pi))[1]
+    assert res.minus_two_ln_evidence(fit, sigma) == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_parameter_the_data_do_not_constrain_costs_nothing():
+    data = drop("impacts", jitter=0.0002, seed=3)
+    fit = res.fit_model(res.make_problem(data, TENNIS), ("air_drag",))
+    jtj = fit.extra["jtj"].copy()
+    jtj[-1, :] = 0.0
+    jtj[:, -1] = 0.0
+    fit.extra["jtj"] = jtj
+    sigma = 0.0002
+    expected = fit.rss / sigma**2 + np.linalg.slogdet(jtj[:-1, :-1] / sigma**2 / (2 * math.pi))[1]
+    assert res.minus_two_ln_evidence(fit, sigma) == pytest.approx(expected, rel=1e-12)
+
+
+def test_occam_factor_of_one_parameter():
+    from vrcal.effects import EFFECTS
+
+    p = EFFECTS["air_drag"].parameter("drag_coefficient")
+    # a narrow likelihood: ln(sqrt(2 pi) s prior(theta)) (the prior is renormalised to the bounds)
+    s = 1e-3
+    assert res._prior_integral(p, 0.47, s, None) == pytest.approx(
+        math.log(math.sqrt(2 * math.pi) * s * float(p.prior_pdf(0.47))), abs=1e-3)
+    # a flat likelihood (the data say nothing): the whole prior, ln 1 = 0
+    assert res._prior_integral(p, 0.47, 1e6, None) == pytest.approx(0.0, abs=1e-3)
+    assert res._prior_integral(p, 0.47, math.inf, None) == 0.0
+    # an implausible value pays: the same width at C_d = 0.1 costs more than 2 ln 100
+    assert res._prior_integral(p, 0.47, s, None) - res._prior_integral(p, 0.1, s, None) > math.log(100)
+
+
+def test_evidence_prefers_the_planted_effect_over_a_stand_in_with_an_implausible_parameter():
+    """Impact times of a basketball with a 10 ms contact: a speed-dependent epsilon with an
+    exponent near 0.03 fits them as well, but such an exponent is far from the viscoelastic 1/5."""
+    from vrcal.synthetic import hidden_effect_case
+
+    data, truth = hidden_effect_case(25, "impacts", ("contact_duration",))
+    ball = BallProperties.from_ball(get_ball(truth["ball"]))
+    problem = res.make_problem(data, ball)
+    base = res.fit_model(problem, ())
+    start = {p.key: float(v) for p, v in zip(base.layout, base.values)}
+    tau = res.fit_model(problem, ("contact_duration",), start=start)
+    vdr = res.fit_model(problem, ("velocity_dependent_restitution",), start=start)
+    assert vdr.effect_values["velocity_dependent_restitution"]["exponent"] < 0.05
+    assert vdr.bic < tau.bic            # the BIC alone picks the stand-in
+    sigma = 2e-4
+    assert res.minus_two_ln_evidence(tau, sigma) < res.minus_two_ln_evidence(vdr, sigma) - 2
+
+
 def test_layout_refuses_effects_the_kind_cannot_show():
     with pytest.raises(UsageError, match="cannot be seen in impacts"):
         res.parameter_layout(drop("impacts"), ("height_offset",))

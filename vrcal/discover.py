@@ -6,8 +6,7 @@ The workflow (issue 3, parts 3 and 4):
    at every contact (Eq. (3) of [1]), free drop height and release time, g known;
 2. fit every candidate effect of the registry :data:`vrcal.effects.EFFECTS` that the
    data kind can show (``Effect.kinds``) on top of the current model;
-3. rank them on ONE statistic, the BIC of the same residuals, and call a candidate
-   *material* only when all of these hold:
+3. call a candidate *material* only when all of these hold:
 
    * ΔBIC = BIC(current) - BIC(candidate) >= ``Thresholds.delta_bic`` (10: "very strong");
    * the RSS drop is far beyond the noise: p <= ``Thresholds.p_value`` for
@@ -24,8 +23,14 @@ The workflow (issue 3, parts 3 and 4):
      sqrt(gap_before² - gap_after²), is at least 0.2 noise sigma (on n samples that is a
      Δχ² of at least 0.04 n, e.g. 60 for a 1,500-sample trajectory);
 
-4. name the material candidate with the lowest BIC, add it to the model and repeat
-   until no candidate is material (so two hidden effects are both found).
+4. rank the candidates of the round by their evidence (:func:`rank_by_evidence`: the
+   Laplace approximation of the marginal likelihood, with ONE noise σ for the round and
+   the prior densities of the effect parameters from the registry, ``Parameter.density``),
+   name the material candidate with the highest evidence, add it to the model and repeat
+   until no candidate is material (so two hidden effects are both found). With a large
+   χ² gap between candidates the order is the BIC's; when two candidates fit equally well
+   (impact times, apex heights: a handful of data), the one whose parameter is physically
+   plausible wins (a drag coefficient of 0.47 over a speed exponent of 0.02).
 
 What each data kind can tell apart is documented in ``docs/readme/discover.md``; in
 short: a trajectory separates all five effects; impact times alone cannot see the
@@ -40,7 +45,10 @@ References
 ----------
 [1] "The Graphical Method for Decision of Restitution Coefficient and Its Applications".
 [2] R. E. Kass, A. E. Raftery, "Bayes factors", J. Am. Stat. Assoc. 90, 773 (1995)
-    (ΔBIC > 10: very strong evidence).
+    (ΔBIC > 10: very strong evidence; Sec. 4.1.1: the Laplace approximation).
+[3] D. J. C. MacKay, "Information Theory, Inference, and Learning Algorithms", CUP 2003,
+    Ch. 28 (model comparison and Occam's razor: evidence = best-fit likelihood times
+    Occam factor).
 """
 
 from __future__ import annotations
@@ -89,7 +97,7 @@ class Thresholds:
     p_value: float = 1e-4
     gap_factor: float = 0.9
     removed_noise_fraction: float = 0.2
-    indistinguishable_bic: float = 2.0
+    indistinguishable_bic: float = 2.0   # a rival within this of the winner's score (-2 ln Z) is ambiguous
     prior_sigma: float = 2.0
 
 
@@ -108,6 +116,8 @@ class Candidate:
     material: bool = False
     verdict: str = ""
     members: tuple = ()
+    evidence: float = math.nan        # -2 ln Z of the candidate model (see rank_by_evidence)
+    two_ln_bayes: float = math.nan    # 2 ln B against the current model (> 0 favours the candidate)
 
     def __post_init__(self):
         if not self.members:
@@ -119,8 +129,9 @@ class Candidate:
 
     @property
     def score(self):
-        """The ranking statistic: BIC of the candidate model (lower is better)."""
-        return self.fit.bic
+        """The ranking statistic (lower is better): -2 ln of the candidate's evidence with the
+        registry's prior densities (:func:`rank_by_evidence`); its BIC before that is known."""
+        return self.evidence if math.isfinite(self.evidence) else self.fit.bic
 
 
 @dataclass
@@ -171,6 +182,22 @@ class Discovery:
         """RMS residual per flight (trajectory) or per datum (impacts, apexes): (before, after)."""
         return gap_per_bounce(self.baseline, self.final)
 
+    @property
+    def ambiguous_odds(self):
+        """``{named effect: {rival: posterior odds for the named one}}`` of the ambiguous namings:
+        exp of half the difference of the candidates' -2 ln evidence in the round that named it."""
+        out = {}
+        for name, rivals in self.ambiguous.items():
+            for rnd in self.rounds:
+                win = [c for c in rnd if c.verdict.startswith("named") and name in c.members]
+                if not win:
+                    continue
+                by_name = {c.name: c for c in rnd}
+                out[name] = {r: math.exp(min(by_name[r].score - win[0].score, 1400.0) / 2.0)
+                             for r in rivals if r in by_name}
+                break
+        return out
+
     def as_dict(self):
         """JSON-ready summary with the stable keys of the issue (and a few more)."""
         before, after = self.gap_per_bounce()
@@ -178,6 +205,7 @@ class Discovery:
         return {
             "effects": list(self.effects),
             "ambiguous": {k: list(v) for k, v in self.ambiguous.items()},
+            "ambiguous_odds": self.ambiguous_odds,
             "parameters": self.final.effect_values,
             "uncertainties": self.final.effect_uncertainties,
             "gap_before": self.gap_before,
@@ -190,9 +218,10 @@ class Discovery:
             "model": self.final.baseline_values,
             "noise_floor": self.noise_floor,
             "noise_source": self.noise_source,
-            "statistic": "BIC",
+            "statistic": "-2 ln evidence (Laplace, registry priors)",
             "candidates": [
-                {"name": c.name, "round": c.round, "gap": c.gap, "score": c.score, "delta_bic": c.delta_bic,
+                {"name": c.name, "round": c.round, "gap": c.gap, "score": c.score, "bic": c.fit.bic,
+                 "delta_bic": c.delta_bic, "two_ln_bayes_factor": c.two_ln_bayes,
                  "p_value": c.p_value, "in_prior": c.in_prior, "material": c.material, "verdict": c.verdict,
                  "parameters": ({m: c.fit.effect_values.get(m, {}) for m in c.members} if len(c.members) > 1
                                 else c.fit.effect_values.get(c.name, {}))}
@@ -252,6 +281,29 @@ def _fit_candidate(problem, named, names, current):
         if fit2.rss < fit.rss:
             fit = fit2
     return fit
+
+
+def rank_by_evidence(cands, current, sigma_floor):
+    """Set each candidate's ``evidence`` (-2 ln Z) and ``two_ln_bayes`` against ``current``.
+
+    All models of a round are scored with ONE noise sigma: the noise floor, or the residual
+    standard deviation of the best-fitting candidate when that is larger (the data are not
+    fitted down to the noise). With the noise known, chi-square differences of a few units
+    are what they are -- noise -- and the prior densities of the effect parameters
+    (:mod:`vrcal.effects`) decide between candidates that fit equally well; with a gap of many
+    sigmas the chi-square dominates and the order is the BIC's.
+    Returns the sigma used.
+    """
+    if not cands:
+        return sigma_floor
+    best = min(cands, key=lambda c: c.fit.rss / max(c.fit.n - c.fit.k, 1))
+    var = best.fit.rss / max(best.fit.n - best.fit.k, 1)
+    sigma = math.sqrt(max(float(sigma_floor or 0.0) ** 2, var, 1e-300))
+    ref = res.minus_two_ln_evidence(current, sigma)
+    for c in cands:
+        c.evidence = res.minus_two_ln_evidence(c.fit, sigma)
+        c.two_ln_bayes = ref - c.evidence
+    return sigma
 
 
 def _judge(cand, current, sigma_floor, th):
@@ -421,6 +473,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if not material and len(named) + 2 <= max_effects:
             cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress)
             material = [c for c in cands if c.material]
+        rank_by_evidence(cands, current, sigma_floor)
         cands.sort(key=lambda c: c.score)
         material.sort(key=lambda c: c.score)
         rounds.append(cands)
@@ -428,12 +481,15 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             break
         win = material[0]
         groups = [g for g in CONFUSABLE[kind] if set(win.members) & g]
-        close = [c.name for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
+        rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
             c.score - win.score < th.indistinguishable_bic or any(c.name in g for g in groups))]
+        close = [c.name for c in rivals]
         if close:
             ambiguous[win.name] = close
-            notes.append(f"round {rnd}: {win.name} is named (lowest BIC) but {', '.join(close)} also explain(s) "
-                         f"the {kind} data; {kind} data cannot reliably tell them apart (a trajectory can)")
+            odds = ", ".join(f"{c.name} {_odds(c.score - win.score)}" for c in rivals)
+            notes.append(f"round {rnd}: {win.name} is named (highest evidence) but {', '.join(close)} also "
+                         f"explain(s) the {kind} data (posterior odds for {win.name} with the registry's priors: "
+                         f"{odds}); {kind} data cannot reliably tell them apart (a trajectory can)")
         win.verdict = "named" + (f" (ambiguous with {', '.join(close)})" if close else "")
         named.extend(win.members)
         current = win.fit
@@ -493,12 +549,18 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
         fit = _fit_candidate(problem, named, (a, b), current)
         cand = _judge(Candidate(f"{a}+{b}", rnd, fit, 0.0, 0.0, 1.0, False, False, members=(a, b)),
                       current, sigma_floor, th)
-        needed = min(by_name[a].score, by_name[b].score) - fit.bic
+        needed = min(by_name[a].fit.bic, by_name[b].fit.bic) - fit.bic
         if cand.material and needed < th.delta_bic:
             cand.material = False
             cand.verdict = f"not material: dBIC {needed:.1f} < {th.delta_bic:g} against one effect alone"
         out.append(cand)
     return out
+
+
+def _odds(delta_score):
+    """Posterior odds exp(delta / 2) of two models whose -2 ln Z differ by ``delta``, as text."""
+    odds = math.exp(min(delta_score, 1400.0) / 2.0)
+    return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
 
 
 def _all_effects():

@@ -21,6 +21,34 @@ References
     169 (2014).
 [5] L. D. Landau, E. M. Lifshitz, Fluid Mechanics, 2nd ed., Sec. 11 (added mass of a
     sphere, half the displaced mass).
+[6] E. Achenbach, "Experiments on the flow past spheres at very high Reynolds numbers",
+    J. Fluid Mech. 54, 565 (1972) (C_d = 0.4-0.5 below the drag crisis).
+
+Prior densities
+---------------
+Every parameter has hard ``bounds`` (what the fitter may try), a plausible range
+``prior`` (a fitted value outside it, by more than its noise, makes a candidate
+implausible) and a proper prior *density* (``Parameter.density``; uniform over
+``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
+evidence (:func:`vrcal.residuals.minus_two_ln_evidence`). The densities come from
+physics and the literature, not from the synthetic generator:
+
+* ``air_drag.drag_coefficient``: log-normal, median 0.47 (a sphere below the drag
+  crisis, 1e3 < Re < 2e5 [4, 6]; the drops here reach Re ~ 1e4-1e5), sigma_ln 0.3
+  (95 %: 0.26-0.85, covering balls lowered towards the crisis by their seams and
+  fuzzy tennis balls at 0.55-0.6 [4]);
+* ``velocity_dependent_restitution.exponent``: log-normal, median 1/5 (viscoelastic
+  spheres [2]), sigma_ln ln 2 (95 %: 0.05-0.8: inflated balls are nearly speed
+  independent, plastic impacts steeper);
+* ``contact_duration.contact_time_s``: log-normal around the half period of an
+  inflated ball, pi sqrt(m / (pi D p)) with a gauge pressure p = 60 kPa
+  (:func:`inflated_contact_time_s`: the floor pushes with the gauge pressure on the
+  flattened area pi D x), sigma_ln 1 (95 %: 0.14-7 times it: pressures from 30 to
+  110 kPa, wall stiffness, solid balls);
+* ``height_offset.offset_m``: the tracked point is the bottom (ITTF), the centre
+  (video trackers) or the top (FIBA) of the ball: an equal mixture of normals at 0
+  (sd 10 mm, a mis-set floor line), D/2 and D (sd max(0.1 D, 5 mm));
+* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range.
 
 Departures from [1]
 -------------------
@@ -46,8 +74,80 @@ KINDS = ("trajectory", "impacts", "apexes")
 
 
 @dataclass(frozen=True)
+class LogNormalPrior:
+    """Log-normal prior density: ln(x / median) ~ N(0, sigma_ln^2), x > 0.
+
+    ``median`` is a number, or a function of the ball (mass [kg], diameter [m]) giving
+    one; ``basis`` says where the numbers come from.
+    """
+
+    median: object
+    sigma_ln: float
+    basis: str = ""
+
+    def center(self, ball=None):
+        """The median [parameter unit] (for this ball when it depends on the ball)."""
+        if callable(self.median):
+            if ball is None:
+                raise UsageError("this prior depends on the ball: give its mass and diameter")
+            return float(self.median(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m))))
+        return float(self.median)
+
+    def pdf(self, x, ball=None):
+        """Density at ``x`` [1/parameter unit] (0 for x <= 0)."""
+        x = np.asarray(x, dtype=float)
+        med, s = self.center(ball), float(self.sigma_ln)
+        pos = x > 0
+        xs = np.where(pos, x, 1.0)
+        z = np.log(xs / med) / s
+        return np.where(pos, np.exp(-0.5 * z * z - np.log(xs) - math.log(s * math.sqrt(2.0 * math.pi))), 0.0)
+
+    def describe(self, ball=None, unit=""):
+        unit = "" if unit in ("", "1") else f" {unit}"
+        try:
+            med = f"{self.center(ball):.3g}{unit}"
+        except UsageError:
+            med = "ball-dependent"
+        return f"log-normal, median {med}, sigma_ln {self.sigma_ln:.2g}"
+
+
+@dataclass(frozen=True)
+class TrackedPointPrior:
+    """Prior density of ``height_offset``: the tracked point is the ball's bottom (up to a
+    mis-set floor line), its centre or its top -- an equal mixture of three normals at 0
+    (sd ``floor_sd_m``), D/2 and D (sd max(``point_sd_fraction`` D, ``min_sd_m``))."""
+
+    floor_sd_m: float = 0.01
+    point_sd_fraction: float = 0.1
+    min_sd_m: float = 0.005
+    basis: str = ""
+
+    def pdf(self, x, ball=None):
+        if ball is None:
+            raise UsageError("the height_offset prior depends on the ball: give its diameter")
+        x = np.asarray(x, dtype=float)
+        D = float(np.mean(ball.diameter_m))
+        sd = max(self.point_sd_fraction * D, self.min_sd_m)
+
+        def normal(mu, s):
+            z = (x - mu) / s
+            return np.exp(-0.5 * z * z) / (s * math.sqrt(2.0 * math.pi))
+
+        return (normal(0.0, self.floor_sd_m) + normal(0.5 * D, sd) + normal(D, sd)) / 3.0
+
+    def describe(self, ball=None, unit=""):
+        return "bottom, centre or top of the ball (mixture of normals at 0, D/2, D)"
+
+
+@dataclass(frozen=True)
 class Parameter:
-    """One parameter of an effect."""
+    """One parameter of an effect.
+
+    ``bounds``: hard limits of the fitter; ``prior``: the physically plausible range (the
+    materiality test's in/out check); ``density``: a proper prior density (an object with
+    ``pdf(x, ball)``; uniform over ``prior`` when None) for the evidence that ranks the
+    candidates (see the module docstring, "Prior densities").
+    """
 
     name: str
     unit: str
@@ -55,6 +155,22 @@ class Parameter:
     bounds: tuple
     prior: tuple
     description: str
+    density: object = None
+
+    def prior_pdf(self, x, ball=None):
+        """Prior density at ``x`` [1/unit]; ``ball`` (mass_kg, diameter_m) for ball-dependent priors."""
+        x = np.asarray(x, dtype=float)
+        if self.density is None:
+            lo, hi = self.prior
+            return np.where((x >= lo) & (x <= hi), 1.0 / (hi - lo), 0.0)
+        return np.asarray(self.density.pdf(x, ball), dtype=float)
+
+    def prior_description(self, ball=None):
+        """A short text of the prior density."""
+        if self.density is None:
+            unit = "" if self.unit in ("", "1") else f" {self.unit}"
+            return f"uniform {self.prior[0]:g} .. {self.prior[1]:g}{unit}"
+        return self.density.describe(ball, self.unit)
 
 
 @dataclass(frozen=True)
@@ -271,6 +387,45 @@ def liftoff_time_s(impact_time_s, contact_time_s):
     return _out(np.asarray(impact_time_s, dtype=float) + np.asarray(contact_time_s, dtype=float))
 
 
+#: Typical gauge pressure of an inflated ball [Pa] (basketball 52-59 kPa, volleyball 29-32 kPa,
+#: football 60-110 kPa; a pressurised tennis ball 80-100 kPa), for :func:`inflated_contact_time_s`.
+TYPICAL_GAUGE_PRESSURE_PA = 60e3
+
+
+def inflated_contact_time_s(mass_kg, diameter_m, gauge_pressure_pa=TYPICAL_GAUGE_PRESSURE_PA):
+    """Contact time of an inflated ball on a rigid floor, membrane model [s].
+
+    Parameters
+    ----------
+    mass_kg : float or ndarray
+        ball mass m [kg], > 0
+    diameter_m : float or ndarray
+        ball diameter D [m], > 0
+    gauge_pressure_pa : float or ndarray
+        inside minus outside pressure p [Pa], > 0
+
+    Returns
+    -------
+    tau_s : float or ndarray
+        ``pi sqrt(m / (pi D p))``: half the period of the spring k = pi D p
+
+    Notes
+    -----
+    A ball compressed by x against a flat floor touches it on a disc of area about
+    pi D x, on which the gas pushes with the gauge pressure: F = pi D p x, a linear
+    spring (the wall's bending stiffness and the rise of p are neglected). The contact
+    lasts half a period. With p = 60 kPa: table tennis 1.9 ms, tennis 6.7 ms, volleyball
+    8.2 ms, football 10 ms, basketball 11 ms -- the scale of measured contact times
+    (about 1 ms for table tennis, 4-10 ms for tennis balls and basketballs; see [3]). Used
+    as the median of the contact time's prior density (which is wide: sigma_ln 1); it is
+    no model of solid balls.
+    """
+    m = np.asarray(mass_kg, dtype=float)
+    D = np.asarray(diameter_m, dtype=float)
+    p = np.asarray(gauge_pressure_pa, dtype=float)
+    return _out(math.pi * np.sqrt(m / (math.pi * D * p)))
+
+
 def _out(value):
     arr = np.asarray(value, dtype=float)
     return float(arr) if arr.ndim == 0 else arr
@@ -284,7 +439,8 @@ EFFECTS = {
         name="air_drag",
         parameters=(
             Parameter("drag_coefficient", "1", 0.5, (0.0, 3.0), (0.1, 1.0),
-                      "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)"),
+                      "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)",
+                      LogNormalPrior(0.47, 0.3, "sphere below the drag crisis (Achenbach 1972; Mehta 1985)")),
         ),
         equation="a = -g - k v|v|,  k = rho C_d pi D^2 / (8 m),  rho = 1.204 kg/m^3",
         description="quadratic air drag during the flights; lowers each apex below eps^2 times the previous "
@@ -298,7 +454,8 @@ EFFECTS = {
         name="velocity_dependent_restitution",
         parameters=(
             Parameter("exponent", "1", 0.2, (-1.0, 2.0), (0.0, 0.5),
-                      "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 for viscoelastic spheres, 0 = constant eps"),
+                      "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 for viscoelastic spheres, 0 = constant eps",
+                      LogNormalPrior(0.2, math.log(2.0), "viscoelastic spheres, p = 1/5 (Ramirez et al. 1999)")),
         ),
         equation="eps(v) = 1 - (1 - eps_ref) (v / v_ref)^p,  v_ref = first impact speed",
         description="epsilon depends on the impact speed: slower (later) bounces are more elastic for p > 0",
@@ -313,7 +470,9 @@ EFFECTS = {
         parameters=(
             Parameter("contact_time_s", "s", 0.005, (0.0, 0.05), (0.0, 0.02),
                       "time the ball spends on the floor at each bounce (about 1 ms table tennis, 4-10 ms "
-                      "tennis/basketball)"),
+                      "tennis/basketball)",
+                      LogNormalPrior(inflated_contact_time_s, 1.0,
+                                     "half period of an inflated ball, gauge pressure 60 kPa")),
         ),
         equation="t_liftoff = t_impact + tau_c;  y = 0 during the contact",
         description="each contact lasts tau_c: the impact intervals grow by tau_c each, unlike a pure "
@@ -328,7 +487,8 @@ EFFECTS = {
         parameters=(
             Parameter("offset_m", "m", 0.02, (-0.5, 0.5), (-0.05, 0.25),
                       "tracked point above the ball's bottom: D/2 for the centre, D for the top, or a mis-set "
-                      "floor line"),
+                      "floor line",
+                      TrackedPointPrior(basis="ITTF (bottom), video trackers (centre), FIBA (top)")),
         ),
         equation="y_observed = y_bottom + offset",
         description="the tracked point is not the bottom of the ball (or the floor line is mis-set): "

@@ -43,15 +43,24 @@ def reference_sigma(discovery):
 
 
 def _param_lines(fit, effect, indent="    "):
+    from vrcal.effects import EFFECTS
+
     lines = []
     for p, v, u in zip(fit.layout, fit.values, fit.uncertainties):
         if p.effect != effect:
             continue
         label = p.name if effect is None else p.name
         unit = "" if p.unit in ("", "1") else f" {p.unit}"
-        extra = "" if effect is None else f"   (prior {p.prior[0]:g} .. {p.prior[1]:g}{unit})"
+        extra = ""
+        if effect is not None:
+            density = EFFECTS[effect].parameter(p.name).prior_description(fit.problem.ball)
+            extra = f"   (prior {p.prior[0]:g} .. {p.prior[1]:g}{unit}; density {density})"
         lines.append(f"{indent}{label:<24s} = {_pm(float(v), float(u), p.unit)}{extra}")
     return lines
+
+
+def _odds_text(odds):
+    return ", ".join(f"{r} {o:.3g}:1" if o < 1e4 else f"{r} >1e4:1" for r, o in odds.items())
 
 
 def fit_report(discovery):
@@ -81,18 +90,24 @@ def fit_report(discovery):
     lines.append(f"    gap (RMS)                = {_fmt_gap(b.gap, unit)}   chi-square = {b.rss / sigma**2:.1f}   "
                  f"BIC = {b.bic:.1f}   (n = {b.n}, k = {b.k})")
     th = d.thresholds
-    lines.append(f"[[Candidates]]  ranked by BIC within each round; material = dBIC >= {th.delta_bic:g}, "
-                 f"p <= {th.p_value:g} (chi2 or F test),")
+    lines.append("[[Candidates]]  ranked within each round by the evidence Z (Laplace; prior densities of the "
+                 "registry); d2lnZ = 2 ln(Z_best/Z)")
+    lines.append("                (0 = best; odds exp(d2lnZ/2) against); material = dBIC >= "
+                 f"{th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test),")
     lines.append(f"                parameter inside its prior, gap x{th.gap_factor:g} or "
-                 f"{th.removed_noise_fraction:g} noise floor removed")
+                 f"{th.removed_noise_fraction:g} noise floor removed; the material one with the highest Z is named")
     scale, uname = _UNIT_SCALE[unit]
     head = (f"    {'rnd':>3s}  {'effect':<31s} {'k':>2s} {'RSS':>10s} {'chi2':>10s} {'AIC':>10s} {'BIC':>10s} "
-            f"{'dBIC':>8s} {'gap ' + uname:>10s}  verdict")
+            f"{'dBIC':>8s} {'d2lnZ':>8s} {'gap ' + uname:>10s}  verdict")
     lines.append(head)
+    best = {}
+    for c in d.candidates:
+        best[c.round] = min(best.get(c.round, math.inf), c.score)
     for c in d.candidates:
         f = c.fit
         lines.append(f"    {c.round:>3d}  {c.name:<31s} {f.k:>2d} {f.rss:>10.3e} {f.rss / sigma**2:>10.1f} "
-                     f"{f.aic:>10.1f} {f.bic:>10.1f} {c.delta_bic:>8.1f} {f.gap * scale:>10.3f}  {c.verdict}")
+                     f"{f.aic:>10.1f} {f.bic:>10.1f} {c.delta_bic:>8.1f} {c.score - best[c.round]:>8.1f} "
+                     f"{f.gap * scale:>10.3f}  {c.verdict}")
     lines.append("[[Named effects]]")
     from vrcal.discover import MISFIT_FACTOR
 
@@ -108,8 +123,11 @@ def fit_report(discovery):
         lines += _param_lines(d.final, name, indent="        ")
         lines.append(f"        ({eff.description})")
         if name in d.ambiguous:
+            odds = d.ambiguous_odds.get(name, {})
             lines.append(f"        AMBIGUOUS: {', '.join(d.ambiguous[name])} also explain(s) these {data.kind} data; "
                          f"a trajectory tells them apart")
+            if odds:
+                lines.append(f"        posterior odds for {name} (registry priors): {_odds_text(odds)}")
     lines.append("[[Gap]]  RMS of data - model")
     lines.append(f"    before = {_fmt_gap(d.gap_before, unit)}, after = {_fmt_gap(d.gap_after, unit)}"
                  + (f", noise floor = {_fmt_gap(d.noise_floor, unit)}" if d.noise_floor else ""))
