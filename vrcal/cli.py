@@ -497,7 +497,7 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
     impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
     and scene.gif (side view) into the output directory and prints a summary. The scene file
-    schema is in docs/readme/scenes.md and examples/*.yaml.
+    schema is in README.md ("The scene file") and examples/*.yaml.
 
     \b
     Examples:

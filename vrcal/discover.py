@@ -32,7 +32,7 @@ The workflow (issue 3, parts 3 and 4):
    (impact times, apex heights: a handful of data), the one whose parameter is physically
    plausible wins (a drag coefficient of 0.47 over a speed exponent of 0.02).
 
-What each data kind can tell apart is documented in ``docs/readme/discover.md``; in
+What each data kind can tell apart is documented in README.md ("What each data kind can tell apart"); in
 short: a trajectory separates all five effects; impact times alone cannot see the
 tracked point (height_offset) nor buoyancy, and air drag, a speed-dependent ε and a
 finite contact time all bend the interval sequence in similar ways; apex heights
@@ -76,7 +76,7 @@ MISFIT_FACTOR = 3.0
 
 
 #: Effects that a data kind cannot reliably tell apart (found with the hidden-effect sweep of
-#: benchmarks/bench_discover.py, see docs/readme/discover.md): impact times see only the
+#: benchmarks/bench_discover.py, see README.md): impact times see only the
 #: flight durations, which air drag, a speed-dependent epsilon and a finite contact time all
 #: stretch in nearly the same way; a handful of apex heights sees only the ratio of
 #: successive heights, which drag, a speed-dependent epsilon and a tracked point above the

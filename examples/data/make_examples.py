@@ -7,7 +7,7 @@ constant restitution epsilon = 0.85 and no air drag:
   first impact at sqrt(2 H / g), flight times between impacts dt_i = 2 epsilon^(i+1) v_0 / g;
 * apex heights h_i = epsilon^(2 i) H (Eq. (9) of [1] inverted).
 
-The files imitate what real tools write (see docs/readme/readers.md): a phyphox-style
+The files imitate what real tools write (see "Reading real measurements" in README.md): a phyphox-style
 acoustic export (semicolons, decimal comma, scientific notation, quoted header), the
 same with an echo, the same with a missed impact near the end, a Tracker data export (track name,
 tab-separated t x y, ball centre, a still hold before release, 1 mm tracking noise), and
