@@ -517,22 +517,22 @@ class FitResult:
         """{drop_height_m, release_time_s (not for apexes), epsilon}."""
         return {p.name: float(v) for p, v in zip(self.layout, self.values) if p.effect is None}
 
-    @property
-    def effect_values(self):
-        """{effect: {parameter: value}} of the effects on top of the baseline."""
+    def _by_effect(self, numbers):
         out = {}
-        for p, v in zip(self.layout, self.values):
+        for p, x in zip(self.layout, numbers):
             if p.effect is not None:
-                out.setdefault(p.effect, {})[p.name] = float(v)
+                out.setdefault(p.effect, {})[p.name] = float(x)
         return out
 
     @property
+    def effect_values(self):
+        """{effect: {parameter: value}} of the effects on top of the baseline."""
+        return self._by_effect(self.values)
+
+    @property
     def effect_uncertainties(self):
-        out = {}
-        for p, u in zip(self.layout, self.uncertainties):
-            if p.effect is not None:
-                out.setdefault(p.effect, {})[p.name] = float(u)
-        return out
+        """{effect: {parameter: 1-sigma uncertainty}} of the effects on top of the baseline."""
+        return self._by_effect(self.uncertainties)
 
     def in_prior(self, effect, n_sigma=0.0):
         """True when every parameter of ``effect`` lies in its physically plausible range,
