@@ -135,6 +135,7 @@ def main(argv=None):
     print("rate = the named effects are exactly the planted ones; +amb = or the planted one is named as an "
           "ambiguous alternative (CONFUSABLE groups of vrcal.discover)")
     print(f"{'kind':<11s} {'planted':<50s} {'rate':>7s} {'+amb':>7s}  {'max rel err':>11s} {'ms/run':>7s}  named")
+    totals = {}  # kind -> [exact, covered, runs]
     for kind in args.kinds:
         for planted in CASES[kind]:
             assert all(kind in EFFECTS[p].kinds for p in planted)
@@ -142,11 +143,22 @@ def main(argv=None):
             correct, covered, named, errors, per = sweep(kind, planted, args.seeds, misses)
             if misses:
                 diagnoses.append((kind, planted[0], misses))
+            t = totals.setdefault(kind, [0, 0, 0])
+            t[0], t[1], t[2] = t[0] + correct, t[1] + covered, t[2] + args.seeds
             err = ", ".join(f"{k.split('.')[-1]} {100 * max(v):.1f}%" for k, v in sorted(errors.items())) or "-"
             label = " + ".join(planted) or "(clean)"
             print(f"{kind:<11s} {label:<50s} {100.0 * correct / args.seeds:>6.1f}% {100.0 * covered / args.seeds:>6.1f}%  "
                   f"{err:>11s} {per * 1000:>7.0f}  "
                   f"{dict(named.most_common())}", flush=True)
+    all_runs = [0, 0, 0]
+    for kind, (exact, covered, runs) in totals.items():
+        print(f"all {kind:<16s}: {exact}/{runs} exact ({100.0 * exact / runs:.1f}%), "
+              f"{covered}/{runs} incl. ambiguous ({100.0 * covered / runs:.1f}%)")
+        all_runs = [a + b for a, b in zip(all_runs, (exact, covered, runs))]
+    if len(totals) > 1:
+        exact, covered, runs = all_runs
+        print(f"all kinds           : {exact}/{runs} exact ({100.0 * exact / runs:.1f}%), "
+              f"{covered}/{runs} incl. ambiguous ({100.0 * covered / runs:.1f}%)")
     for kind, planted, misses in diagnoses:
         dchi2 = np.array([m[3] for m in misses])
         n_plausible = sum(bool(m[5]) for m in misses)
