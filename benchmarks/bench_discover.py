@@ -1,10 +1,10 @@
 """Benchmark of ``vrcal discover``: wall time and hidden-effect detection rates.
 
 Prints
-* the wall time of :func:`vrcal.discover.discover` on a 1,500-sample trajectory
+* the wall time of :func:`vrcal.discovery.ranking.discover` on a 1,500-sample trajectory
   (target < 1 s), median of a few runs;
 * the detection rate over many seeds per planted effect (and pair) and data kind,
-  with the synthetic generator :func:`vrcal.synthetic.hidden_effect_case`: a case
+  with the synthetic generator :func:`vrcal.drop.synthetic.hidden_effect_case`: a case
   counts as correct when the named effects are exactly the planted ones (in any
   order); also the false-positive rate on clean data and the largest relative error
   of the recovered parameters.
@@ -12,7 +12,7 @@ Prints
 With ``--misses`` it also says, for every single-effect case named wrongly, how well the
 named rival fits compared with the planted effect (chi-square at the data's noise sigma,
 round 1) and whether the rival's parameter is physically plausible (inside the 95 %
-highest-density region of its prior density, :mod:`vrcal.effects`): a miss where the rival
+highest-density region of its prior density, :mod:`vrcal.drop.effects`): a miss where the rival
 fits as well with a plausible value is one the data cannot decide.
 
 Usage:
@@ -33,11 +33,12 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from vrcal.discover import discover  # noqa: E402
-from vrcal.effects import EFFECTS  # noqa: E402
-from vrcal.simulate import BallProperties, sample_measurement, simulate_drops  # noqa: E402
-from vrcal.standards import get_ball  # noqa: E402
-from vrcal.synthetic import hidden_effect_case  # noqa: E402
+from vrcal.discovery.ranking import discover  # noqa: E402
+from vrcal.drop.effects import EFFECTS  # noqa: E402
+from vrcal.drop.simulate import sample_measurement, simulate_drops  # noqa: E402
+from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
+from vrcal.model.body import BallProperties  # noqa: E402
+from vrcal.model.standards import get_ball  # noqa: E402
 
 #: Planted cases per data kind: single effects the kind can show, pairs, and the clean case.
 CASES = {
@@ -55,7 +56,7 @@ def timing(repeats=5):
     fs = 300.0
     drops = simulate_drops(2.54, 0.75, 14, ball, effects={"air_drag": {"drag_coefficient": 0.5}}, release_time_s=0.3)
     cols = sample_measurement(drops, "trajectory", fs_hz=fs, noise_m=0.002, rng=1)
-    from vrcal.readers import Trajectory
+    from vrcal.measurements import Trajectory
 
     t, y = cols["t"][:1500], cols["y"][:1500]
     data = Trajectory(t_s=t, y_m=y, source="bench", release_index=int(np.searchsorted(t, 0.3, side="right")))
@@ -133,7 +134,7 @@ def main(argv=None):
     print(f"discover on a {n}-sample trajectory: {wall * 1000:.0f} ms (median of 5; target < 1000 ms); "
           f"named {result.effects}")
     print("rate = the named effects are exactly the planted ones; +amb = or the planted one is named as an "
-          "ambiguous alternative (CONFUSABLE groups of vrcal.discover)")
+          "ambiguous alternative (CONFUSABLE groups of vrcal.discovery.ranking)")
     print(f"{'kind':<11s} {'planted':<50s} {'rate':>7s} {'+amb':>7s}  {'max rel err':>11s} {'ms/run':>7s}  named")
     totals = {}  # kind -> [exact, covered, runs]
     for kind in args.kinds:

@@ -5,7 +5,7 @@ Run: python benchmarks/bench_engines.py [--ball basketball] [--phases 4] [--boun
 For each target epsilon the ball of the standard is dropped from its drop height with the
 settings `vrcal export` writes (default time step per engine), ``--phases`` times with the
 impact moved across one step, ``--bounces`` bounces each. Prints the wall time per drop,
-its ratio to vrcal's simulator (vrcal.simulate.simulate_drops, closed-form flights and
+its ratio to vrcal's simulator (vrcal.drop.simulate.simulate_drops, closed-form flights and
 exact impacts) and the largest |achieved - target| epsilon (apex and velocity ratios).
 An engine that is not installed is reported and skipped. Prints numbers; asserts nothing.
 """
@@ -15,11 +15,12 @@ import time
 
 import numpy as np
 
+from vrcal.drop.simulate import simulate_drops
 from vrcal.engines import ENGINES, load, require_runtime
 from vrcal.engines.export import export, parse_exported
 from vrcal.errors import EngineUnavailable
-from vrcal.simulate import BallProperties, simulate_drops
-from vrcal.standards import get_ball
+from vrcal.model.body import BallProperties
+from vrcal.model.standards import get_ball
 
 EPSILONS = (0.5, 0.7, 0.85, 0.9, 0.95)
 

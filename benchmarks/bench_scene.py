@@ -2,8 +2,8 @@
 
 Run: python benchmarks/bench_scene.py [--dt 1e-3 1e-4 2e-5]
 
-For every scene in examples/ prints the wall time of `vrcal.multibody.simulate_scene`, of
-`vrcal.scene_ode.simulate_scene_ode` at each time step, and the comparison (largest impact-time
+For every scene in examples/ prints the wall time of `vrcal.scenes.multibody.simulate_scene`, of
+`vrcal.scenes.ode.simulate_scene_ode` at each time step, and the comparison (largest impact-time
 and apex-height differences). ODE missing is reported and skipped. Prints numbers; asserts nothing.
 """
 
@@ -13,9 +13,9 @@ import time
 from pathlib import Path
 
 from vrcal.errors import EngineUnavailable
-from vrcal.multibody import simulate_scene
-from vrcal.scene import load_scene
-from vrcal.scene_compare import compare_results
+from vrcal.scenes.compare import compare_results
+from vrcal.scenes.multibody import simulate_scene
+from vrcal.scenes.spec import load_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -33,7 +33,7 @@ def main():
         print(f"{scene.name:<22} {'vrcal':<12} {wall:9.3f} {len(exact.contacts):8d}")
         for dt in args.dt:
             try:
-                from vrcal.scene_ode import simulate_scene_ode
+                from vrcal.scenes.ode import simulate_scene_ode
 
                 t0 = time.perf_counter()
                 res = simulate_scene_ode(scene, dt_s=dt)

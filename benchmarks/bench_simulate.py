@@ -11,7 +11,8 @@ import time
 
 import numpy as np
 
-from vrcal.simulate import BallProperties, simulate_drops
+from vrcal.drop.simulate import simulate_drops
+from vrcal.model.body import BallProperties
 
 TT = BallProperties(0.0027, 0.040, "table_tennis")
 ALL = {"air_drag": {}, "velocity_dependent_restitution": {}, "contact_duration": {}, "height_offset": {},

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vrcal import restitution as eq
 from vrcal.errors import UsageError
 from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, pair
-from vrcal.standards import ball_epsilon, get_ball
+from vrcal.model import restitution as eq
+from vrcal.model.standards import ball_epsilon, get_ball
 
 
 @pytest.mark.parametrize("key", ["basketball", "volleyball", "football", "tennis", "table_tennis"])

@@ -14,7 +14,7 @@ from click.testing import CliRunner  # noqa: E402
 from vrcal import plots  # noqa: E402
 from vrcal.cli import main  # noqa: E402
 from vrcal.errors import UsageError  # noqa: E402
-from vrcal.standards import ball_epsilon, get_ball  # noqa: E402
+from vrcal.model.standards import ball_epsilon, get_ball  # noqa: E402
 
 
 @pytest.fixture

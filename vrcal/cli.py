@@ -72,7 +72,7 @@ def main(ctx, standards_file):
 
 def standards_of(ctx):
     """The standards the user chose (``--standards FILE``) or the shipped ones."""
-    from vrcal.standards import load_standards
+    from vrcal.model.standards import load_standards
 
     return load_standards((ctx.find_root().obj or {}).get("standards_file"))
 
@@ -131,7 +131,7 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """
     from vrcal.fileio import dumps
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball
-    from vrcal.standards import get_ball
+    from vrcal.model.standards import get_ball
 
     b = get_ball(ball, standards_of(ctx))
     result = fit_ball(b, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper)
@@ -259,7 +259,7 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
       vrcal table2 --compare-paper
     """
     from vrcal.inverse import DEFAULT_K_PER_S
-    from vrcal.table2 import table2_text
+    from vrcal.model.table2 import table2_text
 
     text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
     emit(text, output)
@@ -307,7 +307,7 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
       vrcal simulate basketball --effect contact_duration:contact_time_s=0.008 --format impacts
       vrcal simulate marble --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
     """
-    from vrcal.simulate import simulate_csv
+    from vrcal.drop.simulate import simulate_csv
 
     text = simulate_csv(ball, kind=fmt, drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K,
                         x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=fs_hz, noise_m=noise_m,
@@ -355,9 +355,9 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
     """
     import os
 
-    from vrcal.discover import discover_file
+    from vrcal.discovery.ranking import discover_file
+    from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import atomic_savefig, atomic_write, dumps
-    from vrcal.report import REPORT_FILES, discovery_figure, fit_report
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -509,7 +509,7 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
 
     from vrcal.errors import UsageError
     from vrcal.fileio import atomic_write
-    from vrcal.scene_output import run_scene
+    from vrcal.scenes.output import run_scene
 
     run = run_scene(scene_file, engine=engine, compare=compare, ode_dt_s=ode_dt_s, standards=standards_of(ctx),
                     animate=not no_animation)

@@ -17,23 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vrcal import restitution as eq
 from vrcal.errors import UsageError
-from vrcal.standards import ball_epsilon, get_ball
-
-#: Default rate constant K [1/s]. The paper does not state its K; its Table 2 implies
-#: K = 3.9-4.2 1/s (least squares 4.11 1/s) when x and v are read interchanged
-#: (see vrcal.table2). vrcal uses the round value 4 1/s.
-DEFAULT_K_PER_S = 4.0
+from vrcal.model import restitution as eq
+from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
+from vrcal.model.standards import ball_epsilon, get_ball
 
 _LEVELS = ("min", "nominal", "max")
-
-
-def check_K(K_per_s):
-    """K [1/s] as a float; UsageError unless it is a finite number > 0."""
-    if not (isinstance(K_per_s, (int, float)) and math.isfinite(K_per_s) and K_per_s > 0):
-        raise UsageError(f"K must be a finite number > 0 [1/s], got {K_per_s!r}")
-    return float(K_per_s)
 
 
 def family(T_s, x_max_m, n):
@@ -86,7 +75,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     n : int
         number of family members (x evenly spaced in (0, R])
     as_paper : bool
-        use the paper's Table 1 heights as printed (see :func:`vrcal.standards.ball_epsilon`)
+        use the paper's Table 1 heights as printed (see :func:`vrcal.model.standards.ball_epsilon`)
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Figures 4-7 of [1], drawn from the model equations in :mod:`vrcal.restitution`.
+"""Figures 4-7 of [1], drawn from the model equations in :mod:`vrcal.model.restitution`.
 
 Every plot function takes ``ax=None`` (a new figure when None) and returns the ax; this
 module never saves files (the command line does, through
@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from vrcal import restitution as eq
 from vrcal.errors import UsageError
 from vrcal.inverse import DEFAULT_K_PER_S, check_K
-from vrcal.standards import ball_epsilon, get_ball
+from vrcal.model import restitution as eq
+from vrcal.model.standards import ball_epsilon, get_ball
 
 #: Fig. 5: body B fixed, three depths of body A, its speed varied.
 FIG5_DEFAULTS = {"x_b_m": 0.01, "v_b_m_per_s": 0.1, "x_a_m": (0.005, 0.01, 0.02), "v_a_range_m_per_s": (0.01, 0.5)}
@@ -184,7 +184,7 @@ def plot_ball_family(ball="basketball", K_per_s=DEFAULT_K_PER_S, as_paper=False,
         rate constant K [1/s], > 0
     as_paper : bool
         epsilon from the paper's Table 1 heights as printed (see
-        :func:`vrcal.standards.ball_epsilon`)
+        :func:`vrcal.model.standards.ball_epsilon`)
     standards : dict, optional
         where to look a ball key up; the shipped standards when None
     ax : matplotlib Axes, optional

@@ -3,7 +3,7 @@
 A ball dropped from rest from H = 1.0 m (bottom of the ball) onto a rigid floor with a
 constant restitution epsilon = 0.85 and no air drag:
 
-* impact speed v_0 = sqrt(2 g H) (Eq. (8) of [1], ``vrcal.restitution.impact_speed_m_per_s``),
+* impact speed v_0 = sqrt(2 g H) (Eq. (8) of [1], ``vrcal.model.restitution.impact_speed_m_per_s``),
   first impact at sqrt(2 H / g), flight times between impacts dt_i = 2 epsilon^(i+1) v_0 / g;
 * apex heights h_i = epsilon^(2 i) H (Eq. (9) of [1] inverted).
 
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vrcal.restitution import STANDARD_GRAVITY_M_PER_S2 as G
-from vrcal.restitution import impact_speed_m_per_s
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
+from vrcal.model.restitution import impact_speed_m_per_s
 
 HERE = Path(__file__).resolve().parent
 H_M, EPS, N_IMPACTS = 1.0, 0.85, 12

@@ -11,13 +11,13 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
-from vrcal import restitution as eq
 from vrcal.engines import get_engine, load
 from vrcal.engines.common import GRAVITY_M_PER_S2, DropSetup, check_dt, check_epsilon
 from vrcal.errors import UsageError
 from vrcal.fileio import dumps
 from vrcal.inverse import DEFAULT_K_PER_S, parse_body
-from vrcal.standards import ball_epsilon, get_ball
+from vrcal.model import restitution as eq
+from vrcal.model.standards import ball_epsilon, get_ball
 
 N_BOUNCES = 3
 
@@ -105,7 +105,7 @@ def export(ball, engine, *, epsilon=None, dt_s=None, floor=None, against=None, s
     against : str, optional
         a second ball: adds the ball/ball2 pair value from Eq. (6)
     standards : dict, optional
-        from :func:`vrcal.standards.load_standards`
+        from :func:`vrcal.model.standards.load_standards`
     K_per_s : float
         rate constant K [1/s] (the pair value does not depend on it)
     tolerance : float

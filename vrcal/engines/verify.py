@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import re
 
-
 from vrcal.engines import get_engine, load, require_runtime
 from vrcal.engines.common import DEFAULT_TOLERANCE, VerifyResult
 from vrcal.engines.export import N_BOUNCES, export, parse_exported

@@ -1,0 +1,188 @@
+"""vrcal.discovery.residuals: statistics, noise floor, prediction and the least-squares fit."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal.discovery import residuals as res
+from vrcal.drop.simulate import sample_measurement, simulate_drops
+from vrcal.errors import DataError, UsageError
+from vrcal.measurements import ApexHeights, ImpactTimes, Trajectory
+from vrcal.model.body import BallProperties
+from vrcal.model.standards import get_ball
+
+TENNIS = BallProperties.from_ball(get_ball("tennis"))
+
+
+def drop(kind, effects=None, H=1.5, eps=0.75, n=6, noise=0.0, jitter=0.0, seed=0, t0=0.25):
+    d = simulate_drops(H, eps, n, TENNIS, effects=effects, release_time_s=t0)
+    c = sample_measurement(d, kind, noise_m=noise, jitter_s=jitter, rng=seed)
+    if kind == "trajectory":
+        return Trajectory(c["t"], c["y"], "test")
+    if kind == "impacts":
+        return ImpactTimes(c["t"], "test")
+    return ApexHeights(c["bounce"], c["h"], "test")
+
+
+# --------------------------------------------------------------------------- statistics
+
+
+def test_aic_bic_chi_square_formulas():
+    r = np.array([0.1, -0.2, 0.3, 0.0])
+    assert res.rss(r) == pytest.approx(0.14)
+    assert res.rms(r) == pytest.approx(math.sqrt(0.14 / 4))
+    assert res.aic(0.14, 4, 2) == pytest.approx(4 * math.log(0.035) + 4)
+    assert res.bic(0.14, 4, 2) == pytest.approx(4 * math.log(0.035) + 2 * math.log(4))
+    assert res.chi_square(0.14, 0.1) == pytest.approx(14.0)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(1e-8, 1e3), st.floats(1.0001, 10.0), st.integers(5, 5000), st.integers(1, 4))
+def test_criteria_prefer_smaller_rss_and_fewer_parameters(rss_value, factor, n, k):
+    assert res.bic(rss_value, n, k) < res.bic(rss_value * factor, n, k)
+    assert res.aic(rss_value, n, k) < res.aic(rss_value, n, k + 1)
+    assert res.bic(rss_value, n, k) < res.bic(rss_value, n, k + 1)
+    # scalars and arrays give the same numbers
+    arr = res.bic(np.array([rss_value, rss_value]), n, k)
+    assert arr[0] == pytest.approx(res.bic(rss_value, n, k))
+
+
+@pytest.mark.parametrize("sigma", [0.0005, 0.001, 0.002])
+def test_noise_floor_from_third_differences(sigma):
+    data = drop("trajectory", {"air_drag": {"drag_coefficient": 0.5}}, noise=sigma, seed=3)
+    assert res.noise_floor(data) == pytest.approx(sigma, rel=0.15)
+    assert res.noise_floor(drop("impacts")) is None
+    assert res.noise_floor(drop("apexes")) is None
+
+
+# --------------------------------------------------------------------------- prediction and fit
+
+
+@pytest.mark.parametrize("kind", ["trajectory", "impacts", "apexes"])
+def test_the_true_model_leaves_zero_residuals(kind):
+    effects = {"air_drag": {"drag_coefficient": 0.4}}
+    data = drop(kind, effects)
+    problem = res.make_problem(data, TENNIS)
+    layout = res.parameter_layout(data, ("air_drag",))
+    truth = {"drop_height_m": 1.5, "release_time_s": 0.25, "epsilon": 0.75, "air_drag.drag_coefficient": 0.4}
+    theta = np.array([[truth[p.key] for p in layout]])
+    r = res.residuals(theta, layout, problem)
+    assert r.shape == (1, res.observed_values(data).size)
+    assert np.max(np.abs(r)) < 1e-9
+
+
+def test_predict_is_vectorised_over_parameter_sets():
+    data = drop("trajectory")
+    problem = res.make_problem(data, TENNIS)
+    layout = res.parameter_layout(data)
+    thetas = np.array([[1.5, 0.25, 0.75], [1.4, 0.25, 0.7], [1.5, 0.3, 0.8]])
+    many = res.predict(thetas, layout, problem)
+    one_by_one = np.vstack([res.predict(t[None, :], layout, problem) for t in thetas])
+    np.testing.assert_allclose(many, one_by_one, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["trajectory", "impacts", "apexes"])
+def test_fit_recovers_the_baseline_from_noisy_data(kind):
+    data = drop(kind, noise=0.002, jitter=0.0002, seed=5, n=8)
+    fit = res.fit_model(res.make_problem(data, TENNIS))
+    assert fit.baseline_values["epsilon"] == pytest.approx(0.75, abs=0.01)
+    assert fit.baseline_values["drop_height_m"] == pytest.approx(1.5, rel=0.03)
+    if kind != "apexes":
+        assert fit.baseline_values["release_time_s"] == pytest.approx(0.25, abs=0.01)
+    # residuals at the noise level; uncertainties positive and small
+    noise = 0.0002 if kind == "impacts" else 0.002
+    assert fit.gap < 2 * noise
+    assert np.all(fit.uncertainties > 0)
+    assert abs(fit.baseline_values["epsilon"] - 0.75) < 6 * fit.uncertainty("epsilon") + 1e-4
+
+
+def test_fit_with_an_effect_reports_prior_and_values():
+    data = drop("trajectory", {"contact_duration": {"contact_time_s": 0.006}}, noise=0.001, seed=2)
+    fit = res.fit_model(res.make_problem(data, TENNIS), ("contact_duration",))
+    assert fit.effect_values["contact_duration"]["contact_time_s"] == pytest.approx(0.006, rel=0.1)
+    assert fit.in_prior("contact_duration")
+    assert fit.k == 4 and fit.n == data.t_s.size
+    assert fit.bic == pytest.approx(res.bic(fit.rss, fit.n, fit.k))
+
+
+def test_evidence_of_the_baseline_is_chi2_plus_the_fisher_volume():
+    data = drop("impacts", jitter=0.0002, seed=3)
+    fit = res.fit_model(res.make_problem(data, TENNIS), ())
+    sigma = 0.0002
+    F = fit.extra["jtj"] / sigma**2
+    expected = fit.rss / sigma**2 + np.linalg.slogdet(F / (2 * math.pi))[1]
+    assert res.minus_two_ln_evidence(fit, sigma) == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_parameter_the_data_do_not_constrain_costs_nothing():
+    data = drop("impacts", jitter=0.0002, seed=3)
+    fit = res.fit_model(res.make_problem(data, TENNIS), ("air_drag",))
+    jtj = fit.extra["jtj"].copy()
+    jtj[-1, :] = 0.0
+    jtj[:, -1] = 0.0
+    fit.extra["jtj"] = jtj
+    sigma = 0.0002
+    expected = fit.rss / sigma**2 + np.linalg.slogdet(jtj[:-1, :-1] / sigma**2 / (2 * math.pi))[1]
+    assert res.minus_two_ln_evidence(fit, sigma) == pytest.approx(expected, rel=1e-12)
+
+
+def test_occam_factor_of_one_parameter():
+    from vrcal.drop.effects import EFFECTS
+
+    p = EFFECTS["air_drag"].parameter("drag_coefficient")
+    # a narrow likelihood: ln(sqrt(2 pi) s prior(theta)) (the prior is renormalised to the bounds)
+    s = 1e-3
+    assert res._prior_integral(p, 0.47, s, None) == pytest.approx(
+        math.log(math.sqrt(2 * math.pi) * s * float(p.prior_pdf(0.47))), abs=1e-3)
+    # a flat likelihood (the data say nothing): the whole prior, ln 1 = 0
+    assert res._prior_integral(p, 0.47, 1e6, None) == pytest.approx(0.0, abs=1e-3)
+    assert res._prior_integral(p, 0.47, math.inf, None) == 0.0
+    # an implausible value pays: the same width at C_d = 0.1 costs more than 2 ln 100
+    assert res._prior_integral(p, 0.47, s, None) - res._prior_integral(p, 0.1, s, None) > math.log(100)
+
+
+def test_evidence_prefers_the_planted_effect_over_a_stand_in_with_an_implausible_parameter():
+    """Impact times of a basketball with a 10 ms contact: a speed-dependent epsilon with an
+    exponent near 0.03 fits them as well, but such an exponent is far from the viscoelastic 1/5."""
+    from vrcal.drop.synthetic import hidden_effect_case
+
+    data, truth = hidden_effect_case(25, "impacts", ("contact_duration",))
+    ball = BallProperties.from_ball(get_ball(truth["ball"]))
+    problem = res.make_problem(data, ball)
+    base = res.fit_model(problem, ())
+    start = {p.key: float(v) for p, v in zip(base.layout, base.values)}
+    tau = res.fit_model(problem, ("contact_duration",), start=start)
+    vdr = res.fit_model(problem, ("velocity_dependent_restitution",), start=start)
+    assert vdr.effect_values["velocity_dependent_restitution"]["exponent"] < 0.05
+    assert vdr.bic < tau.bic            # the BIC alone picks the stand-in
+    sigma = 2e-4
+    assert res.minus_two_ln_evidence(tau, sigma) < res.minus_two_ln_evidence(vdr, sigma) - 2
+
+
+def test_layout_refuses_effects_the_kind_cannot_show():
+    with pytest.raises(UsageError, match="cannot be seen in impacts"):
+        res.parameter_layout(drop("impacts"), ("height_offset",))
+    with pytest.raises(UsageError, match="unknown effect"):
+        res.parameter_layout(drop("impacts"), ("wind",))
+    assert "height_offset" not in res.applicable_effects("impacts")
+    assert set(res.applicable_effects("trajectory")) >= {"air_drag", "height_offset"}
+
+
+def test_too_few_data_is_a_data_error():
+    with pytest.raises(DataError, match="at least three impact times"):
+        res.initial_baseline(ImpactTimes(np.array([0.1, 0.5]), "short"))
+
+
+def test_impacts_and_start_values_from_a_trajectory():
+    data = drop("trajectory", noise=0.002, seed=1)
+    idx = res.impacts_in_trajectory(data.t_s, data.y_m)
+    d = simulate_drops(1.5, 0.75, 6, TENNIS, release_time_s=0.25)
+    true = d.impact_times_s[0][d.impact_times_s[0] < data.t_s[-1]]
+    assert idx.size == true.size
+    np.testing.assert_allclose(data.t_s[idx], true, atol=2.5 / 240)
+    start = res.initial_baseline(data)
+    assert start["epsilon"] == pytest.approx(0.75, abs=0.05)
+    assert res.count_bounces(data, **start, g_m_per_s2=9.80665) >= true.size

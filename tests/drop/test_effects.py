@@ -1,0 +1,227 @@
+"""The effects registry: one test set parametrised over every entry, plus the equation functions."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal.drop.effects import (
+    EFFECTS,
+    KINDS,
+    buoyant_gravity_m_per_s2,
+    check_parameters,
+    drag_constant_per_m,
+    epsilon_from_heights_with_drag,
+    format_effect_spec,
+    inflated_contact_time_s,
+    parse_effect_spec,
+    resolve_effects,
+    restitution_at_speed,
+)
+from vrcal.drop.simulate import sample_measurement, simulate_drops
+from vrcal.errors import UsageError
+from vrcal.model.body import BallProperties
+
+TT = BallProperties(0.0027, 0.040, "table_tennis")
+NAMES = sorted(EFFECTS)
+
+
+def _observations(effects, kind, ball=TT, H=0.6, eps=0.85):
+    drops = simulate_drops(H, eps, 6, ball, effects=effects, release_time_s=0.1)
+    return sample_measurement(drops, kind, fs_hz=240.0)
+
+
+def test_registry_has_the_required_effects():
+    required = {"air_drag", "velocity_dependent_restitution", "contact_duration", "height_offset", "buoyancy"}
+    assert required <= set(EFFECTS)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_entry_is_well_formed(name):
+    effect = EFFECTS[name]
+    assert effect.name == name
+    assert effect.equation and effect.description and effect.reference
+    assert effect.kinds and set(effect.kinds) <= set(KINDS)
+    assert set(effect.null_values) == {p.name for p in effect.parameters}
+    for p in effect.parameters:
+        lo, hi = p.bounds
+        plo, phi = p.prior
+        assert lo <= plo <= p.default <= phi <= hi, p
+        assert lo <= effect.null_values[p.name] <= hi
+        assert p.default != effect.null_values[p.name]
+        assert p.unit and p.description
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_null_values_reproduce_the_baseline_exactly(name):
+    null = {name: dict(EFFECTS[name].null_values)}
+    for kind in KINDS:
+        base = _observations(None, kind)
+        with_null = _observations(null, kind)
+        assert base.keys() == with_null.keys()
+        for key in base:
+            np.testing.assert_array_equal(base[key], with_null[key])
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_default_parameters_change_every_kind_the_effect_claims(name):
+    defaults = {name: EFFECTS[name].defaults}
+    for kind in EFFECTS[name].kinds:
+        base = _observations(None, kind)
+        planted = _observations(defaults, kind)
+        key = "y" if kind == "trajectory" else ("t" if kind == "impacts" else "h")
+        n = min(base[key].size, planted[key].size)
+        assert np.max(np.abs(base[key][:n] - planted[key][:n])) > 1e-4, kind
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_parse_effect_spec_round_trip(name):
+    effect = EFFECTS[name]
+    params = {p.name: 0.5 * (p.prior[0] + p.prior[1]) for p in effect.parameters}
+    text = format_effect_spec(name, params)
+    assert parse_effect_spec(text) == (name, params)
+    # a bare name takes the defaults
+    assert parse_effect_spec(name) == (name, effect.defaults)
+
+
+@settings(max_examples=40, deadline=None)
+@given(name=st.sampled_from(NAMES), frac=st.floats(0.0, 1.0))
+def test_parse_round_trip_anywhere_in_bounds(name, frac):
+    p = EFFECTS[name].parameters[0]
+    value = p.bounds[0] + frac * (p.bounds[1] - p.bounds[0])
+    assert parse_effect_spec(format_effect_spec(name, {p.name: value})) == (name, {p.name: value})
+
+
+def test_unknown_effect_names_the_valid_ones():
+    with pytest.raises(UsageError, match="unknown effect 'air_dragg'; did you mean 'air_drag'.*valid: air_drag"):
+        parse_effect_spec("air_dragg")
+
+
+def test_unknown_parameter_names_the_valid_ones():
+    with pytest.raises(UsageError, match="has no parameter 'cd' \\(valid: drag_coefficient\\)"):
+        parse_effect_spec("air_drag:cd=0.4")
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("air_drag:drag_coefficient=abc", "must be a number"),
+    ("air_drag:drag_coefficient", "expected PARAM=VALUE"),
+    ("air_drag:drag_coefficient=-1", "must lie in"),
+    ("contact_duration:contact_time_s=1", "must lie in"),
+    ("height_offset:offset_m=nan", "must lie in"),
+])
+def test_bad_parameter_values(spec, message):
+    with pytest.raises(UsageError, match=message):
+        parse_effect_spec(spec)
+
+
+def test_resolve_accepts_specs_and_dicts():
+    assert resolve_effects(["air_drag:drag_coefficient=0.3"]) == {"air_drag": {"drag_coefficient": 0.3}}
+    assert resolve_effects({"height_offset": {}}) == {"height_offset": {"offset_m": 0.02}}
+    assert resolve_effects(None) == {}
+    with pytest.raises(UsageError, match="given twice"):
+        resolve_effects(["air_drag", "air_drag:drag_coefficient=0.2"])
+    with pytest.raises(UsageError):
+        check_parameters("buoyancy", {"density": 1.0})
+
+
+def test_drag_constant_of_a_table_tennis_ball():
+    # k = rho C_d pi D^2 / (8 m), computed by hand: 1.204 * 0.5 * pi * 0.04^2 / (8 * 0.0027)
+    k = drag_constant_per_m(0.5, 0.040, 0.0027)
+    assert k == pytest.approx(1.204 * 0.5 * math.pi * 0.0016 / 0.0216, rel=1e-12)
+    # terminal speed about 8.4 m/s (measured values for 40 mm balls are 8-9 m/s)
+    assert 8.0 < math.sqrt(9.80665 / k) < 9.0
+    np.testing.assert_array_equal(drag_constant_per_m([0.5, 0.5], 0.040, 0.0027), [k, k])
+
+
+def test_buoyancy_is_two_percent_of_g_for_hollow_balls():
+    g = 9.80665
+    tt = buoyant_gravity_m_per_s2(g, 0.040, 0.0027, 1.204)
+    tennis = buoyant_gravity_m_per_s2(g, 0.067, 0.0577, 1.204)
+    # rho V / m = 1.49 %: (1 - 0.0149) / (1 + 0.00745) = 0.978
+    assert 1 - tt / g == pytest.approx(1 - (1 - 0.01490) / (1 + 0.00745), abs=2e-4)
+    assert 0.02 < 1 - tt / g < 0.025
+    assert 1 - tennis / g < 0.006   # a dense ball: a fifth of the effect
+    assert buoyant_gravity_m_per_s2(g, 0.040, 0.0027, 0.0) == g
+
+
+def test_buoyancy_leaves_drag_free_apexes_unchanged():
+    base = simulate_drops(0.6, 0.85, 4, TT)
+    light = simulate_drops(0.6, 0.85, 4, TT, effects={"buoyancy": {}})
+    np.testing.assert_allclose(light.apex_heights_m, base.apex_heights_m, rtol=1e-12)
+    assert np.all(light.impact_times_s > base.impact_times_s)
+
+
+@settings(max_examples=60, deadline=None)
+@given(eps=st.floats(0.05, 1.0), v=st.floats(0.05, 20.0), vref=st.floats(0.05, 20.0), p=st.floats(-1.0, 2.0))
+def test_speed_dependent_restitution_is_nested_and_bounded(eps, v, vref, p):
+    e = restitution_at_speed(eps, v, vref, p)
+    assert 0 < e <= 1
+    assert restitution_at_speed(eps, v, vref, 0.0) == eps
+    assert restitution_at_speed(eps, vref, vref, p) == eps
+    if p > 0 and v < vref and eps < 1:
+        assert e >= eps  # slower impacts are more elastic in the viscoelastic law
+
+
+@settings(max_examples=40, deadline=None)
+@given(H=st.floats(0.1, 5.0), eps=st.floats(0.2, 1.0), cd=st.floats(0.0, 1.0))
+def test_drop_test_epsilon_with_drag_inverts_the_simulation(H, eps, cd):
+    d = simulate_drops(H, eps, 1, TT, effects={"air_drag": {"drag_coefficient": cd}})
+    k = d.k_per_m[0]
+    assert epsilon_from_heights_with_drag(d.apex_heights_m[0, 1], H, k) == pytest.approx(eps, rel=1e-9)
+    # the drag-free Eq. (9) reads too low when there is drag
+    if cd > 0.05:
+        assert math.sqrt(d.apex_heights_m[0, 1] / H) < eps
+    assert epsilon_from_heights_with_drag(0.25, 0.305, 0.0) == math.sqrt(0.25 / 0.305)
+
+
+# --------------------------------------------------------------------------- prior densities
+
+BASKETBALL = BallProperties(0.6, 0.24, "basketball")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_prior_density_is_proper_and_peaks_in_the_plausible_range(name):
+    for ball in (TT, BASKETBALL):
+        for p in EFFECTS[name].parameters:
+            x = np.linspace(p.bounds[0], p.bounds[1], 400001)
+            d = p.prior_pdf(x, ball)
+            assert np.all(np.isfinite(d)) and np.all(d >= 0)
+            mass = float(np.sum(0.5 * (d[1:] + d[:-1]) * np.diff(x)))
+            assert 0.9 < mass < 1.0 + 1e-3, (name, ball.name, mass)   # proper (the bounds cut a little)
+            mode = x[np.argmax(d)]
+            assert p.prior[0] <= mode <= p.prior[1], (name, mode)
+            assert p.prior_description(ball)
+
+
+def test_prior_densities_encode_the_physics():
+    drag = EFFECTS["air_drag"].parameter("drag_coefficient")
+    # a sphere below the drag crisis: C_d = 0.47 is far more probable than 0.1 or 1.5
+    assert drag.prior_pdf(0.47) > 100 * drag.prior_pdf(0.1)
+    assert drag.prior_pdf(0.47) > 100 * drag.prior_pdf(1.5)
+    p = EFFECTS["velocity_dependent_restitution"].parameter("exponent")
+    # the viscoelastic 1/5 against a nearly constant epsilon (p = 0.02) or a negative exponent
+    assert p.prior_pdf(0.2) > 10 * p.prior_pdf(0.02)
+    assert p.prior_pdf(-0.1) == 0.0
+    tau = EFFECTS["contact_duration"].parameter("contact_time_s")
+    # the contact time's scale follows the ball: 2 ms is typical for table tennis, not for a basketball
+    assert tau.prior_pdf(0.002, TT) > tau.prior_pdf(0.002, BASKETBALL)
+    assert tau.prior_pdf(0.010, BASKETBALL) > tau.prior_pdf(0.010, TT)
+    off = EFFECTS["height_offset"].parameter("offset_m")
+    # the tracked point is the bottom, the centre or the top: D/2 beats 3 D/4
+    assert off.prior_pdf(0.12, BASKETBALL) > 10 * off.prior_pdf(0.18, BASKETBALL)
+    with pytest.raises(UsageError, match="depends on the ball"):
+        tau.prior_pdf(0.005)
+
+
+def test_inflated_contact_time():
+    # pi sqrt(m / (pi D p)), computed by hand for a tennis ball at 60 kPa
+    assert inflated_contact_time_s(0.0577, 0.067) == pytest.approx(
+        math.pi * math.sqrt(0.0577 / (math.pi * 0.067 * 60e3)), rel=1e-12)
+    # the scale of measured contact times: about 2 ms table tennis, 5-7 ms tennis, 10-12 ms basketball
+    assert 0.001 < inflated_contact_time_s(0.0027, 0.040) < 0.003
+    assert 0.004 < inflated_contact_time_s(0.0577, 0.067) < 0.008
+    assert 0.008 < inflated_contact_time_s(0.6, 0.24) < 0.014
+    # a harder ball (higher pressure) has a shorter contact
+    assert inflated_contact_time_s(0.6, 0.24, 120e3) < inflated_contact_time_s(0.6, 0.24, 60e3)

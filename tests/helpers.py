@@ -1,0 +1,42 @@
+"""What several test modules share: where the repository and the shared data are, and the
+engine guard.
+
+Real records live in ``../shared/data`` beside the checkout (CI has it there); they are never
+copied into the project. A test that needs one calls :func:`shared_file`, which skips when the
+folder is absent -- unless ``VRCAL_REQUIRE_SHARED=1`` (set by CI), which makes it fail.
+With ``VRCAL_REQUIRE_ENGINES=1`` (set in CI) a missing engine FAILS its test instead of skipping.
+"""
+
+import os
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+SHARED_DATA = ROOT.parent / "shared" / "data"
+
+EPSILONS = (0.5, 0.7, 0.85, 0.9, 0.95)
+
+
+def shared_file(relative):
+    """Path of ``../shared/data/RELATIVE``; skips the test when it is absent (fails in CI)."""
+    path = SHARED_DATA / relative
+    if not path.exists():
+        if os.environ.get("VRCAL_REQUIRE_SHARED") == "1":
+            pytest.fail(f"VRCAL_REQUIRE_SHARED=1 but {path} is absent")
+        pytest.skip(f"{path} is absent (the shared data folder lies beside the checkout)")
+    return path
+
+
+def require_engine(name):
+    """Return the engine's version string; skip (or fail under VRCAL_REQUIRE_ENGINES=1) if absent."""
+    from vrcal.engines import require_runtime
+    from vrcal.errors import EngineUnavailable
+
+    try:
+        return require_runtime(name)
+    except EngineUnavailable as exc:
+        if os.environ.get("VRCAL_REQUIRE_ENGINES") == "1":
+            pytest.fail(f"VRCAL_REQUIRE_ENGINES=1 but {name} is unavailable: {exc}")
+        pytest.skip(str(exc))

@@ -1,0 +1,539 @@
+"""Tests of vrcal.measurements: every layout and variant, auto-detection, malformed files, the
+clean-up functions (release, duplicated frames, impact anomalies) on planted effects,
+a real video-tracked ping-pong record, and a write/read round trip."""
+
+
+import numpy as np
+import pytest
+from helpers import EXAMPLES as EXAMPLES_ROOT
+from helpers import shared_file
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal import measurements as rd
+from vrcal.errors import DataError, UsageError
+from vrcal.measurements import (
+    FORMATS,
+    ApexHeights,
+    ImpactTimes,
+    Trajectory,
+    detect_format,
+    detect_impact_anomalies,
+    detect_release_index,
+    find_duplicated_frames,
+    read_measurement,
+)
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
+from vrcal.model.restitution import impact_speed_m_per_s
+
+EXAMPLES = EXAMPLES_ROOT / "data"
+
+
+# --------------------------------------------------------------------------- physics used to build the files
+
+
+def impact_times(H=1.0, eps=0.85, n=12, release=0.0):
+    """Drag-free impact times of a drop from rest from H with constant restitution eps."""
+    v0 = impact_speed_m_per_s(H)
+    flights = 2.0 * eps ** np.arange(1, n) * v0 / G
+    return release + np.sqrt(2.0 * H / G) + np.concatenate([[0.0], np.cumsum(flights)])
+
+
+def bottom_height(t, H=1.0, eps=0.85, n=8, release=0.0):
+    """Drag-free height of the ball's bottom, held at H until ``release``."""
+    v0 = impact_speed_m_per_s(H)
+    hits = impact_times(H, eps, n, release)
+    y = np.full(t.shape, H)
+    fall = (t >= release) & (t < hits[0])
+    y[fall] = H - 0.5 * G * (t[fall] - release) ** 2
+    for i in range(n - 1):
+        inside = (t >= hits[i]) & (t < hits[i + 1])
+        tau = t[inside] - hits[i]
+        y[inside] = eps ** (i + 1) * v0 * tau - 0.5 * G * tau ** 2
+    return y
+
+
+def write(tmp_path, name, text, mode="w"):
+    p = tmp_path / name
+    if mode == "wb":
+        p.write_bytes(text)
+    else:
+        p.write_text(text, encoding="utf-8")
+    return p
+
+
+def ty_csv(t, y, header="t,y", sep=","):
+    return header + "\n" + "\n".join(f"{float(a)!r}{sep}{float(b)!r}" for a, b in zip(t, y)) + "\n"
+
+
+@pytest.fixture
+def flight():
+    t = np.arange(0, 2.0, 1 / 120)
+    return t, bottom_height(t, release=0.25)
+
+
+# --------------------------------------------------------------------------- registry
+
+
+def test_formats_registry_has_detector_parser_description():
+    assert {"trajectory", "tracker", "pixels-ref", "impacts", "apexes"} <= set(FORMATS)
+    for name, fmt in FORMATS.items():
+        assert callable(fmt.detector) and callable(fmt.parser) and fmt.description, name
+        assert name in rd.format_help()
+
+
+def test_unknown_format_is_a_usage_error_naming_the_formats(tmp_path, flight):
+    p = write(tmp_path, "a.csv", ty_csv(*flight))
+    with pytest.raises(UsageError) as err:
+        read_measurement(p, "videoo")
+    for name in FORMATS:
+        assert name in str(err.value)
+
+
+# --------------------------------------------------------------------------- the files vrcal simulate writes
+
+
+def test_simulate_layouts_are_auto_detected(tmp_path):
+    """The three layouts of `vrcal simulate -o FILE` (interfaces contract) read back as their kind."""
+    from vrcal.drop.simulate import simulate_csv
+
+    expected = {"trajectory": Trajectory, "impacts": ImpactTimes, "apexes": ApexHeights}
+    for kind, cls in expected.items():
+        p = write(tmp_path, f"{kind}.csv", simulate_csv("tennis", kind=kind, n_bounces=5, still_s=0.2, fs_hz=240.0))
+        data = read_measurement(p)
+        assert isinstance(data, cls) and data.kind == kind
+        assert detect_format(p) == kind
+    traj = read_measurement(tmp_path / "trajectory.csv")
+    assert abs(traj.release_index - round(0.2 * 240)) <= 2
+    assert read_measurement(tmp_path / "impacts.csv").rejected == ()
+
+
+def test_ty_csv_values_and_kind(tmp_path, flight):
+    t, y = flight
+    data = read_measurement(write(tmp_path, "ty.csv", ty_csv(t, y)))
+    assert isinstance(data, Trajectory)
+    np.testing.assert_array_equal(data.t_s, t)
+    np.testing.assert_array_equal(data.y_m, y)
+    assert data.source.endswith("ty.csv")
+    assert abs(data.release_index - 30) <= 2  # 0.25 s at 120 Hz
+
+
+def test_header_units_are_converted(tmp_path, flight):
+    t, y = flight
+    p = write(tmp_path, "u.csv", ty_csv(t * 1e3, y * 1e2, header="t (ms),y (cm)"))
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, rtol=1e-12)
+    np.testing.assert_allclose(data.y_m, y, rtol=1e-12)
+    assert any("cm" in n for n in data.notes)
+
+
+def test_unknown_unit_names_the_known_ones(tmp_path, flight):
+    p = write(tmp_path, "u.csv", ty_csv(*flight, header="t (s),y (furlong)"))
+    with pytest.raises(DataError, match=r"u\.csv:1: unknown length unit 'furlong'.*cm"):
+        read_measurement(p)
+
+
+# --------------------------------------------------------------------------- pixel data
+
+
+def test_pixel_column_needs_scale_and_y_down_flips(tmp_path, flight):
+    t, y = flight
+    scale = 0.002
+    px = np.round((1.5 - y) / scale)  # image rows, origin at the top, 2 mm per px
+    p = write(tmp_path, "px.csv", "t,y (px)\n" + "\n".join(f"{float(a)!r},{int(b)}" for a, b in zip(t, px)) + "\n")
+    with pytest.raises(UsageError, match="--scale"):
+        read_measurement(p)
+    data = read_measurement(p, scale_m_per_px=scale, y_down=True)
+    np.testing.assert_allclose(data.y_m, -px * scale)  # converted, no offset added
+    assert np.ptp(data.y_m) == pytest.approx(np.ptp(y), abs=2 * scale)
+    assert any("y axis points down" in n for n in data.notes)
+
+
+def test_y_only_pixels_need_fs(tmp_path, flight):
+    t, y = flight
+    px = np.round((1.5 - y) / 0.002).astype(int)
+    p = write(tmp_path, "y.csv", "y\n" + "\n".join(str(v) for v in px) + "\n")
+    with pytest.raises(UsageError, match=r"y\.csv: no time column.*--fs"):
+        read_measurement(p, scale_m_per_px=0.002, y_down=True)
+    data = read_measurement(p, scale_m_per_px=0.002, y_down=True, fs_hz=120.0)
+    np.testing.assert_allclose(data.t_s, np.arange(px.size) / 120.0)
+    assert abs(data.release_index - 30) <= 2
+
+
+# --------------------------------------------------------------------------- Tracker exports
+
+
+def tracker_text(t, x, y, sep="\t", decimal_comma=False, first="mass_A", header=("t", "x", "y")):
+    def num(v):
+        s = f"{v:.9E}"
+        return s.replace(".", ",") if decimal_comma else s
+
+    lines = [first, sep.join(header)] + [sep.join(num(v) for v in row) for row in zip(t, x, y)]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("sep,decimal_comma", [("\t", False), (",", False), (";", True), (" ", False),
+                                               ("\t", True)])
+def test_tracker_export_delimiters(tmp_path, flight, sep, decimal_comma):
+    t, y = flight
+    x = 0.1 + 0.01 * t
+    p = write(tmp_path, "mass.txt", tracker_text(t, x, y + 0.02, sep, decimal_comma))
+    assert detect_format(p) == "tracker"
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(data.y_m, y + 0.02, rtol=1e-8)
+    assert "mass_A" in data.notes[0]
+
+
+def test_tracker_export_with_t_y_only(tmp_path, flight):
+    t, y = flight
+    lines = ["ball", "t;y"] + [f"{a:.9E};{b:.9E}".replace(".", ",") for a, b in zip(t, y)]
+    p = write(tmp_path, "ty.txt", "\n".join(lines) + "\n")
+    data = read_measurement(p)
+    assert detect_format(p) == "tracker" and "'ball'" in data.notes[0]
+    np.testing.assert_allclose(data.y_m, y, rtol=1e-8)
+
+
+def test_tracker_first_line_with_mass_value_and_empty_cells(tmp_path, flight):
+    """A first line 'mass A: 0.0027', velocity columns empty at the ends, unmarked frames."""
+    t, y = flight
+    lines = ["mass A: 0.0027", "t\tx\ty\tv_{y}"]
+    for i, (a, b) in enumerate(zip(t, y)):
+        v = "" if i in (0, t.size - 1) else f"{-1.0:.9E}"
+        yy = "" if i == 100 else f"{b:.9E}"
+        xx = "" if i == 100 else "1.0E-1"
+        lines.append(f"{a:.9E}\t{xx}\t{yy}\t{v}")
+    p = write(tmp_path, "tr.txt", "\n".join(lines) + "\n")
+    data = read_measurement(p)
+    assert data.t_s.size == t.size - 1
+    assert any("not marked" in n for n in data.notes)
+
+
+def test_tracker_multi_track_export_uses_first_track(tmp_path, flight):
+    t, y = flight
+    lines = ["#multi:", "\tmass A\t\tmass B\t", "t\tx\ty\tx\ty"]
+    lines += [f"{a:.9E}\t0.1\t{b:.9E}\t0.5\t{2 * b:.9E}" for a, b in zip(t, y)]
+    p = write(tmp_path, "multi.txt", "\n".join(lines) + "\n")
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.y_m, y, rtol=1e-8)
+    assert "multi-track" in data.notes[0]
+
+
+def test_tracker_example_file():
+    data = read_measurement(EXAMPLES / "tracker-export.txt")
+    assert data.kind == "trajectory" and data.t_s.size > 100
+    assert abs(data.release_index - round(0.3 * 60)) <= 3  # the example holds the ball 0.3 s at 60 fps
+
+
+# --------------------------------------------------------------------------- still segment and duplicated frames
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.5e-3, 2e-3])
+@pytest.mark.parametrize("fs,release", [(30.0, 0.3), (60.0, 0.3), (240.0, 0.5), (100.0, 0.13)])
+def test_release_index_found_near_the_planted_release(noise, fs, release):
+    rng = np.random.default_rng(7)
+    t = np.arange(0, 1.5, 1 / fs)
+    y = bottom_height(t, release=release) + rng.normal(0, noise, t.size)
+    found = detect_release_index(y)
+    true = int(np.ceil(release * fs))
+    # sqrt of the departure is linear in time for a release from rest: extrapolated back to a frame or so
+    assert true - 1 <= found <= true + 2
+
+
+@pytest.mark.parametrize("start", [0.0, 0.2, 0.5])
+def test_no_still_segment_gives_zero(start):
+    t = np.arange(0, 1.5, 1 / 120) + start
+    y = bottom_height(t, release=0.0)
+    assert detect_release_index(y) == 0
+
+
+def test_duplicated_frame_in_flight_is_dropped_but_still_and_apex_repeats_are_kept(tmp_path):
+    fs = 100.0
+    t = np.arange(0, 2.0, 1 / fs)
+    px = np.round(bottom_height(t, release=0.2) / 0.002)  # quantised heights (2 mm per px, y up)
+    k = 45  # falling fast (about 2.5 m/s = 12 px per frame): frame k repeats frame k-1
+    px[k] = px[k - 1]
+    assert np.any(np.diff(px[:20]) == 0) and np.any(np.diff(px[60:]) == 0)  # still and apex repeats exist
+    dup = find_duplicated_frames(px, detect_release_index(px))
+    assert list(dup) == [k]
+    p = write(tmp_path, "dup.csv", "y (px)\n" + "\n".join(str(int(v)) for v in px) + "\n")
+    data = read_measurement(p, scale_m_per_px=0.002, fs_hz=fs)
+    assert data.t_s.size == t.size - 1
+    assert k / fs not in data.t_s  # its sample time went with it
+    assert any("duplicated frame" in n and f"line(s) {k + 2}" in n for n in data.notes)
+
+
+def test_repeated_whole_rows_are_dropped_and_repeated_time_is_an_error(tmp_path, flight):
+    t, y = flight
+    text = ty_csv(t, y).splitlines()
+    text.insert(60, text[59])  # row 59 (line 60) repeated exactly
+    data = read_measurement(write(tmp_path, "rep.csv", "\n".join(text) + "\n"))
+    assert data.t_s.size == t.size and any("repeated row" in n for n in data.notes)
+    text[60] = text[59].split(",")[0] + ",0.5"  # same time, other height
+    with pytest.raises(DataError, match=r"rep2\.csv:61: time not increasing"):
+        read_measurement(write(tmp_path, "rep2.csv", "\n".join(text) + "\n"))
+
+
+# --------------------------------------------------------------------------- the real ping-pong record
+
+
+def test_pingpong_real_record():
+    """../shared/data/pingpong-drop-video (MIT, see its README): 327 lines = reference + 326 frames."""
+    PINGPONG = shared_file("pingpong-drop-video/raw.txt")
+    with pytest.raises(UsageError, match="--fs"):
+        read_measurement(PINGPONG)
+    assert detect_format(PINGPONG) == "pixels-ref"
+    data = read_measurement(PINGPONG, fs_hz=100.0)
+    lines = PINGPONG.read_text().splitlines()
+    assert len(lines) == 327
+    # one frame, line 322 '1410;222;', repeats line 321 exactly at the third apex while x jumps 222 -> 224
+    assert lines[320] == lines[321] == "1410;222;"
+    assert data.t_s.size == 326 - 1
+    assert any("line(s) 322" in n for n in data.notes)
+    scale = 1.86 / 1203.0
+    np.testing.assert_allclose(data.y_m[:3], -21 * scale)  # image y down, no offset
+    assert 26 <= data.release_index <= 28  # README: held in the hand for frames 0-26, release near 27
+    # the first rebound flight is a parabola with g = 9.81 m/s^2 at 100 fps (README)
+    y, t = data.y_m, data.t_s
+    lows = np.flatnonzero((y[1:-1] < y[:-2]) & (y[1:-1] <= y[2:])) + 1
+    lows = lows[y[lows] < y.min() + 0.05]  # floor contacts
+    a, b = lows[0], lows[1]
+    seg = slice(a + 3, b - 2)
+    g_fit = -2 * np.polyfit(t[seg], y[seg], 2)[0]
+    assert g_fit == pytest.approx(9.81, rel=0.04)
+
+
+def test_pingpong_scale_option_overrides_reference():
+    PINGPONG = shared_file("pingpong-drop-video/raw.txt")
+    data = read_measurement(PINGPONG, fs_hz=100.0, scale_m_per_px=0.001)
+    np.testing.assert_allclose(data.y_m[0], -0.021)
+    assert any("overrides" in n for n in data.notes)
+
+
+# --------------------------------------------------------------------------- impact times
+
+
+def phyphox_csv(t, sep=",", decimal_comma=False, header='"Event time (s)"', extra=False):
+    def num(v):
+        s = f"{v:.9E}"
+        return s.replace(".", ",") if decimal_comma else s
+
+    if extra:
+        head = sep.join(['"Event"', header, '"Interval (s)"'])
+        rows = [sep.join([str(i + 1), num(v), num(v - (t[i - 1] if i else 0.0))]) for i, v in enumerate(t)]
+    else:
+        head, rows = header, [num(v) for v in t]
+    return head + "\n" + "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("sep,decimal_comma", [(",", False), (";", False), (";", True), ("\t", False),
+                                               ("\t", True)])
+@pytest.mark.parametrize("extra", [False, True])
+def test_phyphox_impact_exports(tmp_path, sep, decimal_comma, extra):
+    t = impact_times()
+    p = write(tmp_path, "imp.csv", phyphox_csv(t, sep, decimal_comma, extra=extra))
+    assert detect_format(p) == "impacts"
+    data = read_measurement(p)
+    assert isinstance(data, ImpactTimes) and data.rejected == ()
+    np.testing.assert_allclose(data.t_s, t, rtol=1e-9)
+
+
+def test_bom_crlf_quoted_cells_and_comments(tmp_path):
+    t = impact_times(n=6)
+    body = "# phyphox export\r\n\"Time (s)\",\"Note\"\r\n" + "".join(f'"{v!r}","x"\r\n' for v in map(float, t))
+    p = write(tmp_path, "bom.csv", "\ufeff".encode() + body.encode(), mode="wb")
+    np.testing.assert_array_equal(read_measurement(p).t_s, t)
+
+
+def test_single_column_decimal_comma_and_millisecond_header(tmp_path):
+    t = impact_times(n=6)
+    p = write(tmp_path, "ms.csv", '"Time (ms)"\n' + "\n".join(f"{v * 1e3:.3f}".replace(".", ",") for v in t) + "\n")
+    np.testing.assert_allclose(read_measurement(p).t_s, t, atol=1e-6)
+
+
+def test_impact_example_files():
+    clean = read_measurement(EXAMPLES / "phyphox-impacts.csv")
+    assert clean.rejected == () and clean.t_s.size == 12
+    echo = read_measurement(EXAMPLES / "phyphox-impacts-echo.csv")
+    assert echo.t_s.size == 9 and "echo" in echo.rejected[0][2]
+    missed = read_measurement(EXAMPLES / "phyphox-impacts-missed.csv")
+    assert missed.t_s.size == 9 and "missed impact" in missed.rejected[0][2]
+    apex = read_measurement(EXAMPLES / "apexes.csv")
+    np.testing.assert_allclose(np.sqrt(apex.h_m[1:] / apex.h_m[:-1]), 0.85, atol=2e-4)  # Eq. (9)
+
+
+# --------------------------------------------------------------------------- anomaly detection (planted)
+
+
+@settings(max_examples=60, deadline=None)
+@given(eps=st.floats(0.55, 0.95), H=st.floats(0.2, 3.0), n=st.integers(5, 14), seed=st.integers(0, 2**32 - 1))
+def test_clean_geometric_series_with_jitter_flags_nothing(eps, H, n, seed):
+    t = impact_times(H, eps, n)
+    t = t + np.random.default_rng(seed).normal(0, 2e-4, t.size)  # 0.2 ms detection jitter
+    n_clean, rejected = detect_impact_anomalies(t)
+    assert n_clean == n and rejected == ()
+
+
+@pytest.mark.parametrize("eps", [0.6, 0.75, 0.9])
+@pytest.mark.parametrize("missing", [4, 7, 9])
+def test_planted_missed_impact_is_found(eps, missing):
+    t = impact_times(1.0, eps, 11)
+    n_clean, rejected = detect_impact_anomalies(np.delete(t, missing))
+    assert n_clean == missing  # impacts before the gap are kept
+    assert rejected[0][0] == missing and "missed impact" in rejected[0][2]
+    assert len(rejected) == 10 - missing
+
+
+@pytest.mark.parametrize("eps,first", [(0.8, 6), (0.9, 2), (0.7, 3)])
+def test_two_missed_impacts_in_a_row(eps, first):
+    t = impact_times(1.0, eps, 12)
+    n_clean, rejected = detect_impact_anomalies(np.delete(t, [first, first + 1]))
+    assert n_clean == first and "2 missed impacts" in rejected[0][2]
+
+
+@pytest.mark.parametrize("after,delay", [(3, 0.015), (8, 0.008), (10, 0.02)])
+def test_planted_echo_is_found(after, delay):
+    t = impact_times(1.0, 0.85, 11)
+    with_echo = np.sort(np.append(t, t[after] + delay))
+    n_clean, rejected = detect_impact_anomalies(with_echo)
+    assert n_clean == after + 1
+    assert rejected[0][0] == after + 1 and rejected[0][1] == pytest.approx(t[after] + delay)
+    assert "echo" in rejected[0][2]
+    assert all("after the anomaly" in r[2] for r in rejected[1:])
+
+
+def test_later_anomalies_are_diagnosed_too():
+    """An echo then a missed impact: both named; everything from the echo on is rejected."""
+    t = impact_times(1.0, 0.85, 14)
+    planted = np.sort(np.append(np.delete(t, 10), t[5] + 0.01))  # echo after impact 5, impact 10 missed
+    n_clean, rejected = detect_impact_anomalies(planted)
+    reasons = {i: why for i, _, why in rejected}
+    assert n_clean == 6 and "echo" in reasons[6]
+    assert "missed impact" in reasons[11]  # old impact 11 (10 is gone, the echo added one)
+    assert all("after the anomaly at impact 6" in reasons[i] for i in reasons if i not in (6, 11))
+    assert sorted(reasons) == list(range(6, planted.size))
+
+
+def test_echo_after_first_impact():
+    t = impact_times(1.0, 0.85, 8)
+    n_clean, rejected = detect_impact_anomalies(np.sort(np.append(t, t[0] + 0.01)))
+    assert n_clean == 1 and "echo" in rejected[0][2]
+
+
+def test_anomalies_are_vectorised_on_short_input():
+    assert detect_impact_anomalies([0.1, 0.5]) == (2, ())
+
+
+def test_reader_reports_anomaly_and_keeps_clean_prefix(tmp_path):
+    t = impact_times(1.0, 0.85, 10)
+    p = write(tmp_path, "a.csv", "t\n" + "\n".join(repr(float(v)) for v in np.delete(t, 7)) + "\n")
+    data = read_measurement(p)
+    np.testing.assert_array_equal(data.t_s, t[:7])
+    assert data.rejected[0][0] == 7
+    assert any("line 9" in n and "missed" in n for n in data.notes)
+
+
+def test_too_few_clean_impacts_is_an_error_naming_the_anomaly(tmp_path):
+    t = impact_times(1.0, 0.85, 8)
+    p = write(tmp_path, "few.csv", "t\n" + "\n".join(repr(float(v)) for v in np.sort(np.append(t, t[1] + 0.01))) + "\n")
+    with pytest.raises(DataError, match=r"few\.csv:4: only 2 impact\(s\) before an anomaly \(echo"):
+        read_measurement(p)
+
+
+# --------------------------------------------------------------------------- apex heights
+
+
+def test_apexes(tmp_path):
+    h = 0.8 * 0.7 ** (2 * np.arange(5))
+    p = write(tmp_path, "ap.csv", "bounce,h (cm)\n" + "\n".join(f"{i},{float(v) * 100!r}" for i, v in enumerate(h)) + "\n")
+    data = read_measurement(p)
+    assert isinstance(data, ApexHeights)
+    np.testing.assert_array_equal(data.bounce, np.arange(5))
+    np.testing.assert_allclose(data.h_m, h)
+
+
+@pytest.mark.parametrize("body,match", [
+    ("0,1.0\n1,0.7\n1,0.5\n", r":4: bounce number not increasing"),
+    ("0,1.0\n1.5,0.7\n2,0.5\n", r":3: bounce number 1.5 is not an integer"),
+    ("0,1.0\n1,0.7\n", r":3: only 2 apex row"),
+    ("0,1.0\n1,-0.7\n2,0.5\n", r":3: apex height -0.7 is not positive"),
+])
+def test_malformed_apexes(tmp_path, body, match):
+    with pytest.raises(DataError, match=r"ap\.csv" + match):
+        read_measurement(write(tmp_path, "ap.csv", "bounce,h\n" + body))
+
+
+# --------------------------------------------------------------------------- malformed files
+
+
+def _traj_lines(n=30):
+    t = np.arange(n) / 100.0
+    return ty_csv(t, bottom_height(t, release=0.0)).splitlines()
+
+
+@pytest.mark.parametrize("edit,fmt,match", [
+    (lambda L: L[1:], None, r":1: no header row"),
+    (lambda L: L[:5] + ["0.04,nan"] + L[6:], None, r":6: nan in column 'y'"),
+    (lambda L: L[:7] + ["0.06,abc"] + L[8:], None, r":8: 'abc' is not a number \(column 'y'\)"),
+    (lambda L: L[:7] + ["0.06,"] + L[8:], None, r":8: empty cell in column 'y'"),
+    (lambda L: L[:10] + ["0.001,0.9"] + L[11:], None, r":11: time not increasing"),
+    (lambda L: L[:12], None, r":12: only 11 samples; a trajectory needs at least 20"),
+    (lambda L: ["t"] + ["0.5", "0.9"], None, r":3: only 2 impact"),
+    (lambda L: ["t", "0.5", "0.9", "0.8", "1.0"], None, r":4: impact time not increasing"),
+    (lambda L: ["a,b", "1,2"], None, r":1: cannot tell the layout"),
+    (lambda L: ["t,y"], None, r":1: header but no data rows"),
+    (lambda L: L[:4] + ["0,03,0,99"] + L[5:], None, r":5: 4 cells but the header names 2 columns \(a decimal comma"),
+])
+def test_malformed_file_message_names_file_and_line(tmp_path, edit, fmt, match):
+    p = write(tmp_path, "bad.csv", "\n".join(edit(_traj_lines())) + "\n")
+    with pytest.raises(DataError, match=r"bad\.csv" + match) as err:
+        read_measurement(p, fmt)
+    assert "\n" not in str(err.value)
+
+
+def test_empty_binary_missing_files(tmp_path):
+    with pytest.raises(DataError, match=r"empty\.csv: empty file"):
+        read_measurement(write(tmp_path, "empty.csv", "\n  \n"))
+    with pytest.raises(DataError, match=r"bin\.csv: binary file"):
+        read_measurement(write(tmp_path, "bin.csv", bytes(range(256)) * 4, mode="wb"))
+    with pytest.raises(DataError, match=r"nope\.csv: cannot read"):
+        read_measurement(tmp_path / "nope.csv")
+
+
+def test_reading_writes_nothing(tmp_path, flight):
+    p = write(tmp_path, "ty.csv", ty_csv(*flight))
+    before = sorted(tmp_path.iterdir())
+    read_measurement(p)
+    with pytest.raises(DataError):
+        read_measurement(write(tmp_path, "bad.csv", "t,y\n0,abc\n"))
+    assert sorted(tmp_path.iterdir()) == sorted(before + [tmp_path / "bad.csv"])
+
+
+def test_forced_format_overrides_detection(tmp_path, flight):
+    t, _ = flight
+    p = write(tmp_path, "t.csv", "t\n" + "\n".join(repr(float(v)) for v in impact_times(n=5)) + "\n")
+    with pytest.raises(DataError, match=r"t\.csv:1: no height column 'y'"):
+        read_measurement(p, "trajectory")
+    assert read_measurement(p, "impacts").kind == "impacts"
+
+
+# --------------------------------------------------------------------------- round trip (property)
+
+
+finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(steps=st.lists(st.floats(1e-4, 1.0), min_size=20, max_size=60),
+       y=st.lists(finite, min_size=60, max_size=60), t0=st.floats(-10, 10))
+def test_ty_csv_round_trip(tmp_path_factory, steps, y, t0):
+    t = t0 + np.cumsum(steps)
+    y = np.array(y[:t.size])
+    y = y + np.arange(t.size) * 1e-3  # no two consecutive equal heights (those could be duplicated frames)
+    if np.any(np.diff(t) <= 0) or np.any(np.diff(y) == 0):
+        return
+    p = tmp_path_factory.mktemp("rt") / "ty.csv"
+    p.write_text(ty_csv(t, y))
+    data = read_measurement(p)
+    np.testing.assert_array_equal(data.t_s, t)
+    np.testing.assert_array_equal(data.y_m, y)

@@ -1,0 +1,148 @@
+"""Tests of vrcal.scenes.ode: the scene in the real ODE library against vrcal's event-driven simulator,
+and `vrcal scene --engine ode / --compare`."""
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from vrcal.cli import main
+from vrcal.errors import EngineUnavailable
+from vrcal.scenes.compare import compare_results
+from vrcal.scenes.multibody import simulate_scene
+from vrcal.scenes.spec import contact_epsilon, load_scene, validate_scene
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def ode():
+    try:
+        from vrcal.engines.ode_ctypes import load_ode
+
+        load_ode()
+    except EngineUnavailable as exc:
+        if os.environ.get("VRCAL_REQUIRE_ENGINES") == "1":
+            pytest.fail(f"ODE required but unavailable: {exc}")
+        pytest.skip(f"ODE unavailable: {exc}")
+    from vrcal.scenes import ode as scene_ode
+
+    return scene_ode
+
+
+def with_duration(path, duration):
+    doc = yaml.safe_load(Path(path).read_text())
+    doc["duration_s"] = duration
+    return validate_scene(doc, str(path))
+
+
+def test_near_callback_bounce_is_eq6_then_eq7(ode):
+    assert ode.near_callback_bounce((0.05, 0.4), (0.0, 0.0), 4.0) == pytest.approx(math.exp(-4.0 * 0.05 / 0.8))
+    assert ode.near_callback_bounce((0.05, 0.4), (0.01, 0.1), 4.0) == contact_epsilon(0.05, 0.4, 0.01, 0.1, 4.0)
+
+
+def test_ode_basketball_drop_agrees_with_vrcal(ode):
+    """Figure 8's drop: ODE (dt = 1e-4 s) and the exact event-driven run agree to a step in impact time and
+    0.05 % in apex height over the first bounces."""
+    scene = with_duration(EXAMPLES / "figure8-basketball.yaml", 3.0)
+    a = simulate_scene(scene)
+    b = ode.simulate_scene_ode(scene, dt_s=1e-4)
+    assert b.engine == "ode"
+    assert b.position_m.shape == a.position_m.shape
+    cmp = compare_results(a, b)
+    assert len(cmp.impacts) >= 3
+    assert cmp.max_impact_time_difference_s <= 3e-4
+    assert cmp.max_apex_relative_difference < 5e-4
+    assert [c.epsilon for c in b.contacts[:3]] == [c.epsilon for c in a.contacts[:3]]
+    np.testing.assert_allclose(b.bottom_height_m(), a.bottom_height_m(), atol=0.01)
+
+
+def test_ode_error_shrinks_with_the_time_step(ode):
+    scene = with_duration(EXAMPLES / "figure8-basketball.yaml", 1.3)
+    exact = simulate_scene(scene)
+    errors = []
+    for dt in (1e-3, 1e-4):
+        cmp = compare_results(exact, ode.simulate_scene_ode(scene, dt_s=dt))
+        errors.append(cmp.max_apex_difference_m)
+    assert errors[1] < errors[0]
+
+
+def test_ode_five_balls_each_bounce_with_their_own_epsilon(ode):
+    scene = with_duration(EXAMPLES / "figure9-five-balls.yaml", 1.0)
+    a, b = simulate_scene(scene), ode.simulate_scene_ode(scene, dt_s=2e-4)
+    first_a = {c.body_a: c.epsilon for c in a.contacts}
+    first_b = {c.body_a: c.epsilon for c in b.contacts}
+    assert first_a == first_b and len(first_a) == 5
+    apex_a = {n: h for n, t, h in a.apexes if t > 0}
+    apex_b = {n: h for n, t, h in b.apexes if t > 0}
+    for name in apex_a:
+        assert apex_b[name] == pytest.approx(apex_a[name], rel=2e-3)
+
+
+def test_ode_stack_drop_launches_the_tennis_ball_like_vrcal(ode):
+    scene = with_duration(EXAMPLES / "stack-drop.yaml", 1.3)
+    a, b = simulate_scene(scene), ode.simulate_scene_ode(scene, dt_s=1e-4)
+    pairs = [(c.body_a, c.body_b) for c in b.contacts[:2]]
+    assert pairs == [("basketball", "floor"), ("basketball", "tennis")]
+    ha = [h for n, t, h in a.apexes if n == "tennis"][1]
+    hb = [h for n, t, h in b.apexes if n == "tennis"][1]
+    assert hb == pytest.approx(ha, rel=5e-3)
+
+
+def test_bad_time_step_is_a_usage_error(ode):
+    from vrcal.errors import UsageError
+
+    scene = load_scene(EXAMPLES / "figure8-basketball.yaml")
+    with pytest.raises(UsageError, match="--ode-dt"):
+        ode.simulate_scene_ode(scene, dt_s=0.5)
+
+
+def test_cli_compare_reports_differences_and_why(ode, tmp_path):
+    doc = yaml.safe_load((EXAMPLES / "figure8-basketball.yaml").read_text())
+    doc["duration_s"] = 1.5
+    path = tmp_path / "drop.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    result = CliRunner().invoke(main, ["scene", str(path), "--compare", "--no-animation", "-o", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    assert "[[Comparison]] vrcal vs ode" in result.output
+    assert "[[Why they differ]]" in result.output and "bounce_vel" in result.output
+    names = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert names == ["contacts-ode.csv", "contacts-vrcal.csv", "figure8.png", "trajectories-ode.csv",
+                     "trajectories-vrcal.csv"]
+
+
+def test_cli_engine_ode(ode, tmp_path):
+    doc = yaml.safe_load((EXAMPLES / "figure8-basketball.yaml").read_text())
+    doc["duration_s"] = 0.8
+    path = tmp_path / "drop.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    result = CliRunner().invoke(main, ["scene", str(path), "--engine", "ode", "--no-animation", "-o",
+                                       str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    assert "(ode)" in result.output and "basketball - floor" in result.output
+
+
+def test_ode_messages_are_collected_not_printed(ode, capfd):
+    """ODE prints its messages to stderr; during a scene run they are counted and become notes."""
+    import ctypes
+
+    from vrcal.engines.ode_ctypes import load_ode
+
+    lib = load_ode()
+    dmessage = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_char_p)(("dMessage", lib))
+    with ode._OdeMessages(lib) as messages:
+        dmessage(7, b"test message")
+        dmessage(7, b"test message")
+    assert messages.counts == {"ODE message 7: test message": 2}
+    assert "test message" not in capfd.readouterr().err
+
+
+def test_ode_cradle_reports_its_solver_messages_in_the_notes(ode, capfd):
+    res = ode.simulate_scene_ode(load_scene(EXAMPLES / "cradle.yaml"), dt_s=1e-4)
+    assert "ODE Message" not in capfd.readouterr().err
+    n = res.settings["ode_messages"]
+    assert (n > 0) == any("LCP" in note for note in res.notes)

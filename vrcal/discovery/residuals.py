@@ -1,0 +1,671 @@
+"""From a model to residuals and statistics: the fitting core of ``vrcal discover``.
+
+A *model* is the paper's baseline -- a ball released from rest at a drop height,
+bouncing with one constant restitution ε (Eq. (3) of [1]), g known -- plus zero or
+more candidate effects of the registry :data:`vrcal.drop.effects.EFFECTS`. This module
+
+* lays out the free parameters of a model for a data kind (:func:`parameter_layout`),
+* predicts the data with the vectorised simulator (:func:`predict`): many parameter
+  sets in ONE :func:`vrcal.drop.simulate.simulate_drops` call,
+* fits a model by bounded least squares with a finite-difference Jacobian computed
+  in one vectorised call (:func:`fit_model`),
+* computes the statistics of the fit from the same residuals (:func:`rss`,
+  :func:`chi_square`, :func:`aic`, :func:`bic`), the evidence of a model with the
+  registry's prior densities (:func:`minus_two_ln_evidence`) and the noise floor of the
+  data (:func:`noise_floor`).
+
+Residuals are ``data - model`` in the data's unit: metres for trajectories and apex
+heights, seconds for impact times.
+
+References
+----------
+[1] "The Graphical Method for Decision of Restitution Coefficient and Its
+    Applications" (the baseline: constant ε, Eq. (3); drop test Eqs. (8), (9)).
+[2] K. P. Burnham, D. R. Anderson, "Model Selection and Multimodel Inference",
+    2nd ed., Springer 2002 (AIC; BIC of Schwarz 1978), for least squares:
+    AIC = n ln(RSS/n) + 2k, BIC = n ln(RSS/n) + k ln n.
+[3] R. E. Kass, A. E. Raftery, "Bayes factors", J. Am. Stat. Assoc. 90, 773 (1995),
+    Sec. 4.1.1 (Laplace approximation of the evidence); D. J. C. MacKay, "Information
+    Theory, Inference, and Learning Algorithms", CUP 2003, Ch. 28 (Occam factor).
+
+Departures from [1]
+-------------------
+* [1] reads ε from two heights (Eq. (9)); here ε is fitted to a whole record
+  together with the drop height and the release time, so every sample counts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from vrcal.errors import DataError, UsageError
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+
+#: Data kinds the fitter knows, and the unit of their residuals.
+KINDS = {"trajectory": "m", "impacts": "s", "apexes": "m"}
+
+#: Most bounces a model simulates (beyond this, flights are shorter than any sampling).
+MAX_BOUNCES = 40
+
+
+# --------------------------------------------------------------------------- statistics (pure)
+
+
+def rss(residuals):
+    """Residual sum of squares [unit²] of ``residuals`` (last axis)."""
+    r = np.asarray(residuals, dtype=float)
+    return np.sum(r * r, axis=-1)
+
+
+def rms(residuals):
+    """Root-mean-square residual [unit] (the "gap") of ``residuals`` (last axis)."""
+    r = np.asarray(residuals, dtype=float)
+    return np.sqrt(np.mean(r * r, axis=-1))
+
+
+def chi_square(rss_value, sigma):
+    """χ² = RSS / σ² (dimensionless) with σ the noise of one datum [unit]."""
+    return np.asarray(rss_value, dtype=float) / np.asarray(sigma, dtype=float) ** 2
+
+
+def aic(rss_value, n, k):
+    """Akaike information criterion of a least-squares fit, AIC = n ln(RSS/n) + 2k [2].
+
+    Parameters
+    ----------
+    rss_value : float or ndarray
+        residual sum of squares [unit²]
+    n : int
+        number of data
+    k : int
+        number of free parameters
+    """
+    return n * np.log(np.asarray(rss_value, dtype=float) / n) + 2.0 * k
+
+
+def bic(rss_value, n, k):
+    """Bayesian (Schwarz) information criterion, BIC = n ln(RSS/n) + k ln n [2].
+
+    Parameters as :func:`aic`. Lower is better; a difference of more than 10 is
+    "very strong" evidence (Kass and Raftery 1995).
+    """
+    return n * np.log(np.asarray(rss_value, dtype=float) / n) + k * math.log(n)
+
+
+def _prior_integral(param, value, sd, ball, n_grid=2001):
+    """ln of the integral of exp(-(x - value)^2 / (2 sd^2)) times the prior density of ``param``
+    (a :class:`vrcal.drop.effects.Parameter`), renormalised to its hard bounds, over the bounds."""
+    lo, hi = map(float, param.bounds)
+    if math.isinf(sd):
+        return 0.0   # the data say nothing about the parameter: the whole prior
+    grid = np.linspace(lo, hi, n_grid)
+    sd = float(sd) if math.isfinite(sd) and sd > 0 else 0.0
+    sd = max(sd, 1e-9 * (hi - lo))
+    local = np.clip(value + sd * np.linspace(-8.0, 8.0, 161), lo, hi)
+    x = np.unique(np.concatenate([grid, local]))
+    dens = param.prior_pdf(x, ball)
+    dx = np.diff(x)
+
+    def trapezoid(f):   # np.trapezoid needs numpy >= 2
+        return float(np.sum(0.5 * (f[1:] + f[:-1]) * dx))
+
+    mass = trapezoid(dens)
+    if not mass > 0:
+        return -700.0
+    z = (x - value) / sd
+    integral = trapezoid(np.exp(-0.5 * z * z) * dens) / mass
+    return math.log(integral) if integral > 1e-300 else -700.0
+
+
+def minus_two_ln_evidence(fit, sigma):
+    """-2 ln of the model evidence of a fit (Laplace approximation), up to a constant that is
+    the same for every model of the same data.
+
+    Parameters
+    ----------
+    fit : FitResult
+        a fitted model (its ``extra["jtj"]``, JᵀJ at the optimum, is used)
+    sigma : float
+        noise of one datum [data unit], the same for every model that is compared
+
+    Returns
+    -------
+    float
+        ``chi2 + ln det(F_b / 2 pi) - 2 ln I_e``, lower is better. chi2 = RSS / sigma^2;
+        F = JᵀJ / sigma^2 is the Fisher matrix, F_b its block of the baseline parameters
+        (drop height, release time, epsilon: flat priors, common to every model);
+        I_e = the integral over the effect parameters of the likelihood (a Gaussian with
+        their marginal covariance, the baseline profiled out) times their prior densities
+        (``Parameter.prior_pdf``, :mod:`vrcal.drop.effects`): the Occam factor, the fraction of
+        the prior that the data allow. One effect parameter theta with marginal sd s gives
+        ``-2 ln I_e = -2 ln integral exp(-(theta - theta_hat)^2 / 2 s^2) prior(theta) dtheta``
+        (about ``-ln(2 pi s^2) - 2 ln prior(theta_hat)`` when s is small); several are taken
+        as independent, corrected by ``-ln det`` of their correlation matrix.
+
+    Notes
+    -----
+    The BIC is the large-n limit of this with a unit-information prior; with a physical
+    prior the evidence also asks how plausible the fitted value is: a candidate that
+    mimics another effect with an implausible parameter (a drag coefficient of 0.1, a
+    speed exponent of 0.02) loses to the effect that fits as well with a plausible one
+    [3]. The integral is numerical (the bounds' grid plus +-8 s around theta_hat), so a
+    likelihood wider than the prior costs nothing (ln I -> 0) and a value where the prior
+    vanishes costs a lot (ln I floored at -700).
+    """
+    from vrcal.drop.effects import EFFECTS
+
+    sigma2 = float(sigma) ** 2
+    jtj = fit.extra.get("jtj")
+    if jtj is None:
+        obj = _Objective(fit.layout, fit.problem, _scales(fit.layout, fit.values))
+        J = obj.jac(np.asarray(fit.values, dtype=float).copy())
+        jtj = fit.extra["jtj"] = J.T @ J
+    F = np.asarray(jtj, dtype=float) / sigma2
+    base = [i for i, p in enumerate(fit.layout) if p.effect is None]
+    eff = [i for i, p in enumerate(fit.layout) if p.effect is not None]
+    Fbb = F[np.ix_(base, base)]
+    _sign, logdet_b = np.linalg.slogdet(Fbb / (2.0 * math.pi))
+    out = fit.rss / sigma2 + float(logdet_b)
+    if not eff:
+        return float(out)
+    Feb = F[np.ix_(eff, base)]
+    precision = F[np.ix_(eff, eff)] - Feb @ np.linalg.pinv(Fbb) @ Feb.T   # baseline profiled out
+    precision = 0.5 * (precision + precision.T)
+    w, V = np.linalg.eigh(precision)
+    good = w > 1e-12 * max(float(np.max(np.abs(w))), 1e-300)
+    cov = (V[:, good] / w[good]) @ V[:, good].T
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    # a direction the data do not constrain at all: the likelihood is flat there (infinite sd)
+    flat = np.any(np.abs(V[:, ~good]) > 1e-6, axis=1) if np.any(~good) else np.zeros(len(eff), bool)
+    sd = np.where(flat, np.inf, sd)
+    ball = fit.problem.ball
+    for j, i in enumerate(eff):
+        p = fit.layout[i]
+        param = EFFECTS[p.effect].parameter(p.name)
+        out -= 2.0 * _prior_integral(param, float(fit.values[i]), sd[j], ball)
+    if len(eff) > 1 and np.all(np.isfinite(sd)) and np.all(sd > 0):
+        corr = cov / np.outer(sd, sd)
+        out -= float(np.log(np.clip(np.linalg.det(corr), 1e-12, 1.0)))
+    return float(out)
+
+
+def noise_floor(data):
+    """Noise of one datum [unit] estimated from the data alone, or None.
+
+    For a trajectory sampled at a constant rate, the third difference of a flight
+    (a parabola, or nearly so with drag) is zero, so the third differences are noise
+    with variance 20 σ² (coefficients 1, -3, 3, -1). The median absolute deviation
+    makes the estimate robust to the few differences that straddle an impact or the
+    release. Impact times and apex heights are too few for a model-free estimate:
+    None (the discover workflow then uses the fitted model's residuals).
+    """
+    if getattr(data, "kind", None) != "trajectory":
+        return None
+    return _third_difference_sigma(np.asarray(data.t_s, dtype=float), np.asarray(data.y_m, dtype=float))
+
+
+def _third_difference_sigma(t, y):
+    """Robust σ [m] of a near-parabolic series from its third differences (see :func:`noise_floor`)."""
+    if t.size < 8:
+        return None
+    dt = np.diff(t)
+    step = np.median(dt)
+    d3 = np.diff(y, 3)
+    # keep only third differences over four equally spaced samples
+    even = np.abs(dt - step) <= 0.01 * step
+    ok = even[:-2] & even[1:-1] & even[2:]
+    d3 = d3[ok]
+    if d3.size < 5:
+        return None
+    mad = np.median(np.abs(d3 - np.median(d3)))
+    sigma = 1.4826 * mad / math.sqrt(20.0)
+    return float(sigma) if sigma > 0 else None
+
+
+# --------------------------------------------------------------------------- model layout
+
+
+@dataclass(frozen=True)
+class FitParameter:
+    """One free parameter of a model, in SI units."""
+
+    key: str            # "epsilon" or "air_drag.drag_coefficient"
+    effect: str | None  # None for the baseline's parameters
+    name: str           # parameter name inside its effect (or the baseline name)
+    unit: str
+    bounds: tuple
+    prior: tuple
+    null: float | None  # value at which the effect vanishes (None for the baseline)
+
+
+def _baseline_parameters(kind, data, ball):
+    """The baseline's parameters: drop height, release time (not for apexes), ε."""
+    out = [FitParameter("drop_height_m", None, "drop_height_m", "m", (1e-3, 100.0), (1e-3, 100.0), None)]
+    if kind != "apexes":
+        t = _data_times(data)
+        span = float(t[-1] - t[0]) if t.size > 1 else 10.0
+        lo, hi = float(t[0]) - span - 10.0, float(t[-1])
+        out.append(FitParameter("release_time_s", None, "release_time_s", "s", (lo, hi), (lo, hi), None))
+    out.append(FitParameter("epsilon", None, "epsilon", "1", (0.05, 0.999), (0.05, 0.999), None))
+    return out
+
+
+def _data_times(data):
+    return np.asarray(data.t_s, dtype=float)
+
+
+def applicable_effects(kind):
+    """Names of the registry's effects that can be seen in data of ``kind`` (sorted)."""
+    from vrcal.drop.effects import EFFECTS
+
+    _check_kind(kind)
+    return sorted(name for name, eff in EFFECTS.items() if kind in tuple(eff.kinds))
+
+
+def _check_kind(kind):
+    if kind not in KINDS:
+        raise UsageError(f"unknown data kind '{kind}' (known: {', '.join(KINDS)})")
+
+
+def parameter_layout(data, effects=(), ball=None):
+    """The free parameters of the baseline plus ``effects`` for ``data`` (a tuple of FitParameter)."""
+    from vrcal.drop.effects import EFFECTS
+
+    kind = data.kind
+    _check_kind(kind)
+    layout = _baseline_parameters(kind, data, ball)
+    for name in effects:
+        if name not in EFFECTS:
+            raise UsageError(f"unknown effect '{name}' (known: {', '.join(sorted(EFFECTS))})")
+        eff = EFFECTS[name]
+        if kind not in tuple(eff.kinds):
+            raise UsageError(f"effect '{name}' cannot be seen in {kind} data (it shows in: {', '.join(eff.kinds)})")
+        for p in eff.parameters:
+            null = eff.null_values.get(p.name) if eff.null_values else None
+            layout.append(FitParameter(f"{name}.{p.name}", name, p.name, p.unit, tuple(map(float, p.bounds)),
+                                       tuple(map(float, p.prior)), None if null is None else float(null)))
+    return tuple(layout)
+
+
+# --------------------------------------------------------------------------- prediction
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What the fitter needs besides the parameters: the data, the ball, g, the bounce count."""
+
+    data: object
+    ball: object                 # vrcal.model.body.BallProperties
+    g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
+    n_bounces: int = 1
+
+
+def _split(theta, layout):
+    """Parameter matrix (m, k) -> (drop height, release time, ε, effects dict) of arrays (m,)."""
+    theta = np.atleast_2d(np.asarray(theta, dtype=float))
+    base, effects = {}, {}
+    for j, p in enumerate(layout):
+        if p.effect is None:
+            base[p.name] = theta[:, j]
+        else:
+            effects.setdefault(p.effect, {})[p.name] = theta[:, j]
+    t0 = base.get("release_time_s", np.zeros(theta.shape[0]))
+    return base["drop_height_m"], t0, base["epsilon"], effects
+
+
+def simulate(theta, layout, problem, n_bounces=None):
+    """Simulate the model for every parameter set (rows of ``theta``): a :class:`vrcal.drop.simulate.Drops`."""
+    from vrcal.drop.simulate import simulate_drops
+
+    H, t0, eps, effects = _split(theta, layout)
+    return simulate_drops(H, eps, int(n_bounces or problem.n_bounces), problem.ball, effects=effects or None,
+                          g_m_per_s2=problem.g_m_per_s2, release_time_s=t0)
+
+
+def predict(theta, layout, problem):
+    """Model values of the data for every parameter set: ndarray (m, n_data).
+
+    trajectory: height of the observed point at the sample times [m];
+    impacts: time of the first ``n`` floor impacts [s];
+    apexes: apex heights of the observed point at the data's bounce numbers [m].
+    """
+    data = problem.data
+    drops = simulate(theta, layout, problem)
+    kind = data.kind
+    if kind == "trajectory":
+        return np.asarray(drops.height_m(np.asarray(data.t_s, dtype=float)), dtype=float)
+    if kind == "impacts":
+        n = len(data.t_s)
+        return np.asarray(drops.impact_times_s, dtype=float)[:, :n]
+    bounce = np.asarray(data.bounce, dtype=int)
+    # apex heights of the OBSERVED point (bottom + height_offset)
+    return np.asarray(drops.observed_apex_heights_m, dtype=float)[:, bounce]
+
+
+def observed_values(data):
+    """The data values the residuals compare with: (n_data,) in the data's unit."""
+    if data.kind == "trajectory":
+        return np.asarray(data.y_m, dtype=float)
+    if data.kind == "impacts":
+        return np.asarray(data.t_s, dtype=float)
+    return np.asarray(data.h_m, dtype=float)
+
+
+def residuals(theta, layout, problem):
+    """data - model, ndarray (m, n_data) (a row per parameter set) in the data's unit."""
+    return observed_values(problem.data)[None, :] - predict(theta, layout, problem)
+
+
+# --------------------------------------------------------------------------- starting values
+
+
+def count_bounces(data, drop_height_m, epsilon, release_time_s, g_m_per_s2):
+    """How many impacts a model must simulate to cover the data (with a margin)."""
+    if data.kind == "impacts":
+        return int(len(data.t_s))
+    if data.kind == "apexes":
+        return int(np.max(np.asarray(data.bounce, dtype=int)))
+    t = np.asarray(data.t_s, dtype=float)
+    seen = impacts_in_trajectory(t, data.y_m, getattr(data, "release_index", 0) or 0).size
+    t_end = float(t[-1])
+    eps = min(max(float(epsilon), 0.3) + 0.05, 0.97)
+    fall = math.sqrt(2.0 * max(float(drop_height_m), 1e-4) / g_m_per_s2)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    tk, n, flight = float(release_time_s) + fall, 1, 2.0 * fall * eps
+    while tk < t_end and n < MAX_BOUNCES and flight > dt:
+        tk += flight
+        flight *= eps
+        n += 1
+    return int(min(max(n, seen) + 2, MAX_BOUNCES))
+
+
+def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
+    """Sample indices of the bounces seen in a trajectory: prominent minima after release.
+
+    A minimum counts as an impact when its prominence (the lower of the two apexes
+    around it, above it) exceeds 8 noise standard deviations (``sigma_m``, estimated
+    from the data when None) and 0.5 % of the height range.
+    """
+    from scipy.signal import find_peaks
+
+    y = np.asarray(y_m, dtype=float)
+    r = int(release_index)
+    seg = y[r:]
+    if seg.size < 3:
+        return np.array([], dtype=int)
+    if sigma_m is None:
+        sigma_m = _third_difference_sigma(np.asarray(t_s, dtype=float), y) or 0.0
+    span = float(np.max(seg) - np.min(seg))
+    idx, _ = find_peaks(-seg, prominence=max(8.0 * sigma_m, 0.005 * span, 1e-9))
+    return idx.astype(int) + r
+
+
+def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Starting values {drop_height_m, release_time_s, epsilon} read from the data.
+
+    trajectory: drop height from the still level before release (or the first sample),
+    ε from the ratios of successive impact intervals, release time from the first
+    impact and the free-fall time; impacts: ε from interval ratios, drop height from
+    the first interval (v = g Δt / 2); apexes: drop height = apex 0, ε from the apex
+    ratios (Eq. (9) of [1]).
+    """
+    g = float(g_m_per_s2)
+    kind = data.kind
+    if kind == "apexes":
+        b = np.asarray(data.bounce, dtype=int)
+        h = np.asarray(data.h_m, dtype=float)
+        if h.size < 2:
+            raise DataError(f"{data.source}: need at least two apex heights to fit ε, got {h.size}")
+        ok = h > 0
+        slope = np.polyfit(b[ok], np.log(h[ok]), 1)
+        eps = float(np.clip(math.exp(slope[0] / 2.0), 0.1, 0.99))
+        H = float(h[b == 0][0]) if np.any(b == 0) else float(math.exp(slope[1]))
+        return {"drop_height_m": max(H, 1e-3), "epsilon": eps}
+    if kind == "impacts":
+        t = np.asarray(data.t_s, dtype=float)
+        if t.size < 3:
+            raise DataError(f"{data.source}: need at least three impact times to fit ε, got {t.size}")
+        d = np.diff(t)
+        eps = float(np.clip(np.median(d[1:] / d[:-1]), 0.1, 0.99))
+        v_up = g * d[0] / 2.0
+        v0 = v_up / eps
+        return {"drop_height_m": v0 * v0 / (2 * g), "release_time_s": float(t[0] - v0 / g), "epsilon": eps}
+    t = np.asarray(data.t_s, dtype=float)
+    y = np.asarray(data.y_m, dtype=float)
+    if t.size < 10:
+        raise DataError(f"{data.source}: need at least 10 samples to fit a trajectory, got {t.size}")
+    r = int(getattr(data, "release_index", 0) or 0)
+    still = float(np.median(y[: r + 1])) if r > 0 else float(y[0])
+    imp = impacts_in_trajectory(t, y, r)
+    floor = float(np.min(y[r:]))
+    if imp.size == 0 and still - floor < 0.02:
+        raise DataError(f"{data.source}: no fall or bounce in the trajectory (the heights vary by "
+                        f"{(float(np.max(y)) - float(np.min(y))) * 1e3:.1f} mm)")
+    fall_height = max(still - floor, 1e-3)
+    if imp.size >= 3:
+        d = np.diff(t[imp])
+        eps = float(np.clip(np.median(d[1:] / d[:-1]), 0.1, 0.99))
+    elif imp.size == 2:
+        eps = float(np.clip((t[imp[1]] - t[imp[0]]) / (2 * math.sqrt(2 * fall_height / g)), 0.1, 0.99))
+    else:
+        eps = 0.8
+    if imp.size:
+        t0 = float(t[imp[0]] - math.sqrt(2 * fall_height / g))
+    else:
+        t0 = float(t[r])
+    return {"drop_height_m": still, "release_time_s": t0, "epsilon": eps}
+
+
+# --------------------------------------------------------------------------- fitting
+
+
+@dataclass
+class FitResult:
+    """A fitted model: parameters, uncertainties, residuals and statistics."""
+
+    effects: tuple                 # names of the effects on top of the baseline
+    layout: tuple                  # FitParameter per column
+    values: np.ndarray             # (k,)
+    uncertainties: np.ndarray      # (k,) 1-σ from (JᵀJ)⁻¹ σ² with σ² = RSS/(n-k)
+    residuals: np.ndarray          # (n,) data - model
+    problem: Problem
+    nfev: int = 0
+    success: bool = True
+    message: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def n(self):
+        return int(self.residuals.size)
+
+    @property
+    def k(self):
+        return len(self.layout)
+
+    @property
+    def rss(self):
+        return float(rss(self.residuals))
+
+    @property
+    def gap(self):
+        """RMS residual [data unit]."""
+        return float(rms(self.residuals))
+
+    @property
+    def aic(self):
+        return float(aic(max(self.rss, 1e-300), self.n, self.k))
+
+    @property
+    def bic(self):
+        return float(bic(max(self.rss, 1e-300), self.n, self.k))
+
+    def chi_square(self, sigma):
+        return float(chi_square(self.rss, sigma))
+
+    def value(self, key):
+        return float(self.values[[p.key for p in self.layout].index(key)])
+
+    def uncertainty(self, key):
+        return float(self.uncertainties[[p.key for p in self.layout].index(key)])
+
+    @property
+    def baseline_values(self):
+        """{drop_height_m, release_time_s (not for apexes), epsilon}."""
+        return {p.name: float(v) for p, v in zip(self.layout, self.values) if p.effect is None}
+
+    def _by_effect(self, numbers):
+        out = {}
+        for p, x in zip(self.layout, numbers):
+            if p.effect is not None:
+                out.setdefault(p.effect, {})[p.name] = float(x)
+        return out
+
+    @property
+    def effect_values(self):
+        """{effect: {parameter: value}} of the effects on top of the baseline."""
+        return self._by_effect(self.values)
+
+    @property
+    def effect_uncertainties(self):
+        """{effect: {parameter: 1-sigma uncertainty}} of the effects on top of the baseline."""
+        return self._by_effect(self.uncertainties)
+
+    def in_prior(self, effect, n_sigma=0.0):
+        """True when every parameter of ``effect`` lies in its physically plausible range,
+        widened by ``n_sigma`` times the parameter's 1-σ uncertainty (a value at the edge of
+        the prior is not rejected for its noise)."""
+        return all(p.prior[0] - n_sigma * u <= v <= p.prior[1] + n_sigma * u
+                   for p, v, u in zip(self.layout, self.values, self.uncertainties) if p.effect == effect)
+
+    def model(self, n_bounces=None):
+        """The fitted model simulated once (a :class:`vrcal.drop.simulate.Drops` with n_drops = 1)."""
+        return simulate(self.values[None, :], self.layout, self.problem, n_bounces)
+
+    def predict_at(self, t_s):
+        """Height of the observed point [m] at times ``t_s`` (trajectory models), (n_t,)."""
+        return np.asarray(self.model().height_m(np.asarray(t_s, dtype=float)), dtype=float)[0]
+
+
+def _scales(layout, x0):
+    out = []
+    for p, v in zip(layout, x0):
+        if p.name == "epsilon":
+            out.append(0.01)
+        elif p.name == "release_time_s":
+            out.append(0.01)
+        elif p.name == "drop_height_m":
+            out.append(max(0.01, 0.01 * abs(v)))
+        else:
+            lo, hi = p.prior
+            width = hi - lo if math.isfinite(hi - lo) and hi > lo else 1.0
+            out.append(max(abs(v) * 0.1, width * 0.02, 1e-9))
+    return np.asarray(out)
+
+
+class _Objective:
+    """Residual and forward-difference Jacobian sharing ONE vectorised simulation per point."""
+
+    def __init__(self, layout, problem, scales):
+        self.layout, self.problem = layout, problem
+        self.steps = 1e-4 * np.asarray(scales)
+        self.lo = np.array([p.bounds[0] for p in layout])
+        self.hi = np.array([p.bounds[1] for p in layout])
+        self.cache_x, self.cache_r = None, None
+        self.nsim = 0
+        self.y = observed_values(problem.data)
+
+    def _batch(self, thetas):
+        self.nsim += thetas.shape[0]
+        r = self.y[None, :] - predict(thetas, self.layout, self.problem)
+        return np.where(np.isfinite(r), r, 1e3)
+
+    def fun(self, x):
+        if self.cache_x is not None and np.array_equal(x, self.cache_x):
+            return self.cache_r
+        r = self._batch(x[None, :])[0]
+        self.cache_x, self.cache_r = x.copy(), r
+        return r
+
+    def jac(self, x):
+        k = x.size
+        h = self.steps.copy()
+        # step away from the nearer bound so that every perturbed set is feasible
+        h = np.where(x + h > self.hi, -h, h)
+        thetas = np.repeat(x[None, :], k + 1, axis=0)
+        thetas[1:][np.arange(k), np.arange(k)] += h
+        r = self._batch(thetas)
+        self.cache_x, self.cache_r = x.copy(), r[0]
+        return ((r[1:] - r[0][None, :]) / h[:, None]).T
+
+
+def fit_model(problem, effects=(), start=None, *, max_nfev=60):
+    """Fit the baseline plus ``effects`` to ``problem.data`` by bounded least squares.
+
+    Parameters
+    ----------
+    problem : Problem
+        data, ball, g [m/s²] and the number of bounces to simulate
+    effects : sequence of str
+        effect names on top of the baseline (registry :data:`vrcal.drop.effects.EFFECTS`)
+    start : dict, optional
+        starting values by parameter key ("epsilon", "air_drag.drag_coefficient", ...);
+        missing keys start at :func:`initial_baseline` and at each effect's default.
+    max_nfev : int
+        most Jacobian evaluations (each one vectorised simulation of k + 1 sets)
+
+    Returns
+    -------
+    FitResult
+        uncertainties are 1-σ from the Jacobian, (JᵀJ)⁻¹ σ² with σ² = RSS/(n - k).
+    """
+    from vrcal.drop.effects import EFFECTS
+
+    data = problem.data
+    layout = parameter_layout(data, tuple(effects))
+    start = dict(start or {})
+    base0 = initial_baseline(data, problem.g_m_per_s2)
+    x0 = []
+    for p in layout:
+        if p.key in start:
+            v = start[p.key]
+        elif p.effect is None:
+            v = base0[p.name]
+        else:
+            v = next(q.default for q in EFFECTS[p.effect].parameters if q.name == p.name)
+        lo, hi = p.bounds
+        span = hi - lo
+        v = float(np.clip(v, lo + 1e-6 * span, hi - 1e-6 * span))
+        x0.append(v)
+    x0 = np.asarray(x0, dtype=float)
+    n = observed_values(data).size
+    if n <= len(layout):
+        raise DataError(f"{data.source}: {n} data cannot fit {len(layout)} parameters")
+    scales = _scales(layout, x0)
+    obj = _Objective(layout, problem, scales)
+    lo = np.array([p.bounds[0] for p in layout])
+    hi = np.array([p.bounds[1] for p in layout])
+    sol = least_squares(obj.fun, x0, jac=obj.jac, bounds=(lo, hi), x_scale=scales, method="trf",
+                        max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
+    r = obj.fun(sol.x)
+    J = obj.jac(sol.x)
+    dof = max(n - len(layout), 1)
+    s2 = float(r @ r) / dof
+    cov = np.linalg.pinv(J.T @ J) * s2
+    unc = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return FitResult(tuple(effects), layout, sol.x.copy(), unc, r.copy(), problem, nfev=obj.nsim,
+                     success=bool(sol.success), message=str(sol.message), extra={"start": x0, "jtj": J.T @ J})
+
+
+def make_problem(data, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """A :class:`Problem` for ``data`` with enough bounces simulated to cover it."""
+    _check_kind(getattr(data, "kind", None))
+    g = float(g_m_per_s2)
+    if not (math.isfinite(g) and g > 0):
+        raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
+    base = initial_baseline(data, g)
+    n_b = count_bounces(data, base["drop_height_m"], base["epsilon"], base.get("release_time_s", 0.0), g)
+    return Problem(data, ball, g, max(n_b, 1))

@@ -1,0 +1,599 @@
+"""The registry of candidate effects that a drop test can hide, shared by simulator and fitter.
+
+Each :class:`Effect` names its parameters (with unit, default, hard bounds, physically
+plausible prior), a readable equation, a reference, the data kinds in which it can be
+seen, and the parameter values at which it vanishes (``null_values``: the baseline of
+the virtual-body model, Eq. (7)/(10) of [1], where every contact has one constant
+epsilon and the flights are free falls).
+
+One pure, vectorised equation function per effect lives here too; the event-driven
+simulator :mod:`vrcal.drop.simulate` calls them.
+
+References
+----------
+[1] "The Graphical Method for Decision of Restitution Coefficient and Its Applications".
+[2] R. Ramirez, T. Poeschel, N. V. Brilliantov, T. Schwager, "Coefficient of restitution
+    of colliding viscoelastic spheres", Phys. Rev. E 60, 4465 (1999); G. Kuwabara,
+    K. Kono, Jpn. J. Appl. Phys. 26, 1230 (1987).
+[3] R. Cross, "The bounce of a ball", Am. J. Phys. 67, 222 (1999).
+[4] R. D. Mehta, "Aerodynamics of sports balls", Annu. Rev. Fluid Mech. 17, 151 (1985);
+    R. Cross, C. Lindsey, "Measuring the drag force on a falling ball", Phys. Teach. 52,
+    169 (2014).
+[5] L. D. Landau, E. M. Lifshitz, Fluid Mechanics, 2nd ed., Sec. 11 (added mass of a
+    sphere, half the displaced mass).
+[6] E. Achenbach, "Experiments on the flow past spheres at very high Reynolds numbers",
+    J. Fluid Mech. 54, 565 (1972) (C_d = 0.4-0.5 below the drag crisis).
+
+Prior densities
+---------------
+Every parameter has hard ``bounds`` (what the fitter may try), a plausible range
+``prior`` (a fitted value outside it, by more than its noise, makes a candidate
+implausible) and a proper prior *density* (``Parameter.density``; uniform over
+``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
+evidence (:func:`vrcal.discovery.residuals.minus_two_ln_evidence`). The densities come from
+physics and the literature, not from the synthetic generator:
+
+* ``air_drag.drag_coefficient``: log-normal, median 0.47 (a sphere below the drag
+  crisis, 1e3 < Re < 2e5 [4, 6]; the drops here reach Re ~ 1e4-1e5), sigma_ln 0.3
+  (95 %: 0.26-0.85, covering balls lowered towards the crisis by their seams and
+  fuzzy tennis balls at 0.55-0.6 [4]);
+* ``velocity_dependent_restitution.exponent``: log-normal, median 1/5 (viscoelastic
+  spheres [2]), sigma_ln ln 2 (95 %: 0.05-0.8: inflated balls are nearly speed
+  independent, plastic impacts steeper);
+* ``contact_duration.contact_time_s``: log-normal around the half period of an
+  inflated ball, pi sqrt(m / (pi D p)) with a gauge pressure p = 60 kPa
+  (:func:`inflated_contact_time_s`: the floor pushes with the gauge pressure on the
+  flattened area pi D x), sigma_ln 1 (95 %: 0.14-7 times it: pressures from 30 to
+  110 kPa, wall stiffness, solid balls);
+* ``height_offset.offset_m``: the tracked point is the bottom (ITTF), the centre
+  (video trackers) or the top (FIBA) of the ball: an equal mixture of normals at 0
+  (sd 10 mm, a mis-set floor line), D/2 and D (sd max(0.1 D, 5 mm));
+* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range.
+
+Departures from [1]
+-------------------
+[1] treats every contact as instantaneous with one epsilon and the flights as drag-free;
+each effect here is a named, documented departure that the data can support or reject.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vrcal.errors import UsageError
+
+#: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
+AIR_DENSITY_KG_PER_M3 = 1.204
+
+#: Data kinds the simulator can produce and the readers can read.
+KINDS = ("trajectory", "impacts", "apexes")
+
+
+@dataclass(frozen=True)
+class LogNormalPrior:
+    """Log-normal prior density: ln(x / median) ~ N(0, sigma_ln^2), x > 0.
+
+    ``median`` is a number, or a function of the ball (mass [kg], diameter [m]) giving
+    one; ``basis`` says where the numbers come from.
+    """
+
+    median: object
+    sigma_ln: float
+    basis: str = ""
+
+    def center(self, ball=None):
+        """The median [parameter unit] (for this ball when it depends on the ball)."""
+        if callable(self.median):
+            if ball is None:
+                raise UsageError("this prior depends on the ball: give its mass and diameter")
+            return float(self.median(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m))))
+        return float(self.median)
+
+    def pdf(self, x, ball=None):
+        """Density at ``x`` [1/parameter unit] (0 for x <= 0)."""
+        x = np.asarray(x, dtype=float)
+        med, s = self.center(ball), float(self.sigma_ln)
+        pos = x > 0
+        xs = np.where(pos, x, 1.0)
+        z = np.log(xs / med) / s
+        return np.where(pos, np.exp(-0.5 * z * z - np.log(xs) - math.log(s * math.sqrt(2.0 * math.pi))), 0.0)
+
+    def describe(self, ball=None, unit=""):
+        unit = "" if unit in ("", "1") else f" {unit}"
+        try:
+            med = f"{self.center(ball):.3g}{unit}"
+        except UsageError:
+            med = "ball-dependent"
+        return f"log-normal, median {med}, sigma_ln {self.sigma_ln:.2g}"
+
+
+@dataclass(frozen=True)
+class TrackedPointPrior:
+    """Prior density of ``height_offset``: the tracked point is the ball's bottom (up to a
+    mis-set floor line), its centre or its top -- an equal mixture of three normals at 0
+    (sd ``floor_sd_m``), D/2 and D (sd max(``point_sd_fraction`` D, ``min_sd_m``))."""
+
+    floor_sd_m: float = 0.01
+    point_sd_fraction: float = 0.1
+    min_sd_m: float = 0.005
+    basis: str = ""
+
+    def pdf(self, x, ball=None):
+        if ball is None:
+            raise UsageError("the height_offset prior depends on the ball: give its diameter")
+        x = np.asarray(x, dtype=float)
+        D = float(np.mean(ball.diameter_m))
+        sd = max(self.point_sd_fraction * D, self.min_sd_m)
+
+        def normal(mu, s):
+            z = (x - mu) / s
+            return np.exp(-0.5 * z * z) / (s * math.sqrt(2.0 * math.pi))
+
+        return (normal(0.0, self.floor_sd_m) + normal(0.5 * D, sd) + normal(D, sd)) / 3.0
+
+    def describe(self, ball=None, unit=""):
+        return "bottom, centre or top of the ball (mixture of normals at 0, D/2, D)"
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of an effect.
+
+    ``bounds``: hard limits of the fitter; ``prior``: the physically plausible range (the
+    materiality test's in/out check); ``density``: a proper prior density (an object with
+    ``pdf(x, ball)``; uniform over ``prior`` when None) for the evidence that ranks the
+    candidates (see the module docstring, "Prior densities").
+    """
+
+    name: str
+    unit: str
+    default: float
+    bounds: tuple
+    prior: tuple
+    description: str
+    density: object = None
+
+    def prior_pdf(self, x, ball=None):
+        """Prior density at ``x`` [1/unit]; ``ball`` (mass_kg, diameter_m) for ball-dependent priors."""
+        x = np.asarray(x, dtype=float)
+        if self.density is None:
+            lo, hi = self.prior
+            return np.where((x >= lo) & (x <= hi), 1.0 / (hi - lo), 0.0)
+        return np.asarray(self.density.pdf(x, ball), dtype=float)
+
+    def prior_description(self, ball=None):
+        """A short text of the prior density."""
+        if self.density is None:
+            unit = "" if self.unit in ("", "1") else f" {self.unit}"
+            return f"uniform {self.prior[0]:g} .. {self.prior[1]:g}{unit}"
+        return self.density.describe(ball, self.unit)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One named candidate effect (see the module docstring)."""
+
+    name: str
+    parameters: tuple
+    equation: str
+    description: str
+    reference: str
+    kinds: tuple
+    null_values: dict
+    function: object = field(default=None, compare=False, repr=False)
+
+    @property
+    def defaults(self):
+        """``{parameter name: default value}``."""
+        return {p.name: p.default for p in self.parameters}
+
+    def parameter(self, name):
+        """The :class:`Parameter` called ``name``; UsageError naming the valid ones otherwise."""
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        valid = ", ".join(p.name for p in self.parameters)
+        raise UsageError(f"effect '{self.name}' has no parameter '{name}' (valid: {valid})")
+
+
+# --------------------------------------------------------------------------- equations
+
+
+def sphere_volume_m3(diameter_m):
+    """Volume of a sphere of diameter D [m]: ``pi D^3 / 6`` [m^3]."""
+    D = np.asarray(diameter_m, dtype=float)
+    return _out(math.pi * D**3 / 6.0)
+
+
+def drag_constant_per_m(drag_coefficient, diameter_m, mass_kg, air_density_kg_per_m3=AIR_DENSITY_KG_PER_M3,
+                        added_mass_kg=0.0):
+    """Quadratic-drag constant k of ``a = -g - k v|v|`` [1/m].
+
+    Parameters
+    ----------
+    drag_coefficient : float or ndarray
+        C_d of the sphere, dimensionless, >= 0 (0.47 for a smooth sphere at 1e4 < Re < 2e5 [4])
+    diameter_m : float or ndarray
+        ball diameter D [m], > 0
+    mass_kg : float or ndarray
+        ball mass m [kg], > 0
+    air_density_kg_per_m3 : float or ndarray
+        rho [kg/m^3], default 1.204 (20 C)
+    added_mass_kg : float or ndarray
+        added mass of the air moving with the ball [kg] (0 unless ``buoyancy`` is on)
+
+    Returns
+    -------
+    k_per_m : float or ndarray
+        ``rho C_d (pi D^2 / 4) / (2 (m + m_added))`` [1/m]; the terminal speed is sqrt(g/k).
+
+    Notes
+    -----
+    Not in [1] (drag-free flights). C_d is taken constant (no drag crisis, no spin).
+    """
+    cd = np.asarray(drag_coefficient, dtype=float)
+    D = np.asarray(diameter_m, dtype=float)
+    m = np.asarray(mass_kg, dtype=float) + np.asarray(added_mass_kg, dtype=float)
+    return _out(air_density_kg_per_m3 * cd * (math.pi * D**2 / 4.0) / (2.0 * m))
+
+
+def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
+    """Coefficient of restitution from a drop test with quadratic air drag: Eq. (9) of [1] corrected.
+
+    Parameters
+    ----------
+    rebound_height_m : float or ndarray
+        apex height h of the first rebound [m], >= 0, same point of the ball as H
+    drop_height_m : float or ndarray
+        drop height H [m], > 0 (released from rest)
+    k_per_m : float or ndarray
+        drag constant k [1/m] (:func:`drag_constant_per_m`), >= 0
+
+    Returns
+    -------
+    epsilon : float or ndarray
+        ``sqrt(expm1(2 k h) / (1 - exp(-2 k H)))``; ``sqrt(h / H)`` (Eq. 9) for k = 0
+
+    Notes
+    -----
+    Departure from [1], whose Eq. (9) ignores drag. The impact speed after a fall from
+    rest is v_t sqrt(1 - exp(-2kH)) and a rebound at speed u rises to ln(1 + k u^2/g)/(2k)
+    (v_t = sqrt(g/k)); eliminating u gives this closed form, independent of g. With C_d =
+    0.5 the drag-free Eq. (9) underestimates the contact epsilon of the standards' drop
+    tests by 0.024 (basketball, volleyball) to 0.037 (football).
+    """
+    h = np.asarray(rebound_height_m, dtype=float)
+    H = np.asarray(drop_height_m, dtype=float)
+    k = np.asarray(k_per_m, dtype=float)
+    h, H, k = np.broadcast_arrays(h, H, k)
+    pos = k > 1e-150  # smaller k change nothing in double precision (and would overflow)
+    ks = np.where(pos, k, 1.0)
+    return _out(np.where(pos, np.sqrt(np.expm1(2.0 * ks * h) / -np.expm1(-2.0 * ks * H)), np.sqrt(h / H)))
+
+
+def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per_m3):
+    """Effective downward acceleration of a ball in still air with buoyancy and added mass.
+
+    Parameters
+    ----------
+    g_m_per_s2 : float or ndarray
+        gravitational acceleration [m/s^2]
+    diameter_m : float or ndarray
+        ball diameter D [m], > 0
+    mass_kg : float or ndarray
+        ball mass m [kg], > 0
+    air_density_kg_per_m3 : float or ndarray
+        rho [kg/m^3], >= 0 (0 switches the effect off)
+
+    Returns
+    -------
+    g_eff_m_per_s2 : float or ndarray
+        ``g (m - rho V) / (m + rho V / 2)``, V = pi D^3 / 6 [m^3]
+
+    Notes
+    -----
+    Not in [1]. Archimedes' force rho V g and the added mass rho V / 2 of a sphere [5]
+    (quasi-steady; the history force is neglected). Hollow balls are light for their
+    size: rho V / m = 1.49 % for a 2.7 g, 40 mm table-tennis ball and for a basketball,
+    2.2 % for a volleyball, 1.5 % for a football, 0.33 % for a tennis ball, so g_eff is
+    2.2 %, 2.2 %, 3.2 %, 2.3 % and 0.5 % below g. Without drag it leaves the apex ratios
+    unchanged (they are energy ratios); it shows in the shape of a trajectory.
+    """
+    V = np.asarray(sphere_volume_m3(diameter_m), dtype=float)
+    rho = np.asarray(air_density_kg_per_m3, dtype=float)
+    m = np.asarray(mass_kg, dtype=float)
+    return _out(np.asarray(g_m_per_s2, dtype=float) * (m - rho * V) / (m + 0.5 * rho * V))
+
+
+def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_per_s, exponent):
+    """Speed-dependent coefficient of restitution, nested in a constant epsilon.
+
+    Parameters
+    ----------
+    epsilon_ref : float or ndarray
+        epsilon at the reference speed, in (0, 1]
+    impact_speed_m_per_s : float or ndarray
+        impact speed v [m/s], > 0
+    reference_speed_m_per_s : float or ndarray
+        reference speed v_ref [m/s], > 0; vrcal uses each drop's first impact speed
+    exponent : float or ndarray
+        p, dimensionless; 0 gives the constant epsilon of [1], 1/5 the viscoelastic law [2]
+
+    Returns
+    -------
+    epsilon : float or ndarray
+        ``1 - (1 - eps_ref) (v / v_ref)^p``, clipped to [1e-6, 1]
+
+    Notes
+    -----
+    Departure from [1], whose epsilon = exp(-K x/(2v)) (Eqs. 7, 10) does not depend on
+    the impact speed. For viscoelastic spheres 1 - epsilon grows as v^(1/5) to first
+    order [2], so slower (later) bounces are more elastic. With v_ref = the first impact
+    speed, eps_ref is the epsilon a drop test measures on its first bounce (Eq. 9).
+    """
+    eps = np.asarray(epsilon_ref, dtype=float)
+    ratio = np.asarray(impact_speed_m_per_s, dtype=float) / np.asarray(reference_speed_m_per_s, dtype=float)
+    p = np.asarray(exponent, dtype=float)
+    # eps - (1 - eps)((v/v_ref)^p - 1): exactly eps_ref at p = 0 and at v = v_ref
+    eps_v = eps - (1.0 - eps) * np.expm1(p * np.log(ratio))
+    return _out(np.where(p == 0, eps, np.clip(eps_v, 1e-6, 1.0)))
+
+
+def observed_height_m(bottom_height_m, offset_m):
+    """Height of the tracked point from the height of the ball's bottom [m].
+
+    Parameters
+    ----------
+    bottom_height_m : float or ndarray
+        height of the ball's bottom above the floor [m]
+    offset_m : float or ndarray
+        tracked point above the bottom [m]: D/2 for the centre, D for the top, or a
+        mis-set floor line (negative when the line is drawn too high)
+
+    Returns
+    -------
+    height_m : float or ndarray
+        ``y_bottom + offset``
+    """
+    return _out(np.asarray(bottom_height_m, dtype=float) + np.asarray(offset_m, dtype=float))
+
+
+def liftoff_time_s(impact_time_s, contact_time_s):
+    """Time the ball leaves the floor after a contact of finite duration [s].
+
+    Parameters
+    ----------
+    impact_time_s : float or ndarray
+        time of first touch [s]
+    contact_time_s : float or ndarray
+        time spent on the floor [s], >= 0
+
+    Returns
+    -------
+    t_s : float or ndarray
+        ``t_impact + tau_c``
+
+    Notes
+    -----
+    Departure from [1], whose contacts are instantaneous in the flight timeline. (The
+    paper's Eq. (10) T = x/(2v) is the time of its *virtual* bodies, not this one.)
+    The ball rests with its bottom at y = 0 during the contact and leaves with the
+    rebound speed.
+    """
+    return _out(np.asarray(impact_time_s, dtype=float) + np.asarray(contact_time_s, dtype=float))
+
+
+#: Typical gauge pressure of an inflated ball [Pa] (basketball 52-59 kPa, volleyball 29-32 kPa,
+#: football 60-110 kPa; a pressurised tennis ball 80-100 kPa), for :func:`inflated_contact_time_s`.
+TYPICAL_GAUGE_PRESSURE_PA = 60e3
+
+
+def inflated_contact_time_s(mass_kg, diameter_m, gauge_pressure_pa=TYPICAL_GAUGE_PRESSURE_PA):
+    """Contact time of an inflated ball on a rigid floor, membrane model [s].
+
+    Parameters
+    ----------
+    mass_kg : float or ndarray
+        ball mass m [kg], > 0
+    diameter_m : float or ndarray
+        ball diameter D [m], > 0
+    gauge_pressure_pa : float or ndarray
+        inside minus outside pressure p [Pa], > 0
+
+    Returns
+    -------
+    tau_s : float or ndarray
+        ``pi sqrt(m / (pi D p))``: half the period of the spring k = pi D p
+
+    Notes
+    -----
+    A ball compressed by x against a flat floor touches it on a disc of area about
+    pi D x, on which the gas pushes with the gauge pressure: F = pi D p x, a linear
+    spring (the wall's bending stiffness and the rise of p are neglected). The contact
+    lasts half a period. With p = 60 kPa: table tennis 1.9 ms, tennis 6.7 ms, volleyball
+    8.2 ms, football 10 ms, basketball 11 ms -- the scale of measured contact times
+    (about 1 ms for table tennis, 4-10 ms for tennis balls and basketballs; see [3]). Used
+    as the median of the contact time's prior density (which is wide: sigma_ln 1); it is
+    no model of solid balls.
+    """
+    m = np.asarray(mass_kg, dtype=float)
+    D = np.asarray(diameter_m, dtype=float)
+    p = np.asarray(gauge_pressure_pa, dtype=float)
+    return _out(math.pi * np.sqrt(m / (math.pi * D * p)))
+
+
+def _out(value):
+    arr = np.asarray(value, dtype=float)
+    return float(arr) if arr.ndim == 0 else arr
+
+
+# --------------------------------------------------------------------------- the registry
+
+
+EFFECTS = {
+    "air_drag": Effect(
+        name="air_drag",
+        parameters=(
+            Parameter("drag_coefficient", "1", 0.5, (0.0, 3.0), (0.1, 1.0),
+                      "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)",
+                      LogNormalPrior(0.47, 0.3, "sphere below the drag crisis (Achenbach 1972; Mehta 1985)")),
+        ),
+        equation="a = -g - k v|v|,  k = rho C_d pi D^2 / (8 m),  rho = 1.204 kg/m^3",
+        description="quadratic air drag during the flights; lowers each apex below eps^2 times the previous "
+                    "one and shortens the flights",
+        reference="Mehta, Annu. Rev. Fluid Mech. 17, 151 (1985); Cross & Lindsey, Phys. Teach. 52, 169 (2014)",
+        kinds=("trajectory", "impacts", "apexes"),
+        null_values={"drag_coefficient": 0.0},
+        function=drag_constant_per_m,
+    ),
+    "velocity_dependent_restitution": Effect(
+        name="velocity_dependent_restitution",
+        parameters=(
+            Parameter("exponent", "1", 0.2, (-1.0, 2.0), (0.0, 0.5),
+                      "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 for viscoelastic spheres, 0 = constant eps",
+                      LogNormalPrior(0.2, math.log(2.0), "viscoelastic spheres, p = 1/5 (Ramirez et al. 1999)")),
+        ),
+        equation="eps(v) = 1 - (1 - eps_ref) (v / v_ref)^p,  v_ref = first impact speed",
+        description="epsilon depends on the impact speed: slower (later) bounces are more elastic for p > 0",
+        reference="Kuwabara & Kono, Jpn. J. Appl. Phys. 26, 1230 (1987); Ramirez, Poeschel, Brilliantov, "
+                  "Schwager, Phys. Rev. E 60, 4465 (1999)",
+        kinds=("trajectory", "impacts", "apexes"),
+        null_values={"exponent": 0.0},
+        function=restitution_at_speed,
+    ),
+    "contact_duration": Effect(
+        name="contact_duration",
+        parameters=(
+            Parameter("contact_time_s", "s", 0.005, (0.0, 0.05), (0.0, 0.02),
+                      "time the ball spends on the floor at each bounce (about 1 ms table tennis, 4-10 ms "
+                      "tennis/basketball)",
+                      LogNormalPrior(inflated_contact_time_s, 1.0,
+                                     "half period of an inflated ball, gauge pressure 60 kPa")),
+        ),
+        equation="t_liftoff = t_impact + tau_c;  y = 0 during the contact",
+        description="each contact lasts tau_c: the impact intervals grow by tau_c each, unlike a pure "
+                    "geometric series",
+        reference="Cross, Am. J. Phys. 67, 222 (1999)",
+        kinds=("trajectory", "impacts"),
+        null_values={"contact_time_s": 0.0},
+        function=liftoff_time_s,
+    ),
+    "height_offset": Effect(
+        name="height_offset",
+        parameters=(
+            Parameter("offset_m", "m", 0.02, (-0.5, 0.5), (-0.05, 0.25),
+                      "tracked point above the ball's bottom: D/2 for the centre, D for the top, or a mis-set "
+                      "floor line",
+                      TrackedPointPrior(basis="ITTF (bottom), video trackers (centre), FIBA (top)")),
+        ),
+        equation="y_observed = y_bottom + offset",
+        description="the tracked point is not the bottom of the ball (or the floor line is mis-set): "
+                    "ratios of observed heights are no longer eps^2",
+        reference="ITTF Technical Leaflet T3 (drop measured to the bottom); FIBA equipment rules "
+                  "(rebound to the top); the paper's Table 1 mixes both",
+        kinds=("trajectory", "apexes"),
+        null_values={"offset_m": 0.0},
+        function=observed_height_m,
+    ),
+    "buoyancy": Effect(
+        name="buoyancy",
+        parameters=(
+            Parameter("air_density_kg_per_m3", "kg/m^3", AIR_DENSITY_KG_PER_M3, (0.0, 2.0), (0.9, 1.3),
+                      "density of the displacing air (1.204 at 20 C, sea level)"),
+        ),
+        equation="g_eff = g (m - rho V) / (m + rho V / 2),  V = pi D^3 / 6",
+        description="Archimedes' force and the added mass of air: a hollow ball falls with a smaller "
+                    "acceleration (table tennis and basketball -2.2 % of g, volleyball -3.2 %, tennis -0.5 %); "
+                    "apex ratios are unchanged, the flights are longer",
+        reference="Landau & Lifshitz, Fluid Mechanics, Sec. 11 (added mass of a sphere)",
+        kinds=("trajectory",),
+        null_values={"air_density_kg_per_m3": 0.0},
+        function=buoyant_gravity_m_per_s2,
+    ),
+}
+
+
+def get_effect(name):
+    """The :class:`Effect` called ``name``; UsageError naming the valid ones otherwise."""
+    if name in EFFECTS:
+        return EFFECTS[name]
+    close = difflib.get_close_matches(str(name), list(EFFECTS), n=1, cutoff=0.6)
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    raise UsageError(f"unknown effect '{name}'{hint} (valid: {', '.join(EFFECTS)})")
+
+
+def parse_effect_spec(text):
+    """Parse ``NAME[:PARAM=VALUE,...]`` into ``(name, {param: value})``.
+
+    Parameters left out take their defaults: ``"air_drag"`` -> ``("air_drag",
+    {"drag_coefficient": 0.5})``.
+
+    Raises
+    ------
+    UsageError
+        unknown effect or parameter (naming the valid ones), a value that is not a
+        number, or a value outside the parameter's bounds.
+    """
+    text = str(text).strip()
+    name, _, rest = text.partition(":")
+    effect = get_effect(name.strip())
+    params = effect.defaults
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise UsageError(f"effect '{effect.name}': expected PARAM=VALUE, got '{item}'")
+        p = effect.parameter(key.strip())
+        try:
+            number = float(value)
+        except ValueError:
+            raise UsageError(f"effect '{effect.name}': {p.name} must be a number, got '{value.strip()}'") from None
+        params[p.name] = number
+    return effect.name, check_parameters(effect.name, params)
+
+
+def format_effect_spec(name, params):
+    """The inverse of :func:`parse_effect_spec`: ``"air_drag:drag_coefficient=0.5"``."""
+    return name + ":" + ",".join(f"{k}={float(v)!r}" for k, v in sorted(params.items()))
+
+
+def check_parameters(name, params):
+    """Validate one effect's parameters (names and bounds); fill in missing ones with defaults.
+
+    Values may be floats or arrays. Returns a new dict.
+    """
+    effect = get_effect(name)
+    out = effect.defaults
+    for key, value in dict(params or {}).items():
+        p = effect.parameter(key)
+        arr = np.asarray(value, dtype=float)
+        lo, hi = p.bounds
+        bad = ~np.isfinite(arr) | (arr < lo) | (arr > hi)
+        if np.any(bad):
+            raise UsageError(f"effect '{name}': {p.name} must lie in [{lo:g}, {hi:g}] {p.unit}, "
+                             f"got {np.ravel(arr[bad])[0]:g}")
+        out[p.name] = value
+    return out
+
+
+def resolve_effects(effects):
+    """Validate ``{effect name: {param: value}}`` (or an iterable of names / spec strings).
+
+    Returns ``{name: {param: value}}`` with every parameter present.
+    """
+    if effects is None:
+        return {}
+    if isinstance(effects, str):
+        effects = [effects]
+    if not isinstance(effects, dict):
+        out = {}
+        for spec in effects:
+            name, params = parse_effect_spec(spec)
+            if name in out:
+                raise UsageError(f"effect '{name}' given twice; give each effect once with all its parameters")
+            out[name] = params
+        return out
+    return {get_effect(name).name: check_parameters(name, params) for name, params in effects.items()}

@@ -1,0 +1,569 @@
+"""Event-driven drop-test simulator: flights in closed form, impacts found exactly, many drops at once.
+
+A ball is released from rest with its bottom at height H. Each flight is solved in
+closed form -- a free fall, or, with ``air_drag``, the 1-D quadratic-drag flight
+``a = -g - k v|v|`` -- so every impact time and speed is exact (no time step, no root
+finder). At each contact the rebound speed is ``epsilon * impact speed`` with epsilon
+given directly or from the virtual-body model (Eqs. (7) and (10) of [1], see
+:func:`vrcal.model.restitution.epsilon_single`). Effects from :mod:`vrcal.drop.effects` change the
+flights, the contacts or what is observed.
+
+Closed forms (terminal speed v_t = sqrt(g/k), z = u/v_t for a flight leaving the floor
+at speed u; every one reduces to the drag-free formula as k -> 0, which is used where
+k == 0):
+
+* up:   time to apex ``atan(z) / sqrt(g k)``      (k = 0: u/g),
+        apex height ``ln(1 + z^2) / (2 k)``       (k = 0: u^2/(2g)),
+        height ``ln(cos(b) + z sin(b)) / k``, b = tau sqrt(g k)  (k = 0: u tau - g tau^2/2);
+* down: fall time from that apex ``asinh(z) / sqrt(g k)`` (k = 0: u/g),
+        landing speed ``u / sqrt(1 + z^2)``       (k = 0: u),
+        fallen distance ``ln cosh(b) / k``        (k = 0: g tau^2/2);
+* from rest at H: landing speed ``v_t s``, fall time ``(k H + ln(1 + s)) / sqrt(g k)``,
+  s = sqrt(1 - exp(-2 k H))  (k = 0: sqrt(2 g H), sqrt(2 H / g)).
+
+All arrays carry a leading ``n_drops`` axis; numpy loops over drops, Python only over
+bounces.
+
+References
+----------
+[1] "The Graphical Method for Decision of Restitution Coefficient and Its Applications".
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vrcal.drop.effects import (
+    buoyant_gravity_m_per_s2,
+    drag_constant_per_m,
+    resolve_effects,
+    restitution_at_speed,
+    sphere_volume_m3,
+)
+from vrcal.errors import UsageError
+from vrcal.model.body import ball_from_options, ball_properties
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+
+#: Output formats of :func:`sample_measurement` and ``vrcal simulate --format``.
+FORMATS = ("trajectory", "impacts", "apexes")
+#: CSV header of each format (the layouts vrcal.measurements auto-detects).
+HEADERS = {"trajectory": ("t", "y"), "impacts": ("t",), "apexes": ("bounce", "h")}
+
+_HOLD, _DOWN, _CONTACT, _UP, _REST = range(5)
+
+
+# --------------------------------------------------------------------------- closed-form flights
+
+
+#: Drag constants below this [1/m] are taken as 0: their effect (about k H, relative) is far below
+#: double precision, and the closed forms would overflow for subnormal k.
+K_NEGLIGIBLE_PER_M = 1e-150
+
+
+def _safe_k(k):
+    """(k > negligible mask, k elsewhere replaced by 1) -- the drag branch is selected by where()."""
+    pos = k > K_NEGLIGIBLE_PER_M
+    return pos, np.where(pos, k, 1.0)
+
+
+def fall_from_rest(drop_height_m, g_m_per_s2, k_per_m):
+    """Fall time and landing speed of a ball released from rest at height H.
+
+    Parameters
+    ----------
+    drop_height_m : float or ndarray
+        fall height H [m], >= 0
+    g_m_per_s2 : float or ndarray
+        downward acceleration [m/s^2], > 0
+    k_per_m : float or ndarray
+        quadratic-drag constant k [1/m], >= 0 (0: no drag)
+
+    Returns
+    -------
+    t_s, v_m_per_s : ndarray
+        ``acosh(exp(k H)) / sqrt(g k)`` and ``v_t sqrt(1 - exp(-2 k H))``; for k = 0
+        ``sqrt(2 H / g)`` and ``sqrt(2 g H)`` (Eq. (8) of [1]).
+    """
+    H, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (drop_height_m, g_m_per_s2, k_per_m)))
+    pos, ks = _safe_k(k)
+    s = np.sqrt(-np.expm1(-2.0 * ks * H))
+    t = np.where(pos, (ks * H + np.log1p(s)) / np.sqrt(g * ks), np.sqrt(2.0 * H / g))
+    v = np.where(pos, s * np.sqrt(g / ks), np.sqrt(2.0 * g * H))
+    return t, v
+
+
+def flight_up_down(speed_m_per_s, g_m_per_s2, k_per_m):
+    """Rise time, apex height, fall time and landing speed of a flight leaving the floor at speed u.
+
+    Parameters
+    ----------
+    speed_m_per_s : float or ndarray
+        upward speed u at lift-off [m/s], >= 0
+    g_m_per_s2 : float or ndarray
+        downward acceleration [m/s^2], > 0
+    k_per_m : float or ndarray
+        quadratic-drag constant k [1/m], >= 0
+
+    Returns
+    -------
+    t_up_s, apex_m, t_down_s, v_land_m_per_s : ndarray
+        with z = u sqrt(k/g): ``atan(z)/sqrt(gk)``, ``ln(1+z^2)/(2k)``, ``asinh(z)/sqrt(gk)``,
+        ``u/sqrt(1+z^2)``; for k = 0: ``u/g``, ``u^2/(2g)``, ``u/g``, ``u``.
+    """
+    u, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (speed_m_per_s, g_m_per_s2, k_per_m)))
+    pos, ks = _safe_k(k)
+    z = u * np.sqrt(ks / g)
+    sgk = np.sqrt(g * ks)
+    t_up = np.where(pos, np.arctan(z) / sgk, u / g)
+    apex = np.where(pos, np.log1p(z * z) / (2.0 * ks), u * u / (2.0 * g))
+    t_down = np.where(pos, np.arcsinh(z) / sgk, u / g)
+    v_land = np.where(pos, u / np.sqrt(1.0 + z * z), u)
+    return t_up, apex, t_down, v_land
+
+
+def height_rising_m(tau_s, speed_m_per_s, g_m_per_s2, k_per_m):
+    """Height of a ball tau after leaving the floor upward at speed u (valid up to the apex).
+
+    Returns ``ln(cos b + z sin b) / k`` with b = tau sqrt(gk), z = u sqrt(k/g), written as
+    ``log1p(z sin b - 2 sin^2(b/2)) / k``; ``u tau - g tau^2 / 2`` for k = 0 [m].
+    """
+    tau, u, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (tau_s, speed_m_per_s,
+                                                                              g_m_per_s2, k_per_m)))
+    pos, ks = _safe_k(k)
+    b = tau * np.sqrt(g * ks)
+    z = u * np.sqrt(ks / g)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        drag = np.log1p(z * np.sin(b) - 2.0 * np.sin(0.5 * b) ** 2) / ks
+    return np.where(pos, drag, u * tau - 0.5 * g * tau * tau)
+
+
+def distance_fallen_m(tau_s, g_m_per_s2, k_per_m):
+    """Distance fallen from rest after tau: ``ln cosh(tau sqrt(gk)) / k``; ``g tau^2 / 2`` for k = 0 [m]."""
+    tau, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (tau_s, g_m_per_s2, k_per_m)))
+    pos, ks = _safe_k(k)
+    b = np.abs(tau) * np.sqrt(g * ks)
+    small = np.minimum(b, 1.0)
+    large = np.maximum(b, 1.0)
+    logcosh = np.where(b < 1.0, np.log1p(2.0 * np.sinh(0.5 * small) ** 2),
+                       large + np.log1p(np.exp(-2.0 * large)) - math.log(2.0))
+    return np.where(pos, logcosh / ks, 0.5 * g * tau * tau)
+
+
+def _flight_kernel(g, k):
+    """``flight_up_down`` specialised to fixed (g, k) arrays: the constants are computed once per call.
+
+    Gives the same numbers as :func:`flight_up_down` up to rounding (it multiplies by
+    1/sqrt(gk) instead of dividing).
+    """
+    pos = k > K_NEGLIGIBLE_PER_M
+    if not pos.any():
+        inv_g = 1.0 / g
+        half_inv_g = 0.5 * inv_g
+        return lambda u: (u * inv_g, u * u * half_inv_g, u * inv_g, u)
+    ks = np.where(pos, k, 1.0)
+    a = np.sqrt(ks / g)
+    b = 1.0 / np.sqrt(g * ks)
+    c = 0.5 / ks
+    if pos.all():
+        def flight(u):
+            z = u * a
+            z2 = z * z
+            return np.arctan(z) * b, np.log1p(z2) * c, np.arcsinh(z) * b, u / np.sqrt(1.0 + z2)
+        return flight
+
+    def flight_mixed(u):
+        z = u * a
+        z2 = z * z
+        return (np.where(pos, np.arctan(z) * b, u / g), np.where(pos, np.log1p(z2) * c, u * u / (2.0 * g)),
+                np.where(pos, np.arcsinh(z) * b, u / g), np.where(pos, u / np.sqrt(1.0 + z2), u))
+    return flight_mixed
+
+
+# --------------------------------------------------------------------------- the simulation
+
+
+class Drops:
+    """The result of :func:`simulate_drops`; every array has a leading n_drops axis.
+
+    Attributes
+    ----------
+    impact_times_s : (n_drops, n_bounces) time of each floor impact (first touch) [s]
+    impact_speeds_m_per_s : (n_drops, n_bounces) speed just before impact [m/s]
+    rebound_speeds_m_per_s : (n_drops, n_bounces) speed just after the contact [m/s]
+    epsilons : (n_drops, n_bounces) coefficient of restitution applied at each contact
+    liftoff_times_s : (n_drops, n_bounces) impact time + contact time [s]
+    apex_times_s : (n_drops, n_bounces + 1) apex 0 = release [s]
+    apex_heights_m : (n_drops, n_bounces + 1) apex heights of the ball's bottom [m]; [:, 0] = H
+    landing_times_s : (n_drops,) landing after the flight that follows the last bounce [s]
+    landing_speeds_m_per_s : (n_drops,) its speed [m/s]
+    offset_m : (n_drops,) tracked point above the bottom (``height_offset``) [m]
+    g_m_per_s2, k_per_m : (n_drops,) effective acceleration and drag constant of the flights
+    """
+
+    def __init__(self, **arrays):
+        for name, value in arrays.items():
+            setattr(self, name, value)
+
+    @property
+    def n_drops(self):
+        return self.impact_times_s.shape[0]
+
+    @property
+    def n_bounces(self):
+        return self.impact_times_s.shape[1]
+
+    @property
+    def observed_apex_heights_m(self):
+        """(n_drops, n_bounces + 1) apex heights of the tracked point (bottom + offset) [m]."""
+        return self.apex_heights_m + self.offset_m[:, None]
+
+    def height_m(self, t_s):
+        """Height of the observed point at times ``t_s`` [m].
+
+        Parameters
+        ----------
+        t_s : ndarray
+            (n_t,) sample times shared by all drops, or (n_drops, n_t) [s]
+
+        Returns
+        -------
+        y_m : ndarray (n_drops, n_t)
+            the ball's bottom plus ``offset_m``. Before release the ball is held still at
+            H; during a contact its bottom is at 0; after the landing that ends the last
+            flight it rests on the floor (bottom at 0).
+        """
+        t = np.asarray(t_s, dtype=float)
+        if t.ndim == 1:
+            t = np.broadcast_to(t, (self.n_drops, t.size))
+        if t.ndim != 2 or t.shape[0] != self.n_drops:
+            raise UsageError(f"t_s must have shape (n_t,) or ({self.n_drops}, n_t), got {np.shape(t_s)}")
+        seg = np.zeros(t.shape, dtype=np.intp)
+        for col in range(self._breaks.shape[1]):
+            seg += t >= self._breaks[:, col:col + 1]
+        kind = np.take_along_axis(self._kinds, seg, axis=1)
+        start = np.take_along_axis(self._starts, seg, axis=1)
+        value = np.take_along_axis(self._values, seg, axis=1)
+        tau = t - start
+        g = self.g_m_per_s2[:, None]
+        k = self.k_per_m[:, None]
+        with np.errstate(all="ignore"):
+            down = value - distance_fallen_m(tau, g, k)
+            up = height_rising_m(tau, value, g, k)
+        y = np.select([kind == _HOLD, kind == _DOWN, kind == _UP], [value, down, up], 0.0)
+        return y + self.offset_m[:, None]
+
+
+def _as_drop_array(name, value, n):
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
+        raise UsageError(f"{name} must be a number or an array of shape ({n},), got shape {arr.shape}")
+    return np.broadcast_to(arr.reshape(-1) if arr.ndim else arr, (n,)).astype(float)
+
+
+def _check(name, arr, lo, hi=np.inf, lo_open=True):
+    bad = ~np.isfinite(arr) | ((arr <= lo) if lo_open else (arr < lo)) | (arr > hi)
+    if np.any(bad):
+        raise UsageError(f"{name} out of range, got {np.ravel(arr[bad])[0]:g}")
+
+
+def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
+                   g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, release_time_s=0.0):
+    """Simulate drop tests: n_bounces impacts and the flight after the last one, for many drops.
+
+    Parameters
+    ----------
+    drop_height_m : float or ndarray
+        height of the ball's bottom at release (from rest) [m], > 0
+    epsilon : float or ndarray
+        coefficient of restitution in (0, 1]; with ``velocity_dependent_restitution``
+        the value at the reference speed (the drop's first impact speed)
+    n_bounces : int
+        number of floor impacts, >= 1
+    ball : BallProperties or vrcal.model.standards.Ball
+        mass and diameter (used by air_drag and buoyancy); arrays broadcast over drops
+    effects : None or dict
+        ``{effect name: {param: value}}`` (see :data:`vrcal.drop.effects.EFFECTS`); values
+        are floats or arrays of shape (n_drops,); missing params take their defaults
+    g_m_per_s2 : float or ndarray
+        gravitational acceleration [m/s^2]
+    release_time_s : float or ndarray
+        time of release [s]
+
+    Returns
+    -------
+    Drops
+
+    Notes
+    -----
+    Event-driven: each flight is a closed form (see the module docstring), so impacts
+    are exact. With ``buoyancy`` the flights use g_eff = g (m - rho V)/(m + rho V/2)
+    and the drag constant is divided by the same added-mass factor (m + rho V/2)/m.
+    ``velocity_dependent_restitution`` takes each drop's first impact speed as v_ref, so
+    ``epsilon`` is the first bounce's (the drop-test value of Eq. (9) of [1]).
+
+    Without effects the apexes are ``eps^(2n) H`` and the impact times the geometric
+    series ``t_n = t_1 + 2 t_1 (eps + ... + eps^(n-1))``, ``t_1 = sqrt(2 H / g)`` after release.
+    """
+    props = ball_properties(ball)
+    if isinstance(n_bounces, bool) or int(n_bounces) != n_bounces or int(n_bounces) < 1:
+        raise UsageError(f"n_bounces must be an integer >= 1, got {n_bounces}")
+    n = int(n_bounces)
+    eff = resolve_effects(effects)
+    shapes = [np.shape(a) for a in (drop_height_m, epsilon, g_m_per_s2, release_time_s, props.mass_kg,
+                                    props.diameter_m)]
+    shapes += [np.shape(v) for params in eff.values() for v in params.values()]
+    try:
+        shape = np.broadcast_shapes(*shapes)
+    except ValueError:
+        raise UsageError(f"drop arrays do not broadcast together: shapes {sorted(set(shapes))}") from None
+    if len(shape) > 1:
+        raise UsageError(f"inputs must be scalars or 1-D arrays over drops, got shape {shape}")
+    N = shape[0] if shape else 1
+    H = _as_drop_array("drop_height_m", drop_height_m, N)
+    eps = _as_drop_array("epsilon", epsilon, N)
+    g0 = _as_drop_array("g_m_per_s2", g_m_per_s2, N)
+    t0 = _as_drop_array("release_time_s", release_time_s, N)
+    m = _as_drop_array("mass_kg", props.mass_kg, N)
+    D = _as_drop_array("diameter_m", props.diameter_m, N)
+    _check("drop height (drop_height_m, m)", H, 0.0)
+    _check("epsilon (must lie in (0, 1])", eps, 0.0, 1.0)
+    _check("g_m_per_s2", g0, 0.0)
+    _check("release_time_s", t0, -np.inf)
+    _check("mass_kg", m, 0.0)
+    _check("diameter_m", D, 0.0)
+
+    def param(effect, name):
+        if effect not in eff:
+            return None
+        return _as_drop_array(f"{effect}.{name}", eff[effect][name], N)
+
+    rho_b = param("buoyancy", "air_density_kg_per_m3")
+    if rho_b is None:
+        g, added = g0, 0.0
+    else:
+        g = np.asarray(buoyant_gravity_m_per_s2(g0, D, m, rho_b))
+        added = 0.5 * rho_b * np.asarray(sphere_volume_m3(D))
+        if np.any(g <= 0):
+            raise UsageError("buoyancy: the ball is lighter than the air it displaces (it would not fall)")
+    cd = param("air_drag", "drag_coefficient")
+    k = np.zeros(N) if cd is None else np.asarray(drag_constant_per_m(cd, D, m, added_mass_kg=added)) * np.ones(N)
+    tc = param("contact_duration", "contact_time_s")
+    p = param("velocity_dependent_restitution", "exponent")
+    offset = param("height_offset", "offset_m")
+    offset = np.zeros(N) if offset is None else offset
+
+    impact_t = np.empty((N, n))
+    impact_v = np.empty((N, n))
+    rebound_v = np.empty((N, n))
+    eps_used = np.empty((N, n))
+    liftoff_t = np.empty((N, n))
+    apex_t = np.empty((N, n + 1))
+    apex_h = np.empty((N, n + 1))
+    apex_t[:, 0] = t0
+    apex_h[:, 0] = H
+    t_fall, v_land = fall_from_rest(H, g, k)
+    flight = _flight_kernel(g, k)
+    for j in range(n):
+        impact_t[:, j] = apex_t[:, j] + t_fall
+        impact_v[:, j] = v_land
+        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0], p)
+        eps_used[:, j] = e
+        u = e * v_land
+        rebound_v[:, j] = u
+        liftoff_t[:, j] = impact_t[:, j] if tc is None else impact_t[:, j] + tc
+        t_up, h, t_fall, v_land = flight(u)
+        apex_t[:, j + 1] = liftoff_t[:, j] + t_up
+        apex_h[:, j + 1] = h
+    landing_t = apex_t[:, n] + t_fall
+
+    # Segment tables for height_m: hold, fall from H, then (contact, up, down) per bounce, rest.
+    breaks = np.empty((N, 3 * n + 2))
+    breaks[:, 0] = t0
+    breaks[:, 1:-1:3] = impact_t
+    breaks[:, 2:-1:3] = liftoff_t
+    breaks[:, 3:-1:3] = apex_t[:, 1:]
+    breaks[:, -1] = landing_t
+    kinds = np.empty((N, 3 * n + 3), dtype=np.intp)
+    starts = np.zeros((N, 3 * n + 3))
+    values = np.zeros((N, 3 * n + 3))
+    kinds[:, 0], values[:, 0], starts[:, 0] = _HOLD, H, t0
+    kinds[:, 1], values[:, 1], starts[:, 1] = _DOWN, H, t0
+    kinds[:, 2:-1:3], starts[:, 2:-1:3] = _CONTACT, impact_t
+    kinds[:, 3:-1:3], starts[:, 3:-1:3], values[:, 3:-1:3] = _UP, liftoff_t, rebound_v
+    kinds[:, 4::3], starts[:, 4::3], values[:, 4::3] = _DOWN, apex_t[:, 1:], apex_h[:, 1:]
+    kinds[:, -1], starts[:, -1] = _REST, landing_t
+    return Drops(
+        impact_times_s=impact_t, impact_speeds_m_per_s=impact_v, rebound_speeds_m_per_s=rebound_v,
+        epsilons=eps_used, liftoff_times_s=liftoff_t, apex_times_s=apex_t, apex_heights_m=apex_h,
+        landing_times_s=landing_t, landing_speeds_m_per_s=v_land, offset_m=offset, g_m_per_s2=g, k_per_m=k,
+        effects=eff, _breaks=breaks, _kinds=kinds, _starts=starts, _values=values,
+    )
+
+
+# --------------------------------------------------------------------------- observations
+
+
+def observations(drops, kind, t_s=None):
+    """Noise-free observations of every drop, as a fitter compares them with data.
+
+    Parameters
+    ----------
+    drops : Drops
+    kind : {"trajectory", "impacts", "apexes"}
+    t_s : ndarray or None
+        sample times [s], (n_t,) or (n_drops, n_t); required for "trajectory"
+
+    Returns
+    -------
+    ndarray (n_drops, n_obs)
+        trajectory: heights of the tracked point at ``t_s`` [m]; impacts: impact times
+        (n_bounces) [s]; apexes: apex heights of the tracked point, bounce 0 = drop height [m]
+    """
+    if kind == "trajectory":
+        if t_s is None:
+            raise UsageError("trajectory observations need the sample times t_s")
+        return drops.height_m(t_s)
+    if kind == "impacts":
+        return drops.impact_times_s
+    if kind == "apexes":
+        return drops.observed_apex_heights_m
+    raise UsageError(f"unknown format '{kind}' (valid: {', '.join(FORMATS)})")
+
+
+def sample_measurement(drops, kind, *, fs_hz=240.0, noise_m=0.0, jitter_s=0.0, rng=None, t_start_s=0.0,
+                       drop_index=0):
+    """What an experimenter records from one simulated drop, as columns of the CSV layouts.
+
+    Parameters
+    ----------
+    drops : Drops
+    kind : {"trajectory", "impacts", "apexes"}
+    fs_hz : float
+        frame rate of the trajectory [Hz], > 0; samples at ``t_start_s + i / fs_hz`` up to
+        the landing after the last bounce
+    noise_m : float
+        standard deviation of Gaussian noise added to heights [m], >= 0
+    jitter_s : float
+        standard deviation of Gaussian noise added to impact times [s], >= 0
+    rng : numpy.random.Generator or int or None
+        noise source (``numpy.random.default_rng(rng)``)
+    t_start_s : float
+        time of the first video frame [s]
+    drop_index : int
+        which drop of ``drops``
+
+    Returns
+    -------
+    dict
+        trajectory: ``{"t": (n,), "y": (n,)}`` (tracked point, m); impacts: ``{"t": (n_bounces,)}``;
+        apexes: ``{"bounce": 0..n_bounces, "h": observed apex heights}`` (bounce 0 = drop height).
+    """
+    if kind not in FORMATS:
+        raise UsageError(f"unknown format '{kind}' (valid: {', '.join(FORMATS)})")
+    for name, value in (("noise", noise_m), ("jitter", jitter_s)):
+        if not (math.isfinite(value) and value >= 0):
+            raise UsageError(f"{name} must be a finite number >= 0, got {value:g}")
+    rng = np.random.default_rng(rng)
+    i = int(drop_index)
+    if kind == "trajectory":
+        if not (math.isfinite(fs_hz) and fs_hz > 0):
+            raise UsageError(f"--fs must be a number > 0 [Hz], got {fs_hz:g}")
+        n_t = int(math.floor((drops.landing_times_s[i] - t_start_s) * fs_hz)) + 1
+        if n_t < 2:
+            raise UsageError("the trajectory ends before the first frame: check --fs and the start time")
+        if n_t > 10_000_000:
+            raise UsageError(f"{n_t} frames is too many: lower --fs or --bounces")
+        t = t_start_s + np.arange(n_t) / fs_hz
+        y = drops.height_m(np.broadcast_to(t, (drops.n_drops, n_t)))[i]
+        if noise_m > 0:
+            y = y + rng.normal(0.0, noise_m, n_t)
+        return {"t": t, "y": y}
+    if kind == "impacts":
+        t = drops.impact_times_s[i].copy()
+        if jitter_s > 0:
+            t = np.sort(t + rng.normal(0.0, jitter_s, t.size))
+        return {"t": t}
+    h = drops.observed_apex_heights_m[i].copy()
+    if noise_m > 0:
+        h = h + rng.normal(0.0, noise_m, h.size)
+    return {"bounce": np.arange(h.size), "h": h}
+
+
+def columns_csv(columns, kind):
+    """CSV text of :func:`sample_measurement`'s columns with the header of ``kind`` (repeatable)."""
+    header = HEADERS[kind]
+    lines = [",".join(header)]
+    cols = [np.asarray(columns[name]) for name in header]
+    for row in zip(*cols):
+        lines.append(",".join(str(int(v)) if name == "bounce" else f"{float(v):.10g}" for name, v in zip(header, row)))
+    return "\n".join(lines) + "\n"
+
+
+def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=10, epsilon=None,
+                 K_per_s=None, x_m=None, v_m_per_s=None, effects=None, fs_hz=240.0, noise_m=0.0,
+                 jitter_s=0.0, seed=0, still_s=0.2, mass_kg=None, diameter_m=None, standards=None):
+    """Simulate one drop as ``vrcal simulate`` does and return the CSV text.
+
+    Parameters
+    ----------
+    ball_name : str
+        a ball of the standards, or a free name with ``mass_kg`` and ``diameter_m``
+    kind : {"trajectory", "impacts", "apexes"}
+    drop_height_m : float or None
+        height of the ball's bottom at release [m]; default the standard's drop height
+        (to the bottom of the ball)
+    n_bounces : int
+    epsilon : float or None
+        restitution; default from ``x_m``, ``v_m_per_s`` and ``K_per_s`` (Eqs. (7), (10) of
+        [1]) when given, else the standard's nominal epsilon (Eq. (9), both heights to the
+        bottom, :func:`vrcal.model.standards.ball_epsilon`)
+    K_per_s, x_m, v_m_per_s : float or None
+        virtual body (depth [m], speed [m/s]) and rate constant [1/s]; K defaults to
+        :data:`vrcal.inverse.DEFAULT_K_PER_S`
+    effects : iterable of str or dict or None
+        ``NAME[:PARAM=VALUE,...]`` specs or ``{name: {param: value}}``
+    fs_hz, noise_m, jitter_s, seed : see :func:`sample_measurement` (seed feeds default_rng)
+    still_s : float
+        still segment before release [s], >= 0; the release happens at t = still_s
+    mass_kg, diameter_m, standards : see :func:`ball_from_options`
+
+    Returns
+    -------
+    str
+        CSV text with the header of ``kind``
+    """
+    from vrcal.model import restitution as eq
+    from vrcal.model.standards import ball_epsilon
+
+    props, std = ball_from_options(ball_name, standards, mass_kg, diameter_m)
+    if x_m is not None or v_m_per_s is not None:
+        if epsilon is not None:
+            raise UsageError("give either --epsilon or the virtual body --x/--v, not both")
+        if x_m is None or v_m_per_s is None:
+            raise UsageError("the virtual body needs both --x (depth, m) and --v (speed, m/s)")
+        from vrcal.inverse import DEFAULT_K_PER_S
+
+        epsilon = eq.epsilon_single(x_m, v_m_per_s, DEFAULT_K_PER_S if K_per_s is None else K_per_s)
+    elif K_per_s is not None:
+        raise UsageError("--K needs the virtual body --x and --v (or give --epsilon)")
+    if epsilon is None:
+        if std is None:
+            raise UsageError(f"'{ball_name}' is not a ball of the standards: give --epsilon (or --x and --v)")
+        epsilon = ball_epsilon(std).nominal
+    if drop_height_m is None:
+        if std is None:
+            raise UsageError(f"'{ball_name}' is not a ball of the standards: give --drop")
+        drop_height_m = ball_epsilon(std).drop_height_m
+    if not (math.isfinite(drop_height_m) and drop_height_m > 0):
+        raise UsageError(f"--drop must be a height > 0 [m], got {drop_height_m:g}")
+    if isinstance(n_bounces, bool) or int(n_bounces) != n_bounces or n_bounces < 1:
+        raise UsageError(f"--bounces must be an integer >= 1, got {n_bounces}")
+    if not (math.isfinite(still_s) and still_s >= 0):
+        raise UsageError(f"--still must be >= 0 [s], got {still_s:g}")
+    if not (0 < epsilon <= 1):
+        raise UsageError(f"epsilon must lie in (0, 1], got {epsilon:g}")
+    drops = simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s)
+    columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
+    return columns_csv(columns, kind)

@@ -1,0 +1,74 @@
+"""Apex heights of successive bounces of one drop: a header ``bounce,h`` (bounce 0 is the drop
+height; ``h`` in m unless the header names cm, mm or px).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vrcal.errors import UsageError
+from vrcal.measurements.table import (
+    BOUNCE_NAMES,
+    H_NAMES,
+    LENGTH_UNITS,
+    check_increasing,
+    column_values,
+    fail,
+    find_column,
+    header_columns,
+    parse_table,
+    unit_factor,
+)
+from vrcal.measurements.types import ApexHeights
+
+#: Fewest apex rows.
+MIN_APEXES = 3
+
+def detect(text):
+    cols = header_columns(text)
+    return bool(cols) and find_column(cols, BOUNCE_NAMES) is not None and find_column(cols, H_NAMES) is not None
+
+
+
+def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
+    path = text.path
+    table = parse_table(text)
+    b_col, h_col = find_column(table.cols, BOUNCE_NAMES), find_column(table.cols, H_NAMES)
+    if b_col is None or h_col is None:
+        fail(path, table.header_line, "an apex file needs the columns 'bounce,h'")
+    if not table.rows:
+        fail(path, table.header_line, "header but no data rows")
+    line_numbers = np.array([no for no, _ in table.rows])
+    bounce = column_values(path, table, b_col, what="bounce number")
+    nonint = np.flatnonzero(bounce != np.round(bounce))
+    if nonint.size:
+        fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer")
+    check_increasing(path, bounce, line_numbers, "bounce number")
+    if np.any(bounce < 0):
+        fail(path, int(line_numbers[0]), f"bounce number {bounce[0]:g} is negative (bounce 0 = drop height)")
+    h = column_values(path, table, h_col, what="apex height")
+    factor = unit_factor(path, table, h_col, LENGTH_UNITS, "length")
+    notes = ["format: apexes (bounce, h; bounce 0 = drop height)"]
+    if factor is None:
+        if scale_m_per_px is None:
+            raise UsageError(f"{path}: column 'h' is in pixels: give --scale M_PER_PX")
+        factor = scale_m_per_px
+    elif scale_m_per_px is not None:
+        factor = scale_m_per_px
+        notes.append(f"heights scaled by --scale {factor:g} m per file unit")
+    h_m = h * factor
+    nonpos = np.flatnonzero(h_m <= 0)
+    if nonpos.size:
+        fail(path, int(line_numbers[nonpos[0]]), f"apex height {h[nonpos[0]]:g} is not positive")
+    if h_m.size < MIN_APEXES:
+        fail(path, int(line_numbers[-1]), f"only {h_m.size} apex row(s); at least {MIN_APEXES} are needed")
+    if bounce[0] != 0:
+        notes.append(f"first row is bounce {int(bounce[0])}, not 0 (the drop height)")
+    gaps = np.flatnonzero(np.diff(bounce) > 1)
+    if gaps.size:
+        notes.append(f"bounce numbers skip after bounce {int(bounce[gaps[0]])}")
+    rising = np.flatnonzero(np.diff(h_m) >= 0)
+    if rising.size:
+        notes.append(f"apex height does not fall after bounce {int(bounce[rising[0]])}")
+    return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes))
+

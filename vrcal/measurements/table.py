@@ -1,0 +1,240 @@
+"""Reading text tables as people write them: loading, separators, decimal commas, headers,
+column names with units, and line-accurate errors.
+
+Every reader module of :mod:`vrcal.measurements` parses its file through these helpers, so
+a malformed file gives the same one-line message ``FILE:LINE: what is wrong``
+(:class:`vrcal.errors.DataError`) whatever its layout.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from vrcal.errors import DataError
+
+_NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
+_NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
+
+TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time")
+Y_NAMES = ("y",)
+X_NAMES = ("x",)
+BOUNCE_NAMES = ("bounce", "n", "bounce number")
+H_NAMES = ("h", "height", "apex", "apex height")
+TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3}
+LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "px": None, "pixel": None, "pixels": None}
+
+
+class Column(NamedTuple):
+    index: int
+    name: str
+    unit: str
+
+
+@dataclass
+class Text:
+    """A file's non-blank lines with their 1-based line numbers."""
+
+    path: str
+    lines: list  # [(lineno, text)]
+    multi: bool = False  # a Tracker '#multi:' export
+
+
+def fail(path, line, what):
+    where = f"{path}:{line}" if line else f"{path}"
+    raise DataError(f"{where}: {what}")
+
+
+def load_text(path):
+    path_s = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except IsADirectoryError:
+        raise DataError(f"{path_s}: is a directory, not a measurement file") from None
+    except OSError as exc:
+        raise DataError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
+    if not raw.strip():
+        fail(path_s, 0, "empty file")
+    if b"\x00" in raw[:8192]:
+        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    printable = sum(ch.isprintable() or ch in "\r\n\t" for ch in text[:4096])
+    if printable < 0.95 * len(text[:4096]):
+        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
+    lines, multi = [], False
+    for i, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            multi = multi or stripped.lower().startswith("#multi")
+            continue
+        lines.append((i, line.rstrip("\r\n")))
+    if not lines:
+        fail(path_s, 0, "no data (only comments or blank lines)")
+    return Text(path_s, lines, multi)
+
+
+def strip_cell(cell):
+    cell = cell.strip()
+    if len(cell) >= 2 and cell[0] == cell[-1] and cell[0] in "\"'":
+        cell = cell[1:-1].strip()
+    return cell
+
+
+def sniff(header, sample):
+    """Separator (',', ';', '\\t', ' ' for whitespace runs, or None for one column) and decimal comma."""
+    everything = [header] + sample
+    if any("\t" in s for s in everything):
+        sep = "\t"
+    elif any(";" in s for s in everything):
+        sep = ";"
+    elif "," in unquoted(header):
+        sep = ","
+    elif len(unquoted(header).split()) > 1 and sample and all(
+            len(s.split()) == len(unquoted(header).split()) for s in sample):
+        sep = " "
+    else:
+        sep = None
+    decimal_comma = sep != "," and any(
+        _NUMBER_WITH_DECIMAL_COMMA.match(strip_cell(c)) for s in sample for c in split_cells(s, sep))
+    return sep, decimal_comma
+
+
+def unquoted(text):
+    return re.sub(r'"[^"]*"', "", text)
+
+
+def split_cells(line, sep):
+    if sep is None:
+        cells = [line]
+    elif sep == " ":
+        cells = line.split()
+    elif sep == "\t":
+        cells = line.strip("\r\n ").split("\t")
+    else:
+        cells = line.split(sep)
+    cells = [strip_cell(c) for c in cells]
+    while cells and cells[-1] == "":
+        cells.pop()  # a trailing delimiter
+    return cells
+
+
+def to_float(cell, decimal_comma):
+    """A cell as a float, or None when it is not a number."""
+    text = cell.replace(",", ".") if decimal_comma else cell
+    if "_" in text:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def is_numeric_row(cells, decimal_comma=True):
+    return bool(cells) and all(to_float(c, decimal_comma) is not None for c in cells)
+
+
+def columns(cells):
+    cols = []
+    for i, cell in enumerate(cells):
+        m = _NAME_UNIT.match(cell.strip())
+        name = re.sub(r"[\s_]+", " ", (m.group("name") or "").strip().lower())
+        unit = (m.group("unit") or "").strip().lower()
+        cols.append(Column(i, name, unit))
+    return cols
+
+
+def find_column(cols, names, *, contains=None):
+    for c in cols:
+        if c.name in names:
+            return c
+    if contains:
+        for c in cols:
+            if contains in c.name:
+                return c
+    return None
+
+
+class Table(NamedTuple):
+    header_line: int
+    cols: list
+    rows: list  # [(lineno, cells)]
+    sep: object
+    decimal_comma: bool
+    preamble: list  # [(lineno, text)] before the header
+
+
+def parse_table(text, header_at=0):
+    """Split a text into header, columns and rows (cells as strings)."""
+    lines = text.lines
+    if header_at >= len(lines):
+        fail(text.path, lines[-1][0], "no header row")
+    header_no, header = lines[header_at]
+    body = lines[header_at + 1:]
+    sep, decimal_comma = sniff(header, [s for _, s in body[:20]])
+    head_cells = split_cells(header, sep)
+    if is_numeric_row(head_cells, decimal_comma):
+        fail(text.path, header_no, "no header row: the first line holds numbers; name the columns "
+              "(e.g. 't,y', 't', 'bounce,h')")
+    rows = [(no, split_cells(s, sep)) for no, s in body]
+    for no, cells in rows:
+        if len(cells) > len(head_cells):
+            hint = " (a decimal comma with comma separators?)" if sep == "," else ""
+            fail(text.path, no, f"{len(cells)} cells but the header names {len(head_cells)} columns{hint}")
+    return Table(header_no, columns(head_cells), rows, sep, decimal_comma, lines[:header_at])
+
+
+def column_values(path, table, col, *, what, allow_empty=False):
+    """Float values of one column with line-accurate errors; NaN where empty and allowed."""
+    out = np.empty(len(table.rows))
+    label = col.name or f"column {col.index + 1}"
+    for k, (no, cells) in enumerate(table.rows):
+        if col.index >= len(cells) or cells[col.index] == "":
+            if allow_empty:
+                out[k] = np.nan
+                continue
+            fail(path, no, f"empty cell in column '{label}' ({what})")
+        value = to_float(cells[col.index], table.decimal_comma)
+        if value is None:
+            fail(path, no, f"'{cells[col.index]}' is not a number (column '{label}')")
+        if not np.isfinite(value):
+            fail(path, no, f"{cells[col.index]} in column '{label}': every value must be a finite number")
+        out[k] = value
+    return out
+
+
+def unit_factor(path, table, col, units, kind):
+    if col.unit not in units:
+        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.name}' "
+              f"(known: {', '.join(u for u in units if u)})")
+    return units[col.unit]
+
+
+def check_increasing(path, values, line_numbers, label):
+    d = np.diff(values)
+    bad = np.flatnonzero(~(d > 0))
+    if bad.size:
+        j = int(bad[0]) + 1
+        fail(path, int(line_numbers[j]), f"{label} not increasing ({values[j]:g} after {values[j - 1]:g})")
+
+
+
+def header_columns(text, header_at=0):
+    if header_at >= len(text.lines):
+        return None
+    header = text.lines[header_at][1]
+    sample = [s for _, s in text.lines[header_at + 1:header_at + 21]]
+    sep, dc = sniff(header, sample)
+    cells = split_cells(header, sep)
+    if is_numeric_row(cells, dc):
+        return None
+    return columns(cells)
+

@@ -1,0 +1,142 @@
+"""Trajectories: a header naming a time column (``t``, ``time``) and a height column ``y``
+(``x`` optional), one row per sample; units in brackets (``t (s)``, ``y [cm]``, ``y (px)``).
+Without a time column the sample times come from the frame rate. ``vrcal simulate`` writes ``t,y``.
+
+Also the shared last step of every video-track reader (:func:`trajectory_from_table`):
+units and scale, the y direction, repeated rows, duplicated frames and the release.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vrcal.errors import UsageError
+from vrcal.measurements.cleanup import detect_release_index, find_duplicated_frames
+from vrcal.measurements.table import (
+    LENGTH_UNITS,
+    TIME_NAMES,
+    TIME_UNITS,
+    X_NAMES,
+    Y_NAMES,
+    check_increasing,
+    column_values,
+    fail,
+    find_column,
+    header_columns,
+    parse_table,
+    unit_factor,
+)
+from vrcal.measurements.types import Trajectory
+
+#: Fewest samples a trajectory must have (whether bounces are present is the fitter's business).
+MIN_TRAJECTORY_SAMPLES = 20
+
+def detect(text):
+    cols = header_columns(text)
+    return bool(cols) and find_column(cols, Y_NAMES) is not None
+
+
+
+def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
+    """Drop duplicates, check time, detect release, build the Trajectory."""
+    notes = list(notes)
+    # exact repeats of a whole record (same time and same position)
+    same_row = np.zeros(t_s.size, dtype=bool)
+    pos = y_m[:, None] if positions is None else positions
+    same_row[1:] = (t_s[1:] == t_s[:-1]) & np.all(pos[1:] == pos[:-1], axis=1)
+    if np.any(same_row):
+        lines = ", ".join(str(int(x)) for x in line_numbers[same_row][:10])
+        notes.append(f"dropped {int(same_row.sum())} repeated row(s) (same time and position; line(s) {lines})")
+        keep = ~same_row
+        t_s, y_m, line_numbers, pos = t_s[keep], y_m[keep], line_numbers[keep], pos[keep]
+    check_increasing(path, t_s, line_numbers, "time")
+    release = detect_release_index(y_m)
+    dup = find_duplicated_frames(pos, release)
+    if dup.size:
+        lines = ", ".join(str(int(x)) for x in line_numbers[dup][:10])
+        more = "" if dup.size <= 10 else ", ..."
+        notes.append(f"dropped {dup.size} duplicated frame(s) (position repeats the previous frame in flight; "
+                     f"line(s) {lines}{more})")
+        keep = np.ones(t_s.size, dtype=bool)
+        keep[dup] = False
+        t_s, y_m, line_numbers = t_s[keep], y_m[keep], line_numbers[keep]
+        release -= int(np.sum(dup < release))
+    if t_s.size < MIN_TRAJECTORY_SAMPLES:
+        fail(path, int(line_numbers[-1]) if line_numbers.size else 0,
+              f"only {t_s.size} samples; a trajectory needs at least {MIN_TRAJECTORY_SAMPLES}")
+    if release > 0:
+        notes.append(f"still segment: samples 0-{release - 1} (release detected at sample {release}, "
+                     f"t = {t_s[release]:.4g} s, line {int(line_numbers[release])}); kept for the fit")
+    else:
+        notes.append("no still segment before release detected")
+    return Trajectory(t_s=t_s, y_m=y_m, source=path, notes=tuple(notes), release_index=int(release))
+
+
+def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
+                           force_scale=None):
+    cols = table.cols
+    t_col = find_column(cols, TIME_NAMES)
+    y_col = find_column(cols, Y_NAMES)
+    x_col = find_column(cols, X_NAMES)
+    if y_col is None:
+        fail(path, table.header_line, f"no height column 'y' (columns: {', '.join(c.name for c in cols)})")
+    if not table.rows:
+        fail(path, table.header_line, "header but no data rows")
+    notes = list(notes)
+    y = column_values(path, table, y_col, what="height", allow_empty=skip_empty_y)
+    line_numbers = np.array([no for no, _ in table.rows])
+    if skip_empty_y:
+        empty = np.isnan(y)
+        if np.any(empty):
+            notes.append(f"skipped {int(empty.sum())} row(s) without a position (frames not marked)")
+    else:
+        empty = np.zeros(y.size, dtype=bool)
+    # time
+    if t_col is not None:
+        t = column_values(path, table, t_col, what="time", allow_empty=skip_empty_y)
+        t = t * unit_factor(path, table, t_col, TIME_UNITS, "time")
+        if fs_hz is not None:
+            notes.append(f"--fs {fs_hz:g} Hz ignored: the file has a time column")
+    else:
+        if fs_hz is None:
+            raise UsageError(f"{path}: no time column: give the frame rate with --fs HZ")
+        if not (np.isfinite(fs_hz) and fs_hz > 0):
+            raise UsageError(f"--fs must be a positive frame rate in Hz, got {fs_hz:g}")
+        t = np.arange(y.size) / float(fs_hz)
+        notes.append(f"times from the frame rate {fs_hz:g} Hz (no time column)")
+    x = column_values(path, table, x_col, what="x", allow_empty=True) if x_col is not None else None
+    if skip_empty_y and t_col is not None:
+        empty |= np.isnan(t)
+    keep = ~empty
+    t, y, line_numbers = t[keep], y[keep], line_numbers[keep]
+    x = x[keep] if x is not None else None
+    # length scale
+    if force_scale is not None and scale_m_per_px is None:
+        factor = force_scale
+    elif scale_m_per_px is not None:
+        if not (np.isfinite(scale_m_per_px) and scale_m_per_px > 0):
+            raise UsageError(f"--scale must be a positive number of metres per pixel, got {scale_m_per_px:g}")
+        factor = float(scale_m_per_px)
+        extra = f" (header unit '{y_col.unit}' ignored)" if y_col.unit and y_col.unit not in ("px", "pixel", "pixels") else ""
+        notes.append(f"positions scaled by --scale {factor:g} m per file unit{extra}")
+    else:
+        factor = unit_factor(path, table, y_col, LENGTH_UNITS, "length")
+        if factor is None:
+            raise UsageError(f"{path}: column 'y' is in pixels: give --scale M_PER_PX")
+        if y_col.unit and y_col.unit != "m":
+            notes.append(f"heights converted from {y_col.unit} to m")
+    y_m = y * factor
+    if y_down:
+        y_m = -y_m
+        notes.append("y axis points down in the file: height = -y * scale (no offset added; "
+                     "heights are relative to the file's origin)")
+    positions = np.column_stack([y_m, x * factor]) if x is not None and not np.any(np.isnan(x)) else y_m[:, None]
+    return finish_trajectory(path, t, y_m, line_numbers, notes, positions)
+
+
+def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
+    table = parse_table(text)
+    return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
+                                  notes=("format: trajectory (t, y columns)",))
+
+

@@ -1,0 +1,344 @@
+"""The association ball standards: load, validate, look up, and turn into epsilon (Eq. 9).
+
+``standards.yaml`` (shipped with vrcal) is data with a schema; every load validates it
+and a bad field is reported by its path (``balls.tennis.rebound_m.max``). A user file
+given with ``--standards FILE`` follows the same schema.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+from vrcal.errors import DataError, UsageError
+from vrcal.fileio import parse_yaml, read_yaml
+from vrcal.model.restitution import POINT_OFFSET_DIAMETERS, epsilon_from_heights, height_to_bottom_m
+
+SCHEMA_VERSION = 1
+POINTS = tuple(sorted(POINT_OFFSET_DIAMETERS))
+_REQUIRED_STR = ("name", "association", "rule", "floor", "conditions")
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval [min, max] with a nominal value inside it."""
+
+    min: float
+    max: float
+    nominal: float
+
+    def as_dict(self):
+        return {"min": self.min, "nominal": self.nominal, "max": self.max}
+
+
+@dataclass(frozen=True)
+class PaperValues:
+    """What the paper's Table 1 (and Table 2, where present) prints for a ball."""
+
+    drop_height_m: float
+    rebound_min_m: float | None
+    rebound_max_m: float | None
+    epsilon_min: float | None
+    epsilon_max: float | None
+    printed: str
+    table2: dict | None
+
+
+@dataclass(frozen=True)
+class Ball:
+    """One ball of a standard, validated, in SI units."""
+
+    key: str
+    name: str
+    association: str
+    rule: str
+    official: bool
+    mass_kg: Range
+    diameter_m: Range
+    drop_height_m: float
+    drop_measured_to: str
+    rebound_m: Range
+    rebound_measured_to: str
+    floor: str
+    conditions: str
+    source: tuple
+    paper: PaperValues | None
+    departures: tuple
+
+    @property
+    def radius_m(self):
+        """Nominal radius [m]."""
+        return self.diameter_m.nominal / 2.0
+
+
+@dataclass(frozen=True)
+class EpsilonWindow:
+    """epsilon of a ball's drop test (Eq. 9), with the heights it came from."""
+
+    min: float
+    nominal: float
+    max: float
+    drop_height_m: float
+    rebound_m: Range
+    convention: str
+
+    def as_dict(self):
+        return {"min": self.min, "nominal": self.nominal, "max": self.max}
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def _default_path():
+    return resources.files("vrcal").joinpath("standards.yaml")
+
+
+def load_standards(path=None):
+    """Load and validate a standards file; the shipped one when ``path`` is None.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        a YAML file following the schema in ``vrcal/standards.yaml``
+
+    Returns
+    -------
+    dict
+        ball key -> :class:`Ball`, in file order
+
+    Raises
+    ------
+    DataError
+        unreadable file, malformed YAML (with file and line), or a field that breaks
+        the schema (with its path)
+    """
+    if path is None:
+        return _load_default()
+    return _load_file(Path(path))
+
+
+@lru_cache(maxsize=1)
+def _load_default():
+    src = _default_path()
+    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml"),
+                              "vrcal/standards.yaml")
+
+
+def _load_file(path):
+    return validate_standards(read_yaml(path, "standards"), str(path))
+
+
+def validate_standards(doc, where="standards"):
+    """Validate a parsed standards document and build the :class:`Ball` objects."""
+    if not isinstance(doc, dict):
+        raise DataError(f"{where}: top level must be a mapping with 'schema_version' and 'balls'")
+    version = doc.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise DataError(f"{where}: schema_version must be {SCHEMA_VERSION}, got {version!r}")
+    balls = doc.get("balls")
+    if not isinstance(balls, dict) or not balls:
+        raise DataError(f"{where}: 'balls' must be a non-empty mapping of ball key -> fields")
+    out = {}
+    for key, fields in balls.items():
+        path = f"balls.{key}"
+        if not isinstance(key, str) or not key.replace("_", "").isalnum() or key != key.lower():
+            raise DataError(f"{where}: {path}: ball keys must be lower-case words (letters, digits, '_')")
+        out[key] = _ball(key, fields, where, path)
+    return out
+
+
+def _err(where, path, msg):
+    return DataError(f"{where}: {path}: {msg}")
+
+
+def _number(fields, name, where, path, *, positive=True, required=True):
+    if name not in fields or fields[name] is None:
+        if required:
+            raise _err(where, f"{path}.{name}", "missing")
+        return None
+    value = fields[name]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _err(where, f"{path}.{name}", f"must be a number, got {value!r}")
+    if positive and value <= 0:
+        raise _err(where, f"{path}.{name}", f"must be > 0, got {value!r}")
+    if value < 0:
+        raise _err(where, f"{path}.{name}", f"must be >= 0, got {value!r}")
+    return float(value)
+
+
+def _range(fields, name, where, path, required=True):
+    sub = fields.get(name)
+    if sub is None:
+        if required:
+            raise _err(where, f"{path}.{name}", "missing")
+        return None
+    if not isinstance(sub, dict):
+        raise _err(where, f"{path}.{name}", "must be a mapping {min: ..., max: ...}")
+    p = f"{path}.{name}"
+    lo = _number(sub, "min", where, p)
+    hi = _number(sub, "max", where, p)
+    if lo > hi:
+        raise _err(where, p, f"min ({lo:g}) is larger than max ({hi:g})")
+    nominal = _number(sub, "nominal", where, p, required=False)
+    if nominal is None:
+        nominal = 0.5 * (lo + hi)
+    elif not lo <= nominal <= hi:
+        raise _err(where, f"{p}.nominal", f"{nominal:g} lies outside [{lo:g}, {hi:g}]")
+    unknown = set(sub) - {"min", "max", "nominal"}
+    if unknown:
+        raise _err(where, p, f"unknown field(s) {sorted(unknown)}; allowed: ['max', 'min', 'nominal']")
+    return Range(lo, hi, nominal)
+
+
+def _string(fields, name, where, path):
+    value = fields.get(name)
+    if not isinstance(value, str) or not value.strip():
+        raise _err(where, f"{path}.{name}", "missing" if value is None else f"must be text, got {value!r}")
+    return value
+
+
+def _point(fields, name, where, path):
+    value = fields.get(name)
+    if value not in POINTS:
+        raise _err(where, f"{path}.{name}", f"must be one of {list(POINTS)}, got {value!r}")
+    return value
+
+
+def _ball(key, fields, where, path):
+    if not isinstance(fields, dict):
+        raise _err(where, path, "must be a mapping of fields")
+    strings = {name: _string(fields, name, where, path) for name in _REQUIRED_STR}
+    official = fields.get("official", True)
+    if not isinstance(official, bool):
+        raise _err(where, f"{path}.official", f"must be true or false, got {official!r}")
+    mass = _range(fields, "mass_kg", where, path)
+    diameter = _range(fields, "diameter_m", where, path, required=False)
+    circumference = _range(fields, "circumference_m", where, path, required=False)
+    if diameter is None and circumference is None:
+        raise _err(where, f"{path}.diameter_m", "missing (give diameter_m or circumference_m)")
+    if diameter is None:
+        diameter = Range(circumference.min / math.pi, circumference.max / math.pi, circumference.nominal / math.pi)
+    drop = _number(fields, "drop_height_m", where, path)
+    drop_to = _point(fields, "drop_measured_to", where, path)
+    rebound = _range(fields, "rebound_m", where, path)
+    rebound_to = _point(fields, "rebound_measured_to", where, path)
+    D = diameter.nominal
+    H_bottom = height_to_bottom_m(drop, drop_to, D)
+    for label, h in (("min", rebound.min), ("max", rebound.max), ("nominal", rebound.nominal)):
+        h_bottom = height_to_bottom_m(h, rebound_to, D)
+        if h_bottom > H_bottom:
+            raise _err(
+                where, f"{path}.rebound_m.{label}",
+                f"rebound {h:g} m is higher than the drop {drop:g} m (both taken to the ball's bottom): "
+                "a ball cannot rebound higher than it fell",
+            )
+        if h_bottom < 0:
+            raise _err(where, f"{path}.rebound_m.{label}",
+                       f"rebound {h:g} m to the {rebound_to} is below the ball's resting position")
+    source = fields.get("source", [])
+    if isinstance(source, str):
+        source = [source]
+    if not isinstance(source, list) or not all(isinstance(s, str) for s in source):
+        raise _err(where, f"{path}.source", "must be a list of text")
+    departures = fields.get("departures", [])
+    if not isinstance(departures, list) or not all(isinstance(s, str) for s in departures):
+        raise _err(where, f"{path}.departures", "must be a list of text")
+    paper = _paper(fields.get("paper"), where, f"{path}.paper")
+    known = set(_REQUIRED_STR) | {
+        "official", "mass_kg", "diameter_m", "circumference_m", "drop_height_m", "drop_measured_to",
+        "rebound_m", "rebound_measured_to", "source", "paper", "departures",
+    }
+    unknown = set(fields) - known
+    if unknown:
+        raise _err(where, path, f"unknown field(s) {sorted(unknown)}; allowed: {sorted(known)}")
+    return Ball(
+        key=key, official=official, mass_kg=mass, diameter_m=diameter, drop_height_m=drop,
+        drop_measured_to=drop_to, rebound_m=rebound, rebound_measured_to=rebound_to,
+        source=tuple(source), paper=paper, departures=tuple(departures), **strings,
+    )
+
+
+def _paper(fields, where, path):
+    if fields is None:
+        return None
+    if not isinstance(fields, dict):
+        raise _err(where, path, "must be a mapping")
+    table2 = fields.get("table2")
+    if table2 is not None:
+        if not isinstance(table2, dict) or set(table2) != {"epsilon", "x", "v"}:
+            raise _err(where, f"{path}.table2", "must be null or a mapping {epsilon, x, v}")
+        table2 = {k: _number(table2, k, where, f"{path}.table2") for k in ("epsilon", "x", "v")}
+    return PaperValues(
+        drop_height_m=_number(fields, "drop_height_m", where, path),
+        rebound_min_m=_number(fields, "rebound_min_m", where, path, required=False),
+        rebound_max_m=_number(fields, "rebound_max_m", where, path, required=False),
+        epsilon_min=_number(fields, "epsilon_min", where, path, required=False),
+        epsilon_max=_number(fields, "epsilon_max", where, path, required=False),
+        printed=str(fields.get("printed", "")),
+        table2=table2,
+    )
+
+
+# --------------------------------------------------------------------------- lookup
+
+
+def get_ball(key, standards=None):
+    """Look up a ball by key; an unknown key names the valid keys and the closest one.
+
+    Parameters
+    ----------
+    key : str
+        ball key, case-insensitive; '-' and ' ' are read as '_' ("table-tennis")
+    standards : dict or None
+        the result of :func:`load_standards`; the shipped file when None
+    """
+    standards = load_standards() if standards is None else standards
+    norm = str(key).strip().lower().replace("-", "_").replace(" ", "_")
+    if norm in standards:
+        return standards[norm]
+    close = difflib.get_close_matches(norm, list(standards), n=1, cutoff=0.5)
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
+
+
+# --------------------------------------------------------------------------- epsilon
+
+
+def ball_epsilon(ball, as_paper=False):
+    """epsilon of a ball's drop-test window, Eq. (9) of [1].
+
+    Parameters
+    ----------
+    ball : Ball
+    as_paper : bool
+        False (default): heights of the rule, both brought to the bottom of the ball
+        (a height to the top loses one diameter), nominal from the window's nominal
+        rebound. True: the paper's Table 1 heights as printed (typos corrected, no
+        point correction), so basketball gives the paper's 0.85. Where the paper has
+        only one rebound value it is min, nominal and max.
+
+    Returns
+    -------
+    EpsilonWindow
+    """
+    if as_paper:
+        if ball.paper is None or ball.paper.rebound_min_m is None:
+            raise UsageError(f"the paper prints no drop test for '{ball.key}'")
+        lo = ball.paper.rebound_min_m
+        hi = ball.paper.rebound_max_m if ball.paper.rebound_max_m is not None else lo
+        H = ball.paper.drop_height_m
+        rebound = Range(lo, hi, 0.5 * (lo + hi))
+        convention = "as printed in the paper's Table 1 (no point correction)"
+    else:
+        D = ball.diameter_m.nominal
+        H = height_to_bottom_m(ball.drop_height_m, ball.drop_measured_to, D)
+        r = ball.rebound_m
+        to_bottom = [height_to_bottom_m(h, ball.rebound_measured_to, D) for h in (r.min, r.nominal, r.max)]
+        rebound = Range(to_bottom[0], to_bottom[2], to_bottom[1])
+        convention = "drop and rebound both to the bottom of the ball"
+    eps = epsilon_from_heights([rebound.min, rebound.nominal, rebound.max], H)
+    return EpsilonWindow(float(eps[0]), float(eps[1]), float(eps[2]), H, rebound, convention)

@@ -1,0 +1,425 @@
+"""vrcal's own multi-sphere simulator: event-driven, with the impulse of Eq. (5) of [1] at every contact.
+
+Between events every sphere flies under gravity alone (no air drag), in closed form. The
+next event is the earliest sphere-floor contact (a quadratic in t) or sphere-sphere contact
+(a quadratic in the relative motion when both spheres fly; a quartic, solved with numpy's
+companion-matrix roots and polished by Newton steps, when one of them rests on the floor).
+At a contact the restitution comes from the two bodies' virtual bodies, Eqs. (6) and (7)
+(:func:`vrcal.scenes.spec.contact_epsilon`), the normal impulse from Eq. (5)
+(:func:`normal_impulse_N_s`) and a Coulomb friction impulse (:func:`friction_impulse_N_s`).
+
+Choices (departures from [1], which relied on ODE for all of this):
+
+* Friction: Coulomb friction in impulse form, one coefficient mu per scene. The tangential
+  impulse stops the sliding of the contact point if that needs at most mu*j ("sticking"),
+  otherwise it is mu*j against the sliding direction ("sliding"). There is no tangential
+  restitution: a sticking contact leaves the contact point with zero tangential speed. For a
+  sphere r is parallel to n, so the normal impulse of Eq. (5) makes no spin; spin comes from
+  the friction impulse only, Delta omega = I^-1 (r x J). A hollow shell (sports ball,
+  I = 2/3 m R^2) that sticks keeps 3/5 of its tangential speed (a solid sphere, I = 2/5 m R^2:
+  5/7).
+* Simultaneous contacts (a stack of balls dropped together) are resolved one at a time, the
+  fastest-approaching first, repeated until no touching pair (gap <= 1e-9 m) approaches
+  ("sequential impulses"). For a stack this is the classic sequential-collision result.
+* Resting: a floor impact slower than the scene's ``rest_speed_m_per_s`` is perfectly inelastic
+  (epsilon = 0, with the same friction impulse) and puts the ball at rest on the floor: its
+  vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno). A ball at
+  rest keeps its horizontal velocity and spin (no rolling friction, no sliding friction while it
+  rests). A ball resting on another ball is not modelled: such a scene stops with an error after
+  ``max_events`` events.
+
+References
+----------
+[1] "The Graphical Method for Decision of Restitution Coefficient and Its Applications",
+    Eq. (5) (after Baraff's "Physically based modelling" notes, its reference [16]).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vrcal.errors import DataError
+from vrcal.scenes.spec import SceneContact, SceneResult
+
+#: Two surfaces closer than this [m] are in contact.
+CONTACT_TOLERANCE_M = 1e-9
+#: Default cap on the number of events (contacts and snapshots) of one run.
+DEFAULT_MAX_EVENTS = 200_000
+
+_FLOOR = -1
+
+
+# --------------------------------------------------------------------------- equations
+
+
+def _dot(a, b):
+    return np.sum(np.asarray(a, dtype=float) * np.asarray(b, dtype=float), axis=-1)
+
+
+def _matvec(m, v):
+    return np.einsum("...ij,...j->...i", np.asarray(m, dtype=float), np.asarray(v, dtype=float))
+
+
+def inverse_effective_mass_per_kg(direction, mass_a_kg, inv_inertia_a_per_kg_m2, r_a_m,
+                                  mass_b_kg, inv_inertia_b_per_kg_m2, r_b_m):
+    """The denominator of Eq. (5) of [1] for an impulse along ``direction``.
+
+    Parameters
+    ----------
+    direction : array_like, shape (..., 3)
+        unit vector of the impulse (the contact normal n for Eq. 5) [-]
+    mass_a_kg, mass_b_kg : float or ndarray
+        masses M_a, M_b [kg]; ``np.inf`` for a static body (the floor)
+    inv_inertia_a_per_kg_m2, inv_inertia_b_per_kg_m2 : array_like, shape (..., 3, 3)
+        inverse inertia tensors I_a^-1, I_b^-1 in world axes [1/(kg m^2)]; zeros for a static body
+    r_a_m, r_b_m : array_like, shape (..., 3)
+        contact point relative to each body's centre of mass [m]
+
+    Returns
+    -------
+    k_per_kg : float or ndarray
+        ``1/M_a + 1/M_b + d.[(I_a^-1 (r_a x d)) x r_a] + d.[(I_b^-1 (r_b x d)) x r_b]`` [1/kg]
+    """
+    d = np.asarray(direction, dtype=float)
+    ra, rb = np.asarray(r_a_m, dtype=float), np.asarray(r_b_m, dtype=float)
+    term_a = _dot(d, np.cross(_matvec(inv_inertia_a_per_kg_m2, np.cross(ra, d)), ra))
+    term_b = _dot(d, np.cross(_matvec(inv_inertia_b_per_kg_m2, np.cross(rb, d)), rb))
+    k = 1.0 / np.asarray(mass_a_kg, dtype=float) + 1.0 / np.asarray(mass_b_kg, dtype=float) + term_a + term_b
+    return float(k) if np.ndim(k) == 0 else k
+
+
+def normal_impulse_N_s(v_rel_m_per_s, epsilon, normal, mass_a_kg, inv_inertia_a_per_kg_m2, r_a_m,
+                       mass_b_kg, inv_inertia_b_per_kg_m2, r_b_m):
+    """Magnitude j of the impulse J = j n at a colliding contact, Eq. (5) of [1].
+
+    Parameters
+    ----------
+    v_rel_m_per_s : float or ndarray
+        normal relative velocity before the impact, ``n . (pdot_a - pdot_b)`` [m/s]; < 0 when colliding
+        (``pdot = v + omega x r`` is the velocity of the contact point, Eq. 4 of [1])
+    epsilon : float or ndarray
+        coefficient of restitution of the contact [-], in [0, 1] (Eqs. 6, 7 of [1])
+    normal : array_like, shape (..., 3)
+        unit contact normal n, pointing from body b towards body a [-]
+    mass_a_kg, mass_b_kg : float or ndarray
+        masses [kg]; ``np.inf`` for a static body (the floor)
+    inv_inertia_a_per_kg_m2, inv_inertia_b_per_kg_m2 : array_like, shape (..., 3, 3)
+        inverse inertia tensors in world axes [1/(kg m^2)]; zeros for a static body
+    r_a_m, r_b_m : array_like, shape (..., 3)
+        contact point relative to each centre of mass [m]
+
+    Returns
+    -------
+    j_N_s : float or ndarray
+        ``-(1 + epsilon) v_rel / (1/M_a + 1/M_b + n.[(I_a^-1 (r_a x n)) x r_a] + n.[(I_b^-1 (r_b x n)) x r_b])``
+        [N s]; body a receives +j n, body b receives -j n. Afterwards the normal relative
+        velocity is exactly ``-epsilon v_rel`` (Eq. 3 of [1], sign as in Baraff's notes).
+    """
+    k = inverse_effective_mass_per_kg(normal, mass_a_kg, inv_inertia_a_per_kg_m2, r_a_m, mass_b_kg,
+                                      inv_inertia_b_per_kg_m2, r_b_m)
+    j = -(1.0 + np.asarray(epsilon, dtype=float)) * np.asarray(v_rel_m_per_s, dtype=float) / k
+    return float(j) if np.ndim(j) == 0 else j
+
+
+def friction_impulse_N_s(slip_velocity_m_per_s, j_N_s, mu, k_tangential_per_kg):
+    """Coulomb friction impulse at a contact (vrcal's choice; [1] leaves friction to ODE).
+
+    Parameters
+    ----------
+    slip_velocity_m_per_s : array_like, shape (..., 3)
+        tangential velocity of body a's contact point relative to body b's before the impulse [m/s]
+    j_N_s : float or ndarray
+        the normal impulse j of Eq. (5) [N s], >= 0
+    mu : float or ndarray
+        Coulomb friction coefficient [-], >= 0
+    k_tangential_per_kg : float or ndarray
+        :func:`inverse_effective_mass_per_kg` along the slip direction [1/kg]
+
+    Returns
+    -------
+    J_t_N_s : ndarray, shape (..., 3)
+        friction impulse on body a [N s] (body b receives its opposite): the impulse that stops
+        the slip, ``-u_t / k_t``, when its size is at most ``mu j`` (sticking), otherwise
+        ``-mu j u_t/|u_t|`` (sliding). It never reverses the slip, so it never adds energy.
+    """
+    u = np.asarray(slip_velocity_m_per_s, dtype=float)
+    speed = np.linalg.norm(u, axis=-1)
+    stick = speed / np.asarray(k_tangential_per_kg, dtype=float)
+    size = np.minimum(stick, np.asarray(mu, dtype=float) * np.asarray(j_N_s, dtype=float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(speed[..., None] > 0, u / np.where(speed > 0, speed, 1.0)[..., None], 0.0)
+    return -size[..., None] * unit
+
+
+# --------------------------------------------------------------------------- the simulator
+
+
+class _State:
+    def __init__(self, scene):
+        self.scene = scene
+        b = scene.bodies
+        self.n = len(b)
+        self.p = np.array([x.position_m for x in b], dtype=float)
+        self.v = np.array([x.velocity_m_per_s for x in b], dtype=float)
+        self.w = np.array([x.spin_rad_per_s for x in b], dtype=float)
+        self.ang = np.zeros(self.n)
+        self.rest = np.zeros(self.n, dtype=bool)
+        self.R = np.array([x.radius_m for x in b])
+        self.m = np.array([x.mass_kg for x in b])
+        self.I = np.array([x.inertia_kg_m2 for x in b])
+        self.t = 0.0
+        self.g = scene.g_m_per_s2
+        self.eps = scene.epsilon_matrix()
+
+    def accel(self):
+        a = np.zeros((self.n, 3))
+        a[~self.rest, 2] = -self.g
+        return a
+
+    def advance(self, dt):
+        a = self.accel()
+        self.p = self.p + self.v * dt + 0.5 * a * dt * dt
+        self.v = self.v + a * dt
+        self.ang = self.ang + self.w[:, 1] * dt
+        self.t += dt
+
+    def snapshot(self):
+        return (self.t, self.p.copy(), self.v.copy(), self.w.copy(), self.ang.copy(), self.rest.copy())
+
+
+def _floor_time(z0, vz, R, g):
+    """Time until a flying sphere's bottom reaches z = 0 descending (inf if never)."""
+    h = z0 - R
+    disc = vz * vz + 2.0 * g * h
+    if disc < 0:
+        return np.inf
+    s = np.sqrt(disc)
+    if vz > 0:
+        t = (vz + s) / g
+    elif s - vz > 0:
+        t = 2.0 * h / (s - vz)
+    else:
+        return np.inf
+    return max(t, 0.0)
+
+
+def _pair_time(d0, dv, da, S):
+    """Time until two spheres' centres are S apart and approaching (inf if never)."""
+    if not np.any(da):
+        a, b, c = dv @ dv, 2.0 * (d0 @ dv), d0 @ d0 - S * S
+        if a == 0 or b >= 0:
+            return np.inf
+        disc = b * b - 4.0 * a * c
+        if disc < 0:
+            return np.inf
+        q = -0.5 * (b - np.sqrt(disc))
+        return max(c / q, 0.0)
+    A = 0.5 * da
+    coeffs = [A @ A, 2.0 * (A @ dv), dv @ dv + 2.0 * (A @ d0), 2.0 * (dv @ d0), d0 @ d0 - S * S]
+
+    def f(t):
+        d = d0 + dv * t + A * t * t
+        return d @ d - S * S, 2.0 * (d @ (dv + 2.0 * A * t))
+
+    best = np.inf
+    for root in np.roots(coeffs):
+        if abs(root.imag) > 1e-6 * (1.0 + abs(root.real)):
+            continue
+        t = root.real
+        for _ in range(3):
+            val, der = f(t)
+            if der == 0:
+                break
+            t -= val / der
+        if t < -1e-12:
+            continue
+        t = max(t, 0.0)
+        if f(t)[1] < 0 and t < best:
+            best = t
+    return best
+
+
+def _contact_geometry(st, i, j):
+    """normal n (from b to a), r_a, r_b, gap for body i against body j (or the floor)."""
+    if j == _FLOOR:
+        n = np.array([0.0, 0.0, 1.0])
+        return n, -st.R[i] * n, np.zeros(3), st.p[i, 2] - st.R[i]
+    d = st.p[i] - st.p[j]
+    dist = np.linalg.norm(d)
+    n = d / dist
+    return n, -st.R[i] * n, st.R[j] * n, dist - st.R[i] - st.R[j]
+
+
+def _point_velocity(st, k, r):
+    if k == _FLOOR:
+        return np.zeros(3)
+    return st.v[k] + np.cross(st.w[k], r)
+
+
+def _touching_approaching(st):
+    """All touching pairs that approach, fastest first: [(v_rel, i, j)]."""
+    found = []
+    for i in range(st.n):
+        for j in [_FLOOR] + list(range(i + 1, st.n)):
+            n, ra, rb, gap = _contact_geometry(st, i, j)
+            if gap > CONTACT_TOLERANCE_M:
+                continue
+            vrel = float(n @ (_point_velocity(st, i, ra) - _point_velocity(st, j, rb)))
+            if vrel < -1e-12:
+                found.append((vrel, i, j))
+    found.sort()
+    return found
+
+
+def _resolve(st, i, j, vrel, contacts):
+    scene = st.scene
+    n, ra, rb, _gap = _contact_geometry(st, i, j)
+    name_b = "floor" if j == _FLOOR else scene.bodies[j].name
+    eps = float(st.eps[i, j])  # j == -1 picks the floor's column
+    to_rest = j == _FLOOR and -vrel < scene.rest_speed_m_per_s
+    if to_rest:
+        eps = 0.0  # a perfectly inelastic last impact (with friction) puts the ball at rest
+    inv_ia = np.eye(3) / st.I[i]
+    inv_ib = np.zeros((3, 3)) if j == _FLOOR else np.eye(3) / st.I[j]
+    mb = np.inf if j == _FLOOR else st.m[j]
+    u = _point_velocity(st, i, ra) - _point_velocity(st, j, rb)
+    jn = normal_impulse_N_s(vrel, eps, n, st.m[i], inv_ia, ra, mb, inv_ib, rb)
+    slip = u - (u @ n) * n
+    jt_vec = np.zeros(3)
+    note = ""
+    if scene.friction_mu > 0 and np.linalg.norm(slip) > 1e-12:
+        t_hat = slip / np.linalg.norm(slip)
+        kt = inverse_effective_mass_per_kg(t_hat, st.m[i], inv_ia, ra, mb, inv_ib, rb)
+        jt_vec = friction_impulse_N_s(slip, jn, scene.friction_mu, kt)
+        note = "sliding" if np.linalg.norm(jt_vec) < np.linalg.norm(slip) / kt * (1 - 1e-12) else "sticking"
+    J = jn * n + jt_vec
+    st.v[i] += J / st.m[i]
+    st.w[i] += inv_ia @ np.cross(ra, J)
+    if st.v[i, 2] != 0.0:
+        st.rest[i] = False
+    if j != _FLOOR:
+        st.v[j] -= J / st.m[j]
+        st.w[j] -= inv_ib @ np.cross(rb, J)
+        if st.v[j, 2] != 0.0:
+            st.rest[j] = False
+    if j == _FLOOR:
+        st.p[i, 2] = max(st.p[i, 2], st.R[i])
+    if to_rest:
+        st.p[i, 2] = st.R[i]
+        st.v[i, 2] = 0.0
+        st.rest[i] = True
+        note = "rest: slower than rest_speed_m_per_s" + (f"; {note}" if note else "")
+    contacts.append(SceneContact(float(st.t), scene.bodies[i].name, name_b, -vrel, eps, jn,
+                                 float(np.linalg.norm(jt_vec)), note))
+
+
+def _resolve_all(st, contacts, max_rounds=10_000):
+    for _ in range(max_rounds):
+        found = _touching_approaching(st)
+        if not found:
+            # a ball on the floor with no vertical speed rests there (e.g. placed on the floor)
+            on_floor = (st.p[:, 2] - st.R <= CONTACT_TOLERANCE_M) & (np.abs(st.v[:, 2]) <= 1e-12)
+            st.p[on_floor, 2] = st.R[on_floor]
+            st.v[on_floor, 2] = 0.0
+            st.rest |= on_floor
+            return
+        vrel, i, j = found[0]
+        _resolve(st, i, j, vrel, contacts)
+    raise DataError(f"t = {st.t:.6g} s: simultaneous contacts did not settle after {max_rounds} impulses")
+
+
+def _next_event(st):
+    best, what = np.inf, None
+    a = st.accel()
+    for i in range(st.n):
+        if not st.rest[i]:
+            t = _floor_time(st.p[i, 2], st.v[i, 2], st.R[i], st.g)
+            if t < best:
+                best, what = t, (i, _FLOOR)
+        for j in range(i + 1, st.n):
+            t = _pair_time(st.p[i] - st.p[j], st.v[i] - st.v[j], a[i] - a[j], st.R[i] + st.R[j])
+            if t < best:
+                best, what = t, (i, j)
+    return best, what
+
+
+def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
+    """Run a scene in vrcal's event-driven simulator.
+
+    Parameters
+    ----------
+    scene : vrcal.scenes.spec.Scene
+    max_events : int
+        stop with an error after this many events (a ball resting on another ball makes
+        infinitely many contacts in finite time)
+
+    Returns
+    -------
+    vrcal.scenes.spec.SceneResult
+        trajectories at ``scene.sample_times_s()``, every contact with its epsilon and impulses,
+        and every apex (exact, from the flight parabolas)
+    """
+    st = _State(scene)
+    contacts = []
+    _resolve_all(st, contacts)
+    snaps = [st.snapshot()]
+    n_events = 0
+    while st.t < scene.duration_s:
+        dt, what = _next_event(st)
+        if st.t + dt >= scene.duration_s or what is None:
+            st.advance(scene.duration_s - st.t)
+            snaps.append(st.snapshot())
+            break
+        st.advance(dt)
+        i, j = what
+        if j == _FLOOR:
+            st.p[i, 2] = st.R[i]  # the root of the quadratic: the bottom is at z = 0
+        _resolve_all(st, contacts)
+        snaps.append(st.snapshot())
+        n_events += 1
+        if n_events >= max_events:
+            last = contacts[-1] if contacts else None
+            who = f" (last contact: {last.body_a} on {last.body_b})" if last else ""
+            raise DataError(f"{scene.source}: more than {max_events} events before t = {st.t:.6g} s{who}: "
+                            "a ball resting on another ball is not modelled; offset the bodies or shorten "
+                            "duration_s")
+    return _sample(scene, snaps, contacts)
+
+
+def _sample(scene, snaps, contacts):
+    times = scene.sample_times_s()
+    starts = np.array([s[0] for s in snaps])
+    idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(snaps) - 1)
+    n_t, n_b = len(times), len(scene.bodies)
+    pos = np.empty((n_t, n_b, 3))
+    vel = np.empty((n_t, n_b, 3))
+    spin = np.empty((n_t, n_b, 3))
+    ang = np.empty((n_t, n_b))
+    g = scene.g_m_per_s2
+    for k in np.unique(idx):
+        sel = idx == k
+        t0, p, v, w, a0, rest = snaps[k]
+        tau = (times[sel] - t0)[:, None, None]
+        acc = np.zeros((n_b, 3))
+        acc[~rest, 2] = -g
+        pos[sel] = p[None] + v[None] * tau + 0.5 * acc[None] * tau**2
+        vel[sel] = v[None] + acc[None] * tau
+        spin[sel] = w[None]
+        ang[sel] = a0[None] + w[None, :, 1] * tau[:, :, 0]
+    apexes = []
+    radii = np.array([b.radius_m for b in scene.bodies])
+    for k, (t0, p, v, _w, _a, rest) in enumerate(snaps):
+        t1 = snaps[k + 1][0] if k + 1 < len(snaps) else t0
+        for b in range(n_b):
+            if rest[b] or v[b, 2] < 0:
+                continue
+            ta = v[b, 2] / g
+            if (k == 0 and ta == 0) or 0 < ta < t1 - t0 or (ta == t1 - t0 and k + 1 == len(snaps) - 1):
+                apexes.append((scene.bodies[b].name, float(t0 + ta),
+                               float(p[b, 2] + v[b, 2] * ta - 0.5 * g * ta**2 - radii[b])))
+    apexes.sort(key=lambda a: (a[1], a[0]))
+    return SceneResult(scene=scene, engine="vrcal", t_s=times, position_m=pos, velocity_m_per_s=vel,
+                       spin_rad_per_s=spin, angle_y_rad=ang, contacts=contacts, apexes=apexes,
+                       notes=[f"event-driven; {len(contacts)} contacts; friction mu = {scene.friction_mu:g} "
+                              f"(Coulomb, impulse form); rest below {scene.rest_speed_m_per_s:g} m/s"],
+                       settings={"events": len(snaps) - 1})
