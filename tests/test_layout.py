@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "vrcal"
 
 #: Layers, lowest first. A module imports only from its own layer or lower ones.
 LAYERS = [
-    {"vrcal", "vrcal.errors", "vrcal.fileio"},
+    {"vrcal", "vrcal.errors", "vrcal.fileio", "vrcal.textout"},
     {"vrcal.model"},
     {"vrcal.inverse", "vrcal.measurements"},
     {"vrcal.drop"},

@@ -1,0 +1,140 @@
+"""Output for people and output for machines, in one place.
+
+Default stdout is for people: short, aligned tables with sensible digits, at most
+:data:`MAX_COLUMNS` columns wide. ``--format json|yaml`` (or an ``-o`` file's extension) gives
+the full-precision machine file, with a ``schema_version`` (:func:`machine_document`).
+
+* :func:`choose_format` -- the format a command writes, from ``--format`` and ``-o``;
+* :func:`number` -- a number to a given count of significant digits, plain where that reads
+  better; :func:`ms` -- a time in milliseconds;
+* :func:`table` -- an aligned text table (numbers right-aligned, text left-aligned);
+* :func:`section` -- a titled block of ``key  value`` lines.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from vrcal.errors import UsageError
+
+#: Widest line of default (human) output.
+MAX_COLUMNS = 100
+
+#: Version of the machine files (JSON/YAML) that commands write; raised when a key changes meaning.
+SCHEMA_VERSION = 1
+
+#: File extensions and the machine format they select.
+EXTENSIONS = {".json": "json", ".yaml": "yaml", ".yml": "yaml", ".txt": "text", ".csv": "csv", ".md": "markdown"}
+
+
+def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml")):
+    """The output format: ``--format`` when given, else the ``-o`` file's extension, else ``default``.
+
+    Parameters
+    ----------
+    fmt : str or None
+        the ``--format`` value
+    output : str or None
+        the ``-o`` path ('-' or None is stdout)
+    default : str
+        what people get on stdout
+    allowed : tuple of str
+        the formats the command can write
+
+    Raises
+    ------
+    UsageError
+        a ``--format`` the command cannot write
+    """
+    if fmt is not None:
+        if fmt not in allowed:
+            raise UsageError(f"unknown --format '{fmt}' (known: {', '.join(allowed)})")
+        return fmt
+    if output not in (None, "-"):
+        by_ext = EXTENSIONS.get(Path(str(output)).suffix.lower())
+        if by_ext in allowed:
+            return by_ext
+    return default
+
+
+def machine_document(data):
+    """``data`` (a dict) with ``schema_version`` added first, for a JSON/YAML file."""
+    return {"schema_version": SCHEMA_VERSION, **data}
+
+
+def number(value, digits=4):
+    """``value`` to ``digits`` significant digits, without an exponent between 1e-4 and 1e6.
+
+    ``number(0.76617813) == '0.7662'``; ``number(59.657) == '59.66'``; ``number(123456) == '123456'``;
+    ``number(None) == '-'``.
+    """
+    if value is None:
+        return "-"
+    v = float(value)
+    if not math.isfinite(v):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    if v == 0:
+        return "0"
+    mag = math.floor(math.log10(abs(v)))
+    if -4 <= mag < 6:
+        places = max(digits - 1 - mag, 0)
+        return f"{v:.{places}f}"
+    return f"{v:.{digits - 1}e}"
+
+
+def ms(seconds, digits=3):
+    """A time in seconds written in milliseconds: ``ms(0.06659) == '66.6 ms'``."""
+    if seconds is None:
+        return "-"
+    return f"{number(float(seconds) * 1e3, digits)} ms"
+
+
+def table(rows, headers, align=None, indent=""):
+    """An aligned text table.
+
+    Parameters
+    ----------
+    rows : list of sequences
+        cells (str, or numbers already formatted as str)
+    headers : sequence of str
+    align : str or None
+        one of 'l'/'r' per column; default: right for cells that look numeric, else left
+    indent : str
+        prefix of every line
+
+    Returns
+    -------
+    str
+        lines joined with newlines, ending with a newline
+    """
+    cells = [[str(c) for c in row] for row in rows]
+    headers = [str(h) for h in headers]
+    n = len(headers)
+    widths = [max([len(headers[j])] + [len(r[j]) for r in cells if j < len(r)]) for j in range(n)]
+    if align is None:
+        align = "".join("r" if cells and all(_numeric(r[j]) for r in cells if j < len(r)) else "l"
+                        for j in range(n))
+
+    def line(values):
+        out = [v.rjust(w) if a == "r" else v.ljust(w) for v, w, a in zip(values, widths, align)]
+        return (indent + "  ".join(out)).rstrip()
+
+    return "\n".join([line(headers)] + [line(r) for r in cells]) + "\n"
+
+
+def section(title, items, indent="  "):
+    """A titled block: ``title`` then one ``key  value`` line per item, keys aligned."""
+    items = [(str(k), str(v)) for k, v in items]
+    width = max((len(k) for k, _ in items), default=0)
+    lines = [title] + [f"{indent}{k.ljust(width)}  {v}".rstrip() for k, v in items]
+    return "\n".join(lines) + "\n"
+
+
+def _numeric(text):
+    t = text.strip().split(" ")[0].replace("..", "")
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return t in ("-", "nan", "inf")
