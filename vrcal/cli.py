@@ -262,8 +262,10 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 
 @main.command(short_help="Table 2 regenerated from the standards; --compare-paper checks the paper's.")
 @K_OPTION
-@click.option("--format", "fmt", type=click.Choice(["markdown", "csv", "json"]), default="markdown",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "markdown", "csv", "json", "yaml"]), default=None,
+              show_default="text", help="text: a table for people (stdout's default); markdown: the page "
+              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; other -o files "
+              "get markdown).")
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
@@ -282,11 +284,14 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
       vrcal table2
       vrcal table2 --K 4 --format csv
       vrcal table2 --compare-paper
+      vrcal table2 --format markdown -o table2.md
     """
     from vrcal.inverse import DEFAULT_K_PER_S
-    from vrcal.model.table2 import table2_text
+    from vrcal.model.table2 import FORMATS, table2_text
+    from vrcal.textout import choose_format
 
-    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
+    kind = choose_format(fmt, output, default="text" if output in (None, "-") else "markdown", allowed=FORMATS)
+    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)
 
 # --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
