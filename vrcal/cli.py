@@ -249,12 +249,15 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
 
+    from vrcal.textout import table
+
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
         for name in sorted(figures):
             atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
-            click.echo(str(d / name))
+        click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
+                         ["wrote", "what"], align="ll"), nl=False)
     finally:
         for fig in figures.values():
             plt.close(fig)
@@ -525,9 +528,10 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """Run a multi-body SCENE_FILE (YAML): spheres bouncing on a floor and on each other.
 
     At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
-    impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
-    and scene.gif (side view) into the output directory and prints a summary. The scene file
-    schema is in README.md ("The scene file") and examples/*.yaml.
+    impulse from Eq. 5. Prints a summary; writes NAME.png (height vs time, Figure 8; with
+    --compare a difference panel), NAME.gif (side view, Figure 9), NAME-trajectories.csv and
+    NAME-contacts.csv into the output directory (NAME = the scene file's name). The scene file
+    schema is in docs/scene.md and examples/*.yaml.
 
     \b
     Examples:
