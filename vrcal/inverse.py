@@ -156,12 +156,12 @@ def fit_text(result):
     fixed = r.get("fixed")
     if fixed and isinstance(fixed.get("v_m_per_s"), dict):
         x = fixed["x_m"]
-        rows.append([f"v at x = {number(x * 1e3, 4)} mm [m/s]",
+        rows.append([f"v at x = {x * 1e3:.4g} mm [m/s]",
                      *(number(_or_inf(lambda t: eq.virtual_speed_m_per_s(x, t), T[k]), 4) for k in _LEVELS),
                      "v = x/(2T) (Eq. 10)"])
     elif fixed:
         v = fixed["v_m_per_s"]
-        rows.append([f"x at v = {number(v, 4)} m/s [mm]",
+        rows.append([f"x at v = {v:.4g} m/s [mm]",
                      *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in _LEVELS), "x = 2vT (Eq. 10)"])
     answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. {number(eps['max'], 3)}), "
               f"T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
