@@ -248,7 +248,6 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     from vrcal.fileio import atomic_savefig
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
-
     from vrcal.textout import table
 
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))

@@ -38,7 +38,7 @@ from vrcal.fileio import dumps
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
 from vrcal.model.standards import ball_epsilon
-from vrcal.textout import machine_document, number, table, wrap
+from vrcal.textout import machine_document, table, wrap
 
 #: text: aligned table for people (<= 100 columns); markdown: the docs' page; csv, json, yaml: machines.
 FORMATS = ("text", "markdown", "csv", "json", "yaml")
@@ -360,7 +360,7 @@ def _table_text(table_):
     text += table(rows, head, align="lrrrrrrrrr")
     text += "\n" + wrap(f"ε: Eq. (9), ε = √(h/H), {table_['convention']}; [1] Tab. 1: the same with the paper's "
                          "Table 1 heights as printed; [1] Tab. 2: the paper's Table 2 column.")
-    text += wrap(f"T = −ln(ε)/K (Eq. 7). Virtual body: x = R/2 (the nominal radius halved), v = x/(2T) "
+    text += wrap("T = −ln(ε)/K (Eq. 7). Virtual body: x = R/2 (the nominal radius halved), v = x/(2T) "
                  "(Eq. 10) for ε nominal; v min..max: the v for ε min..max at the same x. The paper's "
                  "own Table 2 follows T = v/(2x) instead: vrcal table2 --compare-paper.")
     return text

@@ -264,7 +264,8 @@ def summary_text(result, contacts_file="contacts.csv", max_contacts=10):
     """
     s = result.scene
     eps = s.epsilon_matrix()
-    floor = "rigid" if s.floor_x_m == 0 else f"x = {number(s.floor_x_m * 1e3, 4)} mm, v = {number(s.floor_v_m_per_s, 4)} m/s"
+    floor = ("rigid" if s.floor_x_m == 0
+             else f"x = {number(s.floor_x_m * 1e3, 4)} mm, v = {number(s.floor_v_m_per_s, 4)} m/s")
     text = wrap(f"{s.name} ({result.engine})" + (f": {s.description}" if s.description else ""))
     text += wrap(f"K = {s.K_per_s:g} 1/s, {s.duration_s:g} s, g = {s.g_m_per_s2:g} m/s², friction μ = "
                  f"{s.friction_mu:g}, at rest below {s.rest_speed_m_per_s:g} m/s; floor {floor}")
