@@ -102,6 +102,27 @@ def emit(text, output):
         click.echo(f"wrote {output}", err=True)
 
 
+def emit_result(data, human, fmt, output, file_default="yaml"):
+    """Write a command's result: ``human(data)`` for people on stdout (the default), or the
+    full-precision machine file (``schema_version`` added) for ``--format json|yaml`` or an
+    ``-o`` file's extension (:func:`vrcal.textout.choose_format`); an ``-o`` file with another
+    extension gets ``file_default``."""
+    from vrcal.fileio import dumps
+    from vrcal.textout import choose_format, machine_document
+
+    to_file = output not in (None, "-")
+    kind = choose_format(fmt, output, default=file_default if to_file else "text",
+                         allowed=("text", "json", "yaml"))
+    emit(human(data) if kind == "text" else dumps(machine_document(data), kind), output)
+
+
+#: ``--format`` of a command with a result for people and for machines.
+FORMAT_OPTION = click.option(
+    "--format", "fmt", type=click.Choice(["text", "yaml", "json"]), default=None, show_default="text",
+    help="text: a table for people (stdout's default); yaml, json: the full-precision machine file "
+         "(also chosen by -o's extension .yaml/.yml/.json; other -o files get yaml).")
+
+
 K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
@@ -116,26 +137,29 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 @click.option("--v", "v_m_per_s", type=float, default=None, help="Fix the virtual body's speed v [m/s]; gives x.")
 @click.option("--n", "n", type=int, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of BALL: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
+    Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the full-
+    precision parameter file with schema_version and a unit in every key.
+
     \b
     Examples:
       vrcal fit basketball
       vrcal fit basketball --as-paper
-      vrcal fit football --K 4 --x 0.02 --format json -o football.json
+      vrcal fit basketball --format yaml
+      vrcal fit football --K 4 --x 0.02 -o football.json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball
+    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
     from vrcal.model.standards import get_ball
 
     b = get_ball(ball, standards_of(ctx))
     result = fit_ball(b, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper)
-    emit(dumps(result, fmt), output)
+    emit_result(result, fit_text, fmt, output)
 
 
 @main.command(short_help="epsilon of two colliding bodies (Eqs. 6 and 7).")
@@ -143,10 +167,11 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
 @click.argument("body_b")
 @K_OPTION
 @click.option("--as-paper", is_flag=True, help="Balls use the paper's Table 1 heights as printed.")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def pair(ctx, body_a, body_b, K, as_paper, fmt):
+def pair(ctx, body_a, body_b, K, as_paper, fmt, output):
     """epsilon of two colliding bodies from their virtual bodies (Eqs. 6 and 7).
 
     A body is a ball of the standards, 'floor' (rigid, x = 0), or 'x=DEPTH,v=SPEED'.
@@ -156,13 +181,13 @@ def pair(ctx, body_a, body_b, K, as_paper, fmt):
       vrcal pair basketball basketball
       vrcal pair tennis floor
       vrcal pair x=0.01,v=0.1 x=0.02,v=0.5 --K 4
+      vrcal pair basketball volleyball --format json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.inverse import DEFAULT_K_PER_S, pair_text
     from vrcal.inverse import pair as pair_epsilon
 
     result = pair_epsilon(body_a, body_b, DEFAULT_K_PER_S if K is None else K, standards_of(ctx), as_paper)
-    emit(dumps(result, fmt), None)
+    emit_result(result, pair_text, fmt, output)
 
 
 # --------------------------------------------------------------------------- plots and Table 2 (part: plots/table2)
@@ -223,13 +248,15 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     from vrcal.fileio import atomic_savefig
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
+    from vrcal.textout import table
 
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
         for name in sorted(figures):
             atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
-            click.echo(str(d / name))
+        click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
+                         ["wrote", "what"], align="ll"), nl=False)
     finally:
         for fig in figures.values():
             plt.close(fig)
@@ -237,8 +264,10 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 
 @main.command(short_help="Table 2 regenerated from the standards; --compare-paper checks the paper's.")
 @K_OPTION
-@click.option("--format", "fmt", type=click.Choice(["markdown", "csv", "json"]), default="markdown",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "markdown", "csv", "json", "yaml"]), default=None,
+              show_default="text", help="text: a table for people (stdout's default); markdown: the page "
+              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; other -o files "
+              "get markdown).")
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
@@ -257,11 +286,14 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
       vrcal table2
       vrcal table2 --K 4 --format csv
       vrcal table2 --compare-paper
+      vrcal table2 --format markdown -o table2.md
     """
     from vrcal.inverse import DEFAULT_K_PER_S
-    from vrcal.model.table2 import table2_text
+    from vrcal.model.table2 import FORMATS, table2_text
+    from vrcal.textout import choose_format
 
-    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
+    kind = choose_format(fmt, output, default="text" if output in (None, "-") else "markdown", allowed=FORMATS)
+    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)
 
 # --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
@@ -495,9 +527,10 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """Run a multi-body SCENE_FILE (YAML): spheres bouncing on a floor and on each other.
 
     At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
-    impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
-    and scene.gif (side view) into the output directory and prints a summary. The scene file
-    schema is in README.md ("The scene file") and examples/*.yaml.
+    impulse from Eq. 5. Prints a summary; writes NAME.png (height vs time, Figure 8; with
+    --compare a difference panel), NAME.gif (side view, Figure 9), NAME-trajectories.csv and
+    NAME-contacts.csv into the output directory (NAME = the scene file's name). The scene file
+    schema is in docs/scene.md and examples/*.yaml.
 
     \b
     Examples:

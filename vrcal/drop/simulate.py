@@ -48,8 +48,10 @@ from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: Output formats of :func:`sample_measurement` and ``vrcal simulate --format``.
 FORMATS = ("trajectory", "impacts", "apexes")
-#: CSV header of each format (the layouts vrcal.measurements auto-detects).
+#: Columns of each format (the keys of :func:`sample_measurement`'s result).
 HEADERS = {"trajectory": ("t", "y"), "impacts": ("t",), "apexes": ("bounce", "h")}
+#: Units written into the CSV header, ``t [s],y [m]`` (the readers of vrcal.measurements parse them).
+UNITS = {"t": "s", "y": "m", "h": "m"}
 
 _HOLD, _DOWN, _CONTACT, _UP, _REST = range(5)
 
@@ -494,7 +496,7 @@ def sample_measurement(drops, kind, *, fs_hz=240.0, noise_m=0.0, jitter_s=0.0, r
 def columns_csv(columns, kind):
     """CSV text of :func:`sample_measurement`'s columns with the header of ``kind`` (repeatable)."""
     header = HEADERS[kind]
-    lines = [",".join(header)]
+    lines = [",".join(f"{name} [{UNITS[name]}]" if name in UNITS else name for name in header)]
     cols = [np.asarray(columns[name]) for name in header]
     for row in zip(*cols):
         lines.append(",".join(str(int(v)) if name == "bounce" else f"{float(v):.10g}" for name, v in zip(header, row)))
