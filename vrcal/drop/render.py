@@ -339,3 +339,60 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
         writer.release()
     return {"t_s": t, "row_px": row, "col_px": col, "diameter_px": 2 * r_px, "source_fps": src_fps,
             "source_index": src}
+
+
+# --------------------------------------------------------------------------- what `vrcal simulate --format wav|video` writes
+
+#: The room of ``vrcal simulate --format wav``: a little noise and hum, one wall echo 5 ms later.
+ROOM = SoundScene(noise_rms=0.001, hum_amplitude=0.01, echoes=((0.005, 0.4),), level=0.5)
+
+#: The camera of ``vrcal simulate --format video``: 640x480, a little noise, motion blur.
+CAMERA = VideoScene(noise_sd=2.0, blur=True)
+
+
+def simulate_recording(path, ball_name, kind, *, fs_hz=None, seed=0, standards=None, **drop):
+    """Simulate one drop (:func:`vrcal.drop.simulate.simulate_drop`) and write its sound or video.
+
+    Parameters
+    ----------
+    path : str
+        output file (``.wav``; ``.avi`` for a video)
+    ball_name : str
+        a ball of the standards, or a free name with ``mass_kg`` and ``diameter_m`` in ``drop``
+    kind : {"wav", "video"}
+    fs_hz : float or None
+        sample rate [Hz] (default 48000) or frame rate (default 30) of the recording
+    seed : int
+        noise seed
+    standards : dict or None
+    **drop :
+        the drop's parameters (``drop_height_m``, ``n_bounces``, ``epsilon``, ``effects``,
+        ``still_s``, ``mass_kg``, ``diameter_m``, ...)
+
+    Returns
+    -------
+    str
+        a one-line summary of what was written (the truth: impact times or frames)
+    """
+    from vrcal.drop.simulate import simulate_drop
+
+    drops, props = simulate_drop(ball_name, standards=standards, **drop)
+    t = drops.impact_times_s[0]
+    if kind == "wav":
+        fs = int(fs_hz or 48000)
+        x = impact_sound(t, drops.impact_speeds_m_per_s[0], fs_hz=fs, scene=ROOM, seed=seed)
+        write_wav(path, x, fs)
+        return (f"wrote {path}: {t.size} impacts at t = {t[0]:.4f} .. {t[-1]:.4f} s, "
+                f"{fs / 1000:g} kHz, {x.shape[0] / fs:.2f} s")
+    if kind == "video":
+        D = float(np.mean(props.diameter_m))
+        apex = float(np.max(drops.apex_heights_m[0])) + D
+        scene = CAMERA
+        m_per_px = max(apex / (scene.floor_row - 30.0), D / 60.0)
+        import dataclasses
+
+        scene = dataclasses.replace(scene, fps=float(fs_hz or 30.0), m_per_px=m_per_px)
+        truth = render_video(path, drops, D, scene=scene, seed=seed)
+        return (f"wrote {path}: {truth['t_s'].size} frames at {scene.fps:g} fps, {scene.width}x{scene.height} px, "
+                f"ball {truth['diameter_px']:.1f} px wide")
+    raise UsageError(f"unknown recording kind '{kind}' (wav, video)")

@@ -61,6 +61,7 @@ SNR = 5.0                #: ... and this many times the noise level (the median 
 REFRACTORY_S = 4e-3      #: candidates closer than this are one event [s]
 RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's predicted one
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
+MAX_LISTED = 6           #: rejected events listed one by one in the notes
 
 
 @dataclass(frozen=True)
@@ -484,8 +485,12 @@ def track_sound(path, *, progress=None):
     notes.append(f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce sequence "
                  f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
                  f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
-    for i in sorted(reasons):
+    shown = sorted(reasons)
+    for i in shown[:MAX_LISTED]:
         notes.append(f"event at t = {onsets.t_s[i]:.4f} s ({onsets.snr_db[i]:.0f} dB) rejected: {reasons[i]}")
+    if len(shown) > MAX_LISTED:
+        notes.append(f"... and {len(shown) - MAX_LISTED} more events off the bounce sequence rejected "
+                     f"(t = {onsets.t_s[shown[MAX_LISTED]]:.3f} - {onsets.t_s[shown[-1]]:.3f} s)")
     t = onsets.t_s[chain]
     dt = np.diff(t)
     r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")
