@@ -128,6 +128,8 @@ def read_audio(path):
         raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
     if head[:4] in (b"RIFF", b"RF64") and head[8:12] == b"WAVE":
         return _read_wav(path)
+    if Path(path).suffix.lower() in (".wav", ".wave"):
+        raise DataError(f"{path}: not a WAV file (no RIFF/WAVE header): a corrupt or misnamed file")
     return _read_with_av(path)
 
 
@@ -138,7 +140,7 @@ def _read_wav(path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fs, data = wavfile.read(path)
-    except (ValueError, EOFError, OSError, IndexError) as exc:
+    except (ValueError, EOFError, OSError, IndexError, UnboundLocalError) as exc:  # scipy's errors on bad files
         raise DataError(f"{path}: not a readable WAV file ({str(exc).strip() or type(exc).__name__}); "
                         "save the recording as WAV (PCM or float)") from None
     data = np.asarray(data)

@@ -19,9 +19,10 @@ How the ball is found
    the most frames with a steady size is the ball's (a hand, a person or a shadow fail
    either test). The ball's pixels are those near its colour *and* off the background.
 4. **Centre.** In the full-size frame, the ball's coverage ``alpha`` of each pixel is the
-   projection of ``(pixel - background)`` on ``(ball colour - background)`` in CIELAB
-   (lightness weighted 0.35, so a shadow, which mainly darkens, hardly counts), clipped
-   to 0..1. The centre is the alpha-weighted centroid over the ball's blob (grown by
+   projection of ``(pixel - background)`` on ``(ball colour - background)`` in BGR (where
+   an edge pixel is a weighted sum of ball and background); pixels far off that line (a
+   shadow, a hand) count 0; clipped to 0..2, not at 1, so that the shading of a ball lit
+   from above stays symmetric. The centre is the alpha-weighted centroid over the ball's blob (grown by
    3 px): sub-pixel, and unbiased under motion blur (blur spreads alpha symmetrically
    about the centre at mid-exposure).
 5. **Quality** (per frame, 0..1): the ball's alpha area over its median area, inverted
@@ -314,8 +315,11 @@ def _coarse_track(cv2, frames, bg, ball_lab, ball_area, prog):
         near_ball = _distance(cv2, lab, ball_w) < radius
         off_bg = _distance(cv2, lab, bgw) > 0.5 * radius
         mask = near_ball & off_bg
-        blobs = _blobs(cv2, mask, max(4, 0.2 * ball_area))
-        if blobs:
+        blobs = _blobs(cv2, mask, max(4, 0.2 * ball_area) if ball_area else 4)
+        if blobs and ball_area is None:  # the colour is given, the size not yet known: the largest blob
+            b = max(blobs, key=lambda b: b[1])
+            cols[i], rows[i], areas[i] = b[6][0], b[6][1], b[1]
+        elif blobs:
             def cost(b):
                 size = abs(math.log(b[1] / ball_area))
                 dist = 0.0 if last is None else math.hypot(b[6][1] - last[0], b[6][0] - last[1]) / math.sqrt(ball_area)
@@ -354,12 +358,33 @@ class _TiledMedian:
 
 
 def ball_coverage(cv2, crop, background, ball_lab):
-    """Coverage alpha (0..1) of the ball in each pixel of a crop (see the module docstring, step 4)."""
+    """Coverage alpha (0..2) of the ball in each pixel of a crop (see the module docstring, step 4).
+
+    The projection of ``(pixel - background)`` on ``(ball colour - background)`` in linear
+    BGR, where a pixel that mixes ball and background is their weighted sum; pixels far off
+    that line (a shadow, a hand) count 0. Not clipped at 1: a ball lit from above is lighter
+    than its mean colour on top and darker below, symmetrically, so the centroid stays put.
+    """
+    ball_bgr = cv2.cvtColor(np.clip(np.asarray(ball_lab, np.float32), 0, 255).astype(np.uint8).reshape(1, 1, 3),
+                            cv2.COLOR_LAB2BGR).reshape(3).astype(np.float32)
+    d = crop.astype(np.float32) - background.astype(np.float32)
+    c = ball_bgr[None, None, :] - background.astype(np.float32)
+    denom = np.maximum(np.sum(c * c, axis=2), 100.0)
+    alpha = np.sum(d * c, axis=2) / denom
+    perp = np.linalg.norm(d - alpha[..., None] * c, axis=2)
+    alpha[perp > 0.6 * np.sqrt(denom) + 8.0] = 0.0
+    return np.clip(alpha, 0.0, 2.0)
+
+
+def ball_presence(cv2, crop, background, ball_lab):
+    """Presence (0..1) of the ball in each pixel: the same projection in CIELAB with lightness
+    weighted 0.35, so that a ball in the shade, or a shadow (which mainly darkens), is judged by
+    its colour. It gives the ball's blob and area; :func:`ball_coverage` its centre."""
     w = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], dtype=np.float32)
     lab = _lab(cv2, crop) * w
     bgl = _lab(cv2, background) * w
     d = lab - bgl
-    c = (ball_lab * w).astype(np.float32) - bgl
+    c = (np.asarray(ball_lab, np.float32) * w) - bgl
     denom = np.maximum(np.sum(c * c, axis=2), 25.0)
     alpha = np.sum(d * c, axis=2) / denom
     perp = np.linalg.norm(d - alpha[..., None] * c, axis=2)
@@ -396,8 +421,10 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
         if y1 - y0 < 4 or x1 - x0 < 4:
             i += 1
             continue
-        alpha = ball_coverage(cv2, frame[y0:y1, x0:x1], bgmed.crop(y0, y1, x0, x1), ball_lab)
-        core = (alpha > 0.3).astype(np.uint8)
+        crop, back = frame[y0:y1, x0:x1], bgmed.crop(y0, y1, x0, x1)
+        presence = ball_presence(cv2, crop, back, ball_lab)
+        alpha = ball_coverage(cv2, crop, back, ball_lab)
+        core = (presence > 0.3).astype(np.uint8)
         k, labels, stats, cent = cv2.connectedComponentsWithStats(core, connectivity=8)
         if k > 1:
             j = 1 + int(np.argmax(stats[1:, 4]))
@@ -409,7 +436,7 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
                 yy, xx = np.mgrid[y0:y1, x0:x1]
                 row_f[i] = float((a * yy).sum() / total)
                 col_f[i] = float((a * xx).sum() / total)
-                area_f[i] = float((blob * (alpha > 0.5)).sum())
+                area_f[i] = float((blob * (presence > 0.5)).sum())
                 bx, by, bw, bh = (int(v) for v in stats[j, :4])
                 edge[i] = (y0 + by <= 0) or (x0 + bx <= 0) or (y0 + by + bh >= H) or (x0 + bx + bw >= W)
         i += 1
@@ -533,7 +560,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     min_area = max(4, int(0.00005 * frames[0].shape[0] * frames[0].shape[1]))
     if given_bgr is not None:
         ball_lab = _lab(cv2, np.uint8([[given_bgr]]))[0, 0]
-        probe = _coarse_track(cv2, frames[:: max(1, n // 60)], bg, ball_lab, 1e9, lambda *a: None)
+        probe = _coarse_track(cv2, frames[:: max(1, n // 60)], bg, ball_lab, None, lambda *a: None)
         ball_area = float(np.nanmedian(probe[2])) if np.any(np.isfinite(probe[2])) else float(min_area * 4)
         notes.append(f"ball colour: {color} (given)")
         seen = int(np.sum(np.isfinite(probe[2])))
@@ -652,14 +679,13 @@ def _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px
     # a frame-rate conversion: stamps of the frames left, or the frames evenly spaced over the same span
     if repeated.any() and fps is None:
         keep_all = np.flatnonzero(~repeated)
-        spaced = np.empty(n)
-        spaced[:] = np.nan
-        span = t[keep_all[-1]] - t[keep_all[0]]
-        spaced[keep_all] = t[keep_all[0]] + np.arange(keep_all.size) * span / max(keep_all.size - 1, 1)
+        spaced = np.full(n, np.nan)
+        rate = _source_rate(np.flatnonzero(repeated), n, container_fps if container_fps > 0 else 1 / np.median(
+            np.diff(t)))
+        spaced[keep_all] = t[keep_all[0]] + np.arange(keep_all.size) / rate
         res_stamp = _flight_residual(tt, rr)
         res_even = _flight_residual(spaced[idx], rr)
         if res_even < res_stamp:
-            rate = (keep_all.size - 1) / span if span > 0 else float("nan")
             notes.append(f"the frames left are evenly spaced at {rate:.3f} fps (flight residual {res_even:.2f} px "
                          f"against {res_stamp:.2f} px with the container's stamps)")
             t = spaced
@@ -721,6 +747,17 @@ def _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
                      trajectory=traj)
     return out
+
+
+def _source_rate(repeats, n, fps):
+    """Frame rate of the source of a frame-rate conversion [Hz]: with one repeat every k frames
+    (24 -> 30 fps: k = 5) it is ``fps (k - 1) / k``; otherwise ``fps`` times the share of frames left."""
+    if repeats.size >= 2:
+        d = np.diff(repeats)
+        k = int(np.median(d))
+        if k >= 2 and np.all(np.abs(d - k) <= 0):
+            return fps * (k - 1) / k
+    return fps * (n - repeats.size) / n
 
 
 def _flight_residual(t, row):
