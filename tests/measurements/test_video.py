@@ -4,8 +4,6 @@ ball-coloured decoy, a frame-rate conversion that repeats frames --, the scale f
 diameter, the floor, the check against g, the real video of a green ball, and bad videos.
 OpenCV is the optional extra 'video': these tests skip without it (and fail in CI)."""
 
-import dataclasses
-
 import numpy as np
 import pytest
 from helpers import require_extra, shared_file
@@ -26,36 +24,37 @@ def _opencv():
     require_extra("cv2", "video")
 
 
-def render(tmp_path, name="drop.avi", eps=0.75, H=0.9, n=6, **scene):
-    drops = simulate_drops(H, eps, n, BALL, release_time_s=0.25)
-    sc = VideoScene(m_per_px=0.0025, **scene)
-    path = tmp_path / name
+def render(directory, name="drop.avi", eps=0.75, H=0.6, n=5, **scene):
+    drops = simulate_drops(H, eps, n, BALL, release_time_s=0.2)
+    sc = VideoScene(m_per_px=0.0025, floor_row=300.0, height=320, **scene)
+    path = directory / name
     truth = render_video(path, drops, D, scene=sc, seed=1)
     return path, truth
 
 
-@pytest.mark.parametrize("scene", [
-    {},
-    {"noise_sd": 4.0},
-    {"blur": True, "noise_sd": 2.0},
-    {"clutter": True, "noise_sd": 2.0},
-], ids=["plain", "noise", "blur", "clutter"])
-def test_centre_within_half_a_pixel(tmp_path, scene):
-    path, truth = render(tmp_path, **scene)
+@pytest.fixture(scope="module")
+def hard(tmp_path_factory):
+    """Noise, motion blur and a cluttered background with a static ball-coloured decoy, at once."""
+    require_extra("cv2", "video")
+    return render(tmp_path_factory.mktemp("video"), blur=True, noise_sd=3.0, clutter=True)
+
+
+@pytest.mark.parametrize("case", ["plain", "hard"])
+def test_centre_within_half_a_pixel(tmp_path, hard, case):
+    path, truth = render(tmp_path) if case == "plain" else hard
     vt = track_video(path, diameter_m=D)
-    kept = vt.kept
-    assert kept.sum() > 60
+    kept = vt.kept & ~truth["straddles_impact"]  # a blurred frame spanning an impact has no single centre
+    assert kept.sum() > 40
     err = np.hypot(vt.row_px[kept] - truth["row_px"][kept], vt.col_px[kept] - truth["col_px"][kept])
     assert np.max(err) < 0.5
     assert abs(vt.diameter_px / truth["diameter_px"] - 1) < 0.03
     assert abs(vt.g_measured / 9.80665 - 1) < 0.05
 
 
-def test_trajectory_gives_epsilon_within_0_005(tmp_path):
+def test_trajectory_gives_epsilon_within_0_005(hard):
     from vrcal.discovery.ranking import discover
 
-    path, truth = render(tmp_path, blur=True, noise_sd=2.0, clutter=True)
-    data = read_measurement(path, diameter_m=D)
+    data = read_measurement(hard[0], diameter_m=D)
     assert isinstance(data, Trajectory)
     assert data.release_index > 0
     assert abs(np.min(data.y_m)) < 0.01  # heights are of the ball's bottom above the floor
@@ -75,8 +74,8 @@ def test_a_frame_rate_conversion_is_found_and_undone(tmp_path):
     assert np.max(err) < 0.5
 
 
-def test_a_wrong_frame_rate_shows_in_g(tmp_path):
-    path, _ = render(tmp_path)
+def test_a_wrong_frame_rate_shows_in_g(hard):
+    path, _ = hard
     vt = track_video(path, diameter_m=D, fps=120.0)  # as if a 4x slow-motion video were read at its capture rate
     assert vt.g_measured > 9.81 * 10
     vt = track_video(path, diameter_m=D, fps=7.5)
@@ -84,11 +83,12 @@ def test_a_wrong_frame_rate_shows_in_g(tmp_path):
     assert any("slow-motion" in n for n in vt.notes)
 
 
-def test_color_and_roi_help_and_are_checked(tmp_path):
-    path, truth = render(tmp_path, clutter=True)
-    vt = track_video(path, diameter_m=D, color="#28a028", roi="200,0,240,480")
-    kept = vt.kept
-    assert np.max(np.abs(vt.row_px[kept] + 0 - truth["row_px"][kept])) < 0.5  # rows unchanged by a region at y=0
+def test_color_and_roi_help_and_are_checked(hard):
+    path, truth = hard
+    vt = track_video(path, diameter_m=D, color="#28a028", roi="200,0,240,320")
+    kept = vt.kept & ~truth["straddles_impact"]
+    assert kept.sum() > 40
+    assert np.max(np.abs(vt.row_px[kept] - truth["row_px"][kept])) < 0.5  # the region starts at y = 0
     assert np.max(np.abs(vt.col_px[kept] + 200 - truth["col_px"][kept])) < 0.5
     assert parse_color("green") == (50, 150, 50) and parse_color("#ff0000") == (0, 0, 255)
     with pytest.raises(UsageError, match="--color"):

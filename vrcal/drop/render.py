@@ -291,7 +291,9 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
     Returns
     -------
     dict
-        ``t_s`` (source time of each frame), ``row_px``, ``col_px`` (ball centre), ``diameter_px``
+        ``t_s`` (source time of each frame), ``row_px``, ``col_px`` (ball centre), ``diameter_px``,
+        ``straddles_impact`` (frames whose exposure spans an impact: their centre is the mean
+        over a path that turns, not the centre at the frame time)
     """
     try:
         import cv2
@@ -337,8 +339,12 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
             if progress and i % 30 == 0:
                 progress(i / n_frames, "rendering")
         writer.release()
+    impacts = drops.impact_times_s[0]
+    straddles = np.zeros(n_frames, dtype=bool)
+    if scene.blur:  # the exposure spans an impact: the blurred image averages a V-shaped path
+        straddles = np.min(np.abs(t[:, None] - impacts[None, :]), axis=1) < 0.5 * scene.exposure_s
     return {"t_s": t, "row_px": row, "col_px": col, "diameter_px": 2 * r_px, "source_fps": src_fps,
-            "source_index": src}
+            "source_index": src, "impact_times_s": impacts, "straddles_impact": straddles}
 
 
 # --------------------------------------------------------------------------- what `vrcal simulate --format wav|video` writes
