@@ -610,7 +610,10 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     step = np.abs(np.diff(row[gi]))
     moving = gi[1:][step > 0.05 * math.sqrt(area_ref)]
     span = gi[(gi >= moving[0]) & (gi <= moving[-1])] if moving.size >= 3 else gi
-    diameter_px = 2.0 * math.sqrt(float(np.median(area[span])) / math.pi)
+    # the slowest half of those frames: the least motion blur (which widens the blob)
+    speed = np.abs(np.gradient(row[span])) if span.size > 2 else np.zeros(span.size)
+    slow = span[np.argsort(speed)[: max(3, span.size // 2)]]
+    diameter_px = 2.0 * math.sqrt(float(np.median(area[slow])) / math.pi)
     if scale_m_per_px is not None:
         scale = float(scale_m_per_px)
         notes.append(f"scale: {scale * 1e3:.4g} mm/px (given); the ball looks {diameter_px:.1f} px wide")
