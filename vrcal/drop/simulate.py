@@ -536,6 +536,21 @@ def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=
     str
         CSV text with the header of ``kind``
     """
+    drops, _props = simulate_drop(ball_name, drop_height_m=drop_height_m, n_bounces=n_bounces, epsilon=epsilon,
+                                  K_per_s=K_per_s, x_m=x_m, v_m_per_s=v_m_per_s, effects=effects, still_s=still_s,
+                                  mass_kg=mass_kg, diameter_m=diameter_m, standards=standards)
+    columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
+    return columns_csv(columns, kind)
+
+
+def simulate_drop(ball_name, *, drop_height_m=None, n_bounces=10, epsilon=None, K_per_s=None, x_m=None,
+                  v_m_per_s=None, effects=None, still_s=0.2, mass_kg=None, diameter_m=None, standards=None):
+    """One drop of a named ball as ``vrcal simulate`` makes it (parameters as :func:`simulate_csv`).
+
+    Returns
+    -------
+    (Drops, BallProperties)
+    """
     from vrcal.model import restitution as eq
     from vrcal.model.standards import ball_epsilon
 
@@ -566,6 +581,4 @@ def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=
         raise UsageError(f"--still must be >= 0 [s], got {still_s:g}")
     if not (0 < epsilon <= 1):
         raise UsageError(f"epsilon must lie in (0, 1], got {epsilon:g}")
-    drops = simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s)
-    columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
-    return columns_csv(columns, kind)
+    return simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s), props
