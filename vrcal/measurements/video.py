@@ -1,8 +1,8 @@
 """Video recordings of a drop (the containers a phone writes, read with OpenCV): the ball's trajectory.
 
 This module owns finding the ball in every frame (:func:`track_video`), the frame times
-(container time stamps, repeated and dropped frames), the scale from the ball's apparent
-diameter, the floor from the bounces, and the ``video`` reader of
+(container time stamps, repeated and dropped frames), the length scale (from g and the
+ball's apparent diameter), the floor from the bounces, and the ``video`` reader of
 :data:`vrcal.measurements.FORMATS` (:func:`parse`), which returns a
 :class:`~vrcal.measurements.types.Trajectory`. OpenCV is the optional extra ``video``
 (``pip install 'vrcal[video]'``, package opencv-python-headless).
@@ -18,15 +18,18 @@ How the ball is found
    compact blobs that differ from the background (in CIELAB), the colour that appears in
    the most frames with a steady size is the ball's (a hand, a person or a shadow fail
    either test). The ball's pixels are those near its colour *and* off the background.
-4. **Centre.** In the full-size frame, the ball's coverage ``alpha`` of each pixel is the
-   projection of ``(pixel - background)`` on ``(ball colour - background)`` in BGR (where
-   an edge pixel is a weighted sum of ball and background); pixels far off that line (a
-   shadow, a hand) count 0; clipped to 0..2, not at 1, so that the shading of a ball lit
-   from above stays symmetric. The centre is the alpha-weighted centroid over the ball's blob (grown by
-   3 px): sub-pixel, and unbiased under motion blur (blur spreads alpha symmetrically
-   about the centre at mid-exposure).
-5. **Quality** (per frame, 0..1): the ball's alpha area over its median area, inverted
-   when larger, lowered when the blob touches the frame's edge. Frames below
+4. **Centre and area.** In the full-size frame the ball's blob is where its presence (the
+   projection on the ball's colour in CIELAB, lightness weighted down) exceeds 0.5, its
+   holes (a specular highlight) filled (:func:`ball_blob`). Its coverage of each pixel
+   (:func:`ball_coverage`) is 1 inside and, along its edge, the projection of ``(pixel -
+   background)`` on ``(ball - background)`` in BGR, with ``ball`` the colour of the
+   nearest inside pixels -- so a ball lit from above (lighter on top, darker below) weighs
+   its halves alike, and a shadow beside it adds little. The centre is the centroid of
+   the coverage and the area its sum: sub-pixel, and the centre is unbiased under motion
+   blur (the edge band and the inside follow the streak, which is symmetric about the
+   centre at mid-exposure).
+5. **Quality** (per frame, 0..1): the ball's area over its median area, inverted when
+   larger, lowered when the blob touches the frame's edge. Frames below
    :data:`MIN_QUALITY` (ball lost, hidden by a hand, cut by the edge) are left out.
 
 Times, scale, floor and the y axis
@@ -37,17 +40,33 @@ Times, scale, floor and the y axis
   then the frames left are timed both by their stamps and evenly spaced over the same
   span, and the timing whose flights are better parabolas is kept (``--fps`` overrides
   the container's rate, e.g. for a slow-motion video).
-* **Scale** [m/px] = ``diameter_m`` / the ball's apparent diameter (the median
-  area-equivalent diameter of the slowest third of the frames), or ``scale_m_per_px``.
-* **Check against g.** Each flight between bounces is fitted with a parabola; its
-  curvature times the scale is g. A value far from 9.81 m/s² is reported (wrong
-  diameter, or a slow-motion video whose container rate is not the capture rate).
+* **The bounces** (:func:`fit_bounces`). The flights between bounces are fitted together
+  as parabolas of one curvature that leave and reach one contact row, consecutive ones
+  meeting there at the impact: the curvature in px/s² (g over the scale) and the centre's
+  row at contact, each with its standard error. The fall from the hand is not in it.
+* **Scale** [m/px] (:func:`choose_scale`): two measurements give it -- the flights'
+  curvature with standard gravity and the frame clock, and ``diameter_m`` over the ball's
+  apparent diameter (the median over the slower half of the flights' frames, uncertain by
+  its spread and :data:`EDGE_PX`). When they agree they are averaged with inverse-variance
+  weights (the flights usually dominate); when they disagree beyond 3 sigma and the flights
+  tell g to 2 %, the scale is the flights' (a clock is trusted over an apparent size, which
+  blur, shading, compression and the ball's distance change) and a note gives what the
+  diameter would have implied. A g from the diameter's scale more than 25 % off standard
+  gravity makes the frame rate itself suspect (a slow-motion video): the diameter's scale
+  is kept and a warning names the capture rate that would fit. ``scale_m_per_px`` overrides
+  both. A scale from g cannot tell an effect that changes the flights' acceleration alike
+  (buoyancy): a note says so.
 * **Floor and y axis.** Image rows grow downwards; heights are ``(row_c - row) * scale``,
-  where ``row_c`` is the centre's row at contact: the median of the crossings of the
-  parabolas of consecutive flights. So ``y`` is the height of the ball's bottom above the
-  floor (the centre at contact is one radius above it).
-* **The drop only.** The track starts at the still segment before release and ends once
-  the ball rests on the floor (what follows -- a hand picking it up -- is no bounce).
+  where ``row_c`` is the centre's row at contact from the bounce fit. So ``y`` is the
+  height of the ball's bottom above the floor (the centre at contact is one radius above it).
+* **The drop only.** The track starts at the still segment before release and ends with
+  the last flight resolved (at least four frames): hops too short to resolve, the ball at
+  rest or rolling, and a hand picking it up are no flights. A fall from
+  the hand that is no free fall with the bounces' g (air drag allowed) -- a hand that
+  pushes, a ball held nearer the camera than it bounces -- is left out with a note: the
+  track then starts at the first apex. A frame at a bounce whose ball lies above both
+  flights' parabolas spans the impact (its blurred image averages the path down and up)
+  and is left out.
 """
 
 from __future__ import annotations
@@ -156,6 +175,7 @@ class VideoTrack:
     trajectory: object = None
     background: np.ndarray = None   # small copy of the background (for figures)
     bounces: object = None          # BounceFit of the flights between bounces, or None
+    systematic_m: float = 0.0       # the centres' systematic uncertainty in heights [m] (CENTRE_SYSTEMATIC_PX)
     scale_down: float = 1.0
 
 
@@ -480,14 +500,18 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
 def _flights(t, row, min_frames=4):
     """Parabolas ``row = a t^2 + b t + c`` of the flights between bounces.
 
-    Bounces are the frames where the ball, moving down (row growing), turns up. Returns
+    Bounces are the frames where the ball, moving down (row growing), turns up or stops. Returns
     ``[(indices, coeffs, rms)]`` for flights with at least ``min_frames`` frames; the frames
     at each bounce are left out of both flights (the ball may be in contact).
     """
     dt = np.diff(t)
     v = np.diff(row) / dt
     step = float(np.median(dt))
-    bounce = [i for i in range(1, row.size - 1) if v[i - 1] > 0 and v[i] < 0 and row[i] >= row[i - 1]]
+    # a bounce: falling, then rising -- or stopping (a ball that lands and stays; the fall must be
+    # faster than a pixel a frame, so that the noise at an apex makes no bounce)
+    fall = np.diff(row)
+    bounce = [i for i in range(1, row.size - 1) if fall[i - 1] > 0 and (
+        fall[i] < 0 or (fall[i - 1] > 1.0 and fall[i] < 0.2 * fall[i - 1]))]
     gaps = [i + 1 for i in np.flatnonzero(dt > 3.5 * step)]  # a gap without the ball ends a flight
     bounds = [-1] + sorted(set(bounce) | set(gaps)) + [row.size]
     out = []
@@ -524,30 +548,13 @@ def _bounce_crossings(t, flights):
     return out
 
 
-def _track_end(t, row, flights, contact_row, tol_px, rest_s=0.3, gap_s=0.25, min_rest=3):
-    """One past the last frame of the drop: the last fitted flight, then its bounce frame and
-    the frames at rest on the floor for at most ``rest_s``, when the ball stays there for
-    ``min_rest`` frames or more. A frame that leaves the floor again (a hop of fewer than four
-    frames cannot be resolved as a flight), lies below it (the ball rolls towards the camera)
-    or follows a gap of ``gap_s`` without the ball ends the track; so does a hop right after
-    the last flight, whose bounce frame is then left out too."""
-    if not flights:
-        return row.size
-    last = int(flights[-1][0][-1]) + 1
-    i = last
-    if i < row.size and row[i] >= row[i - 1] and t[i] - t[i - 1] <= gap_s and row[i] <= contact_row + tol_px:
-        i += 1  # the bounce frame
-    rest = None
-    n_rest = 0
-    while i < row.size:
-        if abs(row[i] - contact_row) > tol_px or t[i] - t[i - 1] > gap_s:
-            break
-        rest = t[i] if rest is None else rest
-        if t[i] - rest > rest_s:
-            break
-        n_rest += 1
-        i += 1
-    return i if n_rest >= min_rest else last
+def _track_end(flights, n):
+    """One past the last frame of the drop: the last frame of the last flight fitted. What
+    follows -- a hop too short to resolve as a flight (fewer than four frames), the ball at
+    rest or rolling (a ball with a constant epsilon bounces ever lower and comes to rest at a
+    finite time; the frames after the last resolved flight tell little and mislead a model
+    that must bounce on), a hand picking it up -- is left out."""
+    return int(flights[-1][0][-1]) + 1 if flights else n
 
 
 def _fall_misfit_px(t, row, fall, curvature):
@@ -656,12 +663,16 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     quality = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0 / np.where(ratio > 0, ratio, np.inf)), 0.0)
     quality = np.where(edge, 0.5 * quality, quality)
     quality = np.nan_to_num(quality)
-    # repeated frames (a frame-rate conversion): the small frame equals the one before
-    mad = np.r_[np.inf, np.mean(np.abs(np.diff(frames.astype(np.int16), axis=0)), axis=(1, 2, 3))]
-    typical = float(np.median(mad[1:]))
-    repeated = mad < max(0.02, 0.15 * typical)
-    if np.all(repeated[1:]):
-        repeated[:] = False  # a still video: nothing is "repeated"
+    # repeated frames (a frame-rate conversion): the small frame equals the one before, while the
+    # ones before and after it changed (a still scene -- a noise-free video with the ball at rest or
+    # out of view -- repeats nothing)
+    mad = np.r_[np.inf, np.mean(np.abs(np.diff(frames.astype(np.int16), axis=0)), axis=(1, 2, 3)), np.inf]
+    typical = float(np.median(mad[1:-1]))
+    same = mad < max(0.02, 0.15 * typical)
+    repeated = np.r_[False, same[1:-1] & ~same[:-2] & ~same[2:]]
+    # ... and the ball's centre is the same to the last bit (a slow ball in a noise-free video
+    # can leave the small copy unchanged, not the full frame)
+    repeated[1:] &= (row[1:] == row[:-1]) & (col[1:] == col[:-1])
     # times
     t, timing_note = _frame_times(stamps, container_fps, fps, repeated)
     notes += timing_note
@@ -759,8 +770,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     if fit is not None and fit.n_flights >= 2:
         contact_row = fit.contact_row_px
         notes.append(f"floor: the ball's centre at contact is at row {contact_row:.2f} +/- "
-                     f"{fit.contact_row_sd_px:.2f} px (where the {fit.n_flights} flights between bounces, fitted as "
-                     "parabolas of one curvature, meet); heights are of the ball's bottom above the floor, "
+                     f"{fit.contact_row_sd_px:.2f} px (where the {fit.n_flights} flights between bounces, fitted "
+                     "together, meet); heights are of the ball's bottom above the floor, "
                      "(row_c - row) x scale")
     else:
         contact_row = float(np.max(rr[release:])) if release < rr.size else float(np.max(rr))
@@ -773,7 +784,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
         still = np.abs(rr[:release] - rr[release - 1]) <= max(2.0, 4 * noise)
         moving = np.flatnonzero(~still)
         start = int(moving[-1]) + 1 if moving.size else 0
-    end = _track_end(tt, rr, flights, contact_row, max(2.0, 4 * noise))
+    end = _track_end(flights, rr.size)
     if start > 0:
         notes.append(f"track starts at frame {idx[start]} (the ball moved before its still segment)")
     # the fall from the hand must be a fall: else the track starts at the first apex
@@ -796,8 +807,9 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
                          f"track starts at the first apex (t = {apex:.3f} s)")
             start = first
     if end < rr.size:
-        notes.append(f"track ends at frame {idx[end - 1]} (t = {tt[end - 1]:.3f} s), after the last bounce; "
-                     f"{rr.size - end} later frame(s) left out (the ball rests, rolls or is picked up)")
+        notes.append(f"track ends at frame {idx[end - 1]} (t = {tt[end - 1]:.3f} s), with the last flight "
+                     f"resolved; {rr.size - end} later frame(s) left out (hops too short to resolve, the ball at "
+                     "rest, rolling or picked up)")
     keep = np.zeros(rr.size, dtype=bool)
     keep[start:end] = True
     straddle = _straddling(tt, rr, flights)
@@ -813,16 +825,24 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     notes.append(f"ball measured in {good.sum()} of {n} frames; {sel.size} kept"
                  + (f"; {n_lost} frame(s) within the track left out (ball lost, hidden or cut by the edge; "
                     f"quality < {MIN_QUALITY})" if n_lost else ""))
+    notes.append(f"the centres are uncertain by about {CENTRE_SYSTEMATIC_PX} px ({CENTRE_SYSTEMATIC_PX * scale * 1e3:.2g} "
+                 "mm) beyond their noise from frame to frame (blur, compression, shading): smaller effects are not "
+                 "resolved")
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
-                     trajectory=traj, bounces=fit)
+                     trajectory=traj, bounces=fit, systematic_m=CENTRE_SYSTEMATIC_PX * scale)
     return out
 
 
+#: Systematic error of a ball centre [px] beyond the frame-to-frame noise (motion blur,
+#: compression, shading): about the largest mean error of the centres in the synthetic
+#: videos of ``benchmarks/bench_track.py`` (0.01-0.05 px), the scale of the smallest effect
+#: a video can resolve.
+CENTRE_SYSTEMATIC_PX = 0.05
 #: Uncertainty of the ball's apparent diameter from where its edge is drawn [px] (gamma,
 #: compression, optical blur), added to the spread of the diameter over the frames.
 EDGE_PX = 0.5
@@ -865,13 +885,19 @@ class BounceFit:
 
 
 def fit_bounces(t, row, flights):
-    """The flights between bounces as one model: parabolas of one curvature ``a`` that leave
-    and reach the same contact row ``row_c``, each consecutive pair meeting there at the
-    impact: ``row = row_c - a (t - t_i)(t_{i+1} - t)`` between impacts ``t_i`` and ``t_{i+1}``.
+    """The flights between bounces as one model: curves of one curvature ``a`` that leave and
+    reach the same contact row ``row_c``, each consecutive pair meeting there at the impact::
 
-    The fall from the hand (the first flight) is left out: a hand may push, and the ball may
-    start nearer the camera. Least squares over all the flights' frames (the frames at a
-    bounce are in no flight) give ``a``, ``row_c`` and their standard errors.
+        row = row_c - tau (T - tau) (a + s_i (2 tau - T) / T),  tau = t - t_i,  T = t_{i+1} - t_i
+
+    between impacts ``t_i`` and ``t_{i+1}``: a parabola, skewed by ``s_i`` (one per flight)
+    as air drag skews a flight (faster up than down), which would otherwise bias ``row_c``
+    where the flights are extrapolated to the floor. The fall from the hand (the first
+    flight) is left out: a hand may push, and the ball may start nearer the camera. Least
+    squares over all the flights' frames (the frames at a bounce are in no flight) give
+    ``a``, ``row_c`` and their standard errors. A contact that lasts (the ball resting on
+    the floor between landing and lift-off) is not modelled: the flights then meet above
+    the floor, by about the contact time times the impact speed over two.
 
     Parameters
     ----------
@@ -911,14 +937,20 @@ def fit_bounces(t, row, flights):
         prev = i
     frames = [i for i, _, _ in chain]
 
+    nt = len(times)
+
     def residual(p):
         a, rc = p[0], p[1]
-        ts = p[2:]
-        return np.concatenate([row[i] - (rc - a * (t[i] - ts[j0]) * (ts[j1] - t[i]))
-                               for i, (j0, j1) in zip(frames, owner)])
+        ts, skew = p[2:2 + nt], p[2 + nt:]
+        out = []
+        for n, (i, (j0, j1)) in enumerate(zip(frames, owner)):
+            tau, span = t[i] - ts[j0], ts[j1] - ts[j0]
+            out.append(row[i] - (rc - tau * (span - tau) * (a + skew[n] * (2.0 * tau - span) / span)))
+        return np.concatenate(out)
 
-    p0 = np.r_[a0, r0, times]
-    sol = least_squares(residual, p0, method="lm", x_scale=np.r_[a0, 1.0, np.full(len(times), 0.01)])
+    p0 = np.r_[a0, r0, times, np.zeros(len(chain))]
+    sol = least_squares(residual, p0, method="lm",
+                        x_scale=np.r_[a0, 1.0, np.full(nt, 0.01), np.full(len(chain), 0.01 * a0)])
     res = sol.fun
     dof = max(res.size - sol.x.size, 1)
     s2 = float(res @ res) / dof
@@ -927,7 +959,7 @@ def fit_bounces(t, row, flights):
         sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     except np.linalg.LinAlgError:
         sd = np.full(sol.x.size, np.nan)
-    ts = sol.x[2:]
+    ts = sol.x[2:2 + nt]
     return BounceFit(curvature_px_per_s2=float(sol.x[0]), curvature_sd_px_per_s2=float(sd[0]),
                      contact_row_px=float(sol.x[1]), contact_row_sd_px=float(sd[1]), impact_times_s=ts,
                      flights=[(i, ts[j0], ts[j1]) for i, (j0, j1) in zip(frames, owner)],
@@ -954,12 +986,10 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if not math.isfinite(g_rel):
         g_rel = float("inf")
     d_rel = diameter_sd_px / diameter_px
-    scale_d = diameter_m / diameter_px if diameter_m is not None else None
-    seen = (f"the ball's apparent diameter {diameter_px:.1f} +/- {diameter_sd_px:.1f} px"
-            + (f" and its {diameter_m * 1e3:.4g} mm give {scale_d * 1e3:.4g} mm/px" if scale_d else ""))
-    flights = (f"the {fit.n_flights} flight(s) between bounces curve by {g_px:.0f} +/- "
-               f"{2 * fit.curvature_sd_px_per_s2:.0f} px/s^2" if fit is not None else "")
+    seen = f"the ball's apparent diameter, {diameter_px:.1f} +/- {diameter_sd_px:.1f} px"
     clock = f"{'--fps' if fps_given else 'the container'}'s {fps:.3f} fps"
+    curved = (f"the curvature of the {fit.n_flights} flight(s) between bounces, {g_px:.5g} px/s^2 +/- "
+              f"{g_rel * 100:.2g} %" if fit is not None else "")
     if scale_m_per_px is not None:
         scale = float(scale_m_per_px)
         g_meas = g_px * scale
@@ -967,42 +997,44 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         if math.isfinite(g_meas):
             notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
         return scale, g_meas
+    scale_d = diameter_m / diameter_px
+    seen += f" for its {diameter_m * 1e3:.4g} mm"
     g_meas = g_px * scale_d
     if not (math.isfinite(g_meas) and g_rel < G_TELLS):
-        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen[4:]}"
-                     + (f"; {flights}, too few to tell g" if fit is not None else "; no flight between bounces "
-                        "to check it against g"))
+        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
+                     + ("too few flights between bounces to tell g" if fit is not None else
+                        "no flight between bounces to check it against g"))
         if math.isfinite(g_meas):
             notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
         return scale_d, g_meas
     ratio = g_meas / STANDARD_GRAVITY
     sigma = math.hypot(g_rel, d_rel)
     scale_g = STANDARD_GRAVITY / g_px
+    from_g = f"g ({STANDARD_GRAVITY} m/s^2 with {clock}) and {curved}"
     if abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
-        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen[4:]}")
+        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
         notes.append(f"WARNING: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
-                     f"{abs(ratio - 1) * 100:.0f} % off 9.81 -- no ball's apparent size is that wrong: the frame "
-                     f"rate is suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} "
-                     "fps: give --fps, or check --diameter")
+                     f"{abs(ratio - 1) * 100:.0f} % off 9.81 -- no apparent size is that wrong: the frame rate is "
+                     f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
+                     "give --fps, or check --diameter")
         return scale_d, g_meas
     if abs(ratio - 1) > 3 * sigma:
-        notes.append(f"scale: {scale_g * 1e3:.4g} mm/px from g: {flights} ({g_rel * 100:.2g} %), and g = "
-                     f"{STANDARD_GRAVITY} m/s^2 with {clock}; {seen}, with which the flights would give g = "
-                     f"{g_meas:.2f} m/s^2, {abs(ratio - 1) / sigma:.0f} sigma off: the apparent size is biased "
-                     "(blur, shading, the ball nearer or farther than its path) and is not used")
-        notes.append("the heights are scaled with g known: an effect that changes the flights' acceleration alike "
+        notes.append(f"scale: {scale_g * 1e3:.4g} mm/px from {from_g}")
+        notes.append(f"not used: {seen}, which gives {scale_d * 1e3:.4g} mm/px and with it g = {g_meas:.2f} m/s^2 "
+                     f"from the flights, {abs(ratio - 1) / sigma:.0f} sigma off (blur, shading, perspective or a wrong "
+                     "--diameter bias an apparent size; a clock is trusted over it)")
+        notes.append("the heights are scaled with g known: an effect that changes every flight's acceleration alike "
                      "(buoyancy) cannot be told from this video")
         return scale_g, g_meas
     w_g, w_d = 1.0 / g_rel ** 2, 1.0 / d_rel ** 2
     scale = math.exp((w_g * math.log(scale_g) + w_d * math.log(scale_d)) / (w_g + w_d))
     share = w_g / (w_g + w_d)
-    notes.append(f"scale: {scale * 1e3:.4g} mm/px, the weighted mean ({share * 100:.0f} % : {100 - share * 100:.0f} "
-                 f"%) of {scale_g * 1e3:.4g} mm/px from g ({flights}, {g_rel * 100:.2g} %, with g = "
-                 f"{STANDARD_GRAVITY} m/s^2 and {clock}) and {scale_d * 1e3:.4g} mm/px from {seen[4:]}, which agree "
-                 f"(g = {g_meas:.2f} m/s^2 with the diameter's scale)")
+    notes.append(f"scale: {scale * 1e3:.4g} mm/px, {share * 100:.0f} % from {from_g} ({scale_g * 1e3:.4g} mm/px), "
+                 f"{100 - share * 100:.0f} % from {seen} ({scale_d * 1e3:.4g} mm/px, with which the flights give "
+                 f"g = {g_meas:.2f} m/s^2): they agree")
     if share > 0.5:
-        notes.append("the heights are scaled mostly with g known: an effect that changes the flights' acceleration "
+        notes.append("the heights are scaled mostly with g known: an effect that changes every flight's acceleration "
                      "alike (buoyancy) cannot be told from this video")
     return scale, g_meas
 
