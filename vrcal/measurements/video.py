@@ -785,9 +785,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
         moving = np.flatnonzero(~still)
         start = int(moving[-1]) + 1 if moving.size else 0
     end = _track_end(flights, rr.size)
-    if start > 0:
-        notes.append(f"track starts at frame {idx[start]} (the ball moved before its still segment)")
     # the fall from the hand must be a fall: else the track starts at the first apex
+    fall_note = None
     if fit is not None and flights[0][0].size >= 5 and fit.n_flights >= 2:
         misfit = _fall_misfit_px(tt, rr, flights[0][0], fit.curvature_px_per_s2)
         flight_rms = float(np.median([f[2] for f in flights[1:]]))
@@ -801,11 +800,15 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
                    f"was held {abs(d_hold / diameter_px - 1) * 100:.0f} % {'nearer' if d_hold > diameter_px else 'farther from'} "
                    "the camera than its bounces" if abs(d_hold / diameter_px - 1) > 0.02 else
                    "; a hand that pushes, or a ball that moves towards or away from the camera")
-            notes.append(f"the fall from the hand is left out (frames {idx[start]}-{idx[first - 1]}): it is no free "
+            fall_note = (f"the fall from the hand is left out (frames {idx[start]}-{idx[first - 1]}): it is no free "
                          f"fall with the bounces' g -- its frames lie {misfit:.1f} px RMS from the best such fall, "
                          f"air drag allowed, while a flight between bounces lies {flight_rms:.2f} px from its parabola{why}; the "
                          f"track starts at the first apex (t = {apex:.3f} s)")
             start = first
+    if fall_note:
+        notes.append(fall_note)
+    elif start > 0:
+        notes.append(f"track starts at frame {idx[start]} (the ball moved before its still segment)")
     if end < rr.size:
         notes.append(f"track ends at frame {idx[end - 1]} (t = {tt[end - 1]:.3f} s), with the last flight "
                      f"resolved; {rr.size - end} later frame(s) left out (hops too short to resolve, the ball at "
