@@ -36,17 +36,17 @@ class Engine:
 ENGINES = {
     "mujoco": Engine("mujoco", "vrcal.engines.mujoco", "xml", True, "mujoco (PyPI)",
                      "pip install mujoco (or pip install 'vrcal[engines]')", 2e-3,
-                     "MJCF model, contact calibrated in MuJoCo", 4_000_000),
+                     "MJCF, contact calibrated in MuJoCo", 4_000_000),
     "ode": Engine("ode", "vrcal.engines.ode", "json", True, "libode8 (Debian)",
                   "apt-get install libode8", 1e-3,
-                  "bounce, bounce_vel, world settings (JSON + C)", 1_000_000),
+                  "bounce, world settings (JSON, C)", 1_000_000),
     "bullet": Engine("bullet", "vrcal.engines.bullet", "json", True, "pybullet (PyPI)",
                      "pip install pybullet (or pip install 'vrcal[engines]')", 1.0 / 240.0,
-                     "changeDynamics, engine parameters (JSON + Python)", 400_000),
+                     "changeDynamics etc. (JSON, Python)", 400_000),
     "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 1e-3,
-                     "SDF 1.7 world, ODE physics, <bounce>"),
+                     "SDF 1.7 world (ODE physics)"),
     "tables": Engine("tables", "vrcal.engines.tables", "text", False, "none (export only)", "", 1e-3,
-                     "PhysX, Unity, Box2D: value and combine mode"),
+                     "PhysX, Unity, Box2D values"),
 }
 
 

@@ -18,7 +18,6 @@ against the penetration a step allows (:func:`check_step`), and ``vrcal verify``
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, replace
 
@@ -314,7 +313,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"worst epsilon error {cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, "
                    f"hover {cal.hover_m * 1e3:.3g} mm (checked in MuJoCo)")
     elif eng.name in ("ode", "bullet"):
-        check_step(setup)
+        check_step(setup, eng.name)
         data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
@@ -322,7 +321,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             data["pair"] = pair
         text = dumps(data, "json")
     elif eng.name == "gazebo":
-        check_step(setup)                    # Gazebo runs ODE: the same limit
+        check_step(setup, "gazebo")           # Gazebo runs ODE: the same limit
         text = module.export_sdf(setup, pair, second)
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
@@ -407,34 +406,93 @@ def format_trade_off(setup, rows):
     return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")
 
 
-def check_step(setup, n_bounces=None):
-    """Refuse a time step whose penetration (up to v dt at the bounce) moves the last apex by > tolerance.
+#: How much faster than epsilon x the impact speed a ball leaves the floor in a step of dt, in units of
+#: ``g dt``: ODE and Bullet apply the restitution to the velocity the step's gravity has already added
+#: to (measured: basketball 4 phases x 3 bounces, ODE 1.0-1.3, Bullet 1.8-2.1 at dt = 1-3 ms).
+VELOCITY_STEP_FACTOR = {"ode": 1.5, "gazebo": 1.5, "bullet": 2.5}
 
-    ODE and Bullet detect a contact only once the ball is in the floor; it leaves from there,
-    so the next apex is lower by up to ``v dt``. The bound is ``e v dt / (2 h)`` at the last
-    (slowest) bounce.
+
+def step_bound(setup, engine="ode", n_bounces=None):
+    """The largest epsilon error a step of dt can make in ODE or Bullet, and the depth it allows.
+
+    ODE and Bullet detect a contact only once the ball is in the floor and leave from there, so
+    the next apex is lower by up to ``v dt`` (apex error up to ``e v dt / (2 h)`` at the last,
+    slowest bounce); and they reverse the velocity after the step's gravity has acted (velocity
+    error up to ``K e g dt / v``, K of :data:`VELOCITY_STEP_FACTOR`).
+
+    Returns
+    -------
+    (bound, depth_m) : float, float
+        the larger of both errors, and the deepest the fastest impact can sink (``v_1 dt``) [m]
     """
     n_bounces = setup.n_bounces if n_bounces is None else n_bounces
     speeds = setup.impact_speeds_m_per_s[:n_bounces]
     v_last = float(speeds[-1])
     e = float(setup.epsilons[n_bounces - 1])
     h_last = float(setup.model.apex_heights_m[0, n_bounces])
-    bound = e * v_last * setup.dt_s / (2.0 * h_last)
+    apex = e * v_last * setup.dt_s / (2.0 * h_last)
+    velocity = VELOCITY_STEP_FACTOR.get(engine, 1.5) * e * setup.g_m_per_s2 * setup.dt_s / v_last
+    return max(apex, velocity), float(np.max(speeds)) * setup.dt_s
+
+
+def check_step(setup, engine="ode", n_bounces=None):
+    """Refuse a time step at which ODE or Bullet may miss the tolerance or the penetration limit.
+
+    The message names a step that meets both: from :func:`step_bound`, then checked (and made
+    smaller until it passes) by running the engine when it is installed here.
+    """
+    bound, depth = step_bound(setup, engine, n_bounces)
+    if bound <= setup.tolerance and depth <= setup.penetration_limit_m:
+        return
+    scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
+    dt_ok = round_down(setup.dt_s * scale)
+    checked = _check_in_engine(setup, engine, dt_ok)
+    if checked is not None:
+        dt_ok, runs = checked
+        how = (f"--dt {dt_ok:g} meets both (checked in {'ODE' if engine == 'gazebo' else engine}: "
+               f"error {runs.worst_error:.3g}, "
+               f"{runs.penetration_m * 1e3:.3g} mm)")
+    else:
+        how = f"use --dt {dt_ok:g} or smaller"
     if bound > setup.tolerance:
-        dt_ok = round_down(setup.dt_s * setup.tolerance / bound)
-        raise UsageError(
-            f"time step {setup.dt_s:g} s is too large: the ball may sink up to {v_last * setup.dt_s * 1000:.2g} mm "
-            f"into the floor at bounce {n_bounces} before the contact acts, which can move epsilon by "
-            f"{bound:.3g} (> tolerance {setup.tolerance:g}); use --dt {dt_ok:g} or smaller"
-        )
-    depth = float(np.max(speeds)) * setup.dt_s
-    if depth > setup.penetration_limit_m:
-        dt_ok = round_down(setup.penetration_limit_m / float(np.max(speeds)))
-        raise UsageError(
-            f"time step {setup.dt_s:g} s is too large: the ball may sink up to {depth * 1e3:.3g} mm into the floor "
-            f"before the contact acts (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration); "
-            f"use --dt {dt_ok:g} or smaller"
-        )
+        what = (f"its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor, which can "
+                f"move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})")
+    else:
+        what = (f"the ball may sink up to {depth * 1e3:.3g} mm into the floor before the contact acts "
+                f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+    raise UsageError(f"time step {setup.dt_s:g} s is too large for {engine}: {what}; {how}")
+
+
+def _check_in_engine(setup, engine, dt_s, n_phases=N_PHASES, tries=6):
+    """(step, DropRuns) of the first of dt_s, 0.8 dt_s, ... that passes in the engine; None when the
+    engine is not installed here (or nothing passed)."""
+    from vrcal.engines import require_runtime
+    from vrcal.engines.common import check_steps
+    from vrcal.errors import EngineUnavailable
+
+    name = "ode" if engine == "gazebo" else engine
+    try:
+        require_runtime(name)
+    except (EngineUnavailable, UsageError):
+        return None
+    module = load(name)
+    eng = get_engine(name)
+    for _ in range(tries):
+        trial = replace(setup, dt_s=dt_s)
+        try:
+            check_steps(trial, n_phases, name, eng.max_steps)
+        except UsageError:
+            return None
+        params = module.export_params(trial, trial.n_bounces)
+        try:
+            runs = module.drop_test(params, trial, trial.n_bounces, n_phases)
+        except DataError:
+            runs = None
+        if runs is not None and runs.worst_error <= setup.tolerance and \
+                max(runs.penetration_m, runs.hover_m) <= setup.penetration_limit_m:
+            return dt_s, runs
+        dt_s = round_down(0.8 * dt_s)
+    return None
 
 
 def parse_exported(engine, text):
@@ -450,5 +508,3 @@ def parse_exported(engine, text):
     return text
 
 
-__all__ = ["Export", "build_setup", "check_step", "combine_epsilons", "export", "parse_exported", "trade_off",
-           "format_trade_off", "replace", "json"]
