@@ -180,7 +180,7 @@ def test_pair_contact_gives_the_eq6_value_in_mujoco():
 def test_trade_off_lists_the_damper_and_springs():
     require_engine("mujoco")
     setup = build_setup("basketball", "mujoco")
-    rows = M.trade_off(setup, n_phases=2, steps=[0.002])
+    rows = M.trade_off(setup, n_phases=2, steps=[2e-4])
     kinds = [c.contact.kind for c in rows]
     assert kinds[0] == "damper" and kinds.count("spring") == 2
     springs = [c for c in rows if c.contact.kind == "spring"]
