@@ -309,9 +309,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
-        summary = (f"mujoco: dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind} contact; "
-                   f"worst epsilon error {cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, "
-                   f"hover {cal.hover_m * 1e3:.3g} mm (checked in MuJoCo)")
+        summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: worst eps error "
+                   f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
+                   f"{cal.hover_m * 1e3:.3g} mm")
     elif eng.name in ("ode", "bullet"):
         check_step(setup, eng.name)
         data = module.export_params(setup, setup.n_bounces, pair)
@@ -382,9 +382,14 @@ def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, **options):
 
     setup = build_setup(ball, "mujoco", **options)
     rows = []
-    for cal in M.trade_off(setup, n_phases):
+    for dt, kind, w, cal in M.trade_off(setup, n_phases):
+        if cal is None:
+            rows.append({"dt_s": dt, "contact": kind, "stiffness_per_s2": M.IMPEDANCE * w * w, "damping_per_s": None,
+                         "margin_m": None, "worst_error": None, "median_error": None, "penetration_m": None,
+                         "hover_m": None, "ok": False})
+            continue
         c = cal.contact
-        rows.append({"dt_s": cal.setup.dt_s, "contact": c.kind, "stiffness_per_s2": c.stiffness,
+        rows.append({"dt_s": dt, "contact": c.kind, "stiffness_per_s2": c.stiffness,
                      "damping_per_s": c.damping, "margin_m": c.margin_m, "worst_error": cal.worst_error,
                      "median_error": cal.median_error, "penetration_m": cal.penetration_m, "hover_m": cal.hover_m,
                      "ok": bool(cal.ok)})
@@ -398,9 +403,15 @@ def format_trade_off(setup, rows):
     head = (f"MuJoCo trade-off: {setup.ball}, target epsilon {setup.epsilon:.4f}, {setup.integrator}, "
             f"{N_PHASES} phases x {setup.n_bounces} bounces\n"
             f"limits: tolerance {setup.tolerance:g}, penetration {setup.penetration_limit_m * 1e3:.3g} mm\n")
-    cells = [[f"{r['dt_s']:g}", r["contact"], number(r["stiffness_per_s2"], 3), number(r["damping_per_s"], 4),
-              f"{r['worst_error']:.4f}", f"{r['median_error']:.4f}", f"{r['penetration_m'] * 1e3:.3g}",
-              f"{r['hover_m'] * 1e3:.3g}", "yes" if r["ok"] else "no"] for r in rows]
+    def num(value, fmt):
+        return "-" if value is None else format(value, fmt)
+
+    cells = [[f"{r['dt_s']:g}", r["contact"], number(r["stiffness_per_s2"], 3),
+              "-" if r["damping_per_s"] is None else number(r["damping_per_s"], 4),
+              num(r["worst_error"], ".4f"), num(r["median_error"], ".4f"),
+              "-" if r["penetration_m"] is None else f"{r['penetration_m'] * 1e3:.3g}",
+              "-" if r["hover_m"] is None else f"{r['hover_m'] * 1e3:.3g}",
+              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else "no bounce"] for r in rows]
     body = table(cells, ["dt s", "contact", "S 1/s2", "D 1/s", "worst err", "median err", "pen mm", "hover mm",
                          "meets"])
     return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")

@@ -488,6 +488,11 @@ class Calibration:
         return self.meets_tolerance and self.meets_depth
 
     @property
+    def excess(self):
+        """The larger of worst error / tolerance and depth / penetration limit (<= 1: meets both)."""
+        return max(self.worst_error / self.setup.tolerance, self.depth_m / self.setup.penetration_limit_m)
+
+    @property
     def best_constant(self):
         """The epsilon the contact gives (mean velocity ratio over phases and bounces)."""
         return float(np.mean(self.runs.velocity_ratios))
@@ -536,9 +541,9 @@ def calibrate(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
     best = None
     for margin in (0.5 * v1 * setup.dt_s, 0.25 * (v1 + vn) * setup.dt_s, 0.5 * vn * setup.dt_s):
         cal = _calibrate_at(setup, n_phases, kind, 0.0, margin)
-        if best is None or (cal.meets_depth, -cal.worst_error) > (best.meets_depth, -best.worst_error):
+        if best is None or cal.excess < best.excess:
             best = cal
-        if best.meets_depth and best.worst_error <= 0.5 * setup.tolerance:
+        if best.excess <= 0.5:
             break
     return best
 
@@ -634,11 +639,16 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
 
 
 def trade_off(setup, n_phases=N_PHASES, steps=None):
-    """Rows (dt, contact, stiffness, damping, worst and median error, penetration, hover) to choose from.
+    """Calibrations to choose from: (dt, contact, stiffness, damping, errors, penetration, hover).
 
     For the setup's step and smaller ones (``steps``, default dt, dt/2, dt/5), the damper
     (semi-implicit integrators) and springs that sink the fastest impact about R/4 and R/16,
     each calibrated in MuJoCo.
+
+    Returns
+    -------
+    list of (dt_s, kind, omega_per_s, Calibration or None)
+        None where MuJoCo did not bounce the ball with that contact at that step
     """
     steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
     rows = []
@@ -648,15 +658,15 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
             check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
         except UsageError:
             continue
-        kinds = [("damper", None)] if default_kind(trial) == "damper" else []
+        kinds = [("damper", 0.0)] if default_kind(trial) == "damper" else []
         R = trial.radius_m
         kinds += [("spring", spring_omega(trial, R * f)) for f in (0.25, 0.0625)]
         for kind, w in kinds:
             try:
-                cal = calibrate(trial, n_phases, kind, w)
+                cal = calibrate(trial, n_phases, kind, w or None)
             except (UsageError, DataError):
-                continue
-            rows.append(cal)
+                cal = None
+            rows.append((trial.dt_s, kind, w, cal))
     return rows
 
 

@@ -228,19 +228,28 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
 /* world: */
 dWorldSetERP(world, {erp});
 dWorldSetCFM(world, {cfm});
-/* each step: {drag}dSpaceCollide(space, 0, near_callback); dWorldStep(world, {dt}); dJointGroupEmpty(contact_group); */
+/* each step: */
+{drag}dSpaceCollide(space, 0, near_callback);
+dWorldStep(world, {dt});
+dJointGroupEmpty(contact_group);
 """
 
 LAW_C = """\
-        {{  /* epsilon at this impact speed: eps(v) = 1 - (1 - eps_ref)(v / v_ref)^p */
-            const dReal *v = dBodyGetLinearVel(ball);
+        {{  /* epsilon at this impact speed: eps(v) = 1 - (1 - eps_1)(v / v_1)^p */
+            dBodyID b = dGeomGetBody(o1) ? dGeomGetBody(o1) : dGeomGetBody(o2);
+            const dReal *v = dBodyGetLinearVel(b);
             dReal vn = fabs(v[0]*c[i].geom.normal[0] + v[1]*c[i].geom.normal[1] + v[2]*c[i].geom.normal[2]);
             c[i].surface.bounce = 1 - (1 - {eps_ref})*pow(vn / {v_ref}, {p});
         }}
 """
 
-DRAG_C = ("{{ const dReal *v = dBodyGetLinearVel(ball); dReal s = sqrt(v[0]*v[0]+v[1]*v[1]+v[2]*v[2]); "
-          "dBodyAddForce(ball, -{c}*s*v[0], -{c}*s*v[1], -{c}*s*v[2]); }} ")
+DRAG_C = """\
+{{  /* air drag: F = -c |v| v, c = 1/2 rho C_d pi R^2 = {c} kg/m */
+    const dReal *v = dBodyGetLinearVel(ball);
+    dReal s = sqrt(v[0]*v[0] + v[1]*v[1] + v[2]*v[2]);
+    dBodyAddForce(ball, -{c}*s*v[0], -{c}*s*v[1], -{c}*s*v[2]);
+}}
+"""
 
 
 def c_snippet(params):

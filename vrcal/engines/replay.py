@@ -195,8 +195,16 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     H0, t0 = base.get("drop_height_m"), base.get("release_time_s")
     if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (eps0, H0, t0)):
         raise DataError(f"{from_json}: the baseline (epsilon, drop_height_m, release_time_s) is missing")
-    ex0 = export(None, eng.name, mass_kg=props.mass_kg, diameter_m=props.diameter_m, epsilon=float(eps0),
-                 drop_height_m=float(H0), g_m_per_s2=g, **{k: v for k, v in common.items() if k != "standards"})
+    base_options = dict(mass_kg=props.mass_kg, diameter_m=props.diameter_m, epsilon=float(eps0),
+                        drop_height_m=float(H0), g_m_per_s2=g, **{k: v for k, v in common.items() if k != "standards"})
+    try:
+        ex0 = export(None, eng.name, **base_options)
+    except UsageError:
+        # only a comparison: run the constant-epsilon export at this step anyway, and say so
+        base_options.update(tolerance=1.0, max_penetration_m=props.diameter_m)
+        ex0 = export(None, eng.name, **base_options)
+        notes.append("the constant-epsilon export misses --tolerance or --max-penetration at this step: "
+                     "it is run anyway, for the comparison only")
     module = load(eng.name)
     for name, e, release, offset in (("engine", ex, float(model["release_time_s"]), ex.setup.height_offset_m),
                                      ("constant", ex0, float(t0), 0.0)):
@@ -247,7 +255,10 @@ def format_replay(r):
     worst = float(np.max(np.abs(r.apex_errors("engine"))))
     text += (f"engine apexes within {100 * APEX_GOAL:g} % of the measured ones: "
              f"{'yes' if r.within_goal else 'no'} (worst {100 * worst:.1f} %)\n")
-    text += "".join(f"note: {n}\n" for n in r.notes)
+    import textwrap
+
+    for n in r.notes:
+        text += "\n".join(textwrap.wrap(f"note: {n}", 100, subsequent_indent="  ")) + "\n"
     return text
 
 

@@ -61,12 +61,12 @@ def format_table(setup, pair=None):
     cells = [[r["engine"], r["body"], f"{r['restitution']:.4f}", r["combine"], f"{r['threshold_m_per_s']:g}"]
              for r in rows]
     body = text_table(cells, ["engine", "body", "restitution", "combine", "threshold m/s"])
-    how, seen = ["how:"], set()
+    if setup.drag_coefficient or setup.restitution_exponent:
+        head += ("these engines get no air drag and one restitution per material: add the drag force yourself, or\n"
+                 "use the discover baseline's effective epsilon (vrcal export --epsilon EPS_BASELINE)\n")
+    how = ["how:"]
     for r in rows:
-        key = (r["engine"], r["how"])
-        if key in seen:
-            continue
-        seen.add(key)
-        label = f"  {r['engine']:<6} {r['body'][:14]:<14} "
-        how += textwrap.wrap(r["how"], 100, initial_indent=label, subsequent_indent=" " * len(label))
+        if r["body"] == setup.ball or r["combine"] == "custom":
+            label = f"  {r['engine']:<6} " + ("pair  " if r["combine"] == "custom" else "")
+            how += textwrap.wrap(r["how"], 100, initial_indent=label, subsequent_indent=" " * 9)
     return head + body + "\n".join(how) + "\n"

@@ -143,20 +143,23 @@ def _load_file(engine, text, ball, options):
 
 
 def _settings(engine, loaded, setup):
+    """What the engine was given, for people: a short ``{name: text}``."""
     if engine == "mujoco":
-        from vrcal.engines.mujoco import integrator_name, read_solref
-
         import re
 
+        from vrcal.engines.mujoco import integrator_name, read_solref
+
         m = re.search(r'<pair geom1="ball" geom2="floor"[^>]*margin="([^"]+)"', loaded)
-        return {"solref": read_solref(loaded), "margin_m": m.group(1) if m else "0",
-                "integrator": integrator_name(setup)}
+        solref = " ".join(f"{float(x):.5g}" for x in read_solref(loaded).split()) if read_solref(loaded) != "?" \
+            else "?"
+        margin = f"{1e3 * float(m.group(1)):.3g} mm" if m else "0"
+        return {"integrator": integrator_name(setup), "solref": solref, "margin": margin}
     if engine == "ode":
         c = loaded["contact"]
-        return {"mode": "|".join(c["mode"]), "bounce": c["bounce"], "bounce_vel": c["bounce_vel"],
+        return {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"],
                 "erp": loaded["world"]["erp"], "cfm": loaded["world"]["cfm"]}
-    return {"ball": loaded["changeDynamics"]["ball"]["restitution"],
-            "floor": loaded["changeDynamics"]["floor"]["restitution"]}
+    return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
+            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}"}
 
 
 def _range(values, digits=4):
@@ -169,7 +172,7 @@ def format_report(result):
     from vrcal.textout import table
 
     r, runs = result, result.runs
-    settings = ", ".join(f"{k} {v}" for k, v in sorted(r.settings.items()))
+    settings = ", ".join(f"{k} {v}" for k, v in r.settings.items())
     lines = [f"{r.engine} {r.engine_version}: {r.ball}, dt {r.dt_s:g} s, {runs.apex_ratios.shape[0]} contact "
              f"phase(s) x {runs.apex_ratios.shape[1]} bounce(s)"]
     import textwrap
