@@ -11,7 +11,8 @@ ball turning within a quarter of its radius from the floor), the worst and media
 error| over the balls that were exported, the largest penetration (or hover) as a fraction
 of the radius, the engine's own wall time per simulated second (one drop of 2 s: stepping
 and reading the ball's state, through vrcal's Python loop for ODE and PyBullet, MuJoCo's
-rollout in C), and the export's wall time per ball (for MuJoCo the calibration in MuJoCo). Then vrcal's own simulator on the same drops, a user's
+rollout in C), and the export's wall time per ball (for MuJoCo the calibration in MuJoCo).
+Then vrcal's own simulator on the same drops, a user's
 ball (a golf ball) at MuJoCo's default step, and, when the record is there, the ping-pong
 video replayed in each engine from its discover result. Prints numbers; asserts nothing.
 """
@@ -143,7 +144,8 @@ def pingpong(record, engines):
                 except UsageError as exc:
                     print(f"{name:<8} {dt:8.3g} refused: {str(exc)[:80]}")
                     continue
-                cells = [" ".join(f"{100 * e:+5.1f}" for e in r.apex_errors(k)) for k in ("engine", "vrcal", "constant")]
+                cells = [" ".join(f"{100 * e:+5.1f}" for e in r.apex_errors(k))
+                         for k in ("engine", "vrcal", "constant")]
                 print(f"{name:<8} {dt:8.3g} {cells[0]:>24} {cells[1]:>24} {cells[2]:>24} "
                       f"{1e3 * r.gaps_m['engine']:7.2f}")
 

@@ -491,7 +491,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               help="Verify this file written by 'vrcal export' instead of a fresh export.")
 @click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
               help="With --from: replay this measured record (the file discover read) in the engine.")
-@click.option("--data-format", "data_fmt", default=None, help="--against: the record's format (as discover's --format).")
+@click.option("--data-format", "data_fmt", default=None,
+              help="--against: the record's format (as discover's --format).")
 @click.option("--fs", "fs_hz", type=float, default=None, help="--against: frame rate [Hz] of a file without times.")
 @click.option("--scale", "scale_m_per_px", type=float, default=None, help="--against: metres per pixel.")
 @click.option("--y-down", is_flag=True, help="--against: the record's y axis points down.")

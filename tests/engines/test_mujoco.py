@@ -39,7 +39,8 @@ def test_scalar_and_array_give_the_same_numbers():
     assert np.allclose(M.epsilon_from_damping_ratio(z), [M.epsilon_from_damping_ratio(float(x)) for x in z])
     assert M.epsilon_from_damping_ratio(0.0) == 1.0
     v = np.array([1.0, 3.0, 6.0])
-    assert np.allclose(M.contact_epsilon(0.2, 500.0, v, 9.81), [M.contact_epsilon(0.2, 500.0, float(x), 9.81) for x in v])
+    assert np.allclose(M.contact_epsilon(0.2, 500.0, v, 9.81),
+                       [M.contact_epsilon(0.2, 500.0, float(x), 9.81) for x in v])
     assert M.damping_ratio_from_epsilon(1.0) == 0.0
 
 

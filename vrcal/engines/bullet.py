@@ -13,10 +13,9 @@ calibrated at the same K.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
-
-from dataclasses import replace
 
 from vrcal.engines.common import metadata, stepped_drop_test
 from vrcal.engines.ode import effect_params

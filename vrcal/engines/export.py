@@ -309,7 +309,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
-        summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: worst eps error "
+        summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: "
+                   f"worst eps error "
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
     elif eng.name in ("ode", "bullet"):

@@ -116,7 +116,8 @@ def export_sdf(setup, pair=None, second=None):
     )
     if setup.drag_coefficient or setup.restitution_exponent:
         head += (
-            f"<!-- from a discover result: Gazebo classic applies no air drag (C_d {setup.drag_coefficient:.4g}) and one\n"
+            "<!-- from a discover result: Gazebo classic applies no air drag "
+            f"(C_d {setup.drag_coefficient:.4g}) and one\n"
             "     restitution per surface: add them with a plugin, or export the baseline's effective epsilon\n"
             "     (vrcal export --epsilon EPS_BASELINE) for an engine without drag. -->\n"
         )

@@ -47,11 +47,11 @@ from scipy.optimize import brentq
 
 from vrcal.engines.common import (
     N_PHASES,
-    metadata,
     DropRuns,
     check_steps,
     drag_atol,
     drop_runs,
+    metadata,
     phase_shifts_m,
     round_down,
 )
@@ -357,7 +357,8 @@ def _mujoco():
     try:
         import mujoco
     except ImportError:
-        raise EngineUnavailable("MuJoCo is not installed: pip install mujoco (or pip install 'vrcal[engines]')") from None
+        raise EngineUnavailable("MuJoCo is not installed: pip install mujoco "
+                                "(or pip install 'vrcal[engines]')") from None
     return mujoco
 
 

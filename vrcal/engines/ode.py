@@ -14,10 +14,9 @@ from __future__ import annotations
 
 import ctypes
 import math
+from dataclasses import replace
 
 import numpy as np
-
-from dataclasses import replace
 
 from vrcal.drop.effects import AIR_DENSITY_KG_PER_M3
 from vrcal.engines import ode_ctypes as O

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from vrcal.engines import get_engine, load, require_runtime
-from vrcal.engines.common import DEFAULT_TOLERANCE, check_steps
+from vrcal.engines.common import DEFAULT_TOLERANCE
 from vrcal.errors import DataError, UsageError
 
 #: Each rebound apex of the engine should lie within this fraction of the measured one.
@@ -270,9 +270,9 @@ def replay_figure(r, ax=None):
     import matplotlib.pyplot as plt
 
     if ax is None:
-        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        _, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     else:
-        fig, ax2 = ax.figure, None
+        ax2 = None
     ax.plot(r.t_s, r.y_m, ".", color="0.5", ms=3, label="data")
     styles = {"engine": ("-", f"{r.engine} (exported)"), "vrcal": ("--", "vrcal model"),
               "constant": (":", "constant epsilon")}
