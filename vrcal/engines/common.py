@@ -589,8 +589,34 @@ def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases):
     return drop_runs(setup, shifts, runs, dt, g, n_bounces, True, drag_atol(setup))
 
 
+class RunsSummary:
+    """What a result with a :class:`DropRuns` ``runs`` reports of it (verify and MuJoCo's calibration)."""
+
+    @property
+    def worst_error(self):
+        """Largest |achieved - target| over bounces, phases, apex and velocity ratios."""
+        return self.runs.worst_error
+
+    @property
+    def median_error(self):
+        return self.runs.median_error
+
+    @property
+    def penetration_m(self):
+        return self.runs.penetration_m
+
+    @property
+    def hover_m(self):
+        return self.runs.hover_m
+
+    @property
+    def depth_m(self):
+        """The larger of penetration and hover [m]."""
+        return max(self.penetration_m, self.hover_m)
+
+
 @dataclass
-class VerifyResult:
+class VerifyResult(RunsSummary):
     """The outcome of a drop test in a real engine: :class:`DropRuns` and what was asked."""
 
     engine: str
@@ -618,18 +644,6 @@ class VerifyResult:
         return self.runs.worst_error
 
     @property
-    def median_error(self):
-        return self.runs.median_error
-
-    @property
-    def penetration_m(self):
-        return self.runs.penetration_m
-
-    @property
-    def hover_m(self):
-        return self.runs.hover_m
-
-    @property
     def mean_apex_ratio(self):
         return float(np.mean(self.runs.apex_ratios))
 
@@ -640,7 +654,7 @@ class VerifyResult:
     @property
     def depth_ok(self):
         """Penetration and hover within ``max_penetration_m``."""
-        return max(self.penetration_m, self.hover_m) <= self.max_penetration_m * (1 + 1e-9)
+        return self.depth_m <= self.max_penetration_m * (1 + 1e-9)
 
     @property
     def passed(self):

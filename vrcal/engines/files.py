@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 from vrcal.errors import DataError
+from vrcal.model.body import read_limited
 
 #: Largest exported file read [bytes]; an export is a few kB.
 MAX_FILE_BYTES = 4 * 1024 * 1024
@@ -21,17 +21,7 @@ MAX_FILE_BYTES = 4 * 1024 * 1024
 
 def read_file(path):
     """The UTF-8 text of an exported file; DataError (one line) for anything else."""
-    p = Path(path)
-    try:
-        if not p.is_file():
-            raise DataError(f"{path}: not a file")
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DataError(f"{path}: {size} bytes is too large for an exported engine file "
-                            f"(limit {MAX_FILE_BYTES} bytes)")
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    raw = read_limited(path, MAX_FILE_BYTES, "an exported engine file")
     if b"\x00" in raw:
         raise DataError(f"{path}: a binary file, not an exported engine file")
     try:

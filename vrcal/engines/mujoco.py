@@ -48,6 +48,7 @@ from scipy.optimize import brentq
 from vrcal.engines.common import (
     N_PHASES,
     DropRuns,
+    RunsSummary,
     check_steps,
     drag_atol,
     drop_runs,
@@ -447,34 +448,13 @@ def drop_test(mjcf, setup, n_bounces, n_phases):
 
 
 @dataclass
-class Calibration:
+class Calibration(RunsSummary):
     """The contact found by :func:`calibrate` and the drop test it passed (or failed)."""
 
     setup: object
     contact: Contact
     runs: DropRuns
     evaluations: int
-
-    @property
-    def worst_error(self):
-        return self.runs.worst_error
-
-    @property
-    def median_error(self):
-        return self.runs.median_error
-
-    @property
-    def penetration_m(self):
-        return self.runs.penetration_m
-
-    @property
-    def hover_m(self):
-        return self.runs.hover_m
-
-    @property
-    def depth_m(self):
-        """The larger of penetration and hover [m]."""
-        return max(self.penetration_m, self.hover_m)
 
     @property
     def meets_tolerance(self):

@@ -219,22 +219,11 @@ def read_discover_json(path):
         non-numeric key, an unknown ``schema_version``
     """
     import json
-    from pathlib import Path
 
     from vrcal.errors import DataError
 
-    p = Path(path)
     where = f"{path}"
-    try:
-        if not p.is_file():
-            raise DataError(f"{where}: not a file")
-        size = p.stat().st_size
-        if size > DISCOVER_JSON_MAX_BYTES:
-            raise DataError(f"{where}: {size} bytes is too large for a discover result "
-                            f"(limit {DISCOVER_JSON_MAX_BYTES} bytes)")
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DataError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    raw = read_limited(path, DISCOVER_JSON_MAX_BYTES, "a discover result")
     try:
         doc = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError:
@@ -275,6 +264,27 @@ def read_discover_json(path):
         for key in values:
             _num(values, key, f"{where}: parameters.{name}.{key}", lo=-math.inf)
     return doc
+
+
+def read_limited(path, max_bytes, what):
+    """The bytes of a regular file of at most ``max_bytes``; DataError (one line) otherwise.
+
+    ``what`` names the expected content in the message ("a discover result").
+    """
+    from pathlib import Path
+
+    from vrcal.errors import DataError
+
+    p = Path(path)
+    try:
+        if not p.is_file():
+            raise DataError(f"{path}: not a file")
+        size = p.stat().st_size
+        if size > max_bytes:
+            raise DataError(f"{path}: {size} bytes is too large for {what} (limit {max_bytes} bytes)")
+        return p.read_bytes()
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
 def _norm(name):
