@@ -500,7 +500,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               help="--against: height of the floor in the record's frame [m] (as discover's --floor).")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="--against: also draw the replay (heights and model - data) into this PNG/PDF/SVG.")
-@click.option("--bounces", "n_bounces", type=int, default=3, show_default=True, help="Bounces per drop (1-50).")
+@click.option("--bounces", "n_bounces", type=int, default=None, show_default="3, or as --impact-speed needs",
+              help="Bounces per drop (1-50).")
 @click.option("--phases", "n_phases", type=int, default=4, show_default=True,
               help="Drops with the impact moved across one time step (1-64).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
@@ -522,7 +523,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal verify basketball --engine mujoco
       vrcal verify --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
-      vrcal export basketball --engine bullet -o b.json && vrcal verify --engine bullet --file b.json
+      vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
       vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
     from vrcal.fileio import dumps

@@ -21,9 +21,6 @@ from vrcal.engines.common import metadata, stepped_drop_test
 from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError
 
-#: Default Bullet time step [s].
-DEFAULT_DT_S = 2e-4
-
 #: Bounce threshold [m/s] (Bullet's default 0.2).
 RESTITUTION_VELOCITY_THRESHOLD = 0.01
 

@@ -28,9 +28,6 @@ from vrcal.engines.common import (
 )
 from vrcal.errors import UsageError
 
-#: Default ODE time step [s].
-DEFAULT_DT_S = 2e-4
-
 #: Smallest incoming speed that bounces [m/s].
 BOUNCE_VEL_M_PER_S = 0.01
 

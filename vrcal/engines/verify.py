@@ -30,7 +30,7 @@ DEFAULT_PHASES = N_PHASES
 
 
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
-           tolerance=DEFAULT_TOLERANCE, n_bounces=N_BOUNCES, n_phases=N_PHASES, exported_text=None,
+           tolerance=DEFAULT_TOLERANCE, n_bounces=None, n_phases=N_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
            from_json=None, integrator=None, max_penetration_m=None, stiffness=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
@@ -45,7 +45,8 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     tolerance : float
         largest accepted |achieved - target|
     n_bounces, n_phases : int
-        bounces per drop (1 ... 50) and contact phases across one step (1 ... 64)
+        bounces per drop (1 ... 50; default 3, or as many as ``impact_speed`` needs) and contact
+        phases across one step (1 ... 64)
     exported_text : str, optional
         a file written by ``vrcal export`` to load instead of a fresh export: its time step,
         ball and target are used (``--epsilon`` overrides the target)
@@ -56,7 +57,8 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     """
     eng = get_engine(engine)
     version = require_runtime(eng.name)
-    n_bounces, n_phases = check_counts(n_bounces, n_phases)
+    asked = n_bounces
+    n_bounces, n_phases = check_counts(N_BOUNCES if asked is None else asked, n_phases)
     tolerance = check_positive(tolerance, "--tolerance")
     export_tolerance = max(tolerance, DEFAULT_TOLERANCE)   # a tight tolerance fails the test, not the export
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards, mass_kg=mass_kg,
@@ -72,11 +74,13 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                           mass_kg=mass_kg,
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
-                          max_penetration_m=max_penetration_m, n_bounces=n_bounces)
+                          max_penetration_m=max_penetration_m, n_bounces=asked)
         check_steps(pre, n_phases, eng.name, eng.max_steps)
         ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, **options)
         loaded = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
         setup = ex.setup
+    if asked is None:
+        n_bounces = setup.n_bounces                    # 3, or as many as --impact-speed LO:HI needs
     setup = replace(setup, n_bounces=n_bounces, tolerance=tolerance)
     from vrcal.engines.export import _check_bounces_reachable
 
