@@ -66,3 +66,15 @@ def test_cli_replay_writes_the_figure_and_needs_from(pingpong, tmp_path):
     assert png.stat().st_size > 10_000
     result = CliRunner().invoke(main, ["verify", "--against", record, "--engine", "mujoco"])
     assert result.exit_code == 2 and "give --from too" in result.output
+
+
+def test_a_joint_result_replays_the_run_of_the_record(tmp_path):
+    """A discover result of several records: the run whose source is the replayed file gives the release."""
+    from vrcal.engines.replay import release_state
+
+    doc = {"model": {"drop_height_m": 1.0, "release_time_s": 0.1, "epsilon": 0.8},
+           "runs": [{"source": "a/one.csv", "drop_height_m": 1.5, "release_time_s": 0.3},
+                    {"source": "b/two.csv", "model": {"drop_height_m": 2.0, "release_time_s": 0.4}}]}
+    assert release_state(doc, "x/two.csv")["drop_height_m"] == 2.0
+    assert release_state(doc, "one.csv")["release_time_s"] == 0.3
+    assert release_state(doc, "three.csv")["drop_height_m"] == 1.0

@@ -110,6 +110,32 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
     return data, [note] if note else []
 
 
+def release_state(doc, against):
+    """The release state (drop_height_m, release_time_s, epsilon) of the record ``against``.
+
+    A discover result of several records (a ``runs`` list, each with its ``source`` and release
+    state) gives the run whose source is that file; otherwise the result's ``model``.
+    """
+    import os
+
+    model = dict(doc["model"])
+    runs = doc.get("runs")
+    if isinstance(runs, list):
+        target = os.path.realpath(str(against))
+        for run in runs:
+            if not isinstance(run, dict):
+                continue
+            source = run.get("source") or (run.get("data") or {}).get("source")
+            if source and (os.path.realpath(str(source)) == target
+                           or os.path.basename(str(source)) == os.path.basename(target)):
+                state = run.get("model") if isinstance(run.get("model"), dict) else run
+                for key in ("drop_height_m", "release_time_s"):
+                    if isinstance(state.get(key), (int, float)) and math.isfinite(state[key]):
+                        model[key] = float(state[key])
+                break
+    return model
+
+
 def _flights(t_s, impacts_s, t_end):
     """(start, end) of each rebound flight: between consecutive impacts (the last up to t_end)."""
     edges = list(impacts_s) + [t_end]
@@ -162,7 +188,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     ball = doc["ball"]
     props = BallProperties(float(ball["mass_kg"]), float(ball["diameter_m"]), str(ball["name"]))
     g = float(doc["g_m_per_s2"])
-    model = doc["model"]
+    model = release_state(doc, against)
     effects = {e: dict(doc["parameters"].get(e, {})) for e in doc["effects"]}
     t_end = float(t[-1])
     # vrcal's own model: enough bounces to pass the end of the record
@@ -189,7 +215,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     # the engine: the export of the discover result, and the constant-epsilon export of its baseline
     common = dict(dt_s=dt_s, integrator=integrator, tolerance=tolerance, max_penetration_m=max_penetration_m,
                   stiffness=stiffness, standards=standards)
-    ex = export(None, eng.name, from_json=from_json, **common)
+    ex = export(None, eng.name, from_json=from_json, drop_height_m=float(model["drop_height_m"]), **common)
     base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
     eps0 = base.get("epsilon", doc.get("epsilon_baseline"))
     H0, t0 = base.get("drop_height_m"), base.get("release_time_s")
