@@ -102,6 +102,27 @@ def emit(text, output):
         click.echo(f"wrote {output}", err=True)
 
 
+def emit_result(data, human, fmt, output, file_default="yaml"):
+    """Write a command's result: ``human(data)`` for people on stdout (the default), or the
+    full-precision machine file (``schema_version`` added) for ``--format json|yaml`` or an
+    ``-o`` file's extension (:func:`vrcal.textout.choose_format`); an ``-o`` file with another
+    extension gets ``file_default``."""
+    from vrcal.fileio import dumps
+    from vrcal.textout import choose_format, machine_document
+
+    to_file = output not in (None, "-")
+    kind = choose_format(fmt, output, default=file_default if to_file else "text",
+                         allowed=("text", "json", "yaml"))
+    emit(human(data) if kind == "text" else dumps(machine_document(data), kind), output)
+
+
+#: ``--format`` of a command with a result for people and for machines.
+FORMAT_OPTION = click.option(
+    "--format", "fmt", type=click.Choice(["text", "yaml", "json"]), default=None, show_default="text",
+    help="text: a table for people (stdout's default); yaml, json: the full-precision machine file "
+         "(also chosen by -o's extension .yaml/.yml/.json; other -o files get yaml).")
+
+
 K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
@@ -116,26 +137,29 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 @click.option("--v", "v_m_per_s", type=float, default=None, help="Fix the virtual body's speed v [m/s]; gives x.")
 @click.option("--n", "n", type=int, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of BALL: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
+    Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the full-
+    precision parameter file with schema_version and a unit in every key.
+
     \b
     Examples:
       vrcal fit basketball
       vrcal fit basketball --as-paper
-      vrcal fit football --K 4 --x 0.02 --format json -o football.json
+      vrcal fit basketball --format yaml
+      vrcal fit football --K 4 --x 0.02 -o football.json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball
+    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
     from vrcal.model.standards import get_ball
 
     b = get_ball(ball, standards_of(ctx))
     result = fit_ball(b, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper)
-    emit(dumps(result, fmt), output)
+    emit_result(result, fit_text, fmt, output)
 
 
 @main.command(short_help="epsilon of two colliding bodies (Eqs. 6 and 7).")
@@ -143,10 +167,11 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
 @click.argument("body_b")
 @K_OPTION
 @click.option("--as-paper", is_flag=True, help="Balls use the paper's Table 1 heights as printed.")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def pair(ctx, body_a, body_b, K, as_paper, fmt):
+def pair(ctx, body_a, body_b, K, as_paper, fmt, output):
     """epsilon of two colliding bodies from their virtual bodies (Eqs. 6 and 7).
 
     A body is a ball of the standards, 'floor' (rigid, x = 0), or 'x=DEPTH,v=SPEED'.
@@ -156,13 +181,13 @@ def pair(ctx, body_a, body_b, K, as_paper, fmt):
       vrcal pair basketball basketball
       vrcal pair tennis floor
       vrcal pair x=0.01,v=0.1 x=0.02,v=0.5 --K 4
+      vrcal pair basketball volleyball --format json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.inverse import DEFAULT_K_PER_S, pair_text
     from vrcal.inverse import pair as pair_epsilon
 
     result = pair_epsilon(body_a, body_b, DEFAULT_K_PER_S if K is None else K, standards_of(ctx), as_paper)
-    emit(dumps(result, fmt), None)
+    emit_result(result, pair_text, fmt, output)
 
 
 # --------------------------------------------------------------------------- plots and Table 2 (part: plots/table2)
@@ -223,13 +248,15 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     from vrcal.fileio import atomic_savefig
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
+    from vrcal.textout import table
 
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
         for name in sorted(figures):
             atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
-            click.echo(str(d / name))
+        click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
+                         ["wrote", "what"], align="ll"), nl=False)
     finally:
         for fig in figures.values():
             plt.close(fig)
@@ -237,8 +264,10 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 
 @main.command(short_help="Table 2 regenerated from the standards; --compare-paper checks the paper's.")
 @K_OPTION
-@click.option("--format", "fmt", type=click.Choice(["markdown", "csv", "json"]), default="markdown",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "markdown", "csv", "json", "yaml"]), default=None,
+              show_default="text", help="text: a table for people (stdout's default); markdown: the page "
+              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; other -o files "
+              "get markdown).")
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
@@ -257,11 +286,14 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
       vrcal table2
       vrcal table2 --K 4 --format csv
       vrcal table2 --compare-paper
+      vrcal table2 --format markdown -o table2.md
     """
     from vrcal.inverse import DEFAULT_K_PER_S
-    from vrcal.model.table2 import table2_text
+    from vrcal.model.table2 import FORMATS, table2_text
+    from vrcal.textout import choose_format
 
-    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
+    kind = choose_format(fmt, output, default="text" if output in (None, "-") else "markdown", allowed=FORMATS)
+    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)
 
 # --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
@@ -281,7 +313,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
                    "height_offset, buoyancy.")
-@click.option("--fs", "fs_hz", type=float, default=240.0, show_default=True, help="Trajectory frame rate [Hz].")
+@click.option("--fs", "fs_hz", type=float, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
+              help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
 @click.option("--noise", "noise_m", type=float, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
 @click.option("--jitter", "jitter_s", type=float, default=0.0, show_default=True,
@@ -291,8 +324,10 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
               help="Still segment before release [s].")
 @click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (a ball outside the standards).")
 @click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m].")
-@click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes"]), default="trajectory",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes", "wav", "video"]),
+              default="trajectory", show_default=True,
+              help="CSV data, or a recording to try 'vrcal track' on: wav (the impacts' sound in a room with "
+                   "noise, hum and an echo) or video (an .avi of the ball, needs vrcal[video]); these need -o.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
@@ -306,11 +341,24 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
       vrcal simulate table_tennis --effect air_drag --noise 0.001 -o tt.csv
       vrcal simulate basketball --effect contact_duration:contact_time_s=0.008 --format impacts
       vrcal simulate marble --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
+      vrcal simulate tennis --format wav -o drop.wav
     """
     from vrcal.drop.simulate import simulate_csv
 
+    if fmt in ("wav", "video"):
+        from vrcal.drop.render import simulate_recording
+        from vrcal.errors import UsageError
+
+        if output in (None, "-"):
+            raise UsageError(f"--format {fmt} writes a binary file: give -o FILE")
+        click.echo(simulate_recording(output, ball, fmt, fs_hz=fs_hz, seed=seed, standards=standards_of(ctx),
+                                      drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m,
+                                      v_m_per_s=v_m_per_s, effects=list(effects), still_s=still_s, mass_kg=mass_kg,
+                                      diameter_m=diameter_m), err=True)
+        return
     text = simulate_csv(ball, kind=fmt, drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K,
-                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=fs_hz, noise_m=noise_m,
+                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=240.0 if fs_hz is None else fs_hz,
+                        noise_m=noise_m,
                         jitter_s=jitter_s, seed=seed, still_s=still_s, mass_kg=mass_kg, diameter_m=diameter_m,
                         standards=standards_of(ctx))
     emit(text, output)
@@ -352,6 +400,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --json result.json --report out
       vrcal discover drop.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
+      vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
     """
     import os
 
@@ -365,7 +415,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
 
     result = discover_file(data, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m, g_m_per_s2=g_m_per_s2,
                            standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
-                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise)
+                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+                           read_options={"progress": None if quiet else tracking_progress("discover")})
     text = fit_report(result)
     if json_file:
         emit(dumps(result.as_dict(), "json"), json_file)
@@ -379,6 +430,84 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
         atomic_savefig(discovery_figure(result), os.path.join(report_dir, REPORT_FILES["figure"]), dpi=120)
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
     emit(text, None)
+
+def tracking_progress(command):
+    """A ``progress(fraction, message)`` printing to stderr when it is a terminal, from 1 s on."""
+    import time
+
+    if not sys.stderr.isatty():
+        return None
+    start = time.monotonic()
+
+    def report(fraction, message):
+        if time.monotonic() - start >= 1.0:
+            click.echo(f"\r{command}: {message} ({fraction * 100:3.0f} %)\033[K", err=True, nl=fraction >= 1.0)
+
+    return report
+
+
+@main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
+@click.argument("recording", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="Also draw what was detected (signal and impacts, or the ball's path) into this PNG/PDF/SVG.")
+@click.option("--format", "fmt", type=click.Choice(["sound", "video"]), default=None,
+              help="What the recording is (default: from its content; 'sound' takes a video's sound track).")
+@click.option("--ball", default=None, help="Video: a ball of the standards (its diameter gives the scale).")
+@click.option("--diameter", "diameter_m", type=float, default=None, help="Video: the ball's diameter [m].")
+@click.option("--roi", default=None, metavar="X,Y,W,H", help="Video: search the ball only in this region [px].")
+@click.option("--color", default=None, help="Video: the ball's colour (a name like 'green', #RRGGBB or B,G,R).")
+@click.option("--fps", "fps", type=float, default=None,
+              help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
+@click.option("--scale", "scale_m_per_px", type=float, default=None,
+              help="Video: metres per pixel overriding the scale from the diameter.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
+@STANDARDS_OPTION
+@click.pass_context
+def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, quiet):
+    """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
+
+    A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
+    (mp4, mov, avi, mkv; needs vrcal[video]) the ball's trajectory, scaled by its diameter.
+    The file records how it was made in '#' comment lines. 'vrcal discover RECORDING'
+    does the same tracking by itself.
+
+    \b
+    Examples:
+      vrcal simulate tennis --format wav -o drop.wav
+      vrcal track drop.wav -o impacts.csv
+      vrcal track drop.mp4 --ball tennis -o drop.csv --plot drop.png
+      vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
+    """
+    from vrcal.fileio import atomic_savefig, atomic_write
+    from vrcal.measurements.recording import track as track_recording
+    from vrcal.measurements.recording import track_figure
+
+    if ball is not None and diameter_m is None:
+        from vrcal.model.body import ball_from_options
+
+        props, _std = ball_from_options(ball, standards_of(ctx), None, None)
+        diameter_m = float(props.diameter_m)
+    result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
+                             scale_m_per_px=scale_m_per_px,
+                             progress=None if quiet else tracking_progress("track"))
+    if plot_file:
+        import matplotlib.pyplot as plt
+
+        fig = track_figure(result)
+        try:
+            atomic_savefig(fig, plot_file, dpi=110)
+        finally:
+            plt.close(fig)
+    if output in (None, "-"):
+        click.echo(result.text, nl=False)
+        return
+    atomic_write(output, result.text)
+    if not quiet:
+        click.echo(result.summary(), nl=False)
+    click.echo(f"wrote {output}" + (f" and {plot_file}" if plot_file else ""), err=True)
+
 
 # --------------------------------------------------------------------------- engines (part: export/verify)
 
@@ -600,9 +729,10 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """Run a multi-body SCENE_FILE (YAML): spheres bouncing on a floor and on each other.
 
     At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
-    impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
-    and scene.gif (side view) into the output directory and prints a summary. The scene file
-    schema is in README.md ("The scene file") and examples/*.yaml.
+    impulse from Eq. 5. Prints a summary; writes NAME.png (height vs time, Figure 8; with
+    --compare a difference panel), NAME.gif (side view, Figure 9), NAME-trajectories.csv and
+    NAME-contacts.csv into the output directory (NAME = the scene file's name). The scene file
+    schema is in docs/scene.md and examples/*.yaml.
 
     \b
     Examples:
