@@ -231,8 +231,10 @@ class Drops:
         -------
         y_m : ndarray (n_drops, n_t)
             the ball's bottom plus ``offset_m``. Before release the ball is held still at
-            H; during a contact its bottom is at 0; after the landing that ends the last
-            flight it rests on the floor (bottom at 0).
+            H; during a contact of duration tau_c it dips below the floor level in a half
+            sine, ``-A sin(pi (t - t_impact) / tau_c)`` with ``A = (v_in + v_out) tau_c / (2 pi)``
+            (the compression of a linear spring-damper contact, the mean of the speeds in and
+            out); after the landing that ends the last flight it rests on the floor (bottom at 0).
         """
         t = np.asarray(t_s, dtype=float)
         if t.ndim == 1:
@@ -251,7 +253,9 @@ class Drops:
         with np.errstate(all="ignore"):
             down = value - distance_fallen_m(tau, g, k)
             up = height_rising_m(tau, value, g, k)
-        y = np.select([kind == _HOLD, kind == _DOWN, kind == _UP], [value, down, up], 0.0)
+            rate = np.take_along_axis(self._rates, seg, axis=1)
+            dip = -value * np.sin(rate * tau)
+        y = np.select([kind == _HOLD, kind == _DOWN, kind == _UP, kind == _CONTACT], [value, down, up, dip], 0.0)
         return y + self.offset_m[:, None]
 
 
@@ -269,7 +273,7 @@ def _check(name, arr, lo, hi=np.inf, lo_open=True):
 
 
 def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
-                   g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, release_time_s=0.0):
+                   g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, release_time_s=0.0, reference_speed_m_per_s=None):
     """Simulate drop tests: n_bounces impacts and the flight after the last one, for many drops.
 
     Parameters
@@ -290,6 +294,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         gravitational acceleration [m/s^2]
     release_time_s : float or ndarray
         time of release [s]
+    reference_speed_m_per_s : float or ndarray or None
+        v_ref of ``velocity_dependent_restitution`` [m/s]: ``epsilon`` is the value at this
+        impact speed; None takes each drop's first impact speed (a joint fit of several drops
+        passes one fixed speed, so that they share one law eps(v))
 
     Returns
     -------
@@ -300,8 +308,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     Event-driven: each flight is a closed form (see the module docstring), so impacts
     are exact. With ``buoyancy`` the flights use g_eff = g (m - rho V)/(m + rho V/2)
     and the drag constant is divided by the same added-mass factor (m + rho V/2)/m.
-    ``velocity_dependent_restitution`` takes each drop's first impact speed as v_ref, so
-    ``epsilon`` is the first bounce's (the drop-test value of Eq. (9) of [1]).
+    ``velocity_dependent_restitution`` takes each drop's first impact speed as v_ref (unless
+    ``reference_speed_m_per_s`` is given), so ``epsilon`` is the first bounce's (the drop-test
+    value of Eq. (9) of [1]). With ``contact_duration`` the ball's bottom dips below the floor
+    during each contact (see :meth:`Drops.height_m`).
 
     Without effects the apexes are ``eps^(2n) H`` and the impact times the geometric
     series ``t_n = t_1 + 2 t_1 (eps + ... + eps^(n-1))``, ``t_1 = sqrt(2 H / g)`` after release.
@@ -354,6 +364,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     offset = param("height_offset", "offset_m")
     offset = np.zeros(N) if offset is None else offset
 
+    v_ref = None if reference_speed_m_per_s is None else _as_drop_array(
+        "reference_speed_m_per_s", reference_speed_m_per_s, N)
+    if v_ref is not None:
+        _check("reference_speed_m_per_s", v_ref, 0.0)
     impact_t = np.empty((N, n))
     impact_v = np.empty((N, n))
     rebound_v = np.empty((N, n))
@@ -368,7 +382,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     for j in range(n):
         impact_t[:, j] = apex_t[:, j] + t_fall
         impact_v[:, j] = v_land
-        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0], p)
+        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0] if v_ref is None else v_ref, p)
         eps_used[:, j] = e
         u = e * v_land
         rebound_v[:, j] = u
@@ -391,6 +405,12 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     kinds[:, 0], values[:, 0], starts[:, 0] = _HOLD, H, t0
     kinds[:, 1], values[:, 1], starts[:, 1] = _DOWN, H, t0
     kinds[:, 2:-1:3], starts[:, 2:-1:3] = _CONTACT, impact_t
+    rates = np.zeros((N, 3 * n + 3))
+    if tc is not None:
+        dur = np.broadcast_to(np.asarray(tc, dtype=float)[:, None], impact_t.shape)
+        pos = dur > 0
+        rates[:, 2:-1:3] = np.where(pos, math.pi / np.where(pos, dur, 1.0), 0.0)
+        values[:, 2:-1:3] = np.where(pos, (impact_v + rebound_v) * dur / (2.0 * math.pi), 0.0)
     kinds[:, 3:-1:3], starts[:, 3:-1:3], values[:, 3:-1:3] = _UP, liftoff_t, rebound_v
     kinds[:, 4::3], starts[:, 4::3], values[:, 4::3] = _DOWN, apex_t[:, 1:], apex_h[:, 1:]
     kinds[:, -1], starts[:, -1] = _REST, landing_t
@@ -398,7 +418,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         impact_times_s=impact_t, impact_speeds_m_per_s=impact_v, rebound_speeds_m_per_s=rebound_v,
         epsilons=eps_used, liftoff_times_s=liftoff_t, apex_times_s=apex_t, apex_heights_m=apex_h,
         landing_times_s=landing_t, landing_speeds_m_per_s=v_land, offset_m=offset, g_m_per_s2=g, k_per_m=k,
-        effects=eff, _breaks=breaks, _kinds=kinds, _starts=starts, _values=values,
+        effects=eff, _breaks=breaks, _kinds=kinds, _starts=starts, _values=values, _rates=rates,
     )
 
 
