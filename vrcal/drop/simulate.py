@@ -408,7 +408,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     rates = np.zeros((N, 3 * n + 3))
     if tc is not None:
         dur = np.broadcast_to(np.asarray(tc, dtype=float)[:, None], impact_t.shape)
-        pos = dur > 0
+        pos = dur > 1e-9   # a contact shorter than a nanosecond has no dip worth computing
         rates[:, 2:-1:3] = np.where(pos, math.pi / np.where(pos, dur, 1.0), 0.0)
         values[:, 2:-1:3] = np.where(pos, (impact_v + rebound_v) * dur / (2.0 * math.pi), 0.0)
     kinds[:, 3:-1:3], starts[:, 3:-1:3], values[:, 3:-1:3] = _UP, liftoff_t, rebound_v

@@ -224,7 +224,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
       it). The event is removed and the chain goes on;
     * every ratio q_i off the robust trend of the ratios (a Theil-Sen line through ln q)
       by more than ``tolerance + 4 u_i`` (``u_i = sqrt(2) timing_sigma_s sqrt(1/dt_i^2 +
-      1/dt_{i+1}^2)``, the relative timing uncertainty of the ratio), or above 1 (a flight
+      1/dt_{i+1}^2)``, the relative timing uncertainty of the ratio; 5 u_i), or above 1 (a flight
       longer than the one before it: impossible for a ball bouncing on a floor): a missed
       impact (the interval is about (1 + q + ... + q^k) times the expected one), a bounce
       that lost or gained energy it should not have (a kick, a second surface, a late
@@ -269,7 +269,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
         before = np.concatenate([[np.inf], r * dt[:-1]])
         after = np.concatenate([dt[1:] / r, [np.inf]])
         expected = np.minimum(before, after)
-        short = np.flatnonzero(dt < echo_fraction * expected)
+        short = np.flatnonzero(dt + 4.0 * np.sqrt(2.0) * timing_sigma_s < echo_fraction * expected)
         if short.size == 0:
             break
         k = int(short[0])
@@ -289,7 +289,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
         u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
         trend = _trend_ratio(q, u)
         dev = np.log(q / trend)
-        bad = (np.abs(dev) > np.log1p(tolerance + 4.0 * u)) | (q > 1.0 + 4.0 * u)
+        bad = (np.abs(dev) > np.log1p(tolerance + 5.0 * u)) | (q > 1.0 + 5.0 * u)
         for i in np.flatnonzero(bad):
             # ratio i = dt[i+1] / dt[i] concerns the bounce at kept event i+1 and the flight after it
             e0, e1, e2 = (int(kept[i + j]) for j in range(3))
@@ -297,7 +297,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
             spans = np.cumsum(trend[i] ** np.arange(max_missed + 1))[1:]   # 1+q, 1+q+q^2, ...
             n_missed = int(np.argmin(np.abs(np.log(ratio / spans)))) + 1
             flight = f"the flight from {name(e1)} to {name(e2)} ({dt[i + 1]:.4f} s)"
-            if ratio > 1.0 and abs(np.log(ratio / spans[n_missed - 1])) < np.log1p(tolerance + 4.0 * u[i]):
+            if ratio > 1.0 and abs(np.log(ratio / spans[n_missed - 1])) < np.log1p(tolerance + 5.0 * u[i]):
                 what = "a missed impact" if n_missed == 1 else f"{n_missed} missed impacts"
                 why = f"{flight} is {ratio:.2f} x the expected {trend[i] * dt[i]:.4f} s: {what}"
             elif q[i] > 1.0:
@@ -345,8 +345,10 @@ def detect_impact_anomalies(t_s, **options):
         ``((index, time_s, reason), ...)`` for impacts ``n_clean .. n - 1``
     """
     t = np.asarray(t_s, dtype=float)
-    found = impact_chains(t, **options)
     n = t.size
+    if n < 3:
+        return n, ()
+    found = impact_chains(t, **options)
     if not found.anomalies and len(found.chains) <= 1 and not found.rejected:
         return n, ()
     first_bad = min([i for i, _ in found.anomalies] + [i for i, _, _ in found.rejected] + [n])

@@ -149,7 +149,7 @@ def impact_times_from_events(path, t_s, lines=None, notes=()):
         notes.append(why)
     if not found.chains:
         fail(path, where, f"no {MIN_IMPACTS} consecutive bounces: " + "; ".join(w for _, w in found.anomalies[:2]))
-    keep = sorted({i for a, b in found.chains for i in range(a, b + 1)})
+    keep = [int(i) for i in found.kept if any(a <= i <= b for a, b in found.chains)]
     pos = {i: k for k, i in enumerate(keep)}
     chains = tuple((pos[a], pos[b] + 1) for a, b in found.chains)
     if len(chains) > 1:
