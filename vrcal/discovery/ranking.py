@@ -70,6 +70,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vrcal.discovery import residuals as res
+from vrcal.discovery.lsq import chi2_sf, f_sf
 from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced  # noqa: F401 (re-exported)
 from vrcal.errors import UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
@@ -450,21 +451,6 @@ def rank_by_evidence(cands, current, sigma_floor):
         c.evidence = res.minus_two_ln_evidence(c.fit, sigma)
         c.two_ln_bayes = ref - c.evidence
     return sigma
-
-
-def chi2_sf(x, dof):
-    """P(X > x) for a chi-square variable with ``dof`` degrees of freedom (scipy.special, not scipy.stats:
-    importing scipy.stats costs more than a whole discover run)."""
-    from scipy.special import chdtrc
-
-    return float(chdtrc(dof, max(float(x), 0.0)))
-
-
-def f_sf(x, dfn, dfd):
-    """P(X > x) for an F variable with (dfn, dfd) degrees of freedom (scipy.special)."""
-    from scipy.special import fdtrc
-
-    return float(fdtrc(dfn, dfd, max(float(x), 0.0)))
 
 
 def _judge(cand, current, sigma_floor, th):

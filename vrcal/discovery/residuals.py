@@ -7,8 +7,8 @@ more candidate effects of the registry :data:`vrcal.drop.effects.EFFECTS`. This 
 * lays out the free parameters of a model for a data kind (:func:`parameter_layout`),
 * predicts the data with the vectorised simulator (:func:`predict`): many parameter
   sets in ONE :func:`vrcal.drop.simulate.simulate_drops` call,
-* fits a model by bounded least squares with a finite-difference Jacobian computed
-  in one vectorised call (:func:`fit_model`),
+* fits a model by bounded least squares (Levenberg-Marquardt, :mod:`vrcal.discovery.lsq`)
+  with a finite-difference Jacobian computed in one vectorised call (:func:`fit_model`),
 * computes the statistics of the fit from the same residuals (:func:`rss`,
   :func:`chi_square`, :func:`aic`, :func:`bic`), the evidence of a model with the
   registry's prior densities (:func:`minus_two_ln_evidence`) and the noise floor of the
@@ -40,8 +40,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
-
 from vrcal.errors import DataError, UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -793,8 +791,7 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
     FitResult
         uncertainties are 1-σ from the Jacobian, (JᵀJ)⁻¹ σ² with σ² = RSS/(n - k).
     """
-    from scipy.optimize import least_squares
-
+    from vrcal.discovery.lsq import least_squares_box
     from vrcal.drop.effects import EFFECTS
 
     data = problem.data
@@ -821,10 +818,8 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
     obj = _Objective(layout, problem, scales)
     lo = np.array([p.bounds[0] for p in layout])
     hi = np.array([p.bounds[1] for p in layout])
-    sol = least_squares(obj.fun, x0, jac=obj.jac, bounds=(lo, hi), x_scale=scales, method="trf",
-                        max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
-    r = obj.fun(sol.x)
-    J = obj.jac(sol.x)
+    sol = least_squares_box(obj.fun, obj.jac, x0, lo, hi, scales, max_iter=max_nfev, xtol=1e-10, ftol=1e-8)
+    r, J = sol.fun, sol.jac
     # sigma^2 from the residuals; with no degree of freedom left (as many data as parameters: two
     # apexes give epsilon exactly) from the noise the problem assumes
     s2 = float(r @ r) / (n - len(layout)) if n > len(layout) else float(problem.noise or 0.0) ** 2

@@ -241,29 +241,83 @@ class Drops:
             t = np.broadcast_to(t, (self.n_drops, t.size))
         if t.ndim != 2 or t.shape[0] != self.n_drops:
             raise UsageError(f"t_s must have shape (n_t,) or ({self.n_drops}, n_t), got {np.shape(t_s)}")
-        seg = np.zeros(t.shape, dtype=np.intp)
-        for col in range(self._breaks.shape[1]):
-            seg += t >= self._breaks[:, col:col + 1]
-        kind = np.take_along_axis(self._kinds, seg, axis=1)
-        start = np.take_along_axis(self._starts, seg, axis=1)
-        value = np.take_along_axis(self._values, seg, axis=1)
-        tau = t - start
-        g = self.g_m_per_s2[:, None]
-        k = self.k_per_m[:, None]
+        shape = t.shape
+        n_cols = self._kinds.shape[1]
+        flat = (_segment_index(self._breaks, t) + (np.arange(self.n_drops) * n_cols)[:, None]).ravel()
+        kind = self._kinds.ravel().take(flat)
+        value = self._values.ravel().take(flat)
+        tau = t.ravel() - self._starts.ravel().take(flat)
+        row = flat // n_cols
+        y = np.where(kind == _HOLD, value, 0.0)
         with np.errstate(all="ignore"):
-            down = value - distance_fallen_m(tau, g, k)
-            up = height_rising_m(tau, value, g, k)
-            rate = np.take_along_axis(self._rates, seg, axis=1)
-            dip = -value * np.sin(rate * tau)
-        y = np.select([kind == _HOLD, kind == _DOWN, kind == _UP, kind == _CONTACT], [value, down, up, dip], 0.0)
-        return y + self.offset_m[:, None]
+            down = np.flatnonzero(kind == _DOWN)
+            if down.size:
+                r = row[down]
+                y[down] = value[down] - _fallen(tau[down], self.g_m_per_s2[r], self.k_per_m[r])
+            up = np.flatnonzero(kind == _UP)
+            if up.size:
+                r = row[up]
+                y[up] = _risen(tau[up], value[up], self.g_m_per_s2[r], self.k_per_m[r])
+            contact = np.flatnonzero(kind == _CONTACT)
+            if contact.size:
+                rate = self._rates.ravel().take(flat[contact])
+                y[contact] = -value[contact] * np.sin(rate * tau[contact])
+        return y.reshape(shape) + self.offset_m[:, None]
+
+
+def _fallen(tau, g, k):
+    """Distance fallen from rest after tau [m] (:func:`distance_fallen_m` for tau >= 0), lean: the
+    drag formula only where k > 0, ``ln cosh(b) / k`` with b = tau sqrt(g k) written as
+    ``log1p(2 sinh^2(b / 2))`` below b = 1 and ``b + log1p(exp(-2 b)) - ln 2`` above (no overflow)."""
+    out = 0.5 * g * tau * tau
+    pos = k > K_NEGLIGIBLE_PER_M
+    if pos.any():
+        if not pos.all():
+            idx = np.flatnonzero(pos)
+            out[idx] = _fallen(tau[idx], g[idx], k[idx])
+            return out
+        b = tau * np.sqrt(g * k)
+        small = b < 1.0
+        logcosh = np.where(small, np.log1p(2.0 * np.sinh(0.5 * np.where(small, b, 0.0)) ** 2),
+                           b + np.log1p(np.exp(-2.0 * b)) - math.log(2.0))
+        return logcosh / k
+    return out
+
+
+def _risen(tau, u, g, k):
+    """Height tau after leaving the floor at speed u [m] (:func:`height_rising_m`), lean."""
+    pos = k > K_NEGLIGIBLE_PER_M
+    if not pos.any():
+        return u * tau - 0.5 * g * tau * tau
+    if not pos.all():
+        out = u * tau - 0.5 * g * tau * tau
+        idx = np.flatnonzero(pos)
+        out[idx] = _risen(tau[idx], u[idx], g[idx], k[idx])
+        return out
+    sgk = np.sqrt(g * k)
+    b = tau * sgk
+    z = u * sgk / g
+    return np.log1p(z * np.sin(b) - 2.0 * np.sin(0.5 * b) ** 2) / k
+
+
+def _segment_index(breaks, t):
+    """Per row, how many of the row's (sorted) breaks are <= each time: one flat searchsorted."""
+    n_rows, n_breaks = breaks.shape
+    lo = min(float(np.min(breaks)), float(np.min(t)))
+    span = max(float(np.max(breaks)), float(np.max(t))) - lo + 1.0
+    offsets = (np.arange(n_rows, dtype=float) * span)[:, None]
+    flat_breaks = ((breaks - lo) + offsets).ravel()
+    pos = np.searchsorted(flat_breaks, ((t - lo) + offsets).ravel(), side="right").reshape(t.shape)
+    return pos - (np.arange(n_rows) * n_breaks)[:, None]
 
 
 def _as_drop_array(name, value, n):
     arr = np.asarray(value, dtype=float)
+    if arr.shape == (n,):
+        return arr.copy()
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
         raise UsageError(f"{name} must be a number or an array of shape ({n},), got shape {arr.shape}")
-    return np.broadcast_to(arr.reshape(-1) if arr.ndim else arr, (n,)).astype(float)
+    return np.full(n, float(arr.reshape(-1)[0]) if arr.ndim else float(arr))
 
 
 def _check(name, arr, lo, hi=np.inf, lo_open=True):

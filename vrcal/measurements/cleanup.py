@@ -168,25 +168,66 @@ def prominent_minima(y, prominence):
     n = y.size
     if n < 3:
         return np.zeros(0, dtype=int)
-    # candidate minima: a sample lower than its left neighbour and not higher than its right one,
-    # with the plateau it starts closed by a rise
+    # candidate minima: a sample lower than its left neighbour that starts a plateau closed by a rise
     d = np.diff(y)
-    down = np.flatnonzero(d < 0) + 1          # y[i] < y[i-1]
-    out = []
     nonzero = np.flatnonzero(d != 0)
-    for i in down:
-        k = np.searchsorted(nonzero, i)       # first change at or after i
-        if k >= nonzero.size or d[nonzero[k]] <= 0:
-            continue                          # the series keeps falling (or ends flat)
-        j = nonzero[k]                        # y[i..j] equal, y[j+1] > y[j]
-        v = y[i]
-        lower_left = np.flatnonzero(y[:i] < v)
-        left = y[lower_left[-1] + 1:i].max() if lower_left.size else y[:i].max()
-        lower_right = np.flatnonzero(y[j + 1:] < v)
-        right = y[j + 1:j + 1 + lower_right[0]].max() if lower_right.size else y[j + 1:].max()
-        if min(left, right) - v >= prominence:
-            out.append((i + j) // 2)
-    return np.asarray(out, dtype=int)
+    down = np.flatnonzero(d < 0) + 1                  # y[i] < y[i-1]
+    k = np.searchsorted(nonzero, down)                # first change at or after i
+    ok = k < nonzero.size
+    down, k = down[ok], k[ok]
+    ends = nonzero[k]
+    rises = d[ends] > 0
+    starts, ends = down[rises], ends[rises]           # y[starts..ends] equal, y[ends + 1] > y[ends]
+    if starts.size == 0:
+        return np.zeros(0, dtype=int)
+    values = y.tolist()
+    prev_lower = _previous_lower(values)
+    next_lower = _previous_lower(values[::-1])[::-1]
+    next_lower = [n - 1 - j if j >= 0 else n for j in next_lower]
+    table = _range_max_table(y)
+    left_lo = np.array([prev_lower[i] + 1 for i in starts])     # first sample after the nearest lower one
+    right_hi = np.array([next_lower[j] - 1 for j in ends])      # last sample before the next lower one
+    left = np.where(starts > left_lo, _range_max(table, left_lo, starts - 1), -np.inf)
+    right = np.where(right_hi > ends, _range_max(table, ends + 1, right_hi), -np.inf)
+    prom = np.minimum(left, right) - y[starts]
+    keep = prom >= prominence
+    return ((starts[keep] + ends[keep]) // 2).astype(int)
+
+
+def _previous_lower(values):
+    """For each i, the last j < i with values[j] < values[i] (-1 when none): one pass with a stack."""
+    out, stack = [-1] * len(values), []
+    for i, v in enumerate(values):
+        while stack and values[stack[-1]] >= v:
+            stack.pop()
+        out[i] = stack[-1] if stack else -1
+        stack.append(i)
+    return out
+
+
+def _range_max_table(y):
+    """Sparse table of running maxima: level j holds max(y[i : i + 2**j])."""
+    table = [np.asarray(y, dtype=float)]
+    span = 1
+    while 2 * span <= y.size:
+        prev = table[-1]
+        table.append(np.maximum(prev[:-span], prev[span:]))
+        span *= 2
+    return table
+
+
+def _range_max(table, lo, hi):
+    """max(y[lo..hi]) (inclusive) for arrays of ranges with lo <= hi (other entries are garbage)."""
+    lo = np.asarray(lo)
+    hi = np.maximum(np.asarray(hi), lo)
+    length = hi - lo + 1
+    level = np.floor(np.log2(np.maximum(length, 1))).astype(int)
+    out = np.empty(lo.size)
+    for j in np.unique(level):
+        m = level == j
+        row = table[j]
+        out[m] = np.maximum(row[lo[m]], row[hi[m] - (1 << j) + 1])
+    return out
 
 
 class ImpactChains(NamedTuple):
