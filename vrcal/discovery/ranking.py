@@ -103,6 +103,11 @@ CONFUSABLE = {
     "apexes": (frozenset({"air_drag", "velocity_dependent_restitution", "height_offset"}),),
 }
 
+#: Runs whose drop heights differ by this factor or more are not held to :data:`CONFUSABLE`: their
+#: impact speeds differ from run to run, which tells drag, a speed-dependent epsilon and an offset
+#: apart; a rival is then ambiguous only when its evidence is close.
+SPREAD_SEPARATES = 1.5
+
 #: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
 VERDICTS = ("explained", "unexplained", "suspect input")
 
@@ -201,7 +206,8 @@ class Discovery:
     @property
     def epsilon(self):
         """ε of the extended model: the contact's own restitution, at the reference speed (the first
-        impact speed of the first run) when ``velocity_dependent_restitution`` is named."""
+        impact speed of the drop, or of the highest drop of a joint fit) when
+        ``velocity_dependent_restitution`` is named."""
         return self.final.baseline_values["epsilon"]
 
     @property
@@ -569,6 +575,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             if kind == "trajectory":
                 noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
+    spread = res.drop_height_spread(problem)
     baseline = res.fit_model(problem, ())
     current, named, rounds, ambiguous = baseline, [], [], {}
     notes = list(prepared.notes)
@@ -603,7 +610,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if not material:
             break
         win = material[0]
-        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g]
+        # drops from several heights (a drop table, several files) separate what one drop cannot
+        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
         rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
             c.score - win.score < th.indistinguishable_bic or any(c.name in g for g in groups))]
         close = [c.name for c in rivals]

@@ -842,8 +842,8 @@ def make_problem(data, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, noise=None):
     """A :class:`Problem` for ``data`` (one measurement or Runs) with enough bounces simulated to cover it.
 
     A joint fit of several runs takes one reference speed for a speed-dependent ε: the first
-    run's first impact speed as the starting values give it (fixed, so that every run follows
-    one law ε(v)).
+    impact speed of the highest drop as the starting values give it, sqrt(2 g H_max) (fixed,
+    so that every run follows one law ε(v)).
     """
     runs = _runs_of(data)
     kinds = {getattr(r, "kind", None) for r in runs}
@@ -854,10 +854,17 @@ def make_problem(data, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, noise=None):
     g = float(g_m_per_s2)
     if not (math.isfinite(g) and g > 0):
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
-    n_b, v_ref = 1, None
-    for r, run in enumerate(runs):
+    n_b, heights = 1, []
+    for run in runs:
         base = initial_baseline(run, g)
         n_b = max(n_b, count_bounces(run, base["drop_height_m"], base["epsilon"], base.get("release_time_s", 0.0), g))
-        if r == 0 and len(runs) > 1:
-            v_ref = math.sqrt(2.0 * g * max(base["drop_height_m"], 1e-4))
+        heights.append(max(base["drop_height_m"], 1e-4))
+    v_ref = math.sqrt(2.0 * g * max(heights)) if len(runs) > 1 else None
     return Problem(data, ball, g, max(n_b, 1), v_ref, noise)
+
+
+def drop_height_spread(problem):
+    """Highest over lowest starting drop height of the runs (1 for one run): how much the impact
+    speeds differ between runs, which is what separates drag from a speed-dependent ε."""
+    heights = [v for k, v in problem_start(problem).items() if k.startswith("drop_height_m")]
+    return max(heights) / min(heights) if heights and min(heights) > 0 else 1.0

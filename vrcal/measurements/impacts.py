@@ -13,9 +13,12 @@ of raw sound can call too).
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from vrcal.measurements.cleanup import impact_chains
+from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     H_NAMES,
@@ -32,6 +35,8 @@ from vrcal.measurements.table import (
     unit_factor,
 )
 from vrcal.measurements.types import ImpactTimes, Runs
+
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
 
 #: Fewest impacts in a chain (and in a file).
 MIN_IMPACTS = 3
@@ -57,7 +62,7 @@ def _one_decimal_comma_column(text):
     if numeric_width(text) != 2:
         return False
     rows = [line.strip() for _, line in text.lines[:50]]
-    if not all(row.count(",") == 1 and not any(c in row for c in ";\t ") for row in rows):
+    if not all(_DECIMAL_COMMA.match(row) for row in rows):
         return False
     first = np.array([float(r.split(",")[0]) for r in rows])
     joined = np.array([float(r.replace(",", ".")) for r in rows])
@@ -144,6 +149,7 @@ def impact_times_from_events(path, t_s, lines=None, notes=()):
     where = int(lines[-1]) if lines is not None and lines.size else 0
     if t.size < MIN_IMPACTS:
         fail(path, where, f"only {t.size} impact(s); at least {MIN_IMPACTS} are needed")
+    check_impact_times(t, path)   # units and shrinking intervals first: a list in ms or backwards stops here
     found = impact_chains(t, labels=[label(i) for i in range(t.size)])
     for _, why in found.anomalies:
         notes.append(why)

@@ -39,7 +39,14 @@ def detect(text):
 def parse(text, *, scale_m_per_px=None, y_down=True, fs_hz=None):
     path = text.path
     first_no, first = text.lines[0]
-    length_m, length_px = (float(c) for c in re.split(r"[;,\t ]+", first.strip()) if c)
+    ref = [c for c in re.split(r"[;,\t ]+", first.strip()) if c]
+    if len(ref) != 2 or not is_numeric_row(ref, False):
+        fail(path, first_no, f"a pixels-ref file starts with 'LENGTH_M;LENGTH_PX', found {len(ref)} cell(s) "
+                             f"{first.strip()[:40]!r}")
+    length_m, length_px = (float(c) for c in ref)
+    if not (np.isfinite(length_m) and np.isfinite(length_px) and length_m > 0 and length_px > 0):
+        fail(path, first_no, f"the reference line needs a length > 0 m spanning > 0 px, got {length_m:g} m, "
+                             f"{length_px:g} px")
     ref_scale = length_m / length_px
     notes = [f"format: pixels-ref (line {first_no}: {length_m:g} m spans {length_px:g} px, "
              f"{ref_scale * 1e3:.4g} mm per px)"]
