@@ -136,7 +136,9 @@ def _flight_fits(t, y, sign, release, sigma):
         ts = tt[lo:hi] - tt[lo]
         coef, res, *_ = np.polyfit(ts, z[lo:hi], 2, full=True)
         rms = math.sqrt(float(res[0]) / (hi - lo)) if res.size else 0.0
-        out.append((2.0 * float(coef[0]), rms, hi - lo))
+        # a clean flight is a parabola to the noise; one with a small bounce (or a cusp) inside is not
+        if rms <= max(4.0 * sigma, 0.01 * float(np.ptp(z[lo:hi]))):
+            out.append((2.0 * float(coef[0]), rms, hi - lo))
     return out
 
 
@@ -144,8 +146,9 @@ def flight_gravity(t_s, y_m, release_index=0, sigma_m=0.0):
     """g seen in the flights of a trajectory, and whether the record is upside down.
 
     Parabolas are fitted to the flights between the bounces (prominent minima) of the record
-    and of the record turned over; the orientation whose flights are parabolas (smaller
-    residuals: the other one has a bounce's cusp inside each "flight") is the true one.
+    and of the record turned over, and kept where they fit to the noise; the orientation with
+    more samples on such parabolas is the true one (turned over, each "flight" has a bounce's
+    cusp inside).
 
     Parameters
     ----------
@@ -167,12 +170,12 @@ def flight_gravity(t_s, y_m, release_index=0, sigma_m=0.0):
     up = _flight_fits(t, y, 1.0, release_index, sigma_m)
     down = _flight_fits(t, y, -1.0, release_index, sigma_m)
 
-    def pooled(fits):
-        n = sum(f[2] for f in fits)
-        return math.sqrt(sum(f[1] ** 2 * f[2] for f in fits) / n) if n else math.inf
+    def samples(fits):
+        return sum(f[2] for f in fits)
 
+    # the true orientation has its flights between the bounces: more samples on clean parabolas
     fits, upside = up, False
-    if down and (not up or pooled(down) < 0.5 * pooled(up)):
+    if samples(down) > 1.5 * samples(up):
         fits, upside = down, True
     if not fits:
         return None, False, 0
@@ -190,7 +193,9 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     g_fit, upside, n = flight_gravity(data.t_s, data.y_m, getattr(data, "release_index", 0) or 0, sigma_m)
     if g_fit is None:
         return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
-    if upside or g_fit < 0:
+    if g_fit < 0 and not upside:
+        return [Finding("note", "g cannot be checked: the flights do not curve one way")]
+    if upside:
         fix = "remove --y-down" if y_down else "use --y-down"
         _fail(data.source, f"the record looks upside down (its flights curve upward, {abs(g_fit):.3g} m/s^2): {fix}")
     ratio = g_fit / g_m_per_s2
