@@ -375,7 +375,7 @@ def verdict_reason(d):
     """One sentence: why the verdict is what it is."""
     v = verdict(d)
     if v == "suspect input":
-        return "the input looks wrong: " + "; ".join(d.warnings)
+        return "; ".join(d.warnings)
     if not d.rounds:
         return f"{d.final.n} data and {d.final.k} parameters: nothing is left unexplained, and nothing could be tested"
     ref = d.reference_gap

@@ -122,7 +122,7 @@ def answer(discovery):
     before, after = _fmt_gap(d.gap_before, unit), _fmt_gap(d.gap_after, unit)
     parts = []
     if v == "suspect input":
-        parts.append("Suspect input: " + "; ".join(d.warnings) + ". The numbers below assume the input is right.")
+        parts.append("Suspect input (see the verdict): the numbers below assume the input is right.")
     if d.effects:
         phrase = _effects_phrase(d.effects)
         params = ", ".join(p for name in d.effects for p in _param_values(d, name))

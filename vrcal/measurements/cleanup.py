@@ -367,8 +367,15 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
     for a, b in chains:
         in_chain[kept[a:b + 1]] = True
     why = dict(anomalies)
-    rejected = tuple((int(i), float(t[i]), why.get(int(i), "in no chain of three or more consecutive bounces"))
-                     for i in range(n) if not in_chain[i])
+
+    def reason(i):
+        if i in why:
+            return why[i]
+        before = [j for j in why if j < i]
+        after = f" (after the anomaly at {name(max(before))})" if before else ""
+        return "in no chain of three or more consecutive bounces" + after
+
+    rejected = tuple((int(i), float(t[i]), reason(int(i))) for i in range(n) if not in_chain[i])
     chains = tuple((int(kept[a]), int(kept[b])) for a, b in chains)
     return ImpactChains(chains, kept, rejected, tuple(sorted(anomalies)))
 
