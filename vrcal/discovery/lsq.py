@@ -148,50 +148,44 @@ def _gamma_q(a, x):
             if abs(term) < abs(total) * 1e-16:
                 break
         return max(0.0, 1.0 - total * math.exp(-x + a * math.log(x) - gln))
-    tiny = 1e-300
     b = x + 1.0 - a
-    c = 1.0 / tiny
+    c = 1.0 / _TINY
     d = 1.0 / b
     h = d
     for i in range(1, 10000):
-        an = -i * (i - a)
         b += 2.0
-        d = an * d + b
-        d = tiny if abs(d) < tiny else d
-        c = b + an / c
-        c = tiny if abs(c) < tiny else c
-        d = 1.0 / d
-        delta = d * c
+        c, d, delta = _lentz(c, d, -i * (i - a), b)
         h *= delta
         if abs(delta - 1.0) < 1e-16:
             break
     return math.exp(-x + a * math.log(x) - gln) * h
 
 
+_TINY = 1e-300
+
+
+def _lentz(c, d, a_n, b_n):
+    """One step of the modified Lentz method for a continued fraction b_0 + a_1/(b_1 + a_2/(b_2 + ...)):
+    the new (C, D) and their product, the factor of the running value."""
+    d = b_n + a_n * d
+    d = _TINY if abs(d) < _TINY else d
+    c = b_n + a_n / c
+    c = _TINY if abs(c) < _TINY else c
+    d = 1.0 / d
+    return c, d, c * d
+
+
 def _beta_cf(a, b, x):
     """Continued fraction of the incomplete beta function (NR 6.4, modified Lentz)."""
-    tiny = 1e-300
     qab, qap, qam = a + b, a + 1.0, a - 1.0
     c, d = 1.0, 1.0 - qab * x / qap
-    d = tiny if abs(d) < tiny else d
-    d = 1.0 / d
+    d = 1.0 / (_TINY if abs(d) < _TINY else d)
     h = d
     for m in range(1, 10000):
         m2 = 2 * m
-        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        d = tiny if abs(d) < tiny else d
-        c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
-        d = 1.0 / d
-        h *= d * c
-        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        d = tiny if abs(d) < tiny else d
-        c = 1.0 + aa / c
-        c = tiny if abs(c) < tiny else c
-        d = 1.0 / d
-        delta = d * c
+        c, d, delta = _lentz(c, d, m * (b - m) * x / ((qam + m2) * (a + m2)), 1.0)
+        h *= delta
+        c, d, delta = _lentz(c, d, -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2)), 1.0)
         h *= delta
         if abs(delta - 1.0) < 1e-16:
             break
