@@ -132,7 +132,8 @@ def answer(discovery):
         parts.append(f"With {it} the gap falls from {before} to {after}; {_noise_text(d)}.")
         if any(name in d.ambiguous for name in d.effects):
             rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
-            parts.append(f"But {_effects_phrase(rivals)} would explain these {d.kind} data about as well "
+            what = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
+            parts.append(f"But {_effects_phrase(rivals)} would explain {what[d.kind]} about as well "
                          f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}drops from several "
                          f"heights tell them apart).")
     elif not d.rounds:
