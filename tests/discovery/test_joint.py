@@ -172,3 +172,22 @@ def test_runs_of_the_json_and_the_replay_keys(tmp_path):
     json.dumps(doc)
     assert isinstance(data, Runs) and isinstance(d.runs[0], type(data.runs[0]))
     assert isinstance(ImpactTimes, type)
+
+
+def test_json_to_stdout_details_and_a_workbook_sheet(tmp_path):
+    from helpers import shared_file
+
+    pytest.importorskip("openpyxl")
+    book = shared_file("realval/giiulia_phyphox_excel/golf_ball/CR_method2.xlsx")
+    result = run("discover", book, "--sheet", "100cm ", "--ball", "golf", "--mass", "0.0415", "--diameter", "0.042",
+                 "-q", "--json", "-")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["reader"]["sheet"] == "100cm " and doc["data"]["source"].endswith("[100cm]")
+    assert 0.87 < doc["epsilon"] < 0.92
+    detailed = run("discover", book, "--sheet", "100cm", "--ball", "golf", "--mass", "0.0415", "--diameter", "0.042",
+                   "-q", "--details")
+    assert detailed.exit_code == 0 and "Statistics (--details)" in detailed.output and "chi2" in detailed.output
+    assert max(len(line) for line in detailed.output.splitlines()) <= 100
+    missing = run("discover", book, "--sheet", "nope", "--ball", "golf", "--mass", "0.0415", "--diameter", "0.042")
+    assert missing.exit_code == 2 and "no sheet 'nope'" in missing.output
