@@ -264,7 +264,6 @@ def fit_report(discovery, details=False):
         add the statistics of every candidate and the gap per bounce
     """
     d = discovery
-    unit = d.unit
     ball = d.ball
     n_data = d.baseline.n
     runs = len(d.runs)
