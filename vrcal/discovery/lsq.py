@@ -192,16 +192,17 @@ def _beta_cf(a, b, x):
     return h
 
 
-def _beta_i(a, b, x):
-    """Regularized incomplete beta I_x(a, b)."""
+def _beta_i(a, b, x, y):
+    """Regularized incomplete beta I_x(a, b); ``y`` = 1 - x, computed by the caller without
+    cancellation (near x = 1 the rounded ``1 - x`` loses every digit)."""
     if x <= 0.0:
         return 0.0
-    if x >= 1.0:
+    if y <= 0.0:
         return 1.0
-    front = math.exp(math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x))
+    front = math.exp(math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log(y))
     if x < (a + 1.0) / (a + b + 2.0):
         return front * _beta_cf(a, b, x) / a
-    return 1.0 - front * _beta_cf(b, a, 1.0 - x) / b
+    return 1.0 - front * _beta_cf(b, a, y) / b
 
 
 def chi2_sf(x, dof):
@@ -221,4 +222,5 @@ def f_sf(x, dfn, dfd):
         return 1.0
     if math.isinf(x):
         return 0.0
-    return float(min(1.0, max(0.0, _beta_i(0.5 * dfd, 0.5 * dfn, dfd / (dfd + dfn * x)))))
+    s = dfd + dfn * x
+    return float(min(1.0, max(0.0, _beta_i(0.5 * dfd, 0.5 * dfn, dfd / s, dfn * x / s))))
