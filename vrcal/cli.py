@@ -365,11 +365,12 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 
 
 @main.command()
-@click.argument("data", type=click.Path(dir_okay=False))
+@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
 @click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (overrides the standard's).")
 @click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m] (overrides the standard's).")
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
+@click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook (default: 'All', else the first table).")
 @click.option("--scale", "scale_m_per_px", type=float, default=None, help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
 @click.option("--fs", "fs_hz", type=float, default=None, help="Frame rate [Hz] when the file has no time column.")
@@ -380,26 +381,31 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
 @click.option("--g", "g_m_per_s2", type=float, default=9.80665, show_default=True, help="Gravity [m/s^2].")
+@click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
-              help="Also write the result as JSON (sorted keys) here.")
+              help="Also write the result as JSON (sorted keys, full precision) here ('-' for stdout).")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
               help="Write report.txt, discover.json and the figure discover.png into this directory.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
 @click.pass_context
-def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, fs_hz, floor_m, noise,
-             g_m_per_s2, json_file, report_dir, quiet):
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, floor_m, noise,
+             g_m_per_s2, details, json_file, report_dir, quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
-    by BIC with a materiality test; repeats until nothing material is left. Prints the report.
+    by their evidence with a materiality test and hard physical limits; repeats until nothing
+    material is left. Prints the answer, the verdict (explained / unexplained / suspect input)
+    and the epsilon for an engine. Several DATA files of one ball (or a table of drop and
+    rebound heights, one trial per row) are fitted jointly: one epsilon, a drop height each.
 
     \b
     Examples:
       vrcal simulate tennis --effect air_drag --noise 0.002 -o drop.csv
       vrcal discover drop.csv --ball tennis
-      vrcal discover drop.csv --ball tennis --json result.json --report out
-      vrcal discover drop.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover drop.csv --ball tennis --details --json result.json --report out
+      vrcal discover heights.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
       vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
       vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
     """
@@ -413,23 +419,29 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
         if not quiet:
             click.echo(f"discover: round {rnd}, candidate {i}/{n}: fitting {name}", err=True)
 
-    result = discover_file(data, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m, g_m_per_s2=g_m_per_s2,
-                           standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
-                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+    result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
+                           g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
+                           y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
                            read_options={"progress": None if quiet else tracking_progress("discover")})
-    text = fit_report(result)
+    text = fit_report(result, details=details)
+    for warning in result.warnings:
+        click.echo(f"vrcal: warning: {warning}", err=True)
     if json_file:
-        emit(dumps(result.as_dict(), "json"), json_file)
+        if json_file == "-":
+            click.echo(dumps(result.as_dict(), "json"), nl=False)
+        else:
+            emit(dumps(result.as_dict(), "json"), json_file)
     if report_dir:
         try:
             os.makedirs(report_dir, exist_ok=True)
         except OSError as exc:
             raise click.UsageError(f"cannot create '{report_dir}': {exc.strerror or exc}") from None
-        atomic_write(os.path.join(report_dir, REPORT_FILES["text"]), text)
+        atomic_write(os.path.join(report_dir, REPORT_FILES["text"]), fit_report(result, details=True))
         atomic_write(os.path.join(report_dir, REPORT_FILES["json"]), dumps(result.as_dict(), "json"))
         atomic_savefig(discovery_figure(result), os.path.join(report_dir, REPORT_FILES["figure"]), dpi=120)
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
-    emit(text, None)
+    if json_file != "-":
+        emit(text, None)
 
 def tracking_progress(command):
     """A ``progress(fraction, message)`` printing to stderr when it is a terminal, from 1 s on."""
@@ -513,83 +525,188 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 
 # (export and verify commands go here)
 
-_ENGINE_NAMES = ["mujoco", "ode", "bullet", "gazebo", "tables", "physx", "unity", "box2d"]
+_ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "physx", "unity", "box2d"]
+
+
+def _engine_options(f):
+    """The options export and verify share: the body, the speeds, the step and the limits."""
+    options = [
+        click.option("--mass", "mass_kg", type=float, default=None,
+                     help="Ball mass [kg] (with --diameter: a ball of your own; overrides a standard's)."),
+        click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m]."),
+        click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
+                     help="A 'vrcal discover --json' result: its ball, release state, drag and epsilon."),
+        click.option("--epsilon", type=float, default=None,
+                     help="Target epsilon (0-1] (default: the standard's, or the --from result's)."),
+        click.option("--drop-height", "drop_height_m", type=float, default=None,
+                     help="Drop height of the ball's bottom [m] (default: the standard's)."),
+        click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
+                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
+        click.option("--g", "g_m_per_s2", type=float, default=None, show_default="9.80665",
+                     help="Gravity [m/s^2]."),
+        click.option("--dt", "dt_s", type=float, default=None,
+                     help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
+        click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
+                                                       case_sensitive=False), default=None,
+                     help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
+        click.option("--stiffness", type=float, default=None,
+                     help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
+        click.option("--tolerance", type=float, default=0.01, show_default=True,
+                     help="Largest accepted |achieved - target| epsilon."),
+        click.option("--max-penetration", "max_penetration_m", type=float, default=None,
+                     help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
+                          "about what a real ball deforms at drop-test speed]."),
+        click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair)."),
+    ]
+    for option in reversed(options):
+        f = option(f)
+    return f
 
 
 @main.command("export")
-@click.argument("ball")
+@click.argument("ball", required=False)
 @click.option("--engine", "engine", type=click.Choice(_ENGINE_NAMES, case_sensitive=False), required=True,
-              help="Engine to export for (physx/unity/box2d = tables).")
-@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=float, default=None,
-              help="Engine time step [s] (default per engine: mujoco 2.5e-5, others 2e-4).")
-@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair).")
+              help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
+@_engine_options
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
 @K_OPTION
+@click.option("--trade-off", "trade_off", is_flag=True,
+              help="MuJoCo: print the achievable (step, stiffness, epsilon error, penetration) table.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default=None,
+              help="json: the machine file (tables rows, MuJoCo's achieved numbers) [default: the engine's file].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def export_cmd(ctx, ball, engine, epsilon, dt_s, floor, against, K, output):
-    """Export BALL's calibrated epsilon to a physics engine's own file.
+def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
+               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, against, K, trade_off, fmt,
+               output):
+    """Export a ball's calibrated bounce to a physics engine's own file.
 
-    mujoco: MJCF model; ode, bullet: JSON settings with a paste-ready snippet;
+    BALL is a ball of the standards; without it give --mass and --diameter (and --epsilon and
+    --drop-height or --impact-speed), or --from a discover result. mujoco: MJCF model, contact
+    calibrated by running MuJoCo at --dt; ode, bullet: JSON settings with a paste-ready snippet;
     gazebo: SDF world; tables: PhysX/Unity/Box2D values and combine modes.
 
     \b
     Examples:
       vrcal export basketball --engine mujoco -o basketball.xml
+      vrcal export --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
+      vrcal export tennis --engine mujoco --trade-off
+      vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
-      vrcal export basketball --engine bullet --against volleyball
-      vrcal export football --engine gazebo --epsilon 0.8 -o football.sdf
+      vrcal export basketball --engine tables --against volleyball
     """
-    from vrcal.engines.export import export
+    from vrcal.engines.export import export, format_trade_off
+    from vrcal.engines.export import trade_off as run_trade_off
+    from vrcal.fileio import dumps
     from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.textout import choose_format, machine_document
 
-    result = export(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, against=against,
-                    standards=standards_of(ctx), K_per_s=DEFAULT_K_PER_S if K is None else K)
-    emit(result.text, output)
+    options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
+                   K_per_s=DEFAULT_K_PER_S if K is None else K, mass_kg=mass_kg, diameter_m=diameter_m,
+                   drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
+                   from_json=from_json, integrator=integrator, tolerance=tolerance,
+                   max_penetration_m=max_penetration_m)
+    form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
+    if trade_off:
+        setup, rows = run_trade_off(ball, engine, **options)
+        emit(format_trade_off(setup, rows) if form == "text" else
+             dumps(machine_document({"engine": "mujoco", "ball": setup.ball, "target_epsilon": setup.epsilon,
+                                     "rows": rows}), "json"), output)
+        return
+    result = export(ball, engine, against=against, stiffness=stiffness, **options)
+    if result.summary:
+        click.echo(result.summary, err=True)
+    if form == "json":
+        emit(dumps(machine_document(result.data), "json"), output)
+    else:
+        emit(result.text, output)
 
 
 @main.command("verify")
-@click.argument("ball")
+@click.argument("ball", required=False)
 @click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet"], case_sensitive=False),
               required=True, help="Engine to run the drop test in.")
-@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=float, default=None, help="Engine time step [s] (default per engine).")
-@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED'.")
-@click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
+@_engine_options
+@click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export.")
-@click.option("--tolerance", type=float, default=0.005, show_default=True,
-              help="Largest accepted |achieved - target| epsilon; exit status 1 above it.")
-@click.option("--bounces", "n_bounces", type=int, default=3, show_default=True, help="Bounces per drop.")
+@click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
+              help="With --from: replay this measured record (the file discover read) in the engine.")
+@click.option("--data-format", "data_fmt", default=None,
+              help="--against: the record's format (as discover's --format).")
+@click.option("--fs", "fs_hz", type=float, default=None, help="--against: frame rate [Hz] of a file without times.")
+@click.option("--scale", "scale_m_per_px", type=float, default=None, help="--against: metres per pixel.")
+@click.option("--y-down", is_flag=True, help="--against: the record's y axis points down.")
+@click.option("--data-floor", "data_floor_m", type=float, default=None,
+              help="--against: height of the floor in the record's frame [m] (as discover's --floor).")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="--against: also draw the replay (heights and model - data) into this PNG/PDF/SVG.")
+@click.option("--bounces", "n_bounces", type=int, default=None, show_default="3, or as --impact-speed needs",
+              help="Bounces per drop (1-50).")
 @click.option("--phases", "n_phases", type=int, default=4, show_default=True,
-              help="Drops with the impact moved across one time step.")
+              help="Drops with the impact moved across one time step (1-64).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION
 @click.pass_context
-def verify_cmd(ctx, ball, engine, epsilon, dt_s, floor, file, tolerance, n_bounces, n_phases, fmt):
-    """Load BALL's exported settings into the real engine and run the drop test.
+def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
+               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, file, against, data_fmt, fs_hz,
+               scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, fmt):
+    """Load the exported settings into the real engine and run the drop test (or replay a record).
 
-    Reports the achieved epsilon (apex and velocity ratios per bounce and contact phase)
-    against the target; exit status 1 when the error exceeds --tolerance.
+    Drops the ball --phases times with the impact moved across one time step and compares
+    each of --bounces bounces with vrcal's model of the same drop (epsilon, and the apex
+    heights with air drag); exit status 1 when the error exceeds --tolerance or the ball
+    turns farther from the floor than --max-penetration. With --from and --against: replay
+    the measured record in the engine beside vrcal's model and the constant-epsilon export.
 
     \b
     Examples:
       vrcal verify basketball --engine mujoco
+      vrcal verify --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
-      vrcal export basketball --engine bullet -o b.json && vrcal verify basketball --engine bullet --file b.json
+      vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
+      vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
-    from pathlib import Path
-
-    from vrcal.engines.verify import format_report, verify
     from vrcal.fileio import dumps
+    from vrcal.textout import machine_document
 
-    text = Path(file).read_text(encoding="utf-8") if file else None
+    if against is not None:
+        from vrcal.engines.replay import format_replay, replay, replay_figure
+        from vrcal.errors import UsageError
+
+        if from_json is None:
+            raise UsageError("--against replays a record with the export of a discover result: give --from too")
+        result = replay(from_json, against, engine, dt_s=dt_s, integrator=integrator, tolerance=tolerance,
+                        max_penetration_m=max_penetration_m, stiffness=stiffness, fmt=data_fmt,
+                        scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz, floor_m=data_floor_m,
+                        standards=standards_of(ctx))
+        if plot_file:
+            from vrcal.fileio import atomic_savefig
+
+            atomic_savefig(replay_figure(result).figure, plot_file, dpi=120)
+            click.echo(f"wrote {plot_file}", err=True)
+        emit(format_replay(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
+        return 0
+    if plot_file:
+        from vrcal.errors import UsageError
+
+        raise UsageError("--plot draws a replay: give --from and --against")
+    from vrcal.engines.files import read_file
+    from vrcal.engines.verify import format_report, verify
+
+    text = read_file(file) if file else None
     result = verify(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
-                    tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text)
-    emit(format_report(result) if fmt == "text" else dumps(result.as_dict(), "json"), None)
+                    tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text,
+                    mass_kg=mass_kg, diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
+                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
+                    max_penetration_m=max_penetration_m, stiffness=stiffness)
+    emit(format_report(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
     if not result.passed:
-        click.echo(f"vrcal: error: epsilon error {result.error:.4g} exceeds the tolerance {tolerance:g}", err=True)
+        why = (f"epsilon error {result.error:.4g} exceeds the tolerance {result.tolerance:g}"
+               if result.error > result.tolerance else
+               f"the ball turns {1e3 * max(result.penetration_m, result.hover_m):.3g} mm from the floor, more "
+               f"than --max-penetration {1e3 * result.max_penetration_m:.3g} mm")
+        click.echo(f"vrcal: error: {why}", err=True)
         return 1
     return 0
 
