@@ -197,7 +197,8 @@ def bench_real_video():
     print(f"   tracked in {took:.1f} s: {vt.kept.sum()} frames kept, ball {vt.diameter_px:.1f} px wide; the flights "
           f"between bounces curve by {fit.g_px_per_s2:.0f} px/s^2: scale {vt.scale_m_per_px * 1e3:.4f} mm/px "
           f"(the diameter alone: {0.0687 / vt.diameter_px * 1e3:.4f} mm/px, g = {vt.g_measured:.2f} m/s^2)")
-    print(f"   per-bounce epsilon from the flight times: {', '.join(f'{r:.3f}' for r in durations[1:] / durations[:-1])}")
+    ratios = durations[1:] / durations[:-1]
+    print(f"   per-bounce epsilon from the flight times: {', '.join(f'{r:.3f}' for r in ratios)}")
     for note in vt.notes:
         if note.startswith("the fall from the hand"):
             print(f"   {note[:note.index(' -- ')]}")

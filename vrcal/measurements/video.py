@@ -90,7 +90,6 @@ VIDEO_EXTENSIONS = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm", ".3gp", ".m
                     ".mpeg", ".ogv")
 
 MIN_QUALITY = 0.6          #: frames with a lower quality are left out
-G_TOLERANCE = 0.05         #: a g from the flights further than this (relative) from 9.81 is reported
 STANDARD_GRAVITY = 9.80665
 LOW_RES_WIDTH = 320        #: width of the pass-1 copies [px] (at least)
 BACKGROUND_FRAMES = 24     #: frames in the background median
@@ -165,10 +164,10 @@ class VideoTrack:
     quality: np.ndarray        # 0..1
     kept: np.ndarray           # bool: in the trajectory
     repeated: np.ndarray       # bool: a repeat of the previous frame
-    diameter_px: float
-    scale_m_per_px: float
-    contact_row_px: float
-    g_measured: float
+    diameter_px: float              # the ball's apparent diameter (median over the slower flight frames)
+    scale_m_per_px: float           # the scale used (see choose_scale)
+    contact_row_px: float           # the centre's row at contact (the floor)
+    g_measured: float               # g from the flights with the diameter's scale (or the given one) [m/s^2]
     fps: float
     size: tuple
     notes: list = field(default_factory=list)
@@ -505,7 +504,6 @@ def _flights(t, row, min_frames=4):
     at each bounce are left out of both flights (the ball may be in contact).
     """
     dt = np.diff(t)
-    v = np.diff(row) / dt
     step = float(np.median(dt))
     # a bounce: falling, then rising -- or stopping (a ball that lands and stays; the fall must be
     # faster than a pixel a frame, so that the noise at an apex makes no bounce)
@@ -765,8 +763,9 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     d_frames = 2.0 * np.sqrt(area[slow] / math.pi)
     diameter_px = float(np.median(d_frames))
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
+    fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
     scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
-                                 fps if fps is not None else container_fps, fps is not None, notes)
+                                 fps if fps is not None else container_fps, fps is not None, notes, fall_g_px)
     if fit is not None and fit.n_flights >= 2:
         contact_row = fit.contact_row_px
         notes.append(f"floor: the ball's centre at contact is at row {contact_row:.2f} +/- "
@@ -796,14 +795,15 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
             first = int(np.searchsorted(tt, apex))
             d_hold = (2.0 * math.sqrt(float(np.median(area[idx[start:release]])) / math.pi)
                       if release - start >= 3 else float("nan"))
+            nearer = "nearer" if d_hold > diameter_px else "farther from"
             why = (f"; the ball looks {d_hold:.1f} px wide in the hand and {diameter_px:.1f} px in the bounces: it "
-                   f"was held {abs(d_hold / diameter_px - 1) * 100:.0f} % {'nearer' if d_hold > diameter_px else 'farther from'} "
-                   "the camera than its bounces" if abs(d_hold / diameter_px - 1) > 0.02 else
+                   f"was held {abs(d_hold / diameter_px - 1) * 100:.0f} % {nearer} the camera than its bounces"
+                   if abs(d_hold / diameter_px - 1) > 0.02 else
                    "; a hand that pushes, or a ball that moves towards or away from the camera")
             fall_note = (f"the fall from the hand is left out (frames {idx[start]}-{idx[first - 1]}): it is no free "
                          f"fall with the bounces' g -- its frames lie {misfit:.1f} px RMS from the best such fall, "
-                         f"air drag allowed, while a flight between bounces lies {flight_rms:.2f} px from its parabola{why}; the "
-                         f"track starts at the first apex (t = {apex:.3f} s)")
+                         f"air drag allowed, while a flight between bounces lies {flight_rms:.2f} px from its "
+                         f"parabola{why}; the track starts at the first apex (t = {apex:.3f} s)")
             start = first
     if fall_note:
         notes.append(fall_note)
@@ -828,9 +828,9 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     notes.append(f"ball measured in {good.sum()} of {n} frames; {sel.size} kept"
                  + (f"; {n_lost} frame(s) within the track left out (ball lost, hidden or cut by the edge; "
                     f"quality < {MIN_QUALITY})" if n_lost else ""))
-    notes.append(f"the centres are uncertain by about {CENTRE_SYSTEMATIC_PX} px ({CENTRE_SYSTEMATIC_PX * scale * 1e3:.2g} "
-                 "mm) beyond their noise from frame to frame (blur, compression, shading): smaller effects are not "
-                 "resolved")
+    notes.append(f"the centres are uncertain by about {CENTRE_SYSTEMATIC_PX} px "
+                 f"({CENTRE_SYSTEMATIC_PX * scale * 1e3:.2g} mm) beyond their noise from frame to frame (blur, "
+                 "compression, shading): smaller effects are not resolved")
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
@@ -969,7 +969,8 @@ def fit_bounces(t, row, flights):
                      rms_px=float(np.sqrt(np.mean(res ** 2))), n_flights=len(chain))
 
 
-def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes):
+def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes,
+                 fall_g_px=float("nan")):
     """The length scale [m/px] of a video, and g [m/s^2] from the flights with the diameter's scale.
 
     Two measurements give the scale: the ball's apparent diameter (``diameter_m`` over
@@ -979,12 +980,38 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     they agree; when they disagree beyond their uncertainty (3 sigma) and the flights tell
     g (to :data:`G_TELLS`), the scale is the flights' alone -- a clock is trusted over a
     blurred size -- and a note gives what the diameter would have implied. When g from the
-    diameter's scale is off by more than :data:`FRAME_RATE_SUSPECT` the frame rate itself is
-    suspect (a slow-motion video): the diameter's scale is kept, with a warning. A scale
+    diameter's scale (or the fall's, without flights between bounces) is off by more than
+    :data:`FRAME_RATE_SUSPECT` the frame rate itself is suspect (a slow-motion video): the
+    diameter's scale is kept, with a warning. A scale
     from the flights takes g as known: an effect that changes the flights' acceleration
-    alike (buoyancy) cannot then be told from the video.
+    alike (buoyancy) cannot then be told from the video. Without a flight between bounces,
+    the fall's curvature (``fall_g_px``) only checks the diameter's scale.
+
+    Parameters
+    ----------
+    diameter_m : float or None
+        the ball's diameter [m]
+    diameter_px, diameter_sd_px : float
+        its apparent diameter and the uncertainty of it [px]
+    fit : BounceFit or None
+        the flights between bounces
+    scale_m_per_px : float or None
+        a scale given by the user [m/px]: used as it is
+    fps : float
+        the frame rate of the times [Hz] (for the notes)
+    fps_given : bool
+        the rate is the user's ``--fps``, not the container's
+    notes : list of str
+        appended to
+    fall_g_px : float
+        twice the curvature of the fall [px/s^2], NaN when none
+
+    Returns
+    -------
+    (float, float)
+        the scale [m/px] and g from the flights with the diameter's (or the given) scale [m/s^2]
     """
-    g_px = fit.g_px_per_s2 if fit is not None else float("nan")
+    g_px = fit.g_px_per_s2 if fit is not None else fall_g_px
     g_rel = fit.curvature_sd_px_per_s2 / fit.curvature_px_per_s2 if fit is not None else float("inf")
     if not math.isfinite(g_rel):
         g_rel = float("inf")
@@ -1003,25 +1030,26 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     scale_d = diameter_m / diameter_px
     seen += f" for its {diameter_m * 1e3:.4g} mm"
     g_meas = g_px * scale_d
-    if not (math.isfinite(g_meas) and g_rel < G_TELLS):
-        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
-                     + ("too few flights between bounces to tell g" if fit is not None else
-                        "no flight between bounces to check it against g"))
-        if math.isfinite(g_meas):
-            notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
-        return scale_d, g_meas
     ratio = g_meas / STANDARD_GRAVITY
-    sigma = math.hypot(g_rel, d_rel)
-    scale_g = STANDARD_GRAVITY / g_px
-    from_g = f"g ({STANDARD_GRAVITY} m/s^2 with {clock}) and {curved}"
-    if abs(ratio - 1) > FRAME_RATE_SUSPECT:
+    who = "flights give" if fit is not None else "fall gives"
+    if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
-        notes.append(f"WARNING: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
+        notes.append(f"WARNING: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
                      f"{abs(ratio - 1) * 100:.0f} % off 9.81 -- no apparent size is that wrong: the frame rate is "
                      f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
                      "give --fps, or check --diameter")
         return scale_d, g_meas
+    if not (math.isfinite(g_meas) and g_rel < G_TELLS):
+        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
+                     + ("too few flights between bounces to tell g" if fit is not None else
+                        "no flight between bounces to tell g"))
+        if math.isfinite(g_meas):
+            notes.append(f"check: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}")
+        return scale_d, g_meas
+    sigma = math.hypot(g_rel, d_rel)
+    scale_g = STANDARD_GRAVITY / g_px
+    from_g = f"g ({STANDARD_GRAVITY} m/s^2 with {clock}) and {curved}"
     if abs(ratio - 1) > 3 * sigma:
         notes.append(f"scale: {scale_g * 1e3:.4g} mm/px from {from_g}")
         notes.append(f"not used: {seen}, which gives {scale_d * 1e3:.4g} mm/px and with it g = {g_meas:.2f} m/s^2 "
