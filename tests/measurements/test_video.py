@@ -141,6 +141,23 @@ def test_planted_drag_keeps_the_fall_and_the_floor(tmp_path):
     assert abs(vt.contact_row_px - contact_row(truth)) < 0.1
 
 
+def test_a_fall_is_told_from_a_fall_seen_nearer_the_camera():
+    """The fall test (no video): a fall with air drag fits the best fall with the bounces' g; the same
+    fall of a ball released 10 % nearer the camera that recedes to its bounces' distance within about
+    0.1 s (its image's offset from the principal point, row 540, shrinks so) misses it by pixels."""
+    from vrcal.measurements.video import _fall_misfit_px
+
+    d = simulate_drops(0.8, 0.7, 1, BALL, effects={"air_drag": {"drag_coefficient": 1.0}})
+    t = np.arange(1, 15) / 30.0
+    t = t[t < d.impact_times_s[0][0]]
+    scale = 0.0009  # m/px
+    row = 985.0 - d.height_m(t)[0] / scale  # image rows grow downwards
+    curvature = 0.5 * 9.80665 / scale
+    assert _fall_misfit_px(t, row, np.arange(t.size), curvature) < 0.05
+    nearer = 540.0 + (row - 540.0) * (1.0 + 0.1 * np.exp(-t / 0.1))
+    assert _fall_misfit_px(t, nearer, np.arange(t.size), curvature) > 2.0
+
+
 def test_color_and_roi_help_and_are_checked(hard):
     path, truth = hard
     vt = track_video(path, diameter_m=D, color="#28a028", roi="100,0,120,320")

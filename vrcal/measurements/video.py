@@ -61,9 +61,9 @@ Times, scale, floor and the y axis
   height of the ball's bottom above the floor (the centre at contact is one radius above it).
 * **The drop only.** The track starts at the still segment before release and ends with
   the last flight resolved (at least four frames): hops too short to resolve, the ball at
-  rest or rolling, and a hand picking it up are no flights. A fall from
-  the hand that is no free fall with the bounces' g (air drag allowed) -- a hand that
-  pushes, a ball held nearer the camera than it bounces -- is left out with a note: the
+  rest or rolling, and a hand picking it up are no flights. A fall from the hand that is
+  no free fall with the bounces' g (air drag allowed) -- a hand that still touches the
+  ball, a ball held nearer the camera than it bounces -- is left out with a note: the
   track then starts at the first apex. A frame at a bounce whose ball lies above both
   flights' parabolas spans the impact (its blurred image averages the path down and up)
   and is left out.
@@ -799,7 +799,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
             why = (f"; the ball looks {d_hold:.1f} px wide in the hand and {diameter_px:.1f} px in the bounces: it "
                    f"was held {abs(d_hold / diameter_px - 1) * 100:.0f} % {nearer} the camera than its bounces"
                    if abs(d_hold / diameter_px - 1) > 0.02 else
-                   "; a hand that pushes, or a ball that moves towards or away from the camera")
+                   "; a hand that still touches it, or a ball that moves towards or away from the camera")
             fall_note = (f"the fall from the hand is left out (frames {idx[start]}-{idx[first - 1]}): it is no free "
                          f"fall with the bounces' g -- its frames lie {misfit:.1f} px RMS from the best such fall, "
                          f"air drag allowed, while a flight between bounces lies {flight_rms:.2f} px from its "
@@ -896,7 +896,7 @@ def fit_bounces(t, row, flights):
     between impacts ``t_i`` and ``t_{i+1}``: a parabola, skewed by ``s_i`` (one per flight)
     as air drag skews a flight (faster up than down), which would otherwise bias ``row_c``
     where the flights are extrapolated to the floor. The fall from the hand (the first
-    flight) is left out: a hand may push, and the ball may start nearer the camera. Least
+    flight) is left out: a hand may still touch it, and the ball may start nearer the camera. Least
     squares over all the flights' frames (the frames at a bounce are in no flight) give
     ``a``, ``row_c`` and their standard errors. A contact that lasts (the ball resting on
     the floor between landing and lift-off) is not modelled: the flights then meet above
