@@ -6,13 +6,16 @@ Prints:
    largest error, the spurious events kept -- for vrcal's detector and for a plain
    high-pass-and-threshold detector (first sample over 6 noise sigmas after a 1 kHz high-pass,
    20 ms dead time);
-2. synthetic videos (noise, motion blur, a cluttered background, a 24 -> 30 fps conversion):
-   the largest centre error [px] and the error of epsilon from ``discover``;
+2. synthetic videos (noise, motion blur, a cluttered background, a 24 -> 30 fps conversion),
+   each drop rendered clean and with air drag planted: the largest centre error [px], the
+   error of epsilon from ``discover``, and how often an effect is named (clean: none should
+   be; drag planted: air_drag should be, and nothing else);
 3. the real video ../shared/data/realval/ameen/bounceAmeen.avi (26 g, 68.7 mm ball, 29.97 fps)
-   with only its physical parameters: per-bounce epsilon and discover's epsilon;
+   with only its physical parameters: the scale (from g or the diameter), per-bounce epsilon,
+   discover's epsilon and the effects it names;
 4. the time to process a 1-minute 48 kHz recording and a 10-second 1080p video.
 
-Run: python benchmarks/bench_track.py   (needs the video extra; about two minutes)
+Run: python benchmarks/bench_track.py   (needs the video extra; about five minutes)
 """
 
 from __future__ import annotations
@@ -116,28 +119,70 @@ VIDEO_SCENES = {
 }
 
 
+def _names(effects):
+    return "+".join(sorted(effects)) or "-"
+
+
 def bench_videos(tmp):
     from vrcal.discovery.ranking import discover
+    from vrcal.discovery.residuals import noise_floor
+    from vrcal.measurements.types import Trajectory
     from vrcal.measurements.video import track_video
 
-    print("2. synthetic videos (640x480, ball 27 px): largest centre error, epsilon error (discover)")
+    print("2. synthetic videos (640x480, ball 27 px), two drops a scene (0.9 m, eps 0.6; 1.1 m, eps 0.8), each "
+          "rendered clean and with air drag planted (C_d 0.5):")
+    print("   the largest centre error, the epsilon error (clean), the effects discover names per drop -- as it is "
+          "('as is'), with the")
+    print("   centres' systematic error VideoTrack.systematic_m added to its noise ('+sys'), and, for the drag, on "
+          "the true heights at")
+    print("   the same frames with the same white noise ('truth': what discover can find at all)")
+    count = {"clean": 0, "clean+sys": 0, "drag": 0, "drag+sys": 0, "drag truth": 0, "other": 0, "other+sys": 0}
+    runs = 0
     for name, scene in VIDEO_SCENES.items():
-        worst_px, worst_eps = 0.0, 0.0
-        for seed, eps in enumerate((0.6, 0.8)):
-            d = simulate_drops(0.9, eps, 6, BALL, release_time_s=0.25)
-            path = tmp / f"v{seed}.avi"
-            truth = render_video(path, d, BALL.diameter_m, scene=VideoScene(m_per_px=0.0025, **scene), seed=seed)
-            vt = track_video(path, diameter_m=BALL.diameter_m)
-            k = vt.kept & ~truth["straddles_impact"]
-            err = np.hypot(vt.row_px[k] - truth["row_px"][k], vt.col_px[k] - truth["col_px"][k])
-            worst_px = max(worst_px, float(np.max(err)))
-            worst_eps = max(worst_eps, abs(discover(vt.trajectory, BALL).epsilon - eps))
-        print(f"   {name:12s} centre within {worst_px:.3f} px   epsilon within {worst_eps:.4f}")
+        worst_px, worst_eps, row = 0.0, 0.0, {"clean": [], "drag": []}
+        for seed, (H, eps) in enumerate(((0.9, 0.6), (1.1, 0.8))):
+            runs += 1
+            for kind, effects in (("clean", None), ("drag", {"air_drag": {"drag_coefficient": 0.5}})):
+                d = simulate_drops(H, eps, 6, BALL, release_time_s=0.25, effects=effects)
+                path = tmp / f"v{seed}.avi"
+                sc = VideoScene(m_per_px=0.0025, **scene)
+                truth = render_video(path, d, BALL.diameter_m, scene=sc, seed=seed)
+                vt = track_video(path, diameter_m=BALL.diameter_m)
+                data = vt.trajectory
+                floor = noise_floor(data) or 0.0
+                as_is = discover(data, BALL).effects
+                with_sys = discover(data, BALL, noise=float(np.hypot(floor, vt.systematic_m))).effects
+                if kind == "clean":
+                    k = vt.kept & ~truth["straddles_impact"]
+                    err = np.hypot(vt.row_px[k] - truth["row_px"][k], vt.col_px[k] - truth["col_px"][k])
+                    worst_px = max(worst_px, float(np.max(err)))
+                    worst_eps = max(worst_eps, abs(discover(data, BALL).epsilon - eps))
+                    count["clean"] += bool(as_is)
+                    count["clean+sys"] += bool(with_sys)
+                    row["clean"].append(f"{_names(as_is)}/{_names(with_sys)}")
+                else:
+                    k = np.flatnonzero(vt.kept)
+                    y = (sc.floor_row - truth["diameter_px"] / 2 - truth["row_px"][k]) * sc.m_per_px
+                    y = y + np.random.default_rng(seed).normal(0.0, floor, y.size)
+                    found = discover(Trajectory(t_s=vt.t_s[k], y_m=y, source="truth",
+                                                release_index=data.release_index), BALL).effects
+                    count["drag"] += "air_drag" in as_is
+                    count["drag+sys"] += "air_drag" in with_sys
+                    count["drag truth"] += "air_drag" in found
+                    count["other"] += bool(set(as_is) - {"air_drag"})
+                    count["other+sys"] += bool(set(with_sys) - {"air_drag"})
+                    row["drag"].append(f"{_names(as_is)}/{_names(with_sys)}/{_names(found)}")
+        print(f"   {name:12s} centre within {worst_px:.3f} px, epsilon within {worst_eps:.4f}; named (as is/+sys): "
+              f"clean {', '.join(row['clean'])}; drag (as is/+sys/truth) {', '.join(row['drag'])}")
+    print(f"   clean videos with an effect named: {count['clean']}/{runs} as is, {count['clean+sys']}/{runs} +sys")
+    print(f"   drag planted: air_drag named in {count['drag']}/{runs} as is, {count['drag+sys']}/{runs} +sys, "
+          f"{count['drag truth']}/{runs} on the truth; another effect named in {count['other']}/{runs} as is, "
+          f"{count['other+sys']}/{runs} +sys")
 
 
 def bench_real_video():
     from vrcal.discovery.ranking import discover
-    from vrcal.measurements.video import _bounce_crossings, _flights, track_video
+    from vrcal.measurements.video import track_video
 
     path = ROOT.parent / "shared" / "data" / "realval" / "ameen" / "bounceAmeen.avi"
     print("3. real video bounceAmeen.avi (26 g, 68.7 mm ball; only these physical parameters)")
@@ -147,17 +192,16 @@ def bench_real_video():
     start = time.perf_counter()
     vt = track_video(path, diameter_m=0.0687)
     took = time.perf_counter() - start
-    t, row = vt.t_s[vt.kept], vt.row_px[vt.kept]
-    rel = vt.trajectory.release_index
-    flights = _flights(t[rel:], row[rel:])
-    crossings = np.array([c[0] for c in _bounce_crossings(t[rel:], flights)])
-    dt = np.diff(crossings)
-    apex = vt.contact_row_px - np.array([np.polyval(c, -c[1] / (2 * c[0])) for _, c, _ in flights])
-    print(f"   tracked in {took:.1f} s: {vt.kept.sum()} frames, ball {vt.diameter_px:.1f} px, g from the flights "
-          f"{vt.g_measured:.2f} m/s^2")
-    print(f"   per-bounce epsilon from flight times: {', '.join(f'{r:.3f}' for r in dt[1:] / dt[:-1])}")
-    print(f"   per-bounce epsilon from apex heights: "
-          f"{', '.join(f'{r:.3f}' for r in np.sqrt(apex[1:] / apex[:-1]))} (the first is the fall from the hand)")
+    fit = vt.bounces
+    durations = np.array([t1 - t0 for _, t0, t1 in fit.flights])
+    print(f"   tracked in {took:.1f} s: {vt.kept.sum()} frames kept, ball {vt.diameter_px:.1f} px wide; the flights "
+          f"between bounces curve by {fit.g_px_per_s2:.0f} px/s^2: scale {vt.scale_m_per_px * 1e3:.4f} mm/px "
+          f"(the diameter alone: {0.0687 / vt.diameter_px * 1e3:.4f} mm/px, g = {vt.g_measured:.2f} m/s^2)")
+    ratios = durations[1:] / durations[:-1]
+    print(f"   per-bounce epsilon from the flight times: {', '.join(f'{r:.3f}' for r in ratios)}")
+    for note in vt.notes:
+        if note.startswith("the fall from the hand"):
+            print(f"   {note[:note.index(' -- ')]}")
     result = discover(vt.trajectory, BallProperties(0.026, 0.0687, "green"))
     print(f"   discover: baseline epsilon {result.epsilon_baseline:.4f}, engine epsilon {result.epsilon:.4f}, "
           f"named: {', '.join(result.effects) or 'none'}")

@@ -57,7 +57,7 @@ def test_track_of_a_video_round_trips(tmp_path):
 
     d = simulate_drops(0.6, 0.8, 4, BallProperties(0.0577, 0.067), release_time_s=0.2)
     path = tmp_path / "drop.avi"
-    render_video(path, d, 0.067, scene=VideoScene(height=320, floor_row=300.0, noise_sd=2.0))
+    render_video(path, d, 0.067, scene=VideoScene(width=320, x_px=160.0, height=320, floor_row=300.0, noise_sd=2.0))
     out = tmp_path / "drop.csv"
     result = run("track", path, "--ball", "tennis", "-o", out, "--plot", tmp_path / "drop.png")
     assert result.exit_code == 0, result.output

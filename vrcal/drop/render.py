@@ -325,12 +325,17 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
                 rows = scene.floor_row - drops.height_m(sub)[0] / scene.m_per_px - r_px
             else:
                 rows = [row[i]]
+            # each sub-frame position draws the ball with its own shading (lit from above: lighter on
+            # top); the exposure averages them
             cover = np.zeros((scene.height, scene.width), dtype=np.float32)
+            shaded = np.zeros((scene.height, scene.width), dtype=np.float32)
             for rr in rows:
-                cover += _disc(cover.shape, col[i], rr, r_px)
+                disc = _disc(cover.shape, col[i], rr, r_px)
+                cover += disc
+                shaded += disc * (1.0 - 0.15 * np.clip((shade_rows - rr) / r_px, -1, 1))[:, None]
             cover /= len(rows)
-            shade = 1.0 - 0.15 * np.clip((shade_rows - row[i]) / r_px, -1, 1)[:, None]
-            img = bg * (1 - cover[..., None]) + (ball * shade[..., None]) * cover[..., None]
+            shaded /= len(rows)
+            img = bg * (1 - cover[..., None]) + ball * shaded[..., None]
             if scene.noise_sd:
                 img = img + rng.normal(0.0, scene.noise_sd, img.shape).astype(np.float32)
             frame = np.clip(np.round(img), 0, 255).astype(np.uint8)

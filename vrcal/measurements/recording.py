@@ -34,8 +34,7 @@ class Tracked:
         else:
             d = self.detail
             head = (f"{m.source}: ball tracked in {m.t_s.size} frames, t = {m.t_s[0]:.3f} .. {m.t_s[-1]:.3f} s, "
-                    f"heights up to {np.max(m.y_m):.3f} m ({d.diameter_px:.1f} px ball, "
-                    f"{d.scale_m_per_px * 1e3:.3f} mm/px)")
+                    f"heights up to {np.max(m.y_m):.3f} m ({d.scale_m_per_px * 1e3:.4g} mm/px)")
         return "\n".join([head] + [f"  {n}" for n in m.notes]) + "\n"
 
 
@@ -148,6 +147,9 @@ def track_figure(tracked):
     t = vt.t_s
     ax.plot(t[vt.kept], vt.row_px[vt.kept], ".", color="tab:green", label="kept")
     ax.plot(t[found & ~vt.kept], vt.row_px[found & ~vt.kept], "x", color="tab:red", label="left out")
+    if vt.bounces is not None:
+        tf = np.linspace(min(f[1] for f in vt.bounces.flights), max(f[2] for f in vt.bounces.flights), 800)
+        ax.plot(tf, vt.bounces.row_at(tf), color="tab:blue", lw=0.8, label="flights between bounces, fitted")
     ax.axhline(vt.contact_row_px, color="0.5", ls="--", lw=0.8, label="centre at contact")
     ax.invert_yaxis()
     ax.set_xlabel("time [s]")

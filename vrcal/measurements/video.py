@@ -1,8 +1,8 @@
 """Video recordings of a drop (the containers a phone writes, read with OpenCV): the ball's trajectory.
 
 This module owns finding the ball in every frame (:func:`track_video`), the frame times
-(container time stamps, repeated and dropped frames), the scale from the ball's apparent
-diameter, the floor from the bounces, and the ``video`` reader of
+(container time stamps, repeated and dropped frames), the length scale (from g and the
+ball's apparent diameter), the floor from the bounces, and the ``video`` reader of
 :data:`vrcal.measurements.FORMATS` (:func:`parse`), which returns a
 :class:`~vrcal.measurements.types.Trajectory`. OpenCV is the optional extra ``video``
 (``pip install 'vrcal[video]'``, package opencv-python-headless).
@@ -18,15 +18,18 @@ How the ball is found
    compact blobs that differ from the background (in CIELAB), the colour that appears in
    the most frames with a steady size is the ball's (a hand, a person or a shadow fail
    either test). The ball's pixels are those near its colour *and* off the background.
-4. **Centre.** In the full-size frame, the ball's coverage ``alpha`` of each pixel is the
-   projection of ``(pixel - background)`` on ``(ball colour - background)`` in BGR (where
-   an edge pixel is a weighted sum of ball and background); pixels far off that line (a
-   shadow, a hand) count 0; clipped to 0..2, not at 1, so that the shading of a ball lit
-   from above stays symmetric. The centre is the alpha-weighted centroid over the ball's blob (grown by
-   3 px): sub-pixel, and unbiased under motion blur (blur spreads alpha symmetrically
-   about the centre at mid-exposure).
-5. **Quality** (per frame, 0..1): the ball's alpha area over its median area, inverted
-   when larger, lowered when the blob touches the frame's edge. Frames below
+4. **Centre and area.** In the full-size frame the ball's blob is where its presence (the
+   projection on the ball's colour in CIELAB, lightness weighted down) exceeds 0.5, its
+   holes (a specular highlight) filled (:func:`ball_blob`). Its coverage of each pixel
+   (:func:`ball_coverage`) is 1 inside and, along its edge, the projection of ``(pixel -
+   background)`` on ``(ball - background)`` in BGR, with ``ball`` the colour of the
+   nearest inside pixels -- so a ball lit from above (lighter on top, darker below) weighs
+   its halves alike, and a shadow beside it adds little. The centre is the centroid of
+   the coverage and the area its sum: sub-pixel, and the centre is unbiased under motion
+   blur (the edge band and the inside follow the streak, which is symmetric about the
+   centre at mid-exposure).
+5. **Quality** (per frame, 0..1): the ball's area over its median area, inverted when
+   larger, lowered when the blob touches the frame's edge. Frames below
    :data:`MIN_QUALITY` (ball lost, hidden by a hand, cut by the edge) are left out.
 
 Times, scale, floor and the y axis
@@ -37,17 +40,33 @@ Times, scale, floor and the y axis
   then the frames left are timed both by their stamps and evenly spaced over the same
   span, and the timing whose flights are better parabolas is kept (``--fps`` overrides
   the container's rate, e.g. for a slow-motion video).
-* **Scale** [m/px] = ``diameter_m`` / the ball's apparent diameter (the median
-  area-equivalent diameter of the slowest third of the frames), or ``scale_m_per_px``.
-* **Check against g.** Each flight between bounces is fitted with a parabola; its
-  curvature times the scale is g. A value far from 9.81 m/s² is reported (wrong
-  diameter, or a slow-motion video whose container rate is not the capture rate).
+* **The bounces** (:func:`fit_bounces`). The flights between bounces are fitted together
+  as parabolas of one curvature that leave and reach one contact row, consecutive ones
+  meeting there at the impact: the curvature in px/s² (g over the scale) and the centre's
+  row at contact, each with its standard error. The fall from the hand is not in it.
+* **Scale** [m/px] (:func:`choose_scale`): two measurements give it -- the flights'
+  curvature with standard gravity and the frame clock, and ``diameter_m`` over the ball's
+  apparent diameter (the median over the slower half of the flights' frames, uncertain by
+  its spread and :data:`EDGE_PX`). When they agree they are averaged with inverse-variance
+  weights (the flights usually dominate); when they disagree beyond 3 sigma and the flights
+  tell g to 2 %, the scale is the flights' (a clock is trusted over an apparent size, which
+  blur, shading, compression and the ball's distance change) and a note gives what the
+  diameter would have implied. A g from the diameter's scale more than 25 % off standard
+  gravity makes the frame rate itself suspect (a slow-motion video): the diameter's scale
+  is kept and a warning names the capture rate that would fit. ``scale_m_per_px`` overrides
+  both. A scale from g cannot tell an effect that changes the flights' acceleration alike
+  (buoyancy): a note says so.
 * **Floor and y axis.** Image rows grow downwards; heights are ``(row_c - row) * scale``,
-  where ``row_c`` is the centre's row at contact: the median of the crossings of the
-  parabolas of consecutive flights. So ``y`` is the height of the ball's bottom above the
-  floor (the centre at contact is one radius above it).
-* **The drop only.** The track starts at the still segment before release and ends once
-  the ball rests on the floor (what follows -- a hand picking it up -- is no bounce).
+  where ``row_c`` is the centre's row at contact from the bounce fit. So ``y`` is the
+  height of the ball's bottom above the floor (the centre at contact is one radius above it).
+* **The drop only.** The track starts at the still segment before release and ends with
+  the last flight resolved (at least four frames): hops too short to resolve, the ball at
+  rest or rolling, and a hand picking it up are no flights. A fall from the hand that is
+  no free fall with the bounces' g (air drag allowed) -- a hand that still touches the
+  ball, a ball held nearer the camera than it bounces -- is left out with a note: the
+  track then starts at the first apex. A frame at a bounce whose ball lies above both
+  flights' parabolas spans the impact (its blurred image averages the path down and up)
+  and is left out.
 """
 
 from __future__ import annotations
@@ -71,7 +90,6 @@ VIDEO_EXTENSIONS = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm", ".3gp", ".m
                     ".mpeg", ".ogv")
 
 MIN_QUALITY = 0.6          #: frames with a lower quality are left out
-G_TOLERANCE = 0.05         #: a g from the flights further than this (relative) from 9.81 is reported
 STANDARD_GRAVITY = 9.80665
 LOW_RES_WIDTH = 320        #: width of the pass-1 copies [px] (at least)
 BACKGROUND_FRAMES = 24     #: frames in the background median
@@ -146,15 +164,17 @@ class VideoTrack:
     quality: np.ndarray        # 0..1
     kept: np.ndarray           # bool: in the trajectory
     repeated: np.ndarray       # bool: a repeat of the previous frame
-    diameter_px: float
-    scale_m_per_px: float
-    contact_row_px: float
-    g_measured: float
+    diameter_px: float              # the ball's apparent diameter (median over the slower flight frames)
+    scale_m_per_px: float           # the scale used (see choose_scale)
+    contact_row_px: float           # the centre's row at contact (the floor)
+    g_measured: float               # g from the flights with the diameter's scale (or the given one) [m/s^2]
     fps: float
     size: tuple
     notes: list = field(default_factory=list)
     trajectory: object = None
     background: np.ndarray = None   # small copy of the background (for figures)
+    bounces: object = None          # BounceFit of the flights between bounces, or None
+    systematic_m: float = 0.0       # the centres' systematic uncertainty in heights [m] (CENTRE_SYSTEMATIC_PX)
     scale_down: float = 1.0
 
 
@@ -357,23 +377,59 @@ class _TiledMedian:
         return out
 
 
-def ball_coverage(cv2, crop, background, ball_lab):
-    """Coverage alpha (0..2) of the ball in each pixel of a crop (see the module docstring, step 4).
+def ball_coverage(cv2, crop, background, blob):
+    """Coverage (0..1) of the ball in each pixel of a crop (see the module docstring, step 4).
 
-    The projection of ``(pixel - background)`` on ``(ball colour - background)`` in linear
-    BGR, where a pixel that mixes ball and background is their weighted sum; pixels far off
-    that line (a shadow, a hand) count 0. Not clipped at 1: a ball lit from above is lighter
-    than its mean colour on top and darker below, symmetrically, so the centroid stays put.
+    ``blob`` (uint8 0/1) is the ball's blob (:func:`ball_blob`). Its interior (the blob
+    eroded by 2 px) is covered: 1. A pixel of the edge band (the blob's edge, 2 px in and 3
+    px out) mixes ball and background, ``pixel = background + f (ball - background)``, where
+    ``ball`` is the colour of the nearest interior pixels (their Gaussian-weighted mean,
+    sigma 3 px): ``f`` is the projection on ``(ball - background)`` in BGR, clipped to 0..1;
+    pixels far off that line (a hand) count 0. Taking the ball's colour locally, not one
+    colour for the whole ball, keeps a ball lit from above (lighter on top, darker below)
+    from weighting one half more than the other: the centroid of the coverage is the centre
+    of the silhouette, and its sum the area. The band is narrow so that a shadow beside the
+    ball (which a dark ball's projection cannot tell from the ball's edge) adds little.
     """
-    ball_bgr = cv2.cvtColor(np.clip(np.asarray(ball_lab, np.float32), 0, 255).astype(np.uint8).reshape(1, 1, 3),
-                            cv2.COLOR_LAB2BGR).reshape(3).astype(np.float32)
-    d = crop.astype(np.float32) - background.astype(np.float32)
-    c = ball_bgr[None, None, :] - background.astype(np.float32)
+    ys, xs = np.nonzero(blob)
+    streak_x, streak_y = max(0, int(np.ptp(xs)) - int(np.ptp(ys))), max(0, int(np.ptp(ys)) - int(np.ptp(xs)))
+    core = cv2.erode(blob, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5 + streak_x, 5 + streak_y)))
+    if core.sum() < 4:
+        core = blob
+    img = crop.astype(np.float32)
+    back = background.astype(np.float32)
+    m = core.astype(np.float32)
+    w = cv2.GaussianBlur(m, (0, 0), 3.0)
+    local = cv2.GaussianBlur(img * m[..., None], (0, 0), 3.0) / np.maximum(w, 1e-6)[..., None]
+    d = img - back
+    c = local - back
     denom = np.maximum(np.sum(c * c, axis=2), 100.0)
-    alpha = np.sum(d * c, axis=2) / denom
-    perp = np.linalg.norm(d - alpha[..., None] * c, axis=2)
-    alpha[perp > 0.6 * np.sqrt(denom) + 8.0] = 0.0
-    return np.clip(alpha, 0.0, 2.0)
+    f = np.sum(d * c, axis=2) / denom
+    perp = np.linalg.norm(d - f[..., None] * c, axis=2)
+    f[perp > 0.6 * np.sqrt(denom) + 8.0] = 0.0
+    band = cv2.dilate(blob, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7 + streak_x, 7 + streak_y)))
+    f = np.where((band > 0) & (w > 1e-3), np.clip(f, 0.0, 1.0), 0.0)
+    f[core > 0] = 1.0
+    return f
+
+
+def ball_blob(cv2, presence):
+    """The ball's blob (uint8 0/1) in a crop: the largest region of presence > 0.5, opened
+    (thin attachments such as a shadow's edge cut off), its holes (a specular highlight)
+    filled; None when there is none."""
+    mask = (presence > 0.5).astype(np.uint8)
+    opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
+    if opened.sum() >= 4:
+        mask = opened
+    k, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if k < 2:
+        return None, None
+    j = 1 + int(np.argmax(stats[1:, 4]))
+    blob = (labels == j).astype(np.uint8)
+    contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    filled = np.zeros_like(blob)
+    cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+    return filled, stats[j]
 
 
 def ball_presence(cv2, crop, background, ball_lab):
@@ -423,21 +479,16 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
             continue
         crop, back = frame[y0:y1, x0:x1], bgmed.crop(y0, y1, x0, x1)
         presence = ball_presence(cv2, crop, back, ball_lab)
-        alpha = ball_coverage(cv2, crop, back, ball_lab)
-        core = (presence > 0.3).astype(np.uint8)
-        k, labels, stats, cent = cv2.connectedComponentsWithStats(core, connectivity=8)
-        if k > 1:
-            j = 1 + int(np.argmax(stats[1:, 4]))
-            blob = (labels == j).astype(np.uint8)
-            grown = cv2.dilate(blob, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7)))
-            a = alpha * grown
+        blob, stat = ball_blob(cv2, presence)
+        if blob is not None:
+            a = ball_coverage(cv2, crop, back, blob)
             total = float(a.sum())
             if total > 0:
                 yy, xx = np.mgrid[y0:y1, x0:x1]
                 row_f[i] = float((a * yy).sum() / total)
                 col_f[i] = float((a * xx).sum() / total)
-                area_f[i] = float((blob * (presence > 0.5)).sum())
-                bx, by, bw, bh = (int(v) for v in stats[j, :4])
+                area_f[i] = total
+                bx, by, bw, bh = (int(v) for v in stat[:4])
                 edge[i] = (y0 + by <= 0) or (x0 + bx <= 0) or (y0 + by + bh >= H) or (x0 + bx + bw >= W)
         i += 1
         prog(0.55 + 0.4 * i / n, f"measuring the ball {i}/{n}")
@@ -448,14 +499,17 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
 def _flights(t, row, min_frames=4):
     """Parabolas ``row = a t^2 + b t + c`` of the flights between bounces.
 
-    Bounces are the frames where the ball, moving down (row growing), turns up. Returns
+    Bounces are the frames where the ball, moving down (row growing), turns up or stops. Returns
     ``[(indices, coeffs, rms)]`` for flights with at least ``min_frames`` frames; the frames
     at each bounce are left out of both flights (the ball may be in contact).
     """
     dt = np.diff(t)
-    v = np.diff(row) / dt
     step = float(np.median(dt))
-    bounce = [i for i in range(1, row.size - 1) if v[i - 1] > 0 and v[i] < 0 and row[i] >= row[i - 1]]
+    # a bounce: falling, then rising -- or stopping (a ball that lands and stays; the fall must be
+    # faster than a pixel a frame, so that the noise at an apex makes no bounce)
+    fall = np.diff(row)
+    bounce = [i for i in range(1, row.size - 1) if fall[i - 1] > 0 and (
+        fall[i] < 0 or (fall[i - 1] > 1.0 and fall[i] < 0.2 * fall[i - 1]))]
     gaps = [i + 1 for i in np.flatnonzero(dt > 3.5 * step)]  # a gap without the ball ends a flight
     bounds = [-1] + sorted(set(bounce) | set(gaps)) + [row.size]
     out = []
@@ -492,25 +546,40 @@ def _bounce_crossings(t, flights):
     return out
 
 
-def _track_end(t, row, flights, contact_row, tol_px, rest_s=0.3, gap_s=0.25):
-    """One past the last frame of the drop: after the last fitted flight, the first frame below
-    the floor (the ball rolls towards the camera) or after a gap of ``gap_s`` without the ball,
-    or ``rest_s`` after the ball came to rest on the floor."""
-    if not flights:
-        return row.size
-    i = int(flights[-1][0][-1]) + 1
-    rest = None
-    while i < row.size:
-        if row[i] > contact_row + tol_px or t[i] - t[i - 1] > gap_s:
-            break
-        if abs(row[i] - contact_row) <= tol_px:
-            rest = t[i] if rest is None else rest
-            if t[i] - rest > rest_s:
-                break
-        else:
-            rest = None
-        i += 1
-    return i
+def _track_end(flights, n):
+    """One past the last frame of the drop: the last frame of the last flight fitted. What
+    follows -- a hop too short to resolve as a flight (fewer than four frames), the ball at
+    rest or rolling (a ball with a constant epsilon bounces ever lower and comes to rest at a
+    finite time; the frames after the last resolved flight tell little and mislead a model
+    that must bounce on), a hand picking it up -- is left out."""
+    return int(flights[-1][0][-1]) + 1 if flights else n
+
+
+def _fall_misfit_px(t, row, fall, curvature):
+    """RMS [px] of the fall from the hand about the best fall from rest with the bounces' g
+    (``row = row_0 + a tau^2``, ``a`` = ``curvature``) and any quadratic air drag:
+    ``row = row_0 + ln cosh(tau sqrt(2 a k)) / k``, ``tau = t - t_release``, fitted over
+    ``row_0``, ``t_release`` and ``k >= 0`` [1/px]."""
+    from scipy.optimize import least_squares
+
+    tt, rr = t[fall], row[fall]
+    g = 2.0 * curvature
+
+    def model(p):
+        r0, tr, k = p
+        tau = np.maximum(tt - tr, 0.0)
+        if k <= 1e-12:
+            return r0 + 0.5 * g * tau ** 2
+        x = tau * math.sqrt(g * k)
+        return r0 + (np.logaddexp(x, -x) - math.log(2.0)) / k
+
+    tr0 = tt[0] - math.sqrt(max(rr[1] - rr[0], 0.0) / max(curvature, 1e-9)) if rr.size > 1 else tt[0]
+    r00 = rr[0] - curvature * (tt[0] - tr0) ** 2
+    span = max(float(np.ptp(rr)), 1.0)
+    sol = least_squares(lambda p: model(p) - rr, [r00, tr0, 0.1 / span],
+                        bounds=([-np.inf, -np.inf, 0.0], [np.inf, np.inf, np.inf]),
+                        x_scale=[1.0, 0.01, 1.0 / span])
+    return float(np.sqrt(np.mean(sol.fun ** 2)))
 
 
 def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None):
@@ -592,42 +661,30 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     quality = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0 / np.where(ratio > 0, ratio, np.inf)), 0.0)
     quality = np.where(edge, 0.5 * quality, quality)
     quality = np.nan_to_num(quality)
-    # repeated frames (a frame-rate conversion): the small frame equals the one before
-    mad = np.r_[np.inf, np.mean(np.abs(np.diff(frames.astype(np.int16), axis=0)), axis=(1, 2, 3))]
-    typical = float(np.median(mad[1:]))
-    repeated = mad < max(0.02, 0.15 * typical)
-    if np.all(repeated[1:]):
-        repeated[:] = False  # a still video: nothing is "repeated"
+    # repeated frames (a frame-rate conversion): the small frame equals the one before, while the
+    # ones before and after it changed (a still scene -- a noise-free video with the ball at rest or
+    # out of view -- repeats nothing)
+    mad = np.r_[np.inf, np.mean(np.abs(np.diff(frames.astype(np.int16), axis=0)), axis=(1, 2, 3)), np.inf]
+    typical = float(np.median(mad[1:-1]))
+    same = mad < max(0.02, 0.15 * typical)
+    repeated = np.r_[False, same[1:-1] & ~same[:-2] & ~same[2:]]
+    # ... and the ball's centre is the same to the last bit (a slow ball in a noise-free video
+    # can leave the small copy unchanged, not the full frame)
+    repeated[1:] &= (row[1:] == row[:-1]) & (col[1:] == col[:-1])
     # times
     t, timing_note = _frame_times(stamps, container_fps, fps, repeated)
     notes += timing_note
-    # diameter and scale: the median over the good frames between the first and the last big move
     good = (quality >= MIN_QUALITY) & ~repeated & np.isfinite(row)
     if good.sum() < 5:
         raise DataError(f"{path}: the ball is measured well in only {int(good.sum())} frame(s); "
                         "give its colour with --color and a region with --roi")
-    gi = np.flatnonzero(good)
-    step = np.abs(np.diff(row[gi]))
-    moving = gi[1:][step > 0.05 * math.sqrt(area_ref)]
-    span = gi[(gi >= moving[0]) & (gi <= moving[-1])] if moving.size >= 3 else gi
-    # the slowest half of those frames: the least motion blur (which widens the blob)
-    speed = np.abs(np.gradient(row[span])) if span.size > 2 else np.zeros(span.size)
-    slow = span[np.argsort(speed)[: max(3, span.size // 2)]]
-    diameter_px = 2.0 * math.sqrt(float(np.median(area[slow])) / math.pi)
-    if scale_m_per_px is not None:
-        scale = float(scale_m_per_px)
-        notes.append(f"scale: {scale * 1e3:.4g} mm/px (given); the ball looks {diameter_px:.1f} px wide")
-    else:
-        scale = diameter_m / diameter_px
-        notes.append(f"scale: {scale * 1e3:.4g} mm/px from the ball's apparent diameter {diameter_px:.1f} px "
-                     f"and its {diameter_m * 1e3:.4g} mm")
     # repeated frames
     if repeated.any():
         notes.append(f"{int(repeated.sum())} repeated frame(s) dropped (a frame identical to the one before: a "
                      f"frame-rate conversion; frames {_list(np.flatnonzero(repeated))})")
     lost = ~good & ~repeated
-    result = _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px, notes, n, size, fps,
-                     container_fps, stamps)
+    result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
+                     diameter_m, scale_m_per_px)
     result.background = bg
     result.scale_down = factor
     prog(1.0, "done", force=True)
@@ -675,8 +732,8 @@ def _frame_times(stamps, container_fps, fps, repeated):
     return t, notes
 
 
-def _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px, notes, n, size, fps,
-            container_fps, stamps):
+def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps, diameter_m,
+            scale_m_per_px):
     idx = np.flatnonzero(good)
     tt, rr = t[idx], row[idx]
     # a frame-rate conversion: stamps of the frames left, or the frames evenly spaced over the same span
@@ -698,30 +755,27 @@ def _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px
                          f"{res_even:.2f} px if evenly spaced)")
     release = detect_release_index(-rr)
     flights = [(i + release, c, r) for i, c, r in _flights(tt[release:], rr[release:])]
-    crossings = _bounce_crossings(tt, flights)
-    g_px = [2 * c[0] for i, c, _ in flights if i.size >= 5]
-    g_meas = float(np.median(g_px)) * scale if g_px else float("nan")
-    if crossings:
-        contact_row = float(np.median([c[1] for c in crossings]))
-        notes.append(f"floor: the ball's centre at contact is at row {contact_row:.1f} px (median of "
-                     f"{len(crossings)} crossings of consecutive flight parabolas); heights are of the ball's "
-                     "bottom above the floor, (row_c - row) x scale")
+    fit = fit_bounces(tt, rr, flights)
+    # the ball's apparent diameter: the slower half of the frames of the flights (the least motion blur)
+    in_flight = np.concatenate([i for i, _, _ in flights]) if flights else np.arange(rr.size)
+    speed = np.abs(np.gradient(rr, tt))[in_flight] if rr.size > 2 else np.zeros(in_flight.size)
+    slow = idx[in_flight[np.argsort(speed)[: max(3, in_flight.size // 2)]]]
+    d_frames = 2.0 * np.sqrt(area[slow] / math.pi)
+    diameter_px = float(np.median(d_frames))
+    diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
+    fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
+    scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
+                                 fps if fps is not None else container_fps, fps is not None, notes, fall_g_px)
+    if fit is not None and fit.n_flights >= 2:
+        contact_row = fit.contact_row_px
+        notes.append(f"floor: the ball's centre at contact is at row {contact_row:.2f} +/- "
+                     f"{fit.contact_row_sd_px:.2f} px (where the {fit.n_flights} flights between bounces, fitted "
+                     "together, meet); heights are of the ball's bottom above the floor, "
+                     "(row_c - row) x scale")
     else:
-        contact_row = float(np.max(rr))
-        notes.append("floor: fewer than two flights to cross; heights are of the ball's bottom above its lowest "
-                     "tracked position")
-    if math.isfinite(g_meas):
-        ratio = g_meas / STANDARD_GRAVITY
-        msg = f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and these times"
-        if abs(ratio - 1) > G_TOLERANCE:
-            k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
-            if ratio < 0.5 and math.isfinite(k):
-                msg += (f" -- far from 9.81: a slow-motion video? the capture rate would be about "
-                        f"{container_fps * k:.0f} fps (give --fps)")
-            else:
-                msg += (f" -- {abs(ratio - 1) * 100:.0f} % off 9.81: the ball's apparent size (perspective, blur, "
-                        "--diameter) or the frame rate (--fps) is off")
-        notes.append(msg)
+        contact_row = float(np.max(rr[release:])) if release < rr.size else float(np.max(rr))
+        notes.append("floor: fewer than two flights between bounces; heights are of the ball's bottom above its "
+                     "lowest tracked position")
     # the drop only: from the still segment before release to the rest on the floor
     noise = float(np.median([f[2] for f in flights])) if flights else 0.5
     start = 0
@@ -729,26 +783,306 @@ def _finish(path, t, row, col, quality, good, repeated, lost, scale, diameter_px
         still = np.abs(rr[:release] - rr[release - 1]) <= max(2.0, 4 * noise)
         moving = np.flatnonzero(~still)
         start = int(moving[-1]) + 1 if moving.size else 0
-    end = _track_end(tt, rr, flights, contact_row, max(2.0, 4 * noise))
-    if start > 0:
+    end = _track_end(flights, rr.size)
+    # the fall from the hand must be a fall: else the track starts at the first apex
+    fall_note = None
+    if fit is not None and flights[0][0].size >= 5 and fit.n_flights >= 2:
+        misfit = _fall_misfit_px(tt, rr, flights[0][0], fit.curvature_px_per_s2)
+        flight_rms = float(np.median([f[2] for f in flights[1:]]))
+        if misfit > max(FALL_MISFIT_PX, 4.0 * flight_rms):
+            _, t0, t1 = fit.flights[0]
+            apex = 0.5 * (t0 + t1)
+            first = int(np.searchsorted(tt, apex))
+            d_hold = (2.0 * math.sqrt(float(np.median(area[idx[start:release]])) / math.pi)
+                      if release - start >= 3 else float("nan"))
+            nearer = "nearer" if d_hold > diameter_px else "farther from"
+            why = (f"; the ball looks {d_hold:.1f} px wide in the hand and {diameter_px:.1f} px in the bounces: it "
+                   f"was held {abs(d_hold / diameter_px - 1) * 100:.0f} % {nearer} the camera than its bounces"
+                   if abs(d_hold / diameter_px - 1) > 0.02 else
+                   "; a hand that still touches it, or a ball that moves towards or away from the camera")
+            fall_note = (f"the fall from the hand is left out (frames {idx[start]}-{idx[first - 1]}): it is no free "
+                         f"fall with the bounces' g -- its frames lie {misfit:.1f} px RMS from the best such fall, "
+                         f"air drag allowed, while a flight between bounces lies {flight_rms:.2f} px from its "
+                         f"parabola{why}; the track starts at the first apex (t = {apex:.3f} s)")
+            start = first
+    if fall_note:
+        notes.append(fall_note)
+    elif start > 0:
         notes.append(f"track starts at frame {idx[start]} (the ball moved before its still segment)")
     if end < rr.size:
-        notes.append(f"track ends at frame {idx[end - 1]} (t = {tt[end - 1]:.3f} s), after the last bounce; "
-                     f"{rr.size - end} later frame(s) left out (the ball rests, rolls or is picked up)")
-    sel = idx[start:end]
+        notes.append(f"track ends at frame {idx[end - 1]} (t = {tt[end - 1]:.3f} s), with the last flight "
+                     f"resolved; {rr.size - end} later frame(s) left out (hops too short to resolve, the ball at "
+                     "rest, rolling or picked up)")
+    keep = np.zeros(rr.size, dtype=bool)
+    keep[start:end] = True
+    straddle = _straddling(tt, rr, flights)
+    if np.any(straddle & keep):
+        keep &= ~straddle
+        notes.append(f"{int(np.sum(straddle[start:end]))} frame(s) at a bounce left out (frames "
+                     f"{_list(idx[straddle])}): the ball's image lies above both flights there -- the exposure "
+                     "spans the impact, and the blurred image averages the path down and up")
+    sel = idx[keep]
     kept = np.zeros(n, dtype=bool)
     kept[sel] = True
     n_lost = int(np.sum(lost[sel[0]:sel[-1] + 1]))
     notes.append(f"ball measured in {good.sum()} of {n} frames; {sel.size} kept"
                  + (f"; {n_lost} frame(s) within the track left out (ball lost, hidden or cut by the edge; "
                     f"quality < {MIN_QUALITY})" if n_lost else ""))
+    notes.append(f"the centres are uncertain by about {CENTRE_SYSTEMATIC_PX} px "
+                 f"({CENTRE_SYSTEMATIC_PX * scale * 1e3:.2g} mm) beyond their noise from frame to frame (blur, "
+                 "compression, shading): smaller effects are not resolved")
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
-                     trajectory=traj)
+                     trajectory=traj, bounces=fit, systematic_m=CENTRE_SYSTEMATIC_PX * scale)
+    return out
+
+
+#: Systematic error of a ball centre [px] beyond the frame-to-frame noise (motion blur,
+#: compression, shading): about the largest mean error of the centres in the synthetic
+#: videos of ``benchmarks/bench_track.py`` (0.01-0.05 px), the scale of the smallest effect
+#: a video can resolve.
+CENTRE_SYSTEMATIC_PX = 0.05
+#: Uncertainty of the ball's apparent diameter from where its edge is drawn [px] (gamma,
+#: compression, optical blur), added to the spread of the diameter over the frames.
+EDGE_PX = 0.5
+#: Beyond this relative disagreement of g (from the flights with the diameter's scale) with
+#: standard gravity, no ball's apparent size can be that wrong: the frame rate is suspect.
+FRAME_RATE_SUSPECT = 0.25
+#: The flights tell g when its relative uncertainty from them is below this.
+G_TELLS = 0.02
+#: A fall from the hand that misses the best free fall (with the bounces' g, drag allowed) by
+#: more than this RMS [px] (and four times the bounce flights' RMS) is left out.
+FALL_MISFIT_PX = 1.0
+
+
+@dataclass
+class BounceFit:
+    """The flights between bounces fitted together (:func:`fit_bounces`), in image rows (down)."""
+
+    curvature_px_per_s2: float     # a: row = row_c - a (t - t_start)(t_end - t); g = 2 a x scale
+    curvature_sd_px_per_s2: float
+    contact_row_px: float          # the centre's row at contact
+    contact_row_sd_px: float
+    impact_times_s: np.ndarray     # the starts and ends of the flights
+    flights: list                  # [(frame indices, t_start, t_end)]
+    rms_px: float
+    n_flights: int
+
+    @property
+    def g_px_per_s2(self):
+        return 2.0 * self.curvature_px_per_s2
+
+    def row_at(self, t_s):
+        """The fitted centre row at ``t_s`` (the flight that contains it, else the nearest), NaN
+        outside the fitted bounces."""
+        t_s = np.asarray(t_s, dtype=float)
+        out = np.full(t_s.shape, np.nan)
+        for _, t0, t1 in self.flights:
+            inside = (t_s >= t0) & (t_s <= t1)
+            out[inside] = self.contact_row_px - self.curvature_px_per_s2 * (t_s[inside] - t0) * (t1 - t_s[inside])
+        return out
+
+
+def fit_bounces(t, row, flights):
+    """The flights between bounces as one model: curves of one curvature ``a`` that leave and
+    reach the same contact row ``row_c``, each consecutive pair meeting there at the impact::
+
+        row = row_c - tau (T - tau) (a + s_i (2 tau - T) / T),  tau = t - t_i,  T = t_{i+1} - t_i
+
+    between impacts ``t_i`` and ``t_{i+1}``: a parabola, skewed by ``s_i`` (one per flight)
+    as air drag skews a flight (faster up than down), which would otherwise bias ``row_c``
+    where the flights are extrapolated to the floor. The fall from the hand (the first
+    flight) is left out: a hand may still touch it, and the ball may start nearer the camera. Least
+    squares over all the flights' frames (the frames at a bounce are in no flight) give
+    ``a``, ``row_c`` and their standard errors. A contact that lasts (the ball resting on
+    the floor between landing and lift-off) is not modelled: the flights then meet above
+    the floor, by about the contact time times the impact speed over two.
+
+    Parameters
+    ----------
+    t : ndarray
+        frame times [s]
+    row : ndarray
+        the ball centre's image row [px]
+    flights : list
+        :func:`_flights` of these frames
+
+    Returns
+    -------
+    BounceFit or None
+        None without a flight between two bounces
+    """
+    from scipy.optimize import least_squares
+
+    chain = [f for f in flights[1:] if f[0].size >= 4]
+    if not chain:
+        return None
+    # impact-time parameters: consecutive flights share one
+    owner, times = [], []
+    a0 = float(np.median([c[0] for _, c, _ in chain]))
+    crossings = _bounce_crossings(t, flights)
+    r0 = float(np.median([c[1] for c in crossings])) if crossings else float(max(np.max(row[i]) for i, _, _ in chain))
+    prev = flights[0][0]
+    for i, c, _ in chain:
+        roots = np.sort(np.roots(np.asarray(c, float) - [0.0, 0.0, r0]).real)
+        lo, hi = (roots[0], roots[-1]) if roots.size == 2 else (t[i[0]], t[i[-1]])
+        joined = bool(times) and i[0] - prev[-1] <= 3
+        if joined:
+            times[-1] = 0.5 * (times[-1] + min(lo, t[i[0]]))
+        else:
+            times.append(min(lo, t[i[0]]))
+        times.append(max(hi, t[i[-1]]))
+        owner.append((len(times) - 2, len(times) - 1))
+        prev = i
+    frames = [i for i, _, _ in chain]
+
+    nt = len(times)
+
+    def residual(p):
+        a, rc = p[0], p[1]
+        ts, skew = p[2:2 + nt], p[2 + nt:]
+        out = []
+        for n, (i, (j0, j1)) in enumerate(zip(frames, owner)):
+            tau, span = t[i] - ts[j0], ts[j1] - ts[j0]
+            out.append(row[i] - (rc - tau * (span - tau) * (a + skew[n] * (2.0 * tau - span) / span)))
+        return np.concatenate(out)
+
+    p0 = np.r_[a0, r0, times, np.zeros(len(chain))]
+    sol = least_squares(residual, p0, method="lm",
+                        x_scale=np.r_[a0, 1.0, np.full(nt, 0.01), np.full(len(chain), 0.01 * a0)])
+    res = sol.fun
+    dof = max(res.size - sol.x.size, 1)
+    s2 = float(res @ res) / dof
+    try:
+        cov = np.linalg.inv(sol.jac.T @ sol.jac) * s2
+        sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    except np.linalg.LinAlgError:
+        sd = np.full(sol.x.size, np.nan)
+    ts = sol.x[2:2 + nt]
+    return BounceFit(curvature_px_per_s2=float(sol.x[0]), curvature_sd_px_per_s2=float(sd[0]),
+                     contact_row_px=float(sol.x[1]), contact_row_sd_px=float(sd[1]), impact_times_s=ts,
+                     flights=[(i, ts[j0], ts[j1]) for i, (j0, j1) in zip(frames, owner)],
+                     rms_px=float(np.sqrt(np.mean(res ** 2))), n_flights=len(chain))
+
+
+def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes,
+                 fall_g_px=float("nan")):
+    """The length scale [m/px] of a video, and g [m/s^2] from the flights with the diameter's scale.
+
+    Two measurements give the scale: the ball's apparent diameter (``diameter_m`` over
+    ``diameter_px``, uncertain by ``diameter_sd_px``: blur, shading, compression and the
+    ball's distance changing), and the flights' curvature with standard gravity and the
+    frame clock (:func:`fit_bounces`). They are combined with inverse-variance weights when
+    they agree; when they disagree beyond their uncertainty (3 sigma) and the flights tell
+    g (to :data:`G_TELLS`), the scale is the flights' alone -- a clock is trusted over a
+    blurred size -- and a note gives what the diameter would have implied. When g from the
+    diameter's scale (or the fall's, without flights between bounces) is off by more than
+    :data:`FRAME_RATE_SUSPECT` the frame rate itself is suspect (a slow-motion video): the
+    diameter's scale is kept, with a warning. A scale
+    from the flights takes g as known: an effect that changes the flights' acceleration
+    alike (buoyancy) cannot then be told from the video. Without a flight between bounces,
+    the fall's curvature (``fall_g_px``) only checks the diameter's scale.
+
+    Parameters
+    ----------
+    diameter_m : float or None
+        the ball's diameter [m]
+    diameter_px, diameter_sd_px : float
+        its apparent diameter and the uncertainty of it [px]
+    fit : BounceFit or None
+        the flights between bounces
+    scale_m_per_px : float or None
+        a scale given by the user [m/px]: used as it is
+    fps : float
+        the frame rate of the times [Hz] (for the notes)
+    fps_given : bool
+        the rate is the user's ``--fps``, not the container's
+    notes : list of str
+        appended to
+    fall_g_px : float
+        twice the curvature of the fall [px/s^2], NaN when none
+
+    Returns
+    -------
+    (float, float)
+        the scale [m/px] and g from the flights with the diameter's (or the given) scale [m/s^2]
+    """
+    g_px = fit.g_px_per_s2 if fit is not None else fall_g_px
+    g_rel = fit.curvature_sd_px_per_s2 / fit.curvature_px_per_s2 if fit is not None else float("inf")
+    if not math.isfinite(g_rel):
+        g_rel = float("inf")
+    d_rel = diameter_sd_px / diameter_px
+    seen = f"the ball's apparent diameter, {diameter_px:.1f} +/- {diameter_sd_px:.1f} px"
+    clock = f"{'--fps' if fps_given else 'the container'}'s {fps:.3f} fps"
+    curved = (f"the curvature of the {fit.n_flights} flight(s) between bounces, {g_px:.5g} px/s^2 +/- "
+              f"{g_rel * 100:.2g} %" if fit is not None else "")
+    if scale_m_per_px is not None:
+        scale = float(scale_m_per_px)
+        g_meas = g_px * scale
+        notes.append(f"scale: {scale * 1e3:.4g} mm/px (given); {seen}")
+        if math.isfinite(g_meas):
+            notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
+        return scale, g_meas
+    scale_d = diameter_m / diameter_px
+    seen += f" for its {diameter_m * 1e3:.4g} mm"
+    g_meas = g_px * scale_d
+    ratio = g_meas / STANDARD_GRAVITY
+    who = "flights give" if fit is not None else "fall gives"
+    if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
+        k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
+        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
+        notes.append(f"WARNING: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
+                     f"{abs(ratio - 1) * 100:.0f} % off 9.81 -- no apparent size is that wrong: the frame rate is "
+                     f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
+                     "give --fps, or check --diameter")
+        return scale_d, g_meas
+    if not (math.isfinite(g_meas) and g_rel < G_TELLS):
+        notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
+                     + ("too few flights between bounces to tell g" if fit is not None else
+                        "no flight between bounces to tell g"))
+        if math.isfinite(g_meas):
+            notes.append(f"check: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}")
+        return scale_d, g_meas
+    sigma = math.hypot(g_rel, d_rel)
+    scale_g = STANDARD_GRAVITY / g_px
+    from_g = f"g ({STANDARD_GRAVITY} m/s^2 with {clock}) and {curved}"
+    if abs(ratio - 1) > 3 * sigma:
+        notes.append(f"scale: {scale_g * 1e3:.4g} mm/px from {from_g}")
+        notes.append(f"not used: {seen}, which gives {scale_d * 1e3:.4g} mm/px and with it g = {g_meas:.2f} m/s^2 "
+                     f"from the flights, {abs(ratio - 1) / sigma:.0f} sigma off (blur, shading, perspective or a wrong "
+                     "--diameter bias an apparent size; a clock is trusted over it)")
+        notes.append("the heights are scaled with g known: an effect that changes every flight's acceleration alike "
+                     "(buoyancy) cannot be told from this video")
+        return scale_g, g_meas
+    w_g, w_d = 1.0 / g_rel ** 2, 1.0 / d_rel ** 2
+    scale = math.exp((w_g * math.log(scale_g) + w_d * math.log(scale_d)) / (w_g + w_d))
+    share = w_g / (w_g + w_d)
+    notes.append(f"scale: {scale * 1e3:.4g} mm/px, {share * 100:.0f} % from {from_g} ({scale_g * 1e3:.4g} mm/px), "
+                 f"{100 - share * 100:.0f} % from {seen} ({scale_d * 1e3:.4g} mm/px, with which the flights give "
+                 f"g = {g_meas:.2f} m/s^2): they agree")
+    if share > 0.5:
+        notes.append("the heights are scaled mostly with g known: an effect that changes every flight's acceleration "
+                     "alike (buoyancy) cannot be told from this video")
+    return scale, g_meas
+
+
+def _straddling(t, row, flights, min_px=0.3):
+    """Frames at a bounce (between two consecutive flights, in neither) whose ball lies above
+    both flights' parabolas (row smaller) by more than ``min_px`` and 4 flight RMS: their
+    exposure spans the impact. The path near an impact is the higher of the two parabolas
+    (the fall, then the rise); a blurred image averages the path down and up over the
+    exposure, which lies above the path at mid-exposure."""
+    out = np.zeros(row.size, dtype=bool)
+    for (i1, c1, r1), (i2, c2, r2) in zip(flights[:-1], flights[1:]):
+        between = np.arange(i1[-1] + 1, i2[0])
+        if between.size == 0 or between.size > 3:
+            continue
+        model = np.minimum(np.polyval(c1, t[between]), np.polyval(c2, t[between]))
+        out[between] = model - row[between] > max(min_px, 4.0 * max(r1, r2))
     return out
 
 
