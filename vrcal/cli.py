@@ -7,11 +7,15 @@ message on stderr and an exit status in one place, :class:`VrcalGroup`.
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import warnings
 
 import click
 
 from vrcal import __version__
+from vrcal import options as opt
 from vrcal.errors import VrcalError
 
 # --------------------------------------------------------------------------- the group
@@ -22,33 +26,79 @@ class VrcalGroup(click.Group):
 
     Library errors (:class:`VrcalError`) exit 1 (data) or 2 (usage); click's own usage
     errors (a bad option value, a missing argument) exit 2 -- without click's
-    multi-line usage block.
+    multi-line usage block. SIGTERM is handled as SIGINT (temporary files removed, exit 143);
+    numpy's floating-point RuntimeWarnings never reach the user (the error that follows does).
     """
+
+    command_class = opt.FiniteCommand
+    group_class = type  # subgroups (plot) are VrcalGroups too, so their commands refuse nan/inf
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         try:
-            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            with _terminate_as_interrupt(), warnings.catch_warnings():
+                warnings.filterwarnings("ignore", category=RuntimeWarning, module="numpy")
+                warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_WARNINGS)
+                rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
-            click.echo(f"vrcal: error: {exc.format_message()}{hint}", err=True)
+            click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
-            click.echo("vrcal: aborted", err=True)
-            sys.exit(1)
+        except click.Abort as exc:
+            terminated = isinstance(exc.__context__, _Terminated)
+            click.echo("vrcal: terminated" if terminated else "vrcal: aborted", err=True)
+            sys.exit(143 if terminated else 1)
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except VrcalError as exc:
-            click.echo(f"vrcal: error: {exc}", err=True)
+            click.echo(f"vrcal: error: {_one_line(str(exc))}", err=True)
             ctx.exit(exc.exit_code)
+        except _Terminated:
+            click.echo("vrcal: terminated", err=True)
+            ctx.exit(143)
         except KeyboardInterrupt:  # pragma: no cover
             click.echo("vrcal: interrupted", err=True)
             ctx.exit(130)
+
+
+#: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
+_NUMPY_WARNINGS = r"(overflow|invalid value|divide by zero|underflow) encountered"
+#: Longest error message printed; a longer one (a huge value quoted) keeps its start and end.
+MAX_MESSAGE_CHARS = 400
+
+
+def _one_line(message):
+    """An error message as one line of at most :data:`MAX_MESSAGE_CHARS` characters."""
+    text = " ".join(str(message).split())
+    if len(text) > MAX_MESSAGE_CHARS:
+        text = f"{text[:MAX_MESSAGE_CHARS - 120]} ... [{len(text):,} characters] ... {text[-100:]}"
+    return text
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like SIGINT's KeyboardInterrupt so that every cleanup runs."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """Handle SIGTERM as SIGINT while the command runs (only the main thread can set handlers)."""
+    def handler(_signum, _frame):
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread (a test runner's worker)
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @click.group(cls=VrcalGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -102,7 +152,7 @@ def emit(text, output):
         click.echo(f"wrote {output}", err=True)
 
 
-K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0",
+K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
 
@@ -112,9 +162,10 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 @main.command(short_help="Parameter file of a ball: epsilon, T and its (x, v) family.")
 @click.argument("ball")
 @K_OPTION
-@click.option("--x", "x_m", type=float, default=None, help="Fix the virtual body's depth x [m]; gives v.")
-@click.option("--v", "v_m_per_s", type=float, default=None, help="Fix the virtual body's speed v [m/s]; gives x.")
-@click.option("--n", "n", type=int, default=11, show_default=True, help="Number of (x, v) family members.")
+@click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Fix the virtual body's depth x [m]; gives v.")
+@click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None,
+              help="Fix the virtual body's speed v [m/s]; gives x.")
+@click.option("--n", "n", type=opt.FAMILY_SIZE, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
 @click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
@@ -178,7 +229,7 @@ def plot():
 
 
 def _output_dir(path):
-    """The -o directory of ``plot curves``: created when its parent exists."""
+    """The -o directory of ``plot curves``, checked: it exists, or its parent does (it is created then)."""
     from pathlib import Path
 
     from vrcal.errors import UsageError
@@ -191,10 +242,6 @@ def _output_dir(path):
     parent = d.parent if str(d.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"cannot create -o '{d}': its parent directory '{parent}' does not exist")
-    try:
-        d.mkdir()
-    except OSError as exc:
-        raise UsageError(f"cannot create -o '{d}': {exc.strerror or exc}") from None
     return d
 
 
@@ -220,15 +267,16 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from vrcal.fileio import atomic_savefig
+    from vrcal.fileio import figure_bytes, write_files
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
 
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
+        write_files({d / name: figure_bytes(figures[name], dpi=120, metadata={"Software": None})
+                     for name in sorted(figures)}, directories=[d])  # all of them or none
         for name in sorted(figures):
-            atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
             click.echo(str(d / name))
     finally:
         for fig in figures.values():
@@ -271,26 +319,26 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 
 @main.command(short_help="Simulate a drop test (exact impacts, optional effects) and write CSV data.")
 @click.argument("ball")
-@click.option("--drop", "drop_m", type=float, default=None,
+@click.option("--drop", "drop_m", type=opt.HEIGHT_M, default=None,
               help="Drop height of the ball's bottom [m] (default: the standard's).")
-@click.option("--bounces", type=int, default=10, show_default=True, help="Number of floor impacts.")
-@click.option("--epsilon", type=float, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
+@click.option("--bounces", type=opt.BOUNCES, default=10, show_default=True, help="Number of floor impacts.")
+@click.option("--epsilon", type=opt.EPSILON, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
 @K_OPTION
-@click.option("--x", "x_m", type=float, default=None, help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
-@click.option("--v", "v_m_per_s", type=float, default=None, help="Virtual body speed v [m/s] (with --x).")
+@click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
+@click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None, help="Virtual body speed v [m/s] (with --x).")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
                    "height_offset, buoyancy.")
-@click.option("--fs", "fs_hz", type=float, default=240.0, show_default=True, help="Trajectory frame rate [Hz].")
-@click.option("--noise", "noise_m", type=float, default=0.0, show_default=True,
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=240.0, show_default=True, help="Trajectory frame rate [Hz].")
+@click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
-@click.option("--jitter", "jitter_s", type=float, default=0.0, show_default=True,
+@click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
               help="Gaussian noise on impact times [s].")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
-@click.option("--still", "still_s", type=float, default=0.2, show_default=True,
+@click.option("--seed", type=opt.SEED, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--still", "still_s", type=opt.STILL_S, default=0.2, show_default=True,
               help="Still segment before release [s].")
-@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (a ball outside the standards).")
-@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m].")
+@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (a ball outside the standards).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m].")
 @click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes"]), default="trajectory",
               show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
@@ -319,19 +367,19 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 @main.command()
 @click.argument("data", type=click.Path(dir_okay=False))
 @click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
-@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (overrides the standard's).")
-@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m] (overrides the standard's).")
+@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (overrides the standard's).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m] (overrides the standard's).")
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
-@click.option("--scale", "scale_m_per_px", type=float, default=None, help="Metres per pixel of a video track.")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None, help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
-@click.option("--fs", "fs_hz", type=float, default=None, help="Frame rate [Hz] when the file has no time column.")
-@click.option("--floor", "floor_m", type=float, default=None,
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="Frame rate [Hz] when the file has no time column.")
+@click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
-@click.option("--noise", type=float, default=None,
+@click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
-@click.option("--g", "g_m_per_s2", type=float, default=9.80665, show_default=True, help="Gravity [m/s^2].")
+@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True, help="Gravity [m/s^2].")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the result as JSON (sorted keys) here.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
@@ -357,7 +405,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
 
     from vrcal.discovery.ranking import discover_file
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
-    from vrcal.fileio import atomic_savefig, atomic_write, dumps
+    from vrcal.fileio import dumps, figure_bytes, write_files
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -367,16 +415,15 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
                            standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
                            fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise)
     text = fit_report(result)
-    if json_file:
-        emit(dumps(result.as_dict(), "json"), json_file)
+    files = {json_file: dumps(result.as_dict(), "json")} if json_file else {}
     if report_dir:
-        try:
-            os.makedirs(report_dir, exist_ok=True)
-        except OSError as exc:
-            raise click.UsageError(f"cannot create '{report_dir}': {exc.strerror or exc}") from None
-        atomic_write(os.path.join(report_dir, REPORT_FILES["text"]), text)
-        atomic_write(os.path.join(report_dir, REPORT_FILES["json"]), dumps(result.as_dict(), "json"))
-        atomic_savefig(discovery_figure(result), os.path.join(report_dir, REPORT_FILES["figure"]), dpi=120)
+        files[os.path.join(report_dir, REPORT_FILES["text"])] = text
+        files[os.path.join(report_dir, REPORT_FILES["json"])] = dumps(result.as_dict(), "json")
+        files[os.path.join(report_dir, REPORT_FILES["figure"])] = figure_bytes(discovery_figure(result), dpi=120)
+    write_files(files, directories=[report_dir] if report_dir else [])  # all of them or none
+    if json_file:
+        click.echo(f"wrote {json_file}", err=True)
+    if report_dir:
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
     emit(text, None)
 
@@ -391,8 +438,8 @@ _ENGINE_NAMES = ["mujoco", "ode", "bullet", "gazebo", "tables", "physx", "unity"
 @click.argument("ball")
 @click.option("--engine", "engine", type=click.Choice(_ENGINE_NAMES, case_sensitive=False), required=True,
               help="Engine to export for (physx/unity/box2d = tables).")
-@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=float, default=None,
+@click.option("--epsilon", type=opt.EPSILON, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
+@click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
               help="Engine time step [s] (default per engine: mujoco 2.5e-5, others 2e-4).")
 @click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair).")
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
@@ -425,15 +472,15 @@ def export_cmd(ctx, ball, engine, epsilon, dt_s, floor, against, K, output):
 @click.argument("ball")
 @click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet"], case_sensitive=False),
               required=True, help="Engine to run the drop test in.")
-@click.option("--epsilon", type=float, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=float, default=None, help="Engine time step [s] (default per engine).")
+@click.option("--epsilon", type=opt.EPSILON, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
+@click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None, help="Engine time step [s] (default per engine).")
 @click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED'.")
 @click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export.")
-@click.option("--tolerance", type=float, default=0.005, show_default=True,
+@click.option("--tolerance", type=opt.TOLERANCE, default=0.005, show_default=True,
               help="Largest accepted |achieved - target| epsilon; exit status 1 above it.")
-@click.option("--bounces", "n_bounces", type=int, default=3, show_default=True, help="Bounces per drop.")
-@click.option("--phases", "n_phases", type=int, default=4, show_default=True,
+@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=3, show_default=True, help="Bounces per drop.")
+@click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
               help="Drops with the impact moved across one time step.")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION
@@ -486,7 +533,7 @@ def engines_cmd():
 @click.option("--engine", type=click.Choice(["vrcal", "ode"]), default="vrcal", show_default=True,
               help="vrcal's event-driven simulator, or the real ODE library (libode8).")
 @click.option("--compare", is_flag=True, help="Run both engines and report where they differ (apexes, impacts).")
-@click.option("--ode-dt", "ode_dt_s", type=float, default=None, show_default="1e-4",
+@click.option("--ode-dt", "ode_dt_s", type=opt.ODE_TIME_STEP_S, default=None, show_default="1e-4",
               help="ODE's fixed time step [s].")
 @click.option("--no-animation", is_flag=True, help="Skip the GIF (the slowest output).")
 @STANDARDS_OPTION
@@ -507,20 +554,15 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """
     from pathlib import Path
 
-    from vrcal.errors import UsageError
-    from vrcal.fileio import atomic_write
+    from vrcal.fileio import write_files
     from vrcal.scenes.output import run_scene
 
     run = run_scene(scene_file, engine=engine, compare=compare, ode_dt_s=ode_dt_s, standards=standards_of(ctx),
                     animate=not no_animation)
     directory = Path(out_dir) if out_dir else Path(Path(scene_file).stem)
-    try:
-        directory.mkdir(exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"cannot create output directory '{directory}': {exc.strerror or exc}") from None
+    write_files({directory / name: run.files[name] for name in sorted(run.files)}, directories=[directory])
     click.echo(run.summary, nl=False)
     for name in sorted(run.files):
-        atomic_write(directory / name, run.files[name])
         click.echo(f"wrote {directory / name}", err=True)
 
 

@@ -13,6 +13,8 @@ the full-precision machine file, with a ``schema_version`` (:func:`machine_docum
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from pathlib import Path
 
@@ -138,3 +140,12 @@ def _numeric(text):
         return True
     except ValueError:
         return t in ("-", "nan", "inf")
+
+
+def csv_text(header, rows):
+    """CSV text (the csv module: a cell with a comma, a quote or a newline is quoted); None is empty."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(["" if c is None else c for c in row] for row in rows)
+    return buf.getvalue()

@@ -5,9 +5,10 @@ The frame rate is not in the file: it needs ``fs_hz``.
 
 from __future__ import annotations
 
+import math
 import re
 
-from vrcal.measurements.table import Column, Table, fail, is_numeric_row
+from vrcal.measurements.table import Column, Table, fail, is_numeric_row, to_float
 from vrcal.measurements.trajectory import trajectory_from_table
 
 
@@ -26,7 +27,12 @@ def detect(text):
 def parse(text, *, scale_m_per_px=None, y_down=True, fs_hz=None):
     path = text.path
     first_no, first = text.lines[0]
-    length_m, length_px = (float(c) for c in re.split(r"[;,\t ]+", first.strip()) if c)
+    cells = [c for c in re.split(r"[;,\t ]+", first.strip()) if c]
+    values = [to_float(c, False) for c in cells]
+    if len(cells) != 2 or None in values or not all(math.isfinite(v) and v > 0 for v in values):
+        fail(path, first_no, f"the reference line must be 'LENGTH_M;LENGTH_PX' (a length in metres and the "
+                             f"pixels it spans, both > 0), found {first.strip()[:60]!r}")
+    length_m, length_px = values
     ref_scale = length_m / length_px
     notes = [f"format: pixels-ref (line {first_no}: {length_m:g} m spans {length_px:g} px, "
              f"{ref_scale * 1e3:.4g} mm per px)"]

@@ -25,8 +25,12 @@ Choices (departures from [1], which relied on ODE for all of this):
   (epsilon = 0, with the same friction impulse) and puts the ball at rest on the floor: its
   vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno). A ball at
   rest keeps its horizontal velocity and spin (no rolling friction, no sliding friction while it
-  rests). A ball resting on another ball is not modelled: such a scene stops with an error after
-  ``max_events`` events.
+  rests). A ball resting on another ball is not modelled: a scene that starts with one is refused
+  up front, and one that comes to it (a ball settling on a ball that rests on the floor, or
+  contacts piling up at one instant) stops at that moment with an error naming the bodies.
+* Cost: every event checks every pair of bodies, so a run costs about events x pairs checks.
+  :func:`check_simulable` estimates the events (floor impacts before each body rests or the
+  scene ends) and refuses a scene above :data:`MAX_CONTACT_CHECKS` before it starts.
 
 References
 ----------
@@ -45,6 +49,12 @@ from vrcal.scenes.spec import SceneContact, SceneResult
 CONTACT_TOLERANCE_M = 1e-9
 #: Default cap on the number of events (contacts and snapshots) of one run.
 DEFAULT_MAX_EVENTS = 200_000
+#: Most pair checks (events x pairs of bodies) of one run: about 30 s at ~30 us a check.
+MAX_CONTACT_CHECKS = 1_000_000
+#: Events this close together in time [s] count as piling up at one instant ...
+ZENO_STEP_S = 1e-6
+#: ... and this many of them in a row stop the run (a ball settling on a ball, never at rest).
+ZENO_EVENTS = 200
 
 _FLOOR = -1
 
@@ -277,6 +287,9 @@ def _resolve(st, i, j, vrel, contacts):
     name_b = "floor" if j == _FLOOR else scene.bodies[j].name
     eps = float(st.eps[i, j])  # j == -1 picks the floor's column
     to_rest = j == _FLOOR and -vrel < scene.rest_speed_m_per_s
+    if j != _FLOOR and -vrel < scene.rest_speed_m_per_s and (st.rest[i] or st.rest[j]) and abs(n[2]) > 0.5:
+        lower, upper = (i, j) if st.rest[i] else (j, i)
+        raise _resting_on_ball(scene, st.t, upper, lower)
     if to_rest:
         eps = 0.0  # a perfectly inelastic last impact (with friction) puts the ball at rest
     inv_ia = np.eye(3) / st.I[i]
@@ -343,6 +356,77 @@ def _next_event(st):
     return best, what
 
 
+def _resting_on_ball(scene, t_s, upper, lower):
+    a, b = scene.bodies[upper].name, scene.bodies[lower].name
+    return DataError(f"{scene.source}: t = {t_s:.6g} s: {a!r} comes to rest on {b!r}, which rests on the floor: "
+                     "vrcal's simulator does not model a ball resting on a ball; use --engine ode, move the "
+                     f"balls apart sideways, or end the scene before {t_s:.4g} s (duration_s)")
+
+
+def floor_impacts_estimate(scene, cap=None):
+    """Floor impacts of all bodies before each rests or the scene ends, as if no body met another.
+
+    Parameters
+    ----------
+    scene : vrcal.scenes.spec.Scene
+    cap : int or None
+        stop counting above this many
+
+    Returns
+    -------
+    int
+        the count: each body falls from its start, rebounds with its floor epsilon (Eqs. 6, 7) and
+        rests once an impact is slower than ``rest_speed_m_per_s``
+    """
+    eps = scene.epsilon_matrix()[:-1, -1]
+    g, end, rest = scene.g_m_per_s2, scene.duration_s, max(scene.rest_speed_m_per_s, 1e-9)
+    total = 0
+    for body, e in zip(scene.bodies, eps):
+        vz = body.velocity_m_per_s[2]
+        v = float(np.sqrt(vz * vz + 2.0 * g * max(body.position_m[2] - body.radius_m, 0.0)))
+        t = (vz + v) / g
+        while t < end and v >= rest:
+            total += 1
+            if cap is not None and total > cap:
+                return total
+            v *= e
+            t += 2.0 * v / g
+    return total
+
+
+def check_simulable(scene):
+    """Refuse, before any work, a scene this simulator cannot run (in seconds) or does not model.
+
+    Raises
+    ------
+    DataError
+        a ball starts resting on a ball that rests on the floor (not modelled), or the run would
+        need more than :data:`MAX_CONTACT_CHECKS` pair checks (too many bodies for the time asked)
+    """
+    p = np.array([b.position_m for b in scene.bodies])
+    v = np.array([b.velocity_m_per_s for b in scene.bodies])
+    r = np.array([b.radius_m for b in scene.bodies])
+    on_floor = (p[:, 2] - r <= CONTACT_TOLERANCE_M) & (v[:, 2] <= 0)
+    for lower in np.flatnonzero(on_floor):
+        d = p - p[lower]
+        gap = np.linalg.norm(d, axis=1) - r - r[lower]
+        for upper in np.flatnonzero((gap <= CONTACT_TOLERANCE_M) & (d[:, 2] > 0.5 * (r + r[lower]))):
+            if v[upper] @ d[upper] <= 0:  # not moving away: gravity presses it onto the lower ball
+                raise DataError(f"{scene.source}: {scene.bodies[upper].name!r} starts resting on "
+                                f"{scene.bodies[lower].name!r}, which rests on the floor: vrcal's simulator does "
+                                "not model a ball resting on a ball; use --engine ode, or lift it or move it "
+                                "sideways")
+    n = len(scene.bodies)
+    pairs = n * (n + 1) // 2
+    impacts = floor_impacts_estimate(scene, cap=MAX_CONTACT_CHECKS // pairs + 1)
+    if impacts * pairs > MAX_CONTACT_CHECKS:
+        more = "at least " if impacts > MAX_CONTACT_CHECKS // pairs else ""
+        raise DataError(f"{scene.source}: too many bodies for the time asked: {more}{impacts} floor impacts x "
+                        f"{pairs} pairs of bodies and floor = {impacts * pairs:.2g} contact checks, more than the "
+                        f"limit of {MAX_CONTACT_CHECKS:.0e}: fewer bodies or a shorter duration_s")
+    return impacts
+
+
 def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
     """Run a scene in vrcal's event-driven simulator.
 
@@ -359,11 +443,15 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
         trajectories at ``scene.sample_times_s()``, every contact with its epsilon and impulses,
         and every apex (exact, from the flight parabolas)
     """
+    check_simulable(scene)
+    n = len(scene.bodies)
+    max_events = min(max_events, max(3 * MAX_CONTACT_CHECKS // (n * (n + 1) // 2), 1000))
     st = _State(scene)
     contacts = []
     _resolve_all(st, contacts)
     snaps = [st.snapshot()]
     n_events = 0
+    piled = 0  # events in a row closer together than ZENO_STEP_S
     while st.t < scene.duration_s:
         dt, what = _next_event(st)
         if st.t + dt >= scene.duration_s or what is None:
@@ -371,6 +459,14 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
             snaps.append(st.snapshot())
             break
         st.advance(dt)
+        piled = piled + 1 if dt < ZENO_STEP_S else 0
+        if piled >= ZENO_EVENTS:
+            last = contacts[-1] if contacts else None
+            who = f" ({last.body_a!r} on {last.body_b!r})" if last else ""
+            raise DataError(f"{scene.source}: t = {st.t:.6g} s: {ZENO_EVENTS} contacts in a row less than "
+                            f"{ZENO_STEP_S:g} s apart{who}: a ball settling on a ball is not modelled by vrcal's "
+                            f"simulator; use --engine ode, move the balls apart, or end the scene before "
+                            f"{st.t:.4g} s (duration_s)")
         i, j = what
         if j == _FLOOR:
             st.p[i, 2] = st.R[i]  # the root of the quadratic: the bottom is at z = 0

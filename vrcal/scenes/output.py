@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vrcal.textout import csv_text
+
 TRAJECTORY_COLUMNS = ("t_s", "body", "x_m", "y_m", "z_m", "bottom_m", "vx_m_per_s", "vy_m_per_s", "vz_m_per_s",
                       "wx_rad_per_s", "wy_rad_per_s", "wz_rad_per_s")
 CONTACT_COLUMNS = ("t_s", "body_a", "body_b", "impact_speed_m_per_s", "epsilon", "normal_impulse_N_s",
@@ -41,21 +43,19 @@ def trajectories_csv(result):
     """The sampled trajectories as CSV text (layout in the module docstring)."""
     names = result.scene.names
     bottom = result.bottom_height_m()
-    lines = [",".join(TRAJECTORY_COLUMNS)]
+    rows = []
     for k, t in enumerate(result.t_s):
         for b, name in enumerate(names):
             p, v, w = result.position_m[k, b], result.velocity_m_per_s[k, b], result.spin_rad_per_s[k, b]
-            lines.append(",".join([_g(t), name, *map(_g, p), _g(bottom[k, b]), *map(_g, v), *map(_g, w)]))
-    return "\n".join(lines) + "\n"
+            rows.append([_g(t), name, *map(_g, p), _g(bottom[k, b]), *map(_g, v), *map(_g, w)])
+    return csv_text(TRAJECTORY_COLUMNS, rows)  # names quoted where they hold a comma or a newline
 
 
 def contacts_csv(result):
     """Every contact as CSV text (layout in the module docstring)."""
-    lines = [",".join(CONTACT_COLUMNS)]
-    for c in result.contacts:
-        lines.append(",".join([_g(c.t_s), c.body_a, c.body_b, _g(c.impact_speed_m_per_s), _g(c.epsilon),
-                               _g(c.normal_impulse_N_s), _g(c.tangential_impulse_N_s), c.note]))
-    return "\n".join(lines) + "\n"
+    rows = [[_g(c.t_s), c.body_a, c.body_b, _g(c.impact_speed_m_per_s), _g(c.epsilon),
+             _g(c.normal_impulse_N_s), _g(c.tangential_impulse_N_s), c.note] for c in result.contacts]
+    return csv_text(CONTACT_COLUMNS, rows)
 
 
 def plot_heights(result, ax=None, other=None):

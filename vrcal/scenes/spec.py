@@ -63,6 +63,12 @@ DEFAULT_REST_SPEED_M_PER_S = 0.05
 INERTIA_FACTORS = {"hollow": 2.0 / 3.0, "solid": 2.0 / 5.0}
 #: Floor materials with a known virtual body.
 FLOOR_MATERIALS = {"steel": (0.0, 0.0), "rigid": (0.0, 0.0)}
+#: Most bodies in one scene.
+MAX_BODIES = 100
+#: Most output rows (sample times x bodies) of one scene; 10**6 rows take about 15 s and 40 MB of CSV.
+MAX_SAMPLE_ROWS = 1_000_000
+#: Longest name of a scene or a body [characters].
+MAX_NAME_CHARS = 100
 
 _TOP_FIELDS = {
     "name", "description", "K_per_s", "duration_s", "sample_dt_s", "gravity_m_per_s2", "friction_mu",
@@ -223,6 +229,12 @@ def _err(where, path, msg):
     return DataError(f"{where}: {path}: {msg}")
 
 
+def _brief(value, limit=40):
+    """``repr(value)``, cut to ``limit`` characters (a huge value in a message)."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit - 3]}..."
+
+
 def _number(fields, key, where, path, *, default=None, minimum=None, strict=True):
     if key not in fields or fields[key] is None:
         if default is None:
@@ -281,13 +293,15 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
     sample_dt = _number(doc, "sample_dt_s", where, "", default=DEFAULT_SAMPLE_DT_S, minimum=0)
     if sample_dt > duration:
         raise _err(where, "sample_dt_s", f"must not exceed duration_s = {duration:g}, got {sample_dt:g}")
+    n_samples = duration / sample_dt + 1
     g = _number(doc, "gravity_m_per_s2", where, "", default=eq.STANDARD_GRAVITY_M_PER_S2, minimum=0)
     mu = _number(doc, "friction_mu", where, "", default=DEFAULT_FRICTION_MU, minimum=0, strict=False)
     rest = _number(doc, "rest_speed_m_per_s", where, "", default=DEFAULT_REST_SPEED_M_PER_S, minimum=0,
                    strict=False)
     name = doc.get("name", default_name)
-    if not isinstance(name, str) or not name.strip():
-        raise _err(where, "name", f"must be a non-empty text, got {name!r}")
+    if not isinstance(name, str) or not name.strip() or len(name.strip()) > MAX_NAME_CHARS:
+        raise _err(where, "name", f"must be a non-empty text (at most {MAX_NAME_CHARS} characters), "
+                                  f"got {_brief(name)}")
     description = doc.get("description", "")
     if not isinstance(description, str):
         raise _err(where, "description", "must be text")
@@ -295,6 +309,12 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
     raw_bodies = doc.get("bodies")
     if not isinstance(raw_bodies, list) or not raw_bodies:
         raise _err(where, "bodies", "must be a non-empty list of bodies")
+    if len(raw_bodies) > MAX_BODIES:
+        raise _err(where, "bodies", f"{len(raw_bodies)} bodies, more than the limit of {MAX_BODIES}")
+    if n_samples * len(raw_bodies) > MAX_SAMPLE_ROWS:
+        raise _err(where, "sample_dt_s", f"duration_s / sample_dt_s = {n_samples - 1:.3g} samples of "
+                                         f"{len(raw_bodies)} bodies, more than the limit of {MAX_SAMPLE_ROWS:.0e} "
+                                         "rows: raise sample_dt_s or shorten duration_s")
     bodies = []
     for i, fields in enumerate(raw_bodies):
         bodies.append(_body(fields, i, where, K, standards))
@@ -338,8 +358,10 @@ def _body(fields, i, where, K, standards):
         raise _err(where, label, "must be a mapping with name, position_m and ball (or mass_kg, radius_m, "
                                  "virtual_body)")
     name = fields.get("name")
-    if not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor":
-        raise _err(where, f"{label}.name", f"must be a non-empty text other than 'floor', got {name!r}")
+    if (not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor"
+            or len(name.strip()) > MAX_NAME_CHARS):
+        raise _err(where, f"{label}.name", f"must be a non-empty text other than 'floor' (at most "
+                                           f"{MAX_NAME_CHARS} characters), got {_brief(name)}")
     name = name.strip()
     path = f"{label} (name {name!r})."
     _unknown(fields, _BODY_FIELDS, where, path)
