@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import stat
 import tempfile
@@ -268,6 +269,12 @@ class BoundedSafeLoader(yaml.SafeLoader):
             return super().construct_object(node, deep=deep)
         except (ValueError, OverflowError) as exc:
             raise _Refused(None, None, f"cannot read the value: {exc}", node.start_mark) from None
+
+
+# YAML 1.1 (PyYAML) reads "1e-3" as text; YAML 1.2 and people read it as a number: so do we.
+BoundedSafeLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
 
 
 def _short(value, limit=60):

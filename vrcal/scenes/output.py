@@ -89,7 +89,8 @@ def plot_heights(result, ax=None, other=None):
     ax.set_title(f"{result.scene.name}: bounces (K = {result.scene.K_per_s:g} 1/s)")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    if len(result.scene.names) <= 12:  # a longer legend would cover the plot
+        ax.legend(fontsize=7, loc="upper right")
     return ax
 
 
