@@ -89,7 +89,7 @@ def write_files(files, directories=()):
         for d in directories:
             created += _make_directory(Path(d))
         for path, data in files.items():
-            staged.append(_stage(Path(path), data))
+            _stage(Path(path), data, staged)
         for target, tmp, data in staged:
             if tmp is None:
                 _write_into(target, data)
@@ -125,14 +125,15 @@ def _make_directory(d):
     return made
 
 
-def _stage(path, data):
-    """(target, temporary file or None, data): regular files are written to a temporary file now."""
+def _stage(path, data, staged):
+    """Append (target, temporary file or None, data) to ``staged``; a regular file's data is written now."""
     if path.is_symlink():
         path = Path(os.path.realpath(path))
     if path.is_dir():
         raise UsageError(f"cannot write '{path}': it is a directory")
     if path.exists() and not path.is_file():
-        return path, None, data  # a device or FIFO: written into at commit, never replaced
+        staged.append((path, None, data))  # a device or FIFO: written into at commit, never replaced
+        return
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
@@ -141,17 +142,13 @@ def _stage(path, data):
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     except OSError as exc:
         raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    staged.append((path, tmp, data))  # from here on the caller removes it if anything fails
     try:
         with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8", "newline": "\n"})) as fh:
             fh.write(data)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual mode
     except OSError as exc:
-        os.unlink(tmp)
         raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
-    except BaseException:
-        os.unlink(tmp)
-        raise
-    return path, tmp, data
 
 
 def _write_into(path, data):
@@ -239,7 +236,9 @@ class BoundedSafeLoader(yaml.SafeLoader):
             event = self.peek_event()
             raise _Refused(None, None, f"alias *{_short(event.anchor)}: aliases are not allowed "
                                        "(write the value out)", event.start_mark)
-        self._depth += 1
+        if self.check_event(yaml.ScalarEvent):
+            return super().compose_node(parent, index)
+        self._depth += 1  # a list or a mapping
         try:
             if self._depth > MAX_YAML_DEPTH:
                 raise _Refused(None, None, f"nested deeper than the limit of {MAX_YAML_DEPTH} levels",
