@@ -112,3 +112,12 @@ def test_a_plain_float_option_is_caught_by_the_net():
     assert CliRunner().invoke(cmd, ["--h", "1.5"]).output == "h=1.5\n"
     result = CliRunner().invoke(cmd, ["--h", "nan"])
     assert result.exit_code == 2 and "--h must be a finite number, got nan" in result.output
+
+
+def test_docs_limits_lists_every_numeric_option_with_its_range():
+    from helpers import ROOT
+
+    text = " ".join((ROOT / "docs" / "limits.md").read_text(encoding="utf-8").split())
+    missing = [f"{max(p.opts, key=len)} {p.type.range_text()}" for _path, _cmd, p in NUMERIC
+               if f"| `{max(p.opts, key=len)}` | {p.type.range_text()} |" not in text]
+    assert missing == [], f"docs/limits.md does not list: {missing}"

@@ -127,13 +127,13 @@ def _make_directory(d):
 
 def _stage(path, data, staged):
     """Append (target, temporary file or None, data) to ``staged``; a regular file's data is written now."""
-    if path.is_symlink():
-        path = Path(os.path.realpath(path))
     if path.is_dir():
         raise UsageError(f"cannot write '{path}': it is a directory")
     if path.exists() and not path.is_file():
-        staged.append((path, None, data))  # a device or FIFO: written into at commit, never replaced
+        staged.append((path, None, data))  # a device or FIFO (or a link to one): written into, never replaced
         return
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))  # a link to a file: the file is replaced, the link stays
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
