@@ -21,8 +21,18 @@ import math
 import click
 
 
-def _g(x):
-    return f"{x:g}"
+def _range_text(lo, hi, lo_open=False, hi_open=False, unit=""):
+    """'> 0', 'in (0, 1]', 'between 1e-06 and 1e+06 [1/s]', '>= 1' ('' without bounds)."""
+    unit = f" [{unit}]" if unit else ""
+    if lo is not None and hi is not None:
+        if lo_open or hi_open:
+            return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{unit}"
+        return f"between {lo:g} and {hi:g}{unit}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {lo:g}{unit}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {hi:g}{unit}"
+    return ""
 
 
 class Real(click.ParamType):
@@ -48,17 +58,7 @@ class Real(click.ParamType):
 
     def range_text(self):
         """The range as people write it: '> 0', 'in (0, 1]', 'between 1e-06 and 1e+06 [1/s]'."""
-        lo, hi = self.minimum, self.maximum
-        unit = f" [{self.unit}]" if self.unit else ""
-        if lo is not None and hi is not None:
-            if self.min_open or self.max_open:
-                return f"in {'(' if self.min_open else '['}{_g(lo)}, {_g(hi)}{')' if self.max_open else ']'}{unit}"
-            return f"between {_g(lo)} and {_g(hi)}{unit}"
-        if lo is not None:
-            return f"{'>' if self.min_open else '>='} {_g(lo)}{unit}"
-        if hi is not None:
-            return f"{'<' if self.max_open else '<='} {_g(hi)}{unit}"
-        return ""
+        return _range_text(self.minimum, self.maximum, self.min_open, self.max_open, self.unit)
 
     def get_metavar(self, param, ctx=None):
         return "NUMBER"
@@ -87,19 +87,12 @@ class Count(click.ParamType):
     name = "integer"
     numeric_kind = "int"
 
-    def __init__(self, minimum=None, maximum=None, what=""):
-        self.minimum, self.maximum, self.what = minimum, maximum, what
+    def __init__(self, minimum=None, maximum=None):
+        self.minimum, self.maximum = minimum, maximum
 
     def range_text(self):
-        lo, hi = self.minimum, self.maximum
-        what = f" {self.what}" if self.what else ""
-        if lo is not None and hi is not None:
-            return f"between {lo} and {hi}{what}"
-        if lo is not None:
-            return f">= {lo}{what}"
-        if hi is not None:
-            return f"<= {hi}{what}"
-        return ""
+        """The range as people write it: '>= 0', 'between 1 and 1000'."""
+        return _range_text(self.minimum, self.maximum)
 
     def get_metavar(self, param, ctx=None):
         return "INTEGER"
@@ -166,8 +159,8 @@ FAMILY_SIZE = Count(1, 10_000)
 HEIGHT_M = Real(1e-6, 1e4, unit="m")
 #: Number of floor impacts of ``simulate`` (after a few hundred bounces a ball is at rest).
 BOUNCES = Count(1, 1000)
-#: Coefficient of restitution.
-EPSILON = Real(0, 1, min_open=True)
+#: Coefficient of restitution (below 0.001 a ball is dead: nothing to calibrate).
+EPSILON = Real(1e-3, 1)
 #: Frame (sampling) rate [Hz].
 RATE_HZ = Real(1e-3, 1e7, unit="Hz")
 #: Noise of simulated heights [m].

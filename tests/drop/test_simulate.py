@@ -303,7 +303,7 @@ def test_cli_virtual_body_and_free_ball():
     (["--effect", "air_drag:drag_coefficient=x"], "must be a number"),
     (["--bounces", "0"], "--bounces must be an integer between 1 and 1000"),
     (["--drop", "-1"], "--drop must be a number between"),
-    (["--epsilon", "1.5"], "--epsilon must be a number in (0, 1]"),
+    (["--epsilon", "1.5"], "--epsilon must be a number between 0.001 and 1"),
     (["--noise", "-1"], "noise must be"),
     (["--x", "0.01"], "needs both --x"),
     (["--fs", "0"], "--fs must be"),

@@ -88,7 +88,7 @@ def test_cli_export_writes_each_engine_file(tmp_path):
 def test_cli_export_bad_input_is_a_one_line_error(tmp_path):
     out = tmp_path / "x.json"
     result = run("export", "basketball", "--engine", "ode", "--epsilon", "1.5", "-o", str(out))
-    assert result.exit_code == 2 and "vrcal: error: --epsilon must be a number in (0, 1]" in result.output
+    assert result.exit_code == 2 and "vrcal: error: --epsilon must be a number between 0.001 and 1" in result.output
     assert not out.exists()
     result = run("export", "basketball", "--engine", "mujoco", "--dt", "0.002")
     assert result.exit_code == 2 and "too large for MuJoCo" in result.output
