@@ -107,6 +107,7 @@ def test_the_same_key_in_different_mappings_is_fine():
 
 @pytest.mark.parametrize("text, what", [
     ("schema_version: " + "9" * 100_000, "cannot read the value"),
+    ("K_per_s: 1" + "0" * 400, "integer of 401 digits: larger than any number vrcal computes with"),
     ("when: 2001-13-45", "cannot read the value"),
     ("x: !!python/object/apply:os.system ['true']", "could not determine a constructor"),
     ("a: [1, 2", "malformed YAML"),

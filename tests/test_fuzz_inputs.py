@@ -58,7 +58,7 @@ def mutated(draw, texts):
             new = draw(st.one_of(
                 st.text(max_size=12),
                 st.sampled_from(["nan", "-inf", "1e308", "-1", "0", "1e-320", ":", "- ", "&a", "*a", "[", "{",
-                                 "\n", "\t", ",", ";", "\x00", "'", '"', "#", "!!binary", "999999999999999999999"]),
+                                 "\n", "\t", ",", ";", "\x00", "'", '"', "#", "!!binary", "999999999999999999999", "1" + "0" * 400]),
                 st.floats(allow_nan=True, allow_infinity=True).map(repr)))
             text = text[:i] + new + (text[j:] if op == "replace" else text[i:])
     return text
@@ -100,10 +100,12 @@ def test_scene_loader_on_mutated_scenes(text):
 
 
 JSONISH = st.recursive(
-    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=8),
+    st.none() | st.booleans() | st.integers() | st.just(10**400) | st.floats(allow_nan=True, allow_infinity=True)
+    | st.text(max_size=8),
     lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=8), children, max_size=4),
     max_leaves=20)
-NUMBER = st.one_of(st.integers(-10**6, 10**6), st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=4))
+NUMBER = st.one_of(st.integers(-10**6, 10**6), st.integers(), st.sampled_from([10**400, -(10**309), 2**1024]),
+                   st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=4))
 
 
 @FAST

@@ -270,6 +270,15 @@ class BoundedSafeLoader(yaml.SafeLoader):
             raise _Refused(None, None, f"cannot read the value: {exc}", node.start_mark) from None
 
 
+def _construct_bounded_int(loader, node):
+    value = yaml.SafeLoader.construct_yaml_int(loader, node)
+    if abs(value) > 1e308:
+        raise _Refused(None, None, f"integer of {len(str(abs(value)))} digits: larger than any number vrcal "
+                                   "computes with (1e308)", node.start_mark)
+    return value
+
+
+BoundedSafeLoader.add_constructor("tag:yaml.org,2002:int", _construct_bounded_int)
 # YAML 1.1 (PyYAML) reads "1e-3" as text; YAML 1.2 and people read it as a number: so do we.
 BoundedSafeLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),

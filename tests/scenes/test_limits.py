@@ -99,3 +99,16 @@ def test_a_ball_moving_away_from_the_ball_below_is_not_resting():
         {"name": "top", "ball": "table_tennis", "position_m": [0, 0, 3 * r], "velocity_m_per_s": [1.0, 0, 2.0]}]},
         "s.yaml")
     assert mb.simulate_scene(scene).t_s[-1] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("velocity_m_per_s", [0, 0, -1e300], "every component must lie within +-10000"),
+    ("position_m", [1e5, 0, 1], "every component must lie within +-10000"),
+    ("radius_m", 1e3, "must be <= 5"),
+    ("mass_kg", 10**400, "must be a number"),
+])
+def test_absurd_body_quantities_are_refused(field, value, message):
+    body = {"name": "a", "mass_kg": 0.1, "radius_m": 0.05, "virtual_body": {"x_m": 0.0}, "position_m": [0, 0, 1]}
+    body[field] = value
+    with pytest.raises(DataError, match=message):
+        validate_scene({"K_per_s": 4.0, "duration_s": 1.0, "floor": {"material": "steel"}, "bodies": [body]}, "s")

@@ -161,7 +161,7 @@ def _number(fields, name, where, path, *, positive=True, required=True):
             raise _err(where, f"{path}.{name}", "missing")
         return None
     value = fields[name]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not abs(value) <= 1e308:  # nan, inf, huge
         raise _err(where, f"{path}.{name}", f"must be a number, got {value!r}")
     if positive and value <= 0:
         raise _err(where, f"{path}.{name}", f"must be > 0, got {value!r}")
