@@ -102,8 +102,8 @@ def test_a_ball_moving_away_from_the_ball_below_is_not_resting():
 
 
 @pytest.mark.parametrize("field, value, message", [
-    ("velocity_m_per_s", [0, 0, -1e300], "every component must lie within +-10000"),
-    ("position_m", [1e5, 0, 1], "every component must lie within +-10000"),
+    ("velocity_m_per_s", [0, 0, -1e300], r"every component must lie within \+-10000"),
+    ("position_m", [1e5, 0, 1], r"every component must lie within \+-10000"),
     ("radius_m", 1e3, "must be <= 5"),
     ("mass_kg", 10**400, "must be a number"),
 ])
