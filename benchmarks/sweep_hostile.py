@@ -557,6 +557,28 @@ def size_cases():
         Case("fit ball name with NUL-like junk", ["fit", "\x7f\x1b[31m"]),
         Case("fit --K with a comma", ["fit", "basketball", "--K", "4,5"]),
         Case("table2 --format csv", ["table2", "--format", "csv"], expect="ok"),
+        Case("engines", ["engines"], expect="ok"),
+        Case("version", ["--version"], expect="ok"),
+        Case("pair floor floor", ["pair", "floor", "floor"], expect="any"),
+        Case("pair x=0,v=0 floor", ["pair", "x=0,v=0", "floor"], expect="any"),
+        Case("plot curves --ball nonsense", ["plot", "curves", "-o", "figs", "--ball", "nonsense"]),
+        Case("export --against nonsense", ["export", "basketball", "--engine", "ode", "--against", "nonsense"],
+             owner="engines"),
+        Case("table2 --compare-paper with a duplicate key", ["--standards", "st.yaml", "table2", "--compare-paper"],
+             files={"st.yaml": "schema_version: 1\nschema_version: 1\n"}),
+        Case("fit -o /dev/stdout", ["fit", "basketball", "-o", "/dev/stdout"], expect="ok"),
+        Case("discover --json /dev/stdout", ["discover", "traj.csv", "--ball", "tennis", "-q", "--json",
+                                             "/dev/stdout"], expect="ok", files={"traj.csv": "fixture:traj.csv"}),
+        Case("scene file with CRLF and a BOM", ["scene", "s.yaml", "--no-animation", "-o", "out"], expect="ok",
+             files={"s.yaml": lambda p: p.write_bytes(b"\xef\xbb\xbf" + fixture("scene.yaml").replace(
+                 "\n", "\r\n").encode())}),
+        Case("data file with CRLF and a BOM", ["discover", "d.csv", "--ball", "tennis", "-q"], expect="ok",
+             files={"d.csv": lambda p: p.write_bytes(b"\xef\xbb\xbf" + fixture("traj.csv").replace(
+                 "\n", "\r\n").encode())}),
+        Case("scene: unicode names", ["scene", "s.yaml", "--no-animation", "-o", "out"], expect="ok",
+             files={"s.yaml": scene_yaml(['  - name: "ball \u00e9\u4e2d\U0001F3C0"\n    ball: tennis\n'
+                                          '    position_m: [0, 0, 1]'])},
+             check=_csv_rows_consistent("out/trajectories.csv")),
     ]
 
 

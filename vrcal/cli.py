@@ -27,7 +27,8 @@ class VrcalGroup(click.Group):
     Library errors (:class:`VrcalError`) exit 1 (data) or 2 (usage); click's own usage
     errors (a bad option value, a missing argument) exit 2 -- without click's
     multi-line usage block. SIGTERM is handled as SIGINT (temporary files removed, exit 143);
-    numpy's floating-point RuntimeWarnings never reach the user (the error that follows does).
+    numpy's floating-point RuntimeWarnings never reach the user (the error that follows does),
+    other warnings are one line ``vrcal: warning: ...``.
     """
 
     command_class = opt.FiniteCommand
@@ -40,6 +41,7 @@ class VrcalGroup(click.Group):
             with _terminate_as_interrupt(), warnings.catch_warnings():
                 warnings.filterwarnings("ignore", category=RuntimeWarning, module="numpy")
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_WARNINGS)
+                warnings.showwarning = _show_warning
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
@@ -70,6 +72,11 @@ class VrcalGroup(click.Group):
 _NUMPY_WARNINGS = r"(overflow|invalid value|divide by zero|underflow) encountered"
 #: Longest error message printed; a longer one (a huge value quoted) keeps its start and end.
 MAX_MESSAGE_CHARS = 400
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A library's warning (matplotlib, ...) as one line ``vrcal: warning: ...``, without source lines."""
+    click.echo(f"vrcal: warning: {_one_line(str(message))}", err=True)
 
 
 def _one_line(message):
