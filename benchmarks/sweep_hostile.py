@@ -79,6 +79,11 @@ def fixture(name):
             _FIXTURES[name] = "\n".join(rows) + "\n"
         elif name == "tracker.txt":
             _FIXTURES[name] = (EXAMPLES / "data" / "tracker-export.txt").read_text(encoding="utf-8")
+        elif name == "drop.wav":
+            with tempfile.TemporaryDirectory() as d:
+                subprocess.run([VRCAL, "simulate", "tennis", "--bounces", "4", "--format", "wav", "-o",
+                                os.path.join(d, "drop.wav")], capture_output=True, check=True)
+                _FIXTURES[name] = Path(d, "drop.wav").read_bytes()
         else:
             raise KeyError(name)
     return _FIXTURES[name]
@@ -148,7 +153,11 @@ def _write_files(d, files):
         elif isinstance(content, bytes):
             p.write_bytes(content)
         elif content.startswith("fixture:"):
-            p.write_text(fixture(content[len("fixture:"):]), encoding="utf-8")
+            data = fixture(content[len("fixture:"):])
+            if isinstance(data, bytes):
+                p.write_bytes(data)
+            else:
+                p.write_text(data, encoding="utf-8")
         else:
             p.write_text(content, encoding="utf-8")
 
@@ -203,9 +212,9 @@ def numeric_option_cases():
         "export": ["export", "basketball", "--engine", "ode"],
         "verify": ["verify", "basketball", "--engine", "ode", "--bounces", "1", "--phases", "1"],
         "scene": ["scene", "scene.yaml", "--no-animation", "-o", "out"],
-        "track": None,
+        "track": ["track", "drop.wav", "-q"],
     }
-    owners = {"export": "engines", "verify": "engines"}
+    owners = {"export": "engines", "verify": "engines", "track": "track"}
     cases, skipped = [], []
 
     def walk(group, path):
@@ -247,7 +256,7 @@ def numeric_option_cases():
                 owner = owners.get(cname.split()[0], "hostile")
                 cases.append(Case(f"{cname} {opt} {v}", args + [f"{opt}={v}"], owner=owner, expect=expect,
                                   files={"traj.csv": "fixture:traj.csv", "pixels.txt": "fixture:pixels.txt",
-                                         "scene.yaml": "fixture:scene.yaml"}))
+                                         "scene.yaml": "fixture:scene.yaml", "drop.wav": "fixture:drop.wav"}))
     return cases, skipped
 
 
@@ -516,6 +525,29 @@ def _block_third_figure(p):
         (p / _FIGURE_NAMES[2] / "x").write_text("block")
 
 
+def track_cases():
+    """'vrcal track' (the recordings helper's command) and discover on recordings: bad recordings."""
+    T = ["track", "rec", "-q"]
+    return [
+        Case("track a wav", ["track", "drop.wav", "-q", "-o", "i.csv"], owner="track", expect="ok",
+             files={"drop.wav": "fixture:drop.wav"}),
+        Case("track -o fifo", ["track", "drop.wav", "-q", "-o", "target"], owner="track", expect="ok",
+             special="fifo", files={"drop.wav": "fixture:drop.wav"}),
+        Case("track --plot fails after -o", ["track", "drop.wav", "-q", "-o", "i.csv", "--plot", "blocker/p.png"],
+             owner="track", files={"drop.wav": "fixture:drop.wav", "blocker": _unwritable_dir}),
+        Case("track /dev/zero", ["track", "/dev/zero", "-q"], owner="track"),
+        Case("track an empty file", T, owner="track", files={"rec": b""}),
+        Case("track a text file", T, owner="track", files={"rec": "t,y\n0,1\n"}),
+        Case("track random bytes", T, owner="track", files={"rec": bytes(range(256)) * 100}),
+        Case("track a truncated wav", T, owner="track", files={"rec": lambda p: p.write_bytes(
+            fixture("drop.wav")[:100])}),
+        Case("track a wav header claiming 4 GB", T, owner="track", files={"rec": lambda p: p.write_bytes(
+            fixture("drop.wav")[:40] + (0xFFFFFFF0).to_bytes(4, "little") + fixture("drop.wav")[44:4000])}),
+        Case("discover a truncated wav", ["discover", "rec", "--ball", "tennis", "-q"], owner="track",
+             files={"rec": lambda p: p.write_bytes(fixture("drop.wav")[:100])}),
+    ]
+
+
 def size_cases():
     return [
         Case("fit --n 10000000", ["fit", "basketball", "--n", "10000000"]),
@@ -722,7 +754,7 @@ def run_case(case, timeout_s, mem_bytes):
 
 def all_cases():
     numeric, skipped = numeric_option_cases()
-    cases = numeric + measurement_cases() + yaml_cases() + output_cases() + size_cases()
+    cases = numeric + measurement_cases() + yaml_cases() + output_cases() + size_cases() + track_cases()
     return cases, skipped
 
 

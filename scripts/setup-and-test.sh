@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs everything the test suite needs on a fresh Debian/Ubuntu machine and runs it:
 #   the ODE C library (Debian package libode8, used through ctypes),
-#   vrcal with its test and engine extras (pytest, hypothesis, MuJoCo, PyBullet),
+#   vrcal with its test, engine, video and audio extras (pytest, hypothesis, MuJoCo, PyBullet,
+#   OpenCV for 'vrcal track' on videos, PyAV for compressed sound files),
 #   then the whole test suite.
 # Run it inside a virtual environment (see README.md).
 set -euo pipefail
@@ -13,5 +14,5 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libode\.so'; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libode8
 fi
 python -m pip install --quiet --upgrade pip
-python -m pip install --quiet ".[test,engines]"
+python -m pip install --quiet ".[test,engines,video,audio]"
 python -m pytest -q "$@"

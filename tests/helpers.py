@@ -40,3 +40,17 @@ def require_engine(name):
         if os.environ.get("VRCAL_REQUIRE_ENGINES") == "1":
             pytest.fail(f"VRCAL_REQUIRE_ENGINES=1 but {name} is unavailable: {exc}")
         pytest.skip(str(exc))
+
+
+def require_extra(module, extra):
+    """Import an optional extra's module (``cv2`` of ``video``, ``av`` of ``audio``); skip when it is
+    not installed -- or fail under ``VRCAL_REQUIRE_EXTRAS=1`` or ``VRCAL_REQUIRE_ENGINES=1`` (CI installs
+    every extra, so the tests that need one run there)."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        if "1" in (os.environ.get("VRCAL_REQUIRE_EXTRAS"), os.environ.get("VRCAL_REQUIRE_ENGINES")):
+            pytest.fail(f"the '{extra}' extra is required here but {module} is not installed")
+        pytest.skip(f"{module} is not installed (pip install 'vrcal[{extra}]')")

@@ -50,18 +50,18 @@ def test_fit_json_has_the_documented_keys(tmp_path):
 
 
 def test_fit_yaml_to_stdout_is_repeatable():
-    a, b = run("fit", "tennis"), run("fit", "tennis")
+    a, b = run("fit", "tennis", "--format", "yaml"), run("fit", "tennis", "--format", "yaml")
     assert a.exit_code == 0 and a.output == b.output
     assert yaml.safe_load(a.output)["ball"] == "tennis"
 
 
 def test_fit_as_paper_shows_paper_value():
-    data = yaml.safe_load(run("fit", "basketball", "--as-paper").output)
+    data = yaml.safe_load(run("fit", "basketball", "--as-paper", "--format", "yaml").output)
     assert data["epsilon"]["nominal"] == pytest.approx(0.85, abs=0.001)
 
 
 def test_fit_fixed_x():
-    data = yaml.safe_load(run("fit", "football", "--x", "0.02", "--K", "4").output)
+    data = yaml.safe_load(run("fit", "football", "--x", "0.02", "--K", "4", "--format", "yaml").output)
     assert data["fixed"]["x_m"] == 0.02
     assert data["fixed"]["v_m_per_s"]["min"] < data["fixed"]["v_m_per_s"]["max"]
 
@@ -81,7 +81,7 @@ def test_user_standards_file(tmp_path):
         "drop_height_m": 1.0, "drop_measured_to": "bottom", "rebound_m": {"min": 0.81, "max": 0.81},
         "rebound_measured_to": "bottom", "floor": "concrete", "conditions": "room"}}}))
     for args in (["--standards", str(path), "fit", "superball"], ["fit", "superball", "--standards", str(path)]):
-        result = run(*args)
+        result = run(*args, "--format", "yaml")
         assert result.exit_code == 0, result.output
         assert yaml.safe_load(result.output)["epsilon"]["nominal"] == pytest.approx(0.9)
 

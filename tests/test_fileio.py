@@ -230,3 +230,15 @@ def test_yaml_safe_load_is_untouched():
     """The refusing loader is a subclass: PyYAML's own safe loader keeps its behaviour."""
     assert yaml.safe_load("a: &x 1\nb: *x\n") == {"a": 1, "b": 1}
     assert isinstance(DataError("x"), VrcalError)
+
+
+def test_the_yaml_shipped_with_vrcal_passes_the_strict_loader():
+    """The shipped standards are read with libyaml's fast loader; they must pass the refusals too."""
+    from importlib import resources
+
+    from helpers import EXAMPLES
+
+    text = resources.files("vrcal").joinpath("standards.yaml").read_text(encoding="utf-8")
+    assert parse_yaml(text, "standards.yaml") == parse_yaml(text, "standards.yaml", trusted=True)
+    for path in EXAMPLES.glob("*.yaml"):
+        parse_yaml(path.read_text(encoding="utf-8"), str(path))

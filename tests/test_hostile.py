@@ -69,7 +69,7 @@ def test_pixels_ref_reference_line_of_three_cells_or_zero_pixels(tmp_path, lines
 
 def test_pixels_ref_forced_on_a_t_y_csv(trajectory):
     result = run("discover", trajectory, "--ball", "tennis", "--format", "pixels-ref", "--fs", "60", "-q")
-    one_line_error(result, 1, ":1: the reference line must be", "found 't,y'")
+    one_line_error(result, 1, ":1: the reference line must be", "found 't")
 
 
 @pytest.mark.parametrize("kind", ["scene", "standards"])
@@ -138,10 +138,11 @@ def test_body_names_with_a_comma_and_a_newline_are_quoted_in_the_csv(tmp_path):
                  '  - {name: "c\\nd \\"e\\"", ball: tennis, position_m: [1, 0, 0.5]}\n')
     result = run("scene", p, "--no-animation", "-o", tmp_path / "out")
     assert result.exit_code == 0, result.output
-    for name in ("trajectories.csv", "contacts.csv"):
-        rows = list(csv.reader(io.StringIO((tmp_path / "out" / name).read_text())))
-        assert len({len(r) for r in rows}) == 1, name
-    rows = list(csv.DictReader(io.StringIO((tmp_path / "out" / "trajectories.csv").read_text())))
+    (traj,), (cont,) = (tmp_path / "out").glob("*trajectories.csv"), (tmp_path / "out").glob("*contacts.csv")
+    for path in (traj, cont):
+        rows = list(csv.reader(io.StringIO(path.read_text())))
+        assert len({len(r) for r in rows}) == 1, path.name
+    rows = list(csv.DictReader(io.StringIO(traj.read_text())))
     assert {r["body"] for r in rows} == {"a,b", 'c\nd "e"'}
 
 
@@ -213,7 +214,7 @@ def test_output_to_a_fifo_a_device_or_a_link_is_written_into_not_replaced(tmp_pa
     assert result.exit_code == 0, result.output
     mode = os.lstat(target).st_mode
     assert {"fifo": stat.S_ISFIFO, "chardev": stat.S_ISCHR, "symlink": stat.S_ISLNK}[kind](mode)
-    expected = run(*command).stdout
+    expected = run(*command, *(["--format", "yaml"] if command[0] == "fit" else [])).stdout  # as -o writes
     if kind == "fifo":
         t.join(timeout=10)
         assert got == [expected]
@@ -272,10 +273,10 @@ def test_plot_curves_failing_on_its_third_file_leaves_none(tmp_path):
 
 def test_a_scene_failing_on_one_file_leaves_none(tmp_path):
     out = tmp_path / "out"
-    (out / "figure8.png").mkdir(parents=True)
+    (out / "figure8-basketball.png").mkdir(parents=True)  # the figure cannot be written
     one_line_error(run("scene", EXAMPLES / "figure8-basketball.yaml", "--no-animation", "-o", out), 2,
                    "is a directory")
-    assert [p.name for p in out.iterdir()] == ["figure8.png"]
+    assert [p.name for p in out.iterdir()] == ["figure8-basketball.png"]
 
 
 def test_sigterm_cleans_up_like_sigint(tmp_path, monkeypatch):

@@ -130,8 +130,11 @@ def test_cli_writes_four_readable_pngs(tmp_path):
     out = tmp_path / "figs"  # created: its parent exists
     result = run("plot", "curves", "-o", str(out), "--ball", "tennis")
     assert result.exit_code == 0, result.output
-    paths = result.output.split()
+    lines = result.output.splitlines()
+    assert lines[0].split() == ["wrote", "what"]
+    paths = [line.split()[0] for line in lines[1:]]
     assert paths == sorted(paths) and len(paths) == 4
+    assert "model only" in lines[-1]
     assert sorted(p.name for p in out.iterdir()) == [p.rsplit("/", 1)[1] for p in paths]
     for p in paths:
         with Image.open(p) as im:

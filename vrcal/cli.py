@@ -159,6 +159,27 @@ def emit(text, output):
         click.echo(f"wrote {output}", err=True)
 
 
+def emit_result(data, human, fmt, output, file_default="yaml"):
+    """Write a command's result: ``human(data)`` for people on stdout (the default), or the
+    full-precision machine file (``schema_version`` added) for ``--format json|yaml`` or an
+    ``-o`` file's extension (:func:`vrcal.textout.choose_format`); an ``-o`` file with another
+    extension gets ``file_default``."""
+    from vrcal.fileio import dumps
+    from vrcal.textout import choose_format, machine_document
+
+    to_file = output not in (None, "-")
+    kind = choose_format(fmt, output, default=file_default if to_file else "text",
+                         allowed=("text", "json", "yaml"))
+    emit(human(data) if kind == "text" else dumps(machine_document(data), kind), output)
+
+
+#: ``--format`` of a command with a result for people and for machines.
+FORMAT_OPTION = click.option(
+    "--format", "fmt", type=click.Choice(["text", "yaml", "json"]), default=None, show_default="text",
+    help="text: a table for people (stdout's default); yaml, json: the full-precision machine file "
+         "(also chosen by -o's extension .yaml/.yml/.json; other -o files get yaml).")
+
+
 K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
@@ -174,26 +195,29 @@ K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default
               help="Fix the virtual body's speed v [m/s]; gives x.")
 @click.option("--n", "n", type=opt.FAMILY_SIZE, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of BALL: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
+    Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the full-
+    precision parameter file with schema_version and a unit in every key.
+
     \b
     Examples:
       vrcal fit basketball
       vrcal fit basketball --as-paper
-      vrcal fit football --K 4 --x 0.02 --format json -o football.json
+      vrcal fit basketball --format yaml
+      vrcal fit football --K 4 --x 0.02 -o football.json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball
+    from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
     from vrcal.model.standards import get_ball
 
     b = get_ball(ball, standards_of(ctx))
     result = fit_ball(b, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper)
-    emit(dumps(result, fmt), output)
+    emit_result(result, fit_text, fmt, output)
 
 
 @main.command(short_help="epsilon of two colliding bodies (Eqs. 6 and 7).")
@@ -201,10 +225,11 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
 @click.argument("body_b")
 @K_OPTION
 @click.option("--as-paper", is_flag=True, help="Balls use the paper's Table 1 heights as printed.")
-@click.option("--format", "fmt", type=click.Choice(["yaml", "json"]), default="yaml", show_default=True)
+@FORMAT_OPTION
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def pair(ctx, body_a, body_b, K, as_paper, fmt):
+def pair(ctx, body_a, body_b, K, as_paper, fmt, output):
     """epsilon of two colliding bodies from their virtual bodies (Eqs. 6 and 7).
 
     A body is a ball of the standards, 'floor' (rigid, x = 0), or 'x=DEPTH,v=SPEED'.
@@ -214,13 +239,13 @@ def pair(ctx, body_a, body_b, K, as_paper, fmt):
       vrcal pair basketball basketball
       vrcal pair tennis floor
       vrcal pair x=0.01,v=0.1 x=0.02,v=0.5 --K 4
+      vrcal pair basketball volleyball --format json
     """
-    from vrcal.fileio import dumps
-    from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.inverse import DEFAULT_K_PER_S, pair_text
     from vrcal.inverse import pair as pair_epsilon
 
     result = pair_epsilon(body_a, body_b, DEFAULT_K_PER_S if K is None else K, standards_of(ctx), as_paper)
-    emit(dumps(result, fmt), None)
+    emit_result(result, pair_text, fmt, output)
 
 
 # --------------------------------------------------------------------------- plots and Table 2 (part: plots/table2)
@@ -277,14 +302,15 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     from vrcal.fileio import figure_bytes, write_files
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
+    from vrcal.textout import table
 
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
         write_files({d / name: figure_bytes(figures[name], dpi=120, metadata={"Software": None})
                      for name in sorted(figures)}, directories=[d])  # all of them or none
-        for name in sorted(figures):
-            click.echo(str(d / name))
+        click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
+                         ["wrote", "what"], align="ll"), nl=False)
     finally:
         for fig in figures.values():
             plt.close(fig)
@@ -292,8 +318,10 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 
 @main.command(short_help="Table 2 regenerated from the standards; --compare-paper checks the paper's.")
 @K_OPTION
-@click.option("--format", "fmt", type=click.Choice(["markdown", "csv", "json"]), default="markdown",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "markdown", "csv", "json", "yaml"]), default=None,
+              show_default="text", help="text: a table for people (stdout's default); markdown: the page "
+              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; other -o files "
+              "get markdown).")
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
@@ -312,11 +340,14 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
       vrcal table2
       vrcal table2 --K 4 --format csv
       vrcal table2 --compare-paper
+      vrcal table2 --format markdown -o table2.md
     """
     from vrcal.inverse import DEFAULT_K_PER_S
-    from vrcal.model.table2 import table2_text
+    from vrcal.model.table2 import FORMATS, table2_text
+    from vrcal.textout import choose_format
 
-    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, fmt, compare_paper, as_paper)
+    kind = choose_format(fmt, output, default="text" if output in (None, "-") else "markdown", allowed=FORMATS)
+    text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)
 
 # --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
@@ -336,7 +367,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
                    "height_offset, buoyancy.")
-@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=240.0, show_default=True, help="Trajectory frame rate [Hz].")
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
+              help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
 @click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
 @click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
@@ -346,8 +378,10 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
               help="Still segment before release [s].")
 @click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (a ball outside the standards).")
 @click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m].")
-@click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes"]), default="trajectory",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes", "wav", "video"]),
+              default="trajectory", show_default=True,
+              help="CSV data, or a recording to try 'vrcal track' on: wav (the impacts' sound in a room with "
+                   "noise, hum and an echo) or video (an .avi of the ball, needs vrcal[video]); these need -o.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
@@ -361,11 +395,24 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
       vrcal simulate table_tennis --effect air_drag --noise 0.001 -o tt.csv
       vrcal simulate basketball --effect contact_duration:contact_time_s=0.008 --format impacts
       vrcal simulate marble --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
+      vrcal simulate tennis --format wav -o drop.wav
     """
     from vrcal.drop.simulate import simulate_csv
 
+    if fmt in ("wav", "video"):
+        from vrcal.drop.render import simulate_recording
+        from vrcal.errors import UsageError
+
+        if output in (None, "-"):
+            raise UsageError(f"--format {fmt} writes a binary file: give -o FILE")
+        click.echo(simulate_recording(output, ball, fmt, fs_hz=fs_hz, seed=seed, standards=standards_of(ctx),
+                                      drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m,
+                                      v_m_per_s=v_m_per_s, effects=list(effects), still_s=still_s, mass_kg=mass_kg,
+                                      diameter_m=diameter_m), err=True)
+        return
     text = simulate_csv(ball, kind=fmt, drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K,
-                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=fs_hz, noise_m=noise_m,
+                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=240.0 if fs_hz is None else fs_hz,
+                        noise_m=noise_m,
                         jitter_s=jitter_s, seed=seed, still_s=still_s, mass_kg=mass_kg, diameter_m=diameter_m,
                         standards=standards_of(ctx))
     emit(text, output)
@@ -407,6 +454,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --json result.json --report out
       vrcal discover drop.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
+      vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
     """
     import os
 
@@ -420,7 +469,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
 
     result = discover_file(data, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m, g_m_per_s2=g_m_per_s2,
                            standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
-                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise)
+                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+                           read_options={"progress": None if quiet else tracking_progress("discover")})
     text = fit_report(result)
     files = {json_file: dumps(result.as_dict(), "json")} if json_file else {}
     if report_dir:
@@ -434,87 +484,275 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
     emit(text, None)
 
+def tracking_progress(command):
+    """A ``progress(fraction, message)`` printing to stderr when it is a terminal, from 1 s on."""
+    import time
+
+    if not sys.stderr.isatty():
+        return None
+    start = time.monotonic()
+
+    def report(fraction, message):
+        if time.monotonic() - start >= 1.0:
+            click.echo(f"\r{command}: {message} ({fraction * 100:3.0f} %)\033[K", err=True, nl=fraction >= 1.0)
+
+    return report
+
+
+@main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
+@click.argument("recording", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="Also draw what was detected (signal and impacts, or the ball's path) into this PNG/PDF/SVG.")
+@click.option("--format", "fmt", type=click.Choice(["sound", "video"]), default=None,
+              help="What the recording is (default: from its content; 'sound' takes a video's sound track).")
+@click.option("--ball", default=None, help="Video: a ball of the standards (its diameter gives the scale).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Video: the ball's diameter [m].")
+@click.option("--roi", default=None, metavar="X,Y,W,H", help="Video: search the ball only in this region [px].")
+@click.option("--color", default=None, help="Video: the ball's colour (a name like 'green', #RRGGBB or B,G,R).")
+@click.option("--fps", "fps", type=opt.RATE_HZ, default=None,
+              help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
+              help="Video: metres per pixel overriding the scale from the diameter.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
+@STANDARDS_OPTION
+@click.pass_context
+def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, quiet):
+    """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
+
+    A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
+    (mp4, mov, avi, mkv; needs vrcal[video]) the ball's trajectory, scaled by its diameter.
+    The file records how it was made in '#' comment lines. 'vrcal discover RECORDING'
+    does the same tracking by itself.
+
+    \b
+    Examples:
+      vrcal simulate tennis --format wav -o drop.wav
+      vrcal track drop.wav -o impacts.csv
+      vrcal track drop.mp4 --ball tennis -o drop.csv --plot drop.png
+      vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
+    """
+    import os
+
+    from vrcal.fileio import figure_bytes, write_files
+    from vrcal.measurements.recording import track as track_recording
+    from vrcal.measurements.recording import track_figure
+
+    if ball is not None and diameter_m is None:
+        from vrcal.model.body import ball_from_options
+
+        props, _std = ball_from_options(ball, standards_of(ctx), None, None)
+        diameter_m = float(props.diameter_m)
+    result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
+                             scale_m_per_px=scale_m_per_px,
+                             progress=None if quiet else tracking_progress("track"))
+    files = {}
+    if plot_file:
+        import matplotlib.pyplot as plt
+
+        fig = track_figure(result)
+        try:
+            files[plot_file] = figure_bytes(fig, os.path.splitext(plot_file)[1].lstrip(".") or "png", dpi=110)
+        finally:
+            plt.close(fig)
+    if output not in (None, "-"):
+        files[output] = result.text
+    write_files(files)  # the plot and the measurement, or neither
+    if output in (None, "-"):
+        click.echo(result.text, nl=False)
+        return
+    if not quiet:
+        click.echo(result.summary(), nl=False)
+    click.echo(f"wrote {output}" + (f" and {plot_file}" if plot_file else ""), err=True)
+
+
 # --------------------------------------------------------------------------- engines (part: export/verify)
 
 # (export and verify commands go here)
 
-_ENGINE_NAMES = ["mujoco", "ode", "bullet", "gazebo", "tables", "physx", "unity", "box2d"]
+_ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "physx", "unity", "box2d"]
+
+
+def _engine_options(f):
+    """The options export and verify share: the body, the speeds, the step and the limits."""
+    options = [
+        click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
+                     help="Ball mass [kg] (with --diameter: a ball of your own; overrides a standard's)."),
+        click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m]."),
+        click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
+                     help="A 'vrcal discover --json' result: its ball, release state, drag and epsilon."),
+        click.option("--epsilon", type=opt.EPSILON, default=None,
+                     help="Target epsilon (0-1] (default: the standard's, or the --from result's)."),
+        click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
+                     help="Drop height of the ball's bottom [m] (default: the standard's)."),
+        click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
+                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
+        click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=None, show_default="9.80665",
+                     help="Gravity [m/s^2]."),
+        click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
+                     help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
+        click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
+                                                       case_sensitive=False), default=None,
+                     help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
+        click.option("--stiffness", type=opt.STIFFNESS, default=None,
+                     help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
+        click.option("--tolerance", type=opt.TOLERANCE, default=0.01, show_default=True,
+                     help="Largest accepted |achieved - target| epsilon."),
+        click.option("--max-penetration", "max_penetration_m", type=opt.PENETRATION_M, default=None,
+                     help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
+                          "about what a real ball deforms at drop-test speed]."),
+        click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair)."),
+    ]
+    for option in reversed(options):
+        f = option(f)
+    return f
 
 
 @main.command("export")
-@click.argument("ball")
+@click.argument("ball", required=False)
 @click.option("--engine", "engine", type=click.Choice(_ENGINE_NAMES, case_sensitive=False), required=True,
-              help="Engine to export for (physx/unity/box2d = tables).")
-@click.option("--epsilon", type=opt.EPSILON, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
-              help="Engine time step [s] (default per engine: mujoco 2.5e-5, others 2e-4).")
-@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair).")
+              help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
+@_engine_options
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
 @K_OPTION
+@click.option("--trade-off", "trade_off", is_flag=True,
+              help="MuJoCo: print the achievable (step, stiffness, epsilon error, penetration) table.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default=None,
+              help="json: the machine file (tables rows, MuJoCo's achieved numbers) [default: the engine's file].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def export_cmd(ctx, ball, engine, epsilon, dt_s, floor, against, K, output):
-    """Export BALL's calibrated epsilon to a physics engine's own file.
+def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
+               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, against, K, trade_off, fmt,
+               output):
+    """Export a ball's calibrated bounce to a physics engine's own file.
 
-    mujoco: MJCF model; ode, bullet: JSON settings with a paste-ready snippet;
+    BALL is a ball of the standards; without it give --mass and --diameter (and --epsilon and
+    --drop-height or --impact-speed), or --from a discover result. mujoco: MJCF model, contact
+    calibrated by running MuJoCo at --dt; ode, bullet: JSON settings with a paste-ready snippet;
     gazebo: SDF world; tables: PhysX/Unity/Box2D values and combine modes.
 
     \b
     Examples:
       vrcal export basketball --engine mujoco -o basketball.xml
+      vrcal export --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
+      vrcal export tennis --engine mujoco --trade-off
+      vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
-      vrcal export basketball --engine bullet --against volleyball
-      vrcal export football --engine gazebo --epsilon 0.8 -o football.sdf
+      vrcal export basketball --engine tables --against volleyball
     """
-    from vrcal.engines.export import export
+    from vrcal.engines.export import export, format_trade_off
+    from vrcal.engines.export import trade_off as run_trade_off
+    from vrcal.fileio import dumps
     from vrcal.inverse import DEFAULT_K_PER_S
+    from vrcal.textout import choose_format, machine_document
 
-    result = export(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, against=against,
-                    standards=standards_of(ctx), K_per_s=DEFAULT_K_PER_S if K is None else K)
-    emit(result.text, output)
+    options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
+                   K_per_s=DEFAULT_K_PER_S if K is None else K, mass_kg=mass_kg, diameter_m=diameter_m,
+                   drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
+                   from_json=from_json, integrator=integrator, tolerance=tolerance,
+                   max_penetration_m=max_penetration_m)
+    form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
+    if trade_off:
+        setup, rows = run_trade_off(ball, engine, **options)
+        emit(format_trade_off(setup, rows) if form == "text" else
+             dumps(machine_document({"engine": "mujoco", "ball": setup.ball, "target_epsilon": setup.epsilon,
+                                     "rows": rows}), "json"), output)
+        return
+    result = export(ball, engine, against=against, stiffness=stiffness, **options)
+    if result.summary:
+        click.echo(result.summary, err=True)
+    if form == "json":
+        emit(dumps(machine_document(result.data), "json"), output)
+    else:
+        emit(result.text, output)
 
 
 @main.command("verify")
-@click.argument("ball")
+@click.argument("ball", required=False)
 @click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet"], case_sensitive=False),
               required=True, help="Engine to run the drop test in.")
-@click.option("--epsilon", type=opt.EPSILON, default=None, help="The ball's epsilon [0-1] (default: from the standard).")
-@click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None, help="Engine time step [s] (default per engine).")
-@click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED'.")
-@click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
+@_engine_options
+@click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export.")
-@click.option("--tolerance", type=opt.TOLERANCE, default=0.005, show_default=True,
-              help="Largest accepted |achieved - target| epsilon; exit status 1 above it.")
-@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=3, show_default=True, help="Bounces per drop.")
+@click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
+              help="With --from: replay this measured record (the file discover read) in the engine.")
+@click.option("--data-format", "data_fmt", default=None,
+              help="--against: the record's format (as discover's --format).")
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="--against: frame rate [Hz] of a file without times.")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None, help="--against: metres per pixel.")
+@click.option("--y-down", is_flag=True, help="--against: the record's y axis points down.")
+@click.option("--data-floor", "data_floor_m", type=opt.FLOOR_M, default=None,
+              help="--against: height of the floor in the record's frame [m] (as discover's --floor).")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="--against: also draw the replay (heights and model - data) into this PNG/PDF/SVG.")
+@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None, show_default="3, or as --impact-speed needs",
+              help="Bounces per drop (1-50).")
 @click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
-              help="Drops with the impact moved across one time step.")
+              help="Drops with the impact moved across one time step (1-64).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION
 @click.pass_context
-def verify_cmd(ctx, ball, engine, epsilon, dt_s, floor, file, tolerance, n_bounces, n_phases, fmt):
-    """Load BALL's exported settings into the real engine and run the drop test.
+def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
+               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, file, against, data_fmt, fs_hz,
+               scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, fmt):
+    """Load the exported settings into the real engine and run the drop test (or replay a record).
 
-    Reports the achieved epsilon (apex and velocity ratios per bounce and contact phase)
-    against the target; exit status 1 when the error exceeds --tolerance.
+    Drops the ball --phases times with the impact moved across one time step and compares
+    each of --bounces bounces with vrcal's model of the same drop (epsilon, and the apex
+    heights with air drag); exit status 1 when the error exceeds --tolerance or the ball
+    turns farther from the floor than --max-penetration. With --from and --against: replay
+    the measured record in the engine beside vrcal's model and the constant-epsilon export.
 
     \b
     Examples:
       vrcal verify basketball --engine mujoco
+      vrcal verify --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
-      vrcal export basketball --engine bullet -o b.json && vrcal verify basketball --engine bullet --file b.json
+      vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
+      vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
-    from pathlib import Path
-
-    from vrcal.engines.verify import format_report, verify
     from vrcal.fileio import dumps
+    from vrcal.textout import machine_document
 
-    text = Path(file).read_text(encoding="utf-8") if file else None
+    if against is not None:
+        from vrcal.engines.replay import format_replay, replay, replay_figure
+        from vrcal.errors import UsageError
+
+        if from_json is None:
+            raise UsageError("--against replays a record with the export of a discover result: give --from too")
+        result = replay(from_json, against, engine, dt_s=dt_s, integrator=integrator, tolerance=tolerance,
+                        max_penetration_m=max_penetration_m, stiffness=stiffness, fmt=data_fmt,
+                        scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz, floor_m=data_floor_m,
+                        standards=standards_of(ctx))
+        if plot_file:
+            from vrcal.fileio import atomic_savefig
+
+            atomic_savefig(replay_figure(result).figure, plot_file, dpi=120)
+            click.echo(f"wrote {plot_file}", err=True)
+        emit(format_replay(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
+        return 0
+    if plot_file:
+        from vrcal.errors import UsageError
+
+        raise UsageError("--plot draws a replay: give --from and --against")
+    from vrcal.engines.files import read_file
+    from vrcal.engines.verify import format_report, verify
+
+    text = read_file(file) if file else None
     result = verify(ball, engine, epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
-                    tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text)
-    emit(format_report(result) if fmt == "text" else dumps(result.as_dict(), "json"), None)
+                    tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text,
+                    mass_kg=mass_kg, diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
+                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
+                    max_penetration_m=max_penetration_m, stiffness=stiffness)
+    emit(format_report(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
     if not result.passed:
-        click.echo(f"vrcal: error: epsilon error {result.error:.4g} exceeds the tolerance {tolerance:g}", err=True)
+        why = (f"epsilon error {result.error:.4g} exceeds the tolerance {result.tolerance:g}"
+               if result.error > result.tolerance else
+               f"the ball turns {1e3 * max(result.penetration_m, result.hover_m):.3g} mm from the floor, more "
+               f"than --max-penetration {1e3 * result.max_penetration_m:.3g} mm")
+        click.echo(f"vrcal: error: {why}", err=True)
         return 1
     return 0
 
@@ -549,9 +787,10 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """Run a multi-body SCENE_FILE (YAML): spheres bouncing on a floor and on each other.
 
     At every contact epsilon comes from the two bodies' virtual bodies (Eqs. 6, 7) and the
-    impulse from Eq. 5. Writes trajectories.csv, contacts.csv, figure8.png (height vs time)
-    and scene.gif (side view) into the output directory and prints a summary. The scene file
-    schema is in README.md ("The scene file") and examples/*.yaml.
+    impulse from Eq. 5. Prints a summary; writes NAME.png (height vs time, Figure 8; with
+    --compare a difference panel), NAME.gif (side view, Figure 9), NAME-trajectories.csv and
+    NAME-contacts.csv into the output directory (NAME = the scene file's name). The scene file
+    schema is in docs/scene.md and examples/*.yaml.
 
     \b
     Examples:

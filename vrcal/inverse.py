@@ -21,6 +21,7 @@ from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
+from vrcal.textout import number, table, wrap
 
 _LEVELS = ("min", "nominal", "max")
 
@@ -133,6 +134,69 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     return out
 
 
+def fit_text(result):
+    """:func:`fit_ball`'s result for people: epsilon first, then T, the drop test, the family, notes.
+
+    Columns are the drop test's epsilon levels (min, nominal, max), so each column is one
+    consistent set: T at epsilon min is the longest contact time. At most 100 columns;
+    about 20 lines for a ball of the standards.
+    """
+    r = result
+    K = r["K_per_s"]
+    eps = r["epsilon"]
+    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in _LEVELS}
+    H, h = r["drop_height_m"], r["rebound_height_m"]
+    rule = "official rule" if r["official_rule"] else "not an official rule"
+    rows = [
+        ["ε", *(number(eps[k], 4) for k in _LEVELS), "drop test, ε = √(h/H) (Eq. 9)"],
+        ["T [ms]", *(_ms_or_inf(T[k]) for k in _LEVELS), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+        ["H [m]", *(number(H, 4) for _ in _LEVELS), "drop height"],
+        ["h [m]", *(number(h[k], 4) for k in _LEVELS), "rebound height"],
+    ]
+    fixed = r.get("fixed")
+    if fixed and isinstance(fixed.get("v_m_per_s"), dict):
+        x = fixed["x_m"]
+        rows.append([f"v at x = {x * 1e3:.4g} mm [m/s]",
+                     *(number(_or_inf(lambda t: eq.virtual_speed_m_per_s(x, t), T[k]), 4) for k in _LEVELS),
+                     "v = x/(2T) (Eq. 10)"])
+    elif fixed:
+        v = fixed["v_m_per_s"]
+        rows.append([f"x at v = {v:.4g} m/s [mm]",
+                     *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in _LEVELS), "x = 2vT (Eq. 10)"])
+    answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. {number(eps['max'], 3)}), "
+              f"T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
+    text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}") + "\n"
+    text += table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
+    if fixed and fixed.get("warning"):
+        text += wrap(f"warning: {fixed['warning']}")
+    members = r["family"]
+    R = r["diameter_m"] / 2.0
+    text += "\n" + wrap(f"virtual bodies (x, v) of ε nominal: x/(2v) = T (Eq. 10), x up to the radius "
+                         f"R = {number(R * 1e3, 4)} mm")
+    text += _family_rows(members)
+    if r["notes"]:
+        text += "\nnotes:\n" + "".join(wrap(n, first="  - ") for n in r["notes"])
+    return text
+
+
+def _ms_or_inf(T_s, digits=4):
+    return "inf" if math.isinf(T_s) else number(T_s * 1e3, digits)
+
+
+def _family_rows(members, width=100):
+    """The family as two rows (x [mm], v [m/s]), wrapped into blocks that fit ``width`` columns."""
+    xs = [number(m["x_m"] * 1e3, 3) for m in members]
+    vs = ["inf" if m["v_m_per_s"] is None else number(m["v_m_per_s"], 3) for m in members]
+    cell = max(len(c) for c in xs + vs)
+    per_row = max(1, (width - 2 - 9) // (cell + 2))
+    out = ""
+    for i in range(0, len(members), per_row):
+        out += table([["x [mm]", *xs[i:i + per_row]], ["v [m/s]", *vs[i:i + per_row]]],
+                     ["", *[""] * len(xs[i:i + per_row])], align="l" + "r" * len(xs[i:i + per_row]),
+                     indent="  ").split("\n", 1)[1]
+    return out
+
+
 def _bounds(by_level):
     """{min, nominal, max} of a quantity given per epsilon level: min and max by value."""
     lo, hi = sorted((by_level["min"], by_level["max"]))
@@ -195,3 +259,18 @@ def pair(spec_a, spec_b, K_per_s=DEFAULT_K_PER_S, standards=None, as_paper=False
         "epsilon": eps,
         "equations": "T = x_A/(2 v_A) + x_B/(2 v_B) (Eq. 6), epsilon = exp(-K T) (Eq. 7)",
     }
+
+
+def pair_text(result):
+    """:func:`pair`'s result for people: the pair's epsilon first, then each body's virtual body."""
+    r = result
+    a, b = r["bodies"]
+    rows = [[body["name"], number(body["x_m"] * 1e3, 4), number(body["v_m_per_s"], 4),
+             _ms_or_inf(body["T_s"]), number(body["epsilon_on_rigid_floor"], 4)] for body in (a, b)]
+    rows.append(["pair", "", "", _ms_or_inf(r["T_s"]), number(r["epsilon"], 4)])
+    text = wrap(f"{a['name']} against {b['name']}: ε = {number(r['epsilon'], 3)}, "
+                f"T = {_ms_or_inf(r['T_s'], 3)} ms at K = {r['K_per_s']:g} 1/s")
+    text += "\n" + table(rows, ["body", "x [mm]", "v [m/s]", "T [ms]", "ε"], align="lrrrr")
+    text += "\n" + wrap("T = x_A/(2 v_A) + x_B/(2 v_B) (Eq. 6), ε = exp(−K T) (Eq. 7). A body's ε is its ε "
+                         "against a rigid floor; the contact times add, so the pair's ε is their product.")
+    return text

@@ -16,7 +16,8 @@ Departures from [1]
 [1] does not state the values it used for Figs. 4-6 (K, x_B, v_B2, the three x_A and
 v_A2, the ranges); vrcal's defaults are listed in :data:`FIG5_DEFAULTS` and
 :data:`FIG6_DEFAULTS` and printed in each legend and title. [1]'s Fig. 7 shows one
-line for the basketball; vrcal shows the epsilon min..max band of the drop test.
+line for the basketball; vrcal shows the epsilon min..max band of the drop test, and says on
+the figure that T and (x, v) are the model's (they depend on the assumed K), not measured.
 """
 
 from __future__ import annotations
@@ -35,12 +36,25 @@ FIG6_DEFAULTS = {"x_b_m": 0.01, "v_b_m_per_s": 0.1, "v_a_m_per_s": (0.05, 0.1, 0
 #: Number of points per curve.
 N_POINTS = 200
 
+#: Fig. 7's label: its contact times and (x, v) lines are the model's, not measured.
+MODEL_ONLY_NOTE = ("model only: the drop test measures ε alone;\nT = −ln ε / K and the (x, v) lines "
+                   "assume K = {K:g} 1/s")
+
 #: File names written by ``vrcal plot curves`` (fig7 gets the ball key appended).
 FILE_NAMES = {
     "fig4": "fig4_epsilon_vs_T.png",
     "fig5": "fig5_epsilon_vs_vA.png",
     "fig6": "fig6_epsilon_vs_xA.png",
     "fig7": "fig7_family_{ball}.png",
+}
+
+
+#: What each file of ``vrcal plot curves`` shows (printed beside its path).
+DESCRIPTIONS = {
+    "fig4": "Fig. 4: ε = exp(−K T) (Eq. 7)",
+    "fig5": "Fig. 5: ε against v_A2 for three x_A (Eqs. 6, 7)",
+    "fig6": "Fig. 6: ε against x_A for three v_A2 (Eqs. 6, 7)",
+    "fig7": "Fig. 7: the {ball}'s virtual bodies v = x/(2T) (model only)",
 }
 
 
@@ -216,6 +230,8 @@ def plot_ball_family(ball="basketball", K_per_s=DEFAULT_K_PER_S, as_paper=False,
                 label=f"ε {k} = {window.as_dict()[k]:.3f}, T = {T[k] * 1e3:.1f} ms")
     ax.set_xlim(0.0, R)
     ax.set_ylim(0.0, None)
+    ax.text(0.98, 0.03, MODEL_ONLY_NOTE.format(K=K), transform=ax.transAxes, ha="right", va="bottom", fontsize=7,
+            bbox={"boxstyle": "round", "fc": "white", "ec": "0.6", "alpha": 0.9})
     source = "paper's Table 1 as printed" if as_paper else "bottom-to-bottom heights"
     title = (rf"Fig. 7: {ball.name}, $v = x/(2T)$ (Eq. 10), $T = -\ln\varepsilon/K$ (Eq. 7)"
              f"\nK = {K:g} 1/s, ε from Eq. 9 ({source}), x up to R = {R:.3g} m")
@@ -239,7 +255,8 @@ def curve_figures(K_per_s=DEFAULT_K_PER_S, ball="basketball", as_paper=False, st
     Returns
     -------
     dict
-        file name -> Figure, sorted by name (the caller saves and closes them)
+        file name -> Figure, sorted by name (the caller saves and closes them); each Figure's
+        ``vrcal_description`` says what it shows (from :data:`DESCRIPTIONS`)
     """
     import matplotlib.pyplot as plt
 
@@ -251,11 +268,13 @@ def curve_figures(K_per_s=DEFAULT_K_PER_S, ball="basketball", as_paper=False, st
         FILE_NAMES["fig6"]: lambda ax: plot_epsilon_vs_x_a(K, ax=ax),
         FILE_NAMES["fig7"].format(ball=b.key): lambda ax: plot_ball_family(b, K, as_paper=as_paper, ax=ax),
     }
+    descriptions = {FILE_NAMES[k].format(ball=b.key): DESCRIPTIONS[k].format(ball=b.key) for k in FILE_NAMES}
     figures = {}
     try:
         for name in sorted(makers):
             fig, ax = plt.subplots(figsize=(6.4, 4.8))
             figures[name] = fig
+            fig.vrcal_description = descriptions[name]
             makers[name](ax)
             fig.tight_layout()
     except BaseException:

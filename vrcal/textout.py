@@ -8,13 +8,13 @@ the full-precision machine file, with a ``schema_version`` (:func:`machine_docum
 * :func:`number` -- a number to a given count of significant digits, plain where that reads
   better; :func:`ms` -- a time in milliseconds;
 * :func:`table` -- an aligned text table (numbers right-aligned, text left-aligned);
-* :func:`section` -- a titled block of ``key  value`` lines.
+* :func:`section` -- a titled block of ``key  value`` lines;
+* :func:`wrap` -- a paragraph (or a bullet) wrapped to :data:`MAX_COLUMNS`;
+* :func:`longest_line` -- the width of a text, for tests of the 100-column rule.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from pathlib import Path
 
@@ -133,6 +133,25 @@ def section(title, items, indent="  "):
     return "\n".join(lines) + "\n"
 
 
+def wrap(text, first="", rest=None, width=MAX_COLUMNS):
+    """``text`` wrapped to ``width`` columns: the first line starts with ``first``, the others
+    with ``rest`` (default: as many blanks as ``first`` is long). Ends with a newline.
+
+    ``wrap("a long note ...", first="  - ")`` is a bullet whose lines align under its text.
+    """
+    import textwrap
+
+    rest = " " * len(first) if rest is None else rest
+    lines = textwrap.wrap(" ".join(str(text).split()), width=width, initial_indent=first,
+                          subsequent_indent=rest, break_on_hyphens=False) or [first.rstrip()]
+    return "\n".join(lines) + "\n"
+
+
+def longest_line(text):
+    """The number of characters of the longest line of ``text``."""
+    return max((len(line) for line in str(text).splitlines()), default=0)
+
+
 def _numeric(text):
     t = text.strip().split(" ")[0].replace("..", "")
     try:
@@ -144,6 +163,9 @@ def _numeric(text):
 
 def csv_text(header, rows):
     """CSV text (the csv module: a cell with a comma, a quote or a newline is quoted); None is empty."""
+    import csv
+    import io
+
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(header)

@@ -1,5 +1,6 @@
 """The event-driven drop simulator: exact drag-free series, closed-form drag flights, the CLI."""
 
+import json
 import math
 
 import numpy as np
@@ -259,13 +260,13 @@ def test_cli_apexes(tmp_path):
     result = run("simulate", "table_tennis", "--bounces", "3", "--format", "apexes", "-o", str(out))
     assert result.exit_code == 0, result.output
     lines = out.read_text().splitlines()
-    assert lines[0] == "bounce,h" and len(lines) == 5
+    assert lines[0] == "bounce,h [m]" and len(lines) == 5
     w = ball_epsilon(get_ball("table_tennis"))
     assert float(lines[2].split(",")[1]) == pytest.approx(w.nominal ** 2 * 0.305, rel=1e-9)
 
 
 def test_cli_impacts_and_trajectory_are_repeatable(tmp_path):
-    for fmt, header in (("impacts", "t"), ("trajectory", "t,y")):
+    for fmt, header in (("impacts", "t [s]"), ("trajectory", "t [s],y [m]")):
         a, b = tmp_path / f"{fmt}1.csv", tmp_path / f"{fmt}2.csv"
         args = ["simulate", "basketball", "--bounces", "4", "--format", fmt, "--noise", "0.002", "--jitter",
                 "0.0002", "--seed", "5", "--effect", "air_drag", "--effect", "contact_duration:contact_time_s=0.008"]
@@ -280,6 +281,7 @@ def test_cli_impacts_and_trajectory_are_repeatable(tmp_path):
 
 
 def test_cli_output_reads_back(tmp_path):
+    """The headers carry units (t [s], y [m], h [m]) and the readers take the numbers back unchanged."""
     from vrcal.measurements import read_measurement
 
     for fmt in ("trajectory", "impacts", "apexes"):
@@ -287,6 +289,20 @@ def test_cli_output_reads_back(tmp_path):
         assert run("simulate", "tennis", "--bounces", "3", "--format", fmt, "-o", str(out)).exit_code == 0
         m = read_measurement(str(out))
         assert m.kind == fmt
+        written = np.loadtxt(out, delimiter=",", skiprows=1, ndmin=2)
+        read = {"trajectory": lambda: (m.t_s, m.y_m), "impacts": lambda: (m.t_s,),
+                "apexes": lambda: (m.bounce, m.h_m)}[fmt]()
+        np.testing.assert_array_equal(np.column_stack(read), written)
+
+
+def test_cli_simulate_then_discover_round_trip(tmp_path):
+    """`vrcal simulate` writes what `vrcal discover` reads: a planted epsilon comes back."""
+    data, result = tmp_path / "impacts.csv", tmp_path / "result.json"
+    assert run("simulate", "tennis", "--bounces", "5", "--format", "impacts", "--epsilon", "0.75",
+               "-o", str(data)).exit_code == 0
+    done = run("discover", str(data), "--ball", "tennis", "-q", "--json", str(result))
+    assert done.exit_code == 0, done.output
+    assert json.loads(result.read_text())["epsilon"] == pytest.approx(0.75, abs=1e-6)
 
 
 def test_cli_virtual_body_and_free_ball():

@@ -46,7 +46,7 @@ def test_gazebo_refuses_a_time_step_too_large_for_odes_bounce():
 
 
 def test_compliant_floor_goes_into_the_balls_value_under_the_min_rule():
-    ex = export("basketball", "gazebo", epsilon=0.8, floor="x=0.01,v=0.05")
+    ex = export("basketball", "gazebo", epsilon=0.8, floor="x=0.01,v=0.05", dt_s=2e-4)
     root = _parse(ex.text)
     ball = float(root.findtext("world/model[@name='ball']/link/collision/surface/bounce/restitution_coefficient"))
     floor = float(root.findtext("world/model[@name='ground_plane']/link/collision/surface/bounce/"

@@ -142,15 +142,19 @@ def test_bad_K_is_a_usage_error(K):
         regenerate(load_standards(), K)
 
 
-@pytest.mark.parametrize("fmt", ["markdown", "csv", "json"])
+@pytest.mark.parametrize("fmt", ["text", "markdown", "csv", "json", "yaml"])
 @pytest.mark.parametrize("compare", [False, True])
 def test_output_is_deterministic(fmt, compare):
     std = load_standards()
     first = table2_text(std, 4.0, fmt, compare)
     assert first == table2_text(load_standards(), 4.0, fmt, compare)
     assert first.endswith("\n")
-    if fmt == "json":
-        json.loads(first)
+    if fmt in ("json", "yaml"):
+        import yaml
+
+        assert yaml.safe_load(first)["schema_version"] == 1
+    if fmt == "text":
+        assert max(len(line) for line in first.splitlines()) <= 100
 
 
 def test_committed_table_equals_the_command_output():
@@ -160,15 +164,17 @@ def test_committed_table_equals_the_command_output():
     assert (ROOT / "docs" / "table2.md").read_text(encoding="utf-8") == result.output
 
 
-def test_cli_two_runs_byte_identical_and_default_is_markdown():
+def test_cli_two_runs_byte_identical_and_default_is_a_table_for_people(tmp_path):
     a, b = run("table2"), run("table2")
     assert a.exit_code == 0 and a.output == b.output
-    assert a.output == run("table2", "--format", "markdown", "--K", str(DEFAULT_K_PER_S)).output
-    assert a.output.startswith("# Table 2 of [1], regenerated (K = 4 1/s)")
+    assert a.output == run("table2", "--format", "text", "--K", str(DEFAULT_K_PER_S)).output
+    assert a.output.startswith("Table 2 of [1], regenerated (K = 4 1/s)")
+    assert run("table2", "-o", str(tmp_path / "t.md")).exit_code == 0
+    assert (tmp_path / "t.md").read_text(encoding="utf-8").startswith("# Table 2 of [1], regenerated")
 
 
 def test_cli_compare_paper():
-    result = run("table2", "--compare-paper")
+    result = run("table2", "--compare-paper", "--format", "markdown")
     assert result.exit_code == 0
     assert "| basketball | 0.85 | 5 | 0.42 | 5.952 | 0.02730 | 0.04200 | 3.869 |" in result.output
     assert "| swapped | T = v/(2x) | 3.869..4.214 | 4.109 | 0.0085 |" in result.output

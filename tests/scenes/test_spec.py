@@ -156,23 +156,23 @@ def test_cli_scene_writes_csv_plot_and_animation(tmp_path):
     out = tmp_path / "out"
     result = CliRunner().invoke(main, ["scene", str(path), "-o", str(out)])
     assert result.exit_code == 0, result.output
-    assert "[[Contacts]]" in result.output and "big - floor" in result.output
-    assert sorted(p.name for p in out.iterdir()) == ["contacts.csv", "figure8.png", "scene.gif", "trajectories.csv"]
-    rows = list(csv.DictReader(io.StringIO((out / "trajectories.csv").read_text())))
+    assert "contacts in 1.2 s" in result.output and "big - floor" in result.output
+    assert sorted(p.name for p in out.iterdir()) == ["two-contacts.csv", "two-trajectories.csv", "two.gif", "two.png"]
+    rows = list(csv.DictReader(io.StringIO((out / "two-trajectories.csv").read_text())))
     assert list(rows[0]) == ["t_s", "body", "x_m", "y_m", "z_m", "bottom_m", "vx_m_per_s", "vy_m_per_s",
                              "vz_m_per_s", "wx_rad_per_s", "wy_rad_per_s", "wz_rad_per_s"]
     assert [r["body"] for r in rows[:2]] == ["big", "small"]
     assert len(rows) == 2 * (int(round(1.2 / 0.02)) + 1)
     assert float(rows[0]["bottom_m"]) == pytest.approx(0.8)
-    contacts = list(csv.DictReader(io.StringIO((out / "contacts.csv").read_text())))
+    contacts = list(csv.DictReader(io.StringIO((out / "two-contacts.csv").read_text())))
     assert contacts[0]["body_b"] == "floor" and 0 < float(contacts[0]["epsilon"]) < 1
-    gif = (out / "scene.gif").read_bytes()
+    gif = (out / "two.gif").read_bytes()
     assert gif[:6] == b"GIF89a"
     from PIL import Image
 
-    with Image.open(out / "scene.gif") as im:
+    with Image.open(out / "two.gif") as im:
         assert 10 <= im.n_frames <= 150
-    assert (out / "figure8.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (out / "two.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_cli_scene_output_is_repeatable(tmp_path):
@@ -182,7 +182,7 @@ def test_cli_scene_output_is_repeatable(tmp_path):
         result = CliRunner().invoke(main, ["scene", str(path), "-o", str(tmp_path / name), "--no-animation"])
         assert result.exit_code == 0, result.output
         folder = tmp_path / name
-        texts.append((folder / "trajectories.csv").read_text() + (folder / "contacts.csv").read_text())
+        texts.append((folder / "two-trajectories.csv").read_text() + (folder / "two-contacts.csv").read_text())
     assert texts[0] == texts[1]
 
 
@@ -204,7 +204,7 @@ def test_cli_default_output_directory_is_named_after_the_scene_file(tmp_path, mo
     monkeypatch.chdir(work)
     result = CliRunner().invoke(main, ["scene", str(path), "--no-animation"])
     assert result.exit_code == 0, result.output
-    assert (work / "two" / "trajectories.csv").exists()
+    assert (work / "two" / "two-trajectories.csv").exists()
 
 
 def test_plot_heights_returns_the_axes_with_one_line_per_body():

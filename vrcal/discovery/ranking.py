@@ -570,7 +570,7 @@ def _all_effects():
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
                   standards=None, scale_m_per_px=None, y_down=False, fs_hz=None, progress=None, floor_m=None,
-                  noise=None):
+                  noise=None, read_options=None):
     """Read a measurement file and run :func:`discover` on it (what ``vrcal discover`` calls).
 
     Parameters
@@ -595,6 +595,9 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
         see :func:`floor_referenced`
     noise : float or None
         noise of one datum in the data's unit, see :func:`discover`
+    read_options : dict or None
+        options of the sound and video readers (``roi``, ``color``, ``progress``, see
+        :func:`vrcal.measurements.read_measurement`); a video's scale comes from the ball's diameter
 
     Returns
     -------
@@ -606,5 +609,6 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
         raise UsageError(f"--g must be a number > 0 [m/s^2], got {g_m_per_s2:g}")
     props, _std = ball_from_options(ball, standards, mass_kg, diameter_m)
-    data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
+    data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
+                            diameter_m=float(np.mean(props.diameter_m)), **(read_options or {}))
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise)

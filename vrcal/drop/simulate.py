@@ -48,8 +48,10 @@ from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: Output formats of :func:`sample_measurement` and ``vrcal simulate --format``.
 FORMATS = ("trajectory", "impacts", "apexes")
-#: CSV header of each format (the layouts vrcal.measurements auto-detects).
+#: Columns of each format (the keys of :func:`sample_measurement`'s result).
 HEADERS = {"trajectory": ("t", "y"), "impacts": ("t",), "apexes": ("bounce", "h")}
+#: Units written into the CSV header, ``t [s],y [m]`` (the readers of vrcal.measurements parse them).
+UNITS = {"t": "s", "y": "m", "h": "m"}
 
 _HOLD, _DOWN, _CONTACT, _UP, _REST = range(5)
 
@@ -498,7 +500,7 @@ def sample_measurement(drops, kind, *, fs_hz=240.0, noise_m=0.0, jitter_s=0.0, r
 def columns_csv(columns, kind):
     """CSV text of :func:`sample_measurement`'s columns with the header of ``kind`` (repeatable)."""
     header = HEADERS[kind]
-    lines = [",".join(header)]
+    lines = [",".join(f"{name} [{UNITS[name]}]" if name in UNITS else name for name in header)]
     cols = [np.asarray(columns[name]) for name in header]
     for row in zip(*cols):
         lines.append(",".join(str(int(v)) if name == "bounce" else f"{float(v):.10g}" for name, v in zip(header, row)))
@@ -538,6 +540,21 @@ def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=
     str
         CSV text with the header of ``kind``
     """
+    drops, _props = simulate_drop(ball_name, drop_height_m=drop_height_m, n_bounces=n_bounces, epsilon=epsilon,
+                                  K_per_s=K_per_s, x_m=x_m, v_m_per_s=v_m_per_s, effects=effects, still_s=still_s,
+                                  mass_kg=mass_kg, diameter_m=diameter_m, standards=standards)
+    columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
+    return columns_csv(columns, kind)
+
+
+def simulate_drop(ball_name, *, drop_height_m=None, n_bounces=10, epsilon=None, K_per_s=None, x_m=None,
+                  v_m_per_s=None, effects=None, still_s=0.2, mass_kg=None, diameter_m=None, standards=None):
+    """One drop of a named ball as ``vrcal simulate`` makes it (parameters as :func:`simulate_csv`).
+
+    Returns
+    -------
+    (Drops, BallProperties)
+    """
     from vrcal.model import restitution as eq
     from vrcal.model.standards import ball_epsilon
 
@@ -568,6 +585,4 @@ def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=
         raise UsageError(f"--still must be >= 0 [s], got {still_s:g}")
     if not (0 < epsilon <= 1):
         raise UsageError(f"epsilon must lie in (0, 1], got {epsilon:g}")
-    drops = simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s)
-    columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
-    return columns_csv(columns, kind)
+    return simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s), props

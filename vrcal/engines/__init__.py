@@ -30,22 +30,23 @@ class Engine:
     install: str        # how to install it
     default_dt_s: float
     description: str
+    max_steps: int = 0  # most engine steps of one drop test (0: vrcal does not run it)
 
 
 ENGINES = {
     "mujoco": Engine("mujoco", "vrcal.engines.mujoco", "xml", True, "mujoco (PyPI)",
-                     "pip install mujoco (or pip install 'vrcal[engines]')", 2.5e-5,
-                     "MJCF model; restitution as a damped-spring contact (solref direct form)"),
+                     "pip install mujoco (or pip install 'vrcal[engines]')", 2e-3,
+                     "MJCF, contact calibrated in MuJoCo", 4_000_000),
     "ode": Engine("ode", "vrcal.engines.ode", "json", True, "libode8 (Debian)",
-                  "apt-get install libode8", 2e-4,
-                  "contact surface (dContactBounce, bounce, bounce_vel) and world settings"),
+                  "apt-get install libode8", 1e-3,
+                  "bounce, world settings (JSON, C)", 1_000_000),
     "bullet": Engine("bullet", "vrcal.engines.bullet", "json", True, "pybullet (PyPI)",
-                     "pip install pybullet (or pip install 'vrcal[engines]')", 2e-4,
-                     "changeDynamics / setPhysicsEngineParameter keyword arguments"),
-    "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 2e-4,
-                     "SDF 1.7 world, ODE physics, <bounce> on both surfaces"),
+                     "pip install pybullet (or pip install 'vrcal[engines]')", 1.0 / 240.0,
+                     "changeDynamics etc. (JSON, Python)", 400_000),
+    "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 1e-3,
+                     "SDF 1.7 world (ODE physics)"),
     "tables": Engine("tables", "vrcal.engines.tables", "text", False, "none (export only)", "", 1e-3,
-                     "value and combine mode for PhysX, Unity and Box2D"),
+                     "PhysX, Unity, Box2D values"),
 }
 
 
@@ -94,16 +95,17 @@ def availability():
 
 
 def engine_table():
-    """A plain-text table of the registry with what is installed here (for ``vrcal engines``)."""
+    """An aligned text table of the registry with what is installed here (for ``vrcal engines``)."""
+    from vrcal.textout import table
+
     found = availability()
-    lines = [f"{'engine':<8} {'file':<5} {'default dt':>10}  {'verify':<44} provides"]
+    rows = []
     for name, e in ENGINES.items():
         status = found.get(name, "export only")
         if status.startswith("unavailable"):
-            status = "not installed here (see below)"
-        dt = f"{e.default_dt_s:g}" if name != "tables" else "-"
-        lines.append(f"{name:<8} {e.fmt:<5} {dt:>10}  {status[:44]:<44} {e.description}")
+            status = "not installed (see below)"
+        dt = f"{e.default_dt_s:.4g}" if name != "tables" else "-"
+        rows.append([name, e.fmt, dt, status[:30], e.description])
+    text = table(rows, ["engine", "file", "default dt s", "runs here", "provides"], align="llrll")
     missing = [f"{n}: {found[n][len('unavailable: '):]}" for n in ENGINES if found.get(n, "").startswith("unavailable")]
-    if missing:
-        lines.extend(missing)
-    return "\n".join(lines) + "\n"
+    return text + "".join(line + "\n" for line in missing)

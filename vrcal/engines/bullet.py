@@ -13,22 +13,23 @@ calibrated at the same K.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
-from vrcal.engines.common import stepped_drop_test
+from vrcal.engines.common import metadata, stepped_drop_test
+from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError
-
-#: Default Bullet time step [s].
-DEFAULT_DT_S = 2e-4
 
 #: Bounce threshold [m/s] (Bullet's default 0.2).
 RESTITUTION_VELOCITY_THRESHOLD = 0.01
 
 
-def export_params(setup, n_bounces=3, pair=None):
-    """``changeDynamics`` / ``setPhysicsEngineParameter`` keyword arguments (JSON-ready dict)."""
-    v_last = setup.impact_speed_m_per_s * setup.epsilon ** (n_bounces - 1)
+def export_params(setup, n_bounces=None, pair=None):
+    """``changeDynamics`` / ``setPhysicsEngineParameter`` keyword arguments (JSON-ready dict), and
+    from a discover result ``drag`` and ``restitution_law`` (applied by the snippet's ``vrcal_step``)."""
+    n_bounces = setup.n_bounces if n_bounces is None else n_bounces
+    v_last = float(np.min(setup.impact_speeds_m_per_s[:n_bounces]))
     if RESTITUTION_VELOCITY_THRESHOLD >= v_last:
         raise UsageError(f"restitution threshold {RESTITUTION_VELOCITY_THRESHOLD} m/s is not below the last "
                          f"impact speed {v_last:.3g} m/s")
@@ -38,6 +39,7 @@ def export_params(setup, n_bounces=3, pair=None):
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
                  "drop_height_m": setup.drop_height_m},
         "target_epsilon": setup.epsilon,
+        "target": metadata(setup),
         "changeDynamics": {
             "ball": {"restitution": ball_eps, "contactProcessingThreshold": 0.0,
                      "linearDamping": 0.0, "angularDamping": 0.0, "lateralFriction": 0.0},
@@ -57,6 +59,10 @@ def export_params(setup, n_bounces=3, pair=None):
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
         ],
     }
+    out.update(effect_params(setup))
+    if "drag" in out or "restitution_law" in out:
+        out["notes"].append("PyBullet has no air drag and one restitution per body: step with the snippet's "
+                            "vrcal_step(ball) instead of p.stepSimulation() (drag force; epsilon at this speed)")
     if pair:
         out["changeDynamics"]["ball2"] = {"restitution": pair["epsilon_ball2"], "contactProcessingThreshold": 0.0,
                                           "linearDamping": 0.0, "angularDamping": 0.0, "lateralFriction": 0.0}
@@ -132,8 +138,9 @@ def run_drop(params, drop_height_m, duration_s):
         z = np.empty(n + 1)
         v = np.empty(n + 1)
         z[0], v[0] = drop_height_m, 0.0
+        step = step_function(params, _Bound(p, cid))
         for i in range(1, n + 1):
-            p.stepSimulation(physicsClientId=cid)
+            step(body)
             z[i] = p.getBasePositionAndOrientation(body, physicsClientId=cid)[0][2] - R
             v[i] = p.getBaseVelocity(body, physicsClientId=cid)[0][2]
         return z, v, dt, g
@@ -142,8 +149,55 @@ def run_drop(params, drop_height_m, duration_s):
 
 
 def drop_test(params, setup, n_bounces, n_phases):
-    """Run the exported settings in PyBullet; apex and velocity ratios, shape (n_phases, n_bounces)."""
-    return stepped_drop_test(run_drop, params, setup, n_bounces, n_phases)
+    """Run the exported settings in PyBullet and measure them against vrcal's model: a DropRuns."""
+    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases)
+
+
+class _Bound:
+    """``pybullet`` with every call bound to one client (what the snippet calls ``p``)."""
+
+    def __init__(self, module, cid):
+        self._p, self._cid = module, cid
+
+    def __getattr__(self, name):
+        attr = getattr(self._p, name)
+        if callable(attr):
+            return lambda *args, **kwargs: attr(*args, physicsClientId=self._cid, **kwargs)
+        return attr
+
+
+def step_function(params, p):
+    """The snippet's ``vrcal_step(ball)``, run: it is what verify steps with (``p`` is pybullet)."""
+    code = step_code(params)
+    if code is None:
+        return lambda ball: p.stepSimulation()
+    namespace = {"p": p}
+    exec(compile(code, "<vrcal bullet snippet>", "exec"), namespace)  # noqa: S102 - our own snippet
+    return namespace["vrcal_step"]
+
+
+STEP_CODE = '''\
+def vrcal_step(ball):
+    """One step with what PyBullet lacks: air drag and epsilon at this impact speed."""
+    v = p.getBaseVelocity(ball)[0]
+    speed = (v[0] ** 2 + v[1] ** 2 + v[2] ** 2) ** 0.5
+{drag}{law}    p.stepSimulation()
+'''
+DRAG_PY = ("    p.applyExternalForce(ball, -1, [-{c} * speed * x for x in v], "
+           "p.getBasePositionAndOrientation(ball)[0], p.WORLD_FRAME)\n")
+LAW_PY = ("    p.changeDynamics(ball, -1, restitution=1 - (1 - {eps_ref}) * "
+          "(max(abs(v[2]), 1e-9) / {v_ref}) ** {p})\n")
+
+
+def step_code(params):
+    """Python source of ``vrcal_step(ball)`` for a parameter set with drag or a restitution law (else None)."""
+    drag, law = params.get("drag"), params.get("restitution_law")
+    if not drag and not law:
+        return None
+    drag_py = DRAG_PY.format(c=repr(float(drag["force_coefficient_kg_per_m"]))) if drag else ""
+    law_py = LAW_PY.format(eps_ref=repr(float(law["epsilon_ref"])), v_ref=repr(float(law["reference_speed_m_per_s"])),
+                           p=repr(float(law["exponent"]))) if law else ""
+    return STEP_CODE.format(drag=drag_py, law=law_py)
 
 
 PY_SNIPPET = """\
@@ -158,6 +212,10 @@ p.changeDynamics(floor, -1, **{floor})
 
 
 def py_snippet(params):
-    """The Python lines that apply an exported parameter set to a user's bodies."""
-    return PY_SNIPPET.format(engine=params["setPhysicsEngineParameter"], gz=params["setGravity"][2],
+    """The Python lines that apply an exported parameter set to a user's bodies (and ``vrcal_step``)."""
+    text = PY_SNIPPET.format(engine=params["setPhysicsEngineParameter"], gz=params["setGravity"][2],
                              ball=params["changeDynamics"]["ball"], floor=params["changeDynamics"]["floor"])
+    code = step_code(params)
+    if code:
+        text += "# each step: vrcal_step(ball) instead of p.stepSimulation()\n" + code
+    return text

@@ -1,34 +1,71 @@
-"""What every engine module shares: the drop-test setup, the target epsilon, and measuring epsilon.
+"""What every engine module shares: the drop-test setup, its target, and measuring it in an engine.
 
 A drop test (Eq. 9 of [1]): the ball is released from rest with its bottom at the drop height
-H above a floor plane, bounces ``n_bounces`` times, and epsilon is read back two ways:
+H above a floor plane and bounces ``n_bounces`` times. The *target* is vrcal's own
+event-driven model of the same drop (:func:`vrcal.drop.simulate.simulate_drops`: exact
+impacts, closed-form flights, with the air drag and the speed-dependent epsilon of a
+``vrcal discover`` result when there are any). An engine's run is read back two ways:
 
 * apex ratio ``sqrt(h_k / h_{k-1})`` from the highest sampled bottom height of each flight
-  (``h_0 = H``), the quantity the association rules measure;
+  (``h_0 = H``), the quantity the association rules measure; its target is the model's
+  apex ratio (epsilon itself without drag);
 * velocity ratio ``v_out / v_in`` of each contact, each speed taken from the last free-flight
-  sample before and the first after the contact and carried ballistically to floor level
-  (``sqrt(v^2 + 2 g z)``), so the step at which the engine happens to detect the contact
-  does not enter.
+  sample before and the first after the contact and carried to floor level, so the step at
+  which the engine happens to detect the contact does not enter. The carry uses the energy
+  that the engine's integrator conserves exactly: ``v^2 + 2 g z`` for an exact flight
+  (MuJoCo's RK4), ``v^2 + 2 g z - g v dt`` for semi-implicit Euler (ODE, Bullet, MuJoCo's
+  Euler/implicit/implicitfast: velocity first, then position). Its target is the model's
+  epsilon at that impact speed.
+
+The *error* is the largest |achieved - target| over both ratios, all bounces and contact
+phases. The *penetration* is the deepest the ball's bottom went below the floor, the
+*hover* the highest it turned above it (a MuJoCo contact with a margin acts before touch).
 
 "Contact phase": the impact falls at a different fraction of a time step depending on the
 release height; :func:`phase_shifts_m` shifts the release height across one step of fall
 so that the impacts cover the step evenly.
+
+References
+----------
+[1] "The Graphical Method for Decision of Restitution Coefficient and Its Applications".
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
-#: Gravity used by every exported engine file [m/s^2].
-GRAVITY_M_PER_S2 = 9.81
+#: Gravity of every exported engine file unless ``--g`` [m/s^2] (the same in every command).
+GRAVITY_M_PER_S2 = STANDARD_GRAVITY_M_PER_S2
 
-#: Default tolerance on |achieved - target| epsilon.
-DEFAULT_TOLERANCE = 0.005
+#: Default tolerance on |achieved - target| epsilon (``--tolerance``).
+DEFAULT_TOLERANCE = 0.01
+
+#: Default largest penetration (or hover), as a fraction of the ball's radius (``--max-penetration``):
+#: about what a real ball deforms at drop-test speed (a tennis ball ~10 mm at 7 m/s, R = 33 mm).
+MAX_PENETRATION_RADII = 0.25
+
+#: Default bounces and contact phases of a drop test.
+N_BOUNCES = 3
+N_PHASES = 4
+
+#: Most bounces a drop test may ask for (each one more is a longer run and a smaller rebound).
+MAX_BOUNCES = 50
+
+#: Smallest time step vrcal accepts [s] (below it no engine run ends in reasonable time).
+MIN_DT_S = 1e-7
+
+#: Largest time step [s].
+MAX_DT_S = 0.1
+
+#: Integrators whose flights are semi-implicit Euler (velocity updated first, then position).
+SEMI_IMPLICIT = ("euler", "implicit", "implicitfast", "ode", "bullet")
 
 
 @dataclass(frozen=True)
@@ -38,15 +75,16 @@ class DropSetup:
     Attributes
     ----------
     ball : str
-        ball key (or a label)
+        the body's name (or a label)
     mass_kg : float
         ball mass [kg]
     radius_m : float
         ball radius [m]
     drop_height_m : float
-        height of the ball's bottom at release [m]
+        height of the ball's bottom at release (from rest) [m]
     epsilon : float
-        target coefficient of restitution of the ball/floor pair, in (0, 1]
+        target coefficient of restitution of the ball/floor pair, in (0, 1]; with a
+        ``restitution_exponent`` the value at the first impact speed
     dt_s : float
         engine time step [s]
     g_m_per_s2 : float
@@ -56,7 +94,24 @@ class DropSetup:
     floor_epsilon : float
         the floor's factor (Eq. 6: 1 for a rigid floor)
     notes : tuple
-        how the numbers were chosen, for the exported file's header
+        how the numbers were chosen, for the exported file's header and the reports
+    n_bounces : int
+        bounces the export is calibrated and verified over
+    drag_coefficient : float
+        C_d of quadratic air drag, ``a = -g - k v|v|`` (0: no drag;
+        :func:`vrcal.drop.effects.drag_constant_per_m` gives k)
+    restitution_exponent : float
+        p of ``eps(v) = 1 - (1 - eps)(v / v_1)^p``, v_1 = the first impact speed (0: constant)
+    tolerance : float
+        largest accepted |achieved - target| epsilon
+    max_penetration_m : float or None
+        largest accepted penetration or hover [m]; None: a quarter of the radius
+    integrator : str or None
+        MuJoCo's integrator (euler, implicit, implicitfast, rk4); None for other engines
+    release_time_s : float
+        time of release in a replayed record [s] (0 for a drop test)
+    height_offset_m : float
+        tracked point above the ball's bottom in a replayed record [m]
     """
 
     ball: str
@@ -69,11 +124,118 @@ class DropSetup:
     ball_epsilon: float = None
     floor_epsilon: float = 1.0
     notes: tuple = ()
+    n_bounces: int = N_BOUNCES
+    drag_coefficient: float = 0.0
+    restitution_exponent: float = 0.0
+    tolerance: float = DEFAULT_TOLERANCE
+    max_penetration_m: float = None
+    integrator: str = None
+    release_time_s: float = 0.0
+    height_offset_m: float = 0.0
+
+    @property
+    def penetration_limit_m(self):
+        """``max_penetration_m``, or a quarter of the radius [m]."""
+        if self.max_penetration_m is not None:
+            return float(self.max_penetration_m)
+        return MAX_PENETRATION_RADII * self.radius_m
+
+    @property
+    def drag_k_per_m(self):
+        """Quadratic-drag constant k of ``a = -g - k v|v|`` [1/m] (0 without drag)."""
+        if not self.drag_coefficient:
+            return 0.0
+        from vrcal.drop.effects import drag_constant_per_m
+
+        return float(drag_constant_per_m(self.drag_coefficient, 2.0 * self.radius_m, self.mass_kg))
+
+    @property
+    def effects(self):
+        """The setup's effects as ``{effect: {param: value}}`` for :func:`vrcal.drop.simulate.simulate_drops`."""
+        out = {}
+        if self.drag_coefficient:
+            out["air_drag"] = {"drag_coefficient": float(self.drag_coefficient)}
+        if self.restitution_exponent:
+            out["velocity_dependent_restitution"] = {"exponent": float(self.restitution_exponent)}
+        return out
+
+    @property
+    def semi_implicit(self):
+        """True when the engine's flights are semi-implicit Euler (see the module docstring)."""
+        return self.integrator is None or self.integrator.lower() in SEMI_IMPLICIT
+
+    @cached_property
+    def model(self):
+        """vrcal's exact model of this drop (:class:`vrcal.drop.simulate.Drops`, one drop)."""
+        return self.model_at(self.drop_height_m)
+
+    def model_at(self, drop_heights_m):
+        """vrcal's model of drops released from rest at ``drop_heights_m`` [m] (one per height)."""
+        from vrcal.drop.simulate import simulate_drops
+        from vrcal.model.body import BallProperties
+
+        H = np.atleast_1d(np.asarray(drop_heights_m, dtype=float))
+        # v_ref of the speed-dependent epsilon is the first impact speed of the nominal drop
+        # for every shifted drop too (shifts of a fraction of a step barely move it)
+        eps = self.epsilon
+        if self.restitution_exponent:
+            from vrcal.drop.effects import restitution_at_speed
+            from vrcal.drop.simulate import fall_from_rest
+
+            v_own = fall_from_rest(H, self.g_m_per_s2, self.drag_k_per_m)[1]
+            eps = restitution_at_speed(self.epsilon, v_own, self.impact_speed_m_per_s, self.restitution_exponent)
+        return simulate_drops(H, eps, int(self.n_bounces), BallProperties(self.mass_kg, 2.0 * self.radius_m,
+                                                                          self.ball),
+                              effects=self.effects or None, g_m_per_s2=self.g_m_per_s2)
 
     @property
     def impact_speed_m_per_s(self):
-        """Speed at the first impact, ``sqrt(2 g H)`` (Eq. 8 of [1]) [m/s]."""
-        return math.sqrt(2.0 * self.g_m_per_s2 * self.drop_height_m)
+        """Speed at the first impact [m/s]: ``sqrt(2 g H)`` (Eq. 8 of [1]) without drag."""
+        from vrcal.drop.simulate import fall_from_rest
+
+        return float(fall_from_rest(self.drop_height_m, self.g_m_per_s2, self.drag_k_per_m)[1])
+
+    @property
+    def impact_speeds_m_per_s(self):
+        """Speeds of the ``n_bounces`` impacts of the model's drop [m/s]."""
+        return np.asarray(self.model.impact_speeds_m_per_s[0], dtype=float)
+
+    @property
+    def epsilons(self):
+        """The model's epsilon at each of the ``n_bounces`` impacts."""
+        return np.asarray(self.model.epsilons[0], dtype=float)
+
+    def flight_time_s(self, drop_height_m=None):
+        """Time from release to the apex after the last bounce [s] (the model's, closed form)."""
+        H = self.drop_height_m if drop_height_m is None else drop_height_m
+        return float(self.model_at(H).apex_times_s[0, -1])
+
+
+def metadata(setup):
+    """The numbers of the drop test that an exported file carries for ``vrcal verify --file``."""
+    return {
+        "epsilon": setup.epsilon, "drop_height_m": setup.drop_height_m, "g_m_per_s2": setup.g_m_per_s2,
+        "n_bounces": setup.n_bounces, "drag_coefficient": setup.drag_coefficient,
+        "restitution_exponent": setup.restitution_exponent, "tolerance": setup.tolerance,
+        "max_penetration_m": setup.penetration_limit_m, "release_time_s": setup.release_time_s,
+        "height_offset_m": setup.height_offset_m,
+    }
+
+
+def drag_force_coefficient_kg_per_m(setup):
+    """c of the drag force ``F = -c |v| v`` = 1/2 rho C_d pi R^2 [kg/m] (= m k)."""
+    return setup.mass_kg * setup.drag_k_per_m
+
+
+def restitution_table(setup, n=8):
+    """A table of the setup's speed-dependent epsilon over its impact speeds: (speeds [m/s], epsilons)."""
+    from vrcal.drop.effects import restitution_at_speed
+
+    v = setup.impact_speeds_m_per_s
+    lo, hi = float(np.min(v)), float(np.max(v))
+    speeds = np.linspace(0.5 * lo, 1.2 * hi, n)
+    eps = restitution_at_speed(setup.epsilon, speeds, setup.impact_speed_m_per_s, setup.restitution_exponent)
+    return speeds, np.asarray(eps, dtype=float)
 
 
 def check_epsilon(epsilon, what="epsilon"):
@@ -88,14 +250,75 @@ def check_epsilon(epsilon, what="epsilon"):
 
 
 def check_dt(dt_s):
-    """Return the time step as a float > 0 [s]; :class:`UsageError` otherwise."""
+    """Return the time step as a float in [:data:`MIN_DT_S`, :data:`MAX_DT_S`] [s]; UsageError otherwise."""
     try:
         dt = float(dt_s)
     except (TypeError, ValueError):
         raise UsageError(f"--dt must be a time step in seconds, got {dt_s!r}") from None
-    if not (math.isfinite(dt) and 0.0 < dt <= 0.1):
-        raise UsageError(f"--dt must be a time step in (0, 0.1] s, got {dt:g}")
+    if not (math.isfinite(dt) and MIN_DT_S <= dt <= MAX_DT_S):
+        raise UsageError(f"--dt must be a time step in [{MIN_DT_S:g}, {MAX_DT_S:g}] s, got {dt:g}")
     return dt
+
+
+def check_positive(value, what):
+    """Return ``value`` as a finite float > 0; UsageError naming ``what`` otherwise."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what} must be a number > 0, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise UsageError(f"{what} must be a number > 0, got {v:g}")
+    return v
+
+
+def check_counts(n_bounces, n_phases):
+    """Return (n_bounces, n_phases) as ints in [1, MAX_BOUNCES] and [1, 64]; UsageError otherwise."""
+    for label, value, hi in (("--bounces", n_bounces, MAX_BOUNCES), ("--phases", n_phases, 64)):
+        if isinstance(value, bool) or int(value) != value or not 1 <= int(value) <= hi:
+            raise UsageError(f"{label} must be an integer from 1 to {hi}, got {value}")
+    return int(n_bounces), int(n_phases)
+
+
+def check_steps(setup, n_phases, engine, max_steps, what="the drop test"):
+    """Refuse up front a run longer than ``max_steps`` engine steps, naming the limit.
+
+    Parameters
+    ----------
+    setup : DropSetup
+    n_phases : int
+        drops in the run
+    engine : str
+        for the message
+    max_steps : int
+        the engine's limit (:data:`vrcal.engines.Engine.max_steps`)
+
+    Returns
+    -------
+    int
+        steps the run will take
+    """
+    duration = setup.flight_time_s(setup.drop_height_m + setup.impact_speed_m_per_s * setup.dt_s) * 1.05
+    steps = int(math.ceil(duration / setup.dt_s)) * int(n_phases)
+    if steps > max_steps:
+        dt_ok = duration * n_phases / max_steps
+        raise UsageError(
+            f"{what} needs {steps:.3g} {engine} steps at --dt {setup.dt_s:g} s ({n_phases} drop(s) of "
+            f"{duration:.3g} s, {setup.n_bounces} bounce(s)); the limit is {max_steps:,} steps: use --dt "
+            f"{_round_up(dt_ok)} or larger, or fewer --bounces/--phases"
+        )
+    return steps
+
+
+def _round_up(x):
+    """``x`` rounded up to two significant digits, as text."""
+    mag = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return f"{math.ceil(x / mag - 1e-9) * mag:.2g}"
+
+
+def round_down(x):
+    """``x`` rounded down to two significant digits (a time step to name in a message)."""
+    mag = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return float(f"{math.floor(x / mag + 1e-9) * mag:.2g}")
 
 
 def phase_shifts_m(setup, n_phases):
@@ -108,14 +331,69 @@ def phase_shifts_m(setup, n_phases):
     return setup.impact_speed_m_per_s * setup.dt_s * np.arange(n) / n
 
 
-def flight_mask(v_m_per_s, dt_s, g_m_per_s2, rtol=1e-6):
-    """True for each step ``i -> i+1`` that is free flight: ``v[i+1] - v[i] == -g dt``."""
+def flight_mask(v_m_per_s, dt_s, g_m_per_s2, rtol=1e-6, atol=1e-12):
+    """True for each step ``i -> i+1`` that is free flight: ``v[i+1] - v[i] == -g dt``.
+
+    ``atol`` [m/s] admits a small force in flight (air drag: ``k v^2 dt``).
+    """
     dv = np.diff(np.asarray(v_m_per_s, dtype=float))
-    return np.abs(dv + g_m_per_s2 * dt_s) <= rtol * max(g_m_per_s2 * dt_s, 1e-300) + 1e-12
+    return np.abs(dv + g_m_per_s2 * dt_s) <= rtol * max(g_m_per_s2 * dt_s, 1e-300) + atol
 
 
-def measure_ratios(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces):
-    """Apex and velocity ratios of the first ``n_bounces`` bounces of a sampled drop.
+def floor_speed_m_per_s(z_m, v_m_per_s, g_m_per_s2, dt_s, semi_implicit):
+    """Speed at floor level of a free flight through the sample (z, v) [m/s].
+
+    Parameters
+    ----------
+    z_m, v_m_per_s : float
+        bottom height [m] and vertical velocity (up positive) [m/s] of one sample
+    g_m_per_s2, dt_s : float
+        gravity [m/s^2] and time step [s]
+    semi_implicit : bool
+        the flight is semi-implicit Euler; its conserved energy is ``v^2 + 2 g z - g v dt``
+        (exact flights: ``v^2 + 2 g z``)
+
+    Returns
+    -------
+    float
+        the speed with which that flight crosses z = 0 (going the sample's way)
+    """
+    if not semi_implicit:
+        return math.sqrt(max(v_m_per_s * v_m_per_s + 2.0 * g_m_per_s2 * z_m, 0.0))
+    e = v_m_per_s * v_m_per_s + 2.0 * g_m_per_s2 * z_m - g_m_per_s2 * v_m_per_s * dt_s
+    gdt = g_m_per_s2 * dt_s
+    root = math.sqrt(max(gdt * gdt + 4.0 * e, 0.0))
+    return 0.5 * (root + gdt) if v_m_per_s > 0 else 0.5 * (root - gdt)
+
+
+@dataclass
+class Bounces:
+    """What one engine run shows of the first ``n_bounces`` bounces.
+
+    Attributes
+    ----------
+    apex_m : ndarray (n_bounces + 1,)
+        apex heights of the ball's bottom [m]; [0] is the release height
+    apex_ratios, velocity_ratios : ndarray (n_bounces,)
+    impact_speeds_m_per_s : ndarray (n_bounces,)
+        speed at floor level before each contact [m/s]
+    impact_steps : ndarray of int (n_bounces,)
+        sample index of the first step of each contact
+    turn_m : ndarray (n_bounces,)
+        lowest bottom height in each contact [m]: < 0 is penetration, > 0 hover
+    """
+
+    apex_m: np.ndarray
+    apex_ratios: np.ndarray
+    velocity_ratios: np.ndarray
+    impact_speeds_m_per_s: np.ndarray
+    impact_steps: np.ndarray
+    turn_m: np.ndarray
+
+
+def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, semi_implicit=True,
+                    flight_atol=1e-12):
+    """Apex and velocity ratios, impact speeds and contact depths of a sampled drop.
 
     Parameters
     ----------
@@ -131,11 +409,14 @@ def measure_ratios(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces):
         gravity [m/s^2]
     n_bounces : int
         bounces to measure
+    semi_implicit : bool
+        see :func:`floor_speed_m_per_s`
+    flight_atol : float
+        velocity change per step [m/s] still taken as free flight (air drag)
 
     Returns
     -------
-    apex_ratios, velocity_ratios : ndarray
-        each of length ``n_bounces``
+    Bounces
 
     Raises
     ------
@@ -145,49 +426,198 @@ def measure_ratios(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces):
     """
     z = np.asarray(z_m, dtype=float)
     v = np.asarray(v_m_per_s, dtype=float)
-    free = flight_mask(v, dt_s, g_m_per_s2)
-    # contact runs: maximal runs of non-free steps
+    free = flight_mask(v, dt_s, g_m_per_s2, atol=flight_atol)
     steps = np.flatnonzero(~free)
     if steps.size == 0:
         raise DataError("the ball never touched the floor in the simulated time")
     breaks = np.flatnonzero(np.diff(steps) > 1)
     starts = np.r_[steps[0], steps[breaks + 1]]
     ends = np.r_[steps[breaks], steps[-1]]
-    apex, vel = [], []
-    prev_apex = float(drop_height_m)
+    apex, ratios, vel, speeds, first, turn = [float(drop_height_m)], [], [], [], [], []
     for k in range(min(len(starts), n_bounces)):
         i_in, i_out = starts[k], ends[k] + 1          # last free sample before, first after
         if i_out >= len(v) or v[i_out] <= 0:
             break
-        v_in = math.sqrt(max(v[i_in] ** 2 + 2 * g_m_per_s2 * z[i_in], 0.0))
-        v_out = math.sqrt(max(v[i_out] ** 2 + 2 * g_m_per_s2 * z[i_out], 0.0))
+        v_in = floor_speed_m_per_s(z[i_in], v[i_in], g_m_per_s2, dt_s, semi_implicit)
+        v_out = floor_speed_m_per_s(z[i_out], v[i_out], g_m_per_s2, dt_s, semi_implicit)
         nxt = starts[k + 1] if k + 1 < len(starts) else len(z) - 1
         if nxt <= i_out + 1 or np.all(v[i_out:nxt + 1] > 0):
             break                                      # flight not finished: no apex
         h = float(np.max(z[i_out:nxt + 1]))
-        apex.append(math.sqrt(h / prev_apex) if prev_apex > 0 else math.nan)
+        ratios.append(math.sqrt(h / apex[-1]) if apex[-1] > 0 and h > 0 else math.nan)
         vel.append(v_out / v_in if v_in > 0 else math.nan)
-        prev_apex = h
-    if len(apex) < n_bounces:
+        speeds.append(v_in)
+        first.append(int(i_in))
+        turn.append(float(np.min(z[i_in:i_out + 1])))
+        apex.append(h)
+    if len(ratios) < n_bounces:
         raise DataError(
-            f"the ball made only {len(apex)} complete bounce(s) of the {n_bounces} asked for: "
+            f"the ball made only {len(ratios)} complete bounce(s) of the {n_bounces} asked for: "
             "it stuck to the floor or the contact settings do not bounce"
         )
-    return np.array(apex), np.array(vel)
+    return Bounces(np.array(apex), np.array(ratios), np.array(vel), np.array(speeds), np.array(first),
+                   np.array(turn))
+
+
+def measure_ratios(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, semi_implicit=True):
+    """Apex and velocity ratios of the first ``n_bounces`` bounces (see :func:`measure_bounces`)."""
+    b = measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, semi_implicit)
+    return b.apex_ratios, b.velocity_ratios
 
 
 def flight_time_s(drop_height_m, epsilon, n_bounces, g_m_per_s2):
-    """Time to the apex after bounce ``n_bounces`` for a ball dropped from rest [s] (closed form)."""
+    """Time to the apex after bounce ``n_bounces`` for a ball dropped from rest, no drag [s]."""
     t_fall = math.sqrt(2.0 * drop_height_m / g_m_per_s2)
     return t_fall * (1.0 + 2.0 * sum(epsilon ** k for k in range(1, n_bounces)) + epsilon ** n_bounces)
 
 
 @dataclass
-class VerifyResult:
-    """The outcome of a drop test in a real engine.
+class DropRuns:
+    """An engine's drop test: one run per contact phase, each measured by :func:`measure_bounces`.
 
-    ``apex_ratios`` and ``velocity_ratios`` have shape (n_phases, n_bounces).
+    Arrays have shape (n_phases, n_bounces) unless said otherwise.
+
+    Attributes
+    ----------
+    shifts_m : ndarray (n_phases,)
+        release-height shift of each run [m]
+    apex_ratios, velocity_ratios : ndarray
+        what the engine did
+    target_apex_ratios, target_epsilons : ndarray
+        what vrcal's model of the same drops does (apex ratios; epsilon at each impact speed)
+    apex_m : ndarray (n_phases, n_bounces + 1)
+        the engine's apex heights [m]
+    target_apex_m : ndarray (n_phases, n_bounces + 1)
+        the model's apex heights [m]
+    turn_m : ndarray
+        lowest bottom height in each contact [m]
+    phase_fractions : ndarray (n_phases,)
+        where in its time step the first impact of each run falls (0 ... 1)
     """
+
+    shifts_m: np.ndarray
+    apex_ratios: np.ndarray
+    velocity_ratios: np.ndarray
+    target_apex_ratios: np.ndarray
+    target_epsilons: np.ndarray
+    apex_m: np.ndarray
+    target_apex_m: np.ndarray
+    turn_m: np.ndarray
+    phase_fractions: np.ndarray = None
+
+    @property
+    def errors(self):
+        """All |achieved - target| values: apex and velocity ratios, (2, n_phases, n_bounces)."""
+        return np.stack([self.apex_ratios - self.target_apex_ratios, self.velocity_ratios - self.target_epsilons])
+
+    @property
+    def worst_error(self):
+        """Largest |achieved - target| over bounces, phases, apex and velocity ratios."""
+        return float(np.max(np.abs(self.errors)))
+
+    @property
+    def median_error(self):
+        """Median |achieved - target| over the same."""
+        return float(np.median(np.abs(self.errors)))
+
+    @property
+    def midrange_error(self):
+        """(max + min) / 2 of the signed errors: 0 when the errors are centred on the target."""
+        e = self.errors
+        return float(0.5 * (np.max(e) + np.min(e)))
+
+    @property
+    def penetration_m(self):
+        """Deepest the bottom went below the floor in a contact [m] (0 when never)."""
+        return float(max(-np.min(self.turn_m), 0.0))
+
+    @property
+    def hover_m(self):
+        """Highest a contact turned the ball above the floor [m] (0 when never)."""
+        return float(max(np.max(self.turn_m), 0.0))
+
+    @property
+    def apex_relative_errors(self):
+        """(engine apex / model apex - 1) of each rebound, (n_phases, n_bounces)."""
+        return self.apex_m[:, 1:] / self.target_apex_m[:, 1:] - 1.0
+
+
+def drop_runs(setup, shifts_m, trajectories, dt_s, g_m_per_s2, n_bounces, semi_implicit, flight_atol=1e-12):
+    """Measure the runs of a drop test against vrcal's model: a :class:`DropRuns`.
+
+    ``trajectories`` is a sequence of (z_m, v_m_per_s) arrays, one per shift.
+    """
+    bounces = [measure_bounces(z, v, setup.drop_height_m + s, dt_s, g_m_per_s2, n_bounces, semi_implicit,
+                               flight_atol)
+               for s, (z, v) in zip(shifts_m, trajectories)]
+    model = setup.model_at(setup.drop_height_m + np.asarray(shifts_m))
+    apex = model.apex_heights_m[:, :n_bounces + 1]
+    return DropRuns(
+        shifts_m=np.asarray(shifts_m, dtype=float),
+        apex_ratios=np.array([b.apex_ratios for b in bounces]),
+        velocity_ratios=np.array([b.velocity_ratios for b in bounces]),
+        target_apex_ratios=np.sqrt(apex[:, 1:] / apex[:, :-1]),
+        target_epsilons=np.asarray(model.epsilons[:, :n_bounces]),
+        apex_m=np.array([b.apex_m for b in bounces]),
+        target_apex_m=apex,
+        turn_m=np.array([b.turn_m for b in bounces]),
+        phase_fractions=np.asarray(shifts_m, dtype=float) / (setup.impact_speed_m_per_s * setup.dt_s),
+    )
+
+
+def drag_atol(setup):
+    """Velocity change per step [m/s] that air drag alone can make (flights stay 'free flight')."""
+    if not setup.drag_coefficient:
+        return 1e-12
+    v = setup.impact_speed_m_per_s
+    return 2.0 * setup.drag_k_per_m * v * v * setup.dt_s + 1e-12
+
+
+def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases):
+    """The drop test of a time-stepping engine, once per contact phase: a :class:`DropRuns`.
+
+    ``run_drop(params, drop_height_m, duration_s)`` runs one drop and returns the sampled
+    bottom height z [m] and vertical velocity v [m/s] of every step, the step dt [s] and g
+    [m/s^2].
+    """
+    shifts = phase_shifts_m(setup, n_phases)
+    runs, dt, g = [], setup.dt_s, setup.g_m_per_s2
+    for shift in shifts:
+        H = setup.drop_height_m + shift
+        z, v, dt, g = run_drop(params, H, setup.flight_time_s(H) * 1.05)
+        runs.append((z, v))
+    return drop_runs(setup, shifts, runs, dt, g, n_bounces, True, drag_atol(setup))
+
+
+class RunsSummary:
+    """What a result with a :class:`DropRuns` ``runs`` reports of it (verify and MuJoCo's calibration)."""
+
+    @property
+    def worst_error(self):
+        """Largest |achieved - target| over bounces, phases, apex and velocity ratios."""
+        return self.runs.worst_error
+
+    @property
+    def median_error(self):
+        return self.runs.median_error
+
+    @property
+    def penetration_m(self):
+        return self.runs.penetration_m
+
+    @property
+    def hover_m(self):
+        return self.runs.hover_m
+
+    @property
+    def depth_m(self):
+        """The larger of penetration and hover [m]."""
+        return max(self.penetration_m, self.hover_m)
+
+
+@dataclass
+class VerifyResult(RunsSummary):
+    """The outcome of a drop test in a real engine: :class:`DropRuns` and what was asked."""
 
     engine: str
     engine_version: str
@@ -195,56 +625,55 @@ class VerifyResult:
     target: float
     dt_s: float
     tolerance: float
-    phases_s: np.ndarray
-    apex_ratios: np.ndarray
-    velocity_ratios: np.ndarray
+    runs: DropRuns
+    max_penetration_m: float
     settings: dict = field(default_factory=dict)
     notes: tuple = ()
 
     @property
+    def apex_ratios(self):
+        return self.runs.apex_ratios
+
+    @property
+    def velocity_ratios(self):
+        return self.runs.velocity_ratios
+
+    @property
     def error(self):
         """Largest |achieved - target| over bounces, phases, apex and velocity ratios."""
-        both = np.concatenate([np.ravel(self.apex_ratios), np.ravel(self.velocity_ratios)])
-        return float(np.max(np.abs(both - self.target)))
+        return self.runs.worst_error
 
     @property
     def mean_apex_ratio(self):
-        return float(np.mean(self.apex_ratios))
+        return float(np.mean(self.runs.apex_ratios))
 
     @property
     def mean_velocity_ratio(self):
-        return float(np.mean(self.velocity_ratios))
+        return float(np.mean(self.runs.velocity_ratios))
+
+    @property
+    def depth_ok(self):
+        """Penetration and hover within ``max_penetration_m``."""
+        return self.depth_m <= self.max_penetration_m * (1 + 1e-9)
 
     @property
     def passed(self):
-        return self.error <= self.tolerance
+        return self.error <= self.tolerance and self.depth_ok
 
     def as_dict(self):
+        r = self.runs
         return {
             "engine": self.engine, "engine_version": self.engine_version, "ball": self.ball,
             "target_epsilon": self.target, "dt_s": self.dt_s, "tolerance": self.tolerance,
-            "phases_s": [float(p) for p in self.phases_s],
-            "apex_ratios": np.round(self.apex_ratios, 6).tolist(),
-            "velocity_ratios": np.round(self.velocity_ratios, 6).tolist(),
-            "error": self.error, "passed": self.passed, "settings": self.settings,
+            "phase_shifts_m": [float(p) for p in r.shifts_m],
+            "apex_ratios": r.apex_ratios.tolist(),
+            "velocity_ratios": r.velocity_ratios.tolist(),
+            "target_apex_ratios": r.target_apex_ratios.tolist(),
+            "target_epsilons": r.target_epsilons.tolist(),
+            "apex_heights_m": r.apex_m.tolist(),
+            "target_apex_heights_m": r.target_apex_m.tolist(),
+            "error": self.error, "median_error": self.median_error,
+            "penetration_m": self.penetration_m, "hover_m": self.hover_m,
+            "max_penetration_m": self.max_penetration_m,
+            "passed": self.passed, "settings": self.settings, "notes": list(self.notes),
         }
-
-
-def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases):
-    """The drop test of a time-stepping engine, once per contact phase.
-
-    ``run_drop(params, drop_height_m, duration_s)`` runs one drop and returns the sampled
-    bottom height z [m] and vertical velocity v [m/s] of every step, the step dt [s] and g
-    [m/s^2]. Returns the height shifts [m] and the apex and velocity ratios, each of shape
-    (n_phases, n_bounces).
-    """
-    shifts = phase_shifts_m(setup, n_phases)
-    apex, vel = [], []
-    for shift in shifts:
-        H = setup.drop_height_m + shift
-        duration = flight_time_s(H, setup.epsilon, n_bounces, setup.g_m_per_s2) * 1.05
-        z, v, dt, g = run_drop(params, H, duration)
-        a, b = measure_ratios(z, v, H, dt, g, n_bounces)
-        apex.append(a)
-        vel.append(b)
-    return shifts, np.array(apex), np.array(vel)

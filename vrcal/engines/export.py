@@ -1,30 +1,54 @@
-"""Export a calibrated epsilon to a physics engine: one function, text out (the CLI writes it).
+"""Export a calibrated drop to a physics engine: one function, text out (the CLI writes it).
 
-The target comes from the ball's standard (Eq. 9 of [1], drop and rebound both to the
-ball's bottom; ``--epsilon`` overrides it). ``--floor`` and ``--against`` add a second body;
-Eq. (6) of [1] adds the contact times, so for bodies calibrated at the same K the pair's
-epsilon is the product of each body's epsilon against a rigid floor.
+The body is the one body description of :func:`vrcal.model.body.describe_body`: a ball of the
+standards, a user's ``--mass``/``--diameter``, or the ball of a ``vrcal discover --json`` result
+(``--from``). The target epsilon is the standard's (Eq. 9 of [1], drop and rebound both to the
+ball's bottom), ``--epsilon``, or the discover result's extended model (with its air drag, its
+speed-dependent epsilon and its release state). The speeds come from ``--drop-height``,
+``--impact-speed LO[:HI]``, the standard's drop height or the discover result's release height.
+
+``--floor`` and ``--against`` add a second body; Eq. (6) of [1] adds the contact times, so for
+bodies calibrated at the same K the pair's epsilon is the product of each body's epsilon against
+a rigid floor.
+
+MuJoCo's contact is calibrated by running MuJoCo at the user's step and integrator
+(:func:`vrcal.engines.mujoco.calibrate`); ODE and PyBullet take epsilon directly and are checked
+against the penetration a step allows (:func:`check_step`), and ``vrcal verify`` runs them.
 """
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from vrcal.engines import get_engine, load
-from vrcal.engines.common import GRAVITY_M_PER_S2, DropSetup, check_dt, check_epsilon
-from vrcal.errors import UsageError
+from vrcal.engines.common import (
+    DEFAULT_TOLERANCE,
+    MAX_BOUNCES,
+    N_BOUNCES,
+    N_PHASES,
+    DropSetup,
+    check_dt,
+    check_epsilon,
+    check_positive,
+    round_down,
+)
+from vrcal.errors import DataError, UsageError
 from vrcal.fileio import dumps
 from vrcal.inverse import DEFAULT_K_PER_S, parse_body
 from vrcal.model import restitution as eq
+from vrcal.model.body import describe_body
 from vrcal.model.standards import ball_epsilon, get_ball
 
-N_BOUNCES = 3
+#: Effects of a discover result that an engine file carries; the others are named in the notes.
+CARRIED_EFFECTS = ("air_drag", "velocity_dependent_restitution", "height_offset")
 
 
 @dataclass(frozen=True)
 class Export:
-    """An exported engine file: its text, the data behind it, and the drop setup."""
+    """An exported engine file: its text, the data behind it, the drop setup and what was achieved."""
 
     engine: str
     fmt: str
@@ -32,6 +56,7 @@ class Export:
     data: dict
     setup: DropSetup
     pair: dict | None
+    summary: str = ""
 
 
 def combine_epsilons(eps_a, eps_b, K_per_s=DEFAULT_K_PER_S):
@@ -53,71 +78,220 @@ def combine_epsilons(eps_a, eps_b, K_per_s=DEFAULT_K_PER_S):
     return eq.epsilon_from_contact_time(T, K_per_s)
 
 
-def build_setup(ball, engine, epsilon=None, dt_s=None, floor=None, standards=None, K_per_s=DEFAULT_K_PER_S):
-    """The :class:`DropSetup` of a ball of the standards for an engine.
+def parse_impact_speed(text):
+    """``LO[:HI]`` [m/s] -> (lo, hi) floats with 0 < lo <= hi; UsageError otherwise."""
+    parts = str(text).split(":")
+    if len(parts) > 2:
+        raise UsageError(f"--impact-speed must be LO or LO:HI in m/s, got '{text}'")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise UsageError(f"--impact-speed must be LO or LO:HI in m/s, got '{text}'") from None
+    for v in values:
+        if not (math.isfinite(v) and 0 < v <= 1000):
+            raise UsageError(f"--impact-speed must be speeds in (0, 1000] m/s, got '{text}'")
+    lo, hi = min(values), max(values)
+    return lo, hi
 
-    ``epsilon`` (None: the standard's nominal value) is the ball's value against a rigid floor;
-    ``floor`` is 'rigid' (default), a ball key, or 'x=DEPTH,v=SPEED' (a compliant floor's
-    virtual body); the target is then the pair value (Eq. 6).
+
+def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None, standards=None,
+                K_per_s=DEFAULT_K_PER_S, *, mass_kg=None, diameter_m=None, drop_height_m=None,
+                impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
+                tolerance=DEFAULT_TOLERANCE, max_penetration_m=None, n_bounces=None):
+    """The :class:`DropSetup` of a body for an engine, from what a user types.
+
+    Parameters
+    ----------
+    ball : str or None
+        a ball of the standards (or any name with ``mass_kg`` and ``diameter_m``); None with
+        ``mass_kg`` and ``diameter_m``, or with ``from_json``
+    engine : str
+        engine name (sets the default time step)
+    epsilon : float or None
+        the ball's epsilon against a rigid floor (default: the standard's nominal value, or the
+        discover result's)
+    dt_s : float or None
+        time step [s] (default: the engine's, see :data:`vrcal.engines.ENGINES`)
+    floor : str or None
+        'rigid' (default), or a body spec (ball key, 'x=..,v=..') for a compliant floor
+    standards : dict or None
+    K_per_s : float
+        rate constant K [1/s] of Eq. 6 (the pair value does not depend on it)
+    mass_kg, diameter_m : float or None
+        the body's mass [kg] and diameter [m] (``--mass``, ``--diameter``)
+    drop_height_m : float or None
+        drop height of the ball's bottom [m] (``--drop-height``)
+    impact_speed : str or tuple or None
+        ``LO[:HI]`` [m/s]: drop from the height that gives HI and bounce down to LO
+    g_m_per_s2 : float or None
+        gravity [m/s^2] (default 9.80665, or the discover result's)
+    from_json : str or None
+        a ``vrcal discover --json`` result (``--from``)
+    integrator : str or None
+        MuJoCo's integrator (euler, implicit, implicitfast, rk4; default euler)
+    tolerance : float
+        largest accepted |achieved - target| epsilon, > 0
+    max_penetration_m : float or None
+        largest accepted penetration (or hover) [m]; default a quarter of the radius
+    n_bounces : int or None
+        bounces to calibrate and verify (default 3, or as ``impact_speed`` needs)
+
+    Returns
+    -------
+    DropSetup
     """
-    b = get_ball(ball, standards) if isinstance(ball, str) else ball
     eng = get_engine(engine)
-    window = ball_epsilon(b)
-    if epsilon is None:
-        eps_ball = window.nominal
-        note = f"epsilon {eps_ball:.6f}: nominal of the {b.association} window ({window.convention})"
+    body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
+    tolerance = check_positive(tolerance, "--tolerance")
+    if max_penetration_m is not None:
+        max_penetration_m = check_positive(max_penetration_m, "--max-penetration")
+    if integrator is not None and eng.name != "mujoco":
+        raise UsageError(f"--integrator applies to MuJoCo only, not to {eng.name}")
+    if drop_height_m is not None and impact_speed is not None:
+        raise UsageError("give --drop-height or --impact-speed, not both")
+    if drop_height_m is not None:
+        drop_height_m = check_positive(drop_height_m, "--drop-height")
+        if drop_height_m > 1000:
+            raise UsageError(f"--drop-height must be at most 1000 m, got {drop_height_m:g}")
+    doc = body.discovered
+    notes = []
+    if g_m_per_s2 is None:
+        g = float(doc["g_m_per_s2"]) if doc else eq.STANDARD_GRAVITY_M_PER_S2
     else:
+        g = check_positive(g_m_per_s2, "--g")
+    drag = exponent = release = offset = 0.0
+    std = body.standard
+    if doc:
+        params = doc["parameters"]
+        effects = list(doc["effects"])
+        if "air_drag" in effects:
+            drag = float(params.get("air_drag", {}).get("drag_coefficient", 0.0))
+        if "velocity_dependent_restitution" in effects:
+            exponent = float(params.get("velocity_dependent_restitution", {}).get("exponent", 0.0))
+        if "height_offset" in effects:
+            offset = float(params.get("height_offset", {}).get("offset_m", 0.0))
+        release = float(doc["model"]["release_time_s"])
+        left = [e for e in effects if e not in CARRIED_EFFECTS]
+        notes.append(f"from {from_json}: {', '.join(effects) or 'no effect'} named by vrcal discover")
+        if left:
+            notes.append(f"not carried into the engine: {', '.join(left)} (no engine setting for it)")
+        if not (0 <= drag <= 3):
+            raise DataError(f"{from_json}: air_drag.drag_coefficient {drag:g} is outside [0, 3]")
+        if not (-1 <= exponent <= 2):
+            raise DataError(f"{from_json}: velocity_dependent_restitution.exponent {exponent:g} is outside [-1, 2]")
+    if epsilon is not None:
         eps_ball = check_epsilon(epsilon, "--epsilon")
-        note = f"epsilon {eps_ball:.6f} given with --epsilon"
+        notes.insert(0, f"epsilon {eps_ball:.4f} given with --epsilon")
+    elif doc:
+        eps_ball = check_epsilon(doc["epsilon"], f"epsilon of {from_json}")
+        notes.insert(0, f"epsilon {eps_ball:.4f}: the contact epsilon of the discover result"
+                        + (" at the first impact speed" if exponent else ""))
+    elif std is not None:
+        window = ball_epsilon(std)
+        eps_ball = window.nominal
+        notes.insert(0, f"epsilon {eps_ball:.4f}: nominal of the {std.association} window ({window.convention})")
+    else:
+        raise UsageError(f"'{body.name}' is not a ball of the standards: give --epsilon")
+    n = N_BOUNCES if n_bounces is None else int(n_bounces)
+    if impact_speed is not None:
+        lo, hi = parse_impact_speed(impact_speed) if isinstance(impact_speed, str) else impact_speed
+        H = hi * hi / (2.0 * g)
+        if drag:
+            from vrcal.drop.effects import drag_constant_per_m
+
+            k = float(drag_constant_per_m(drag, body.diameter_m, body.mass_kg))
+            if hi * hi * k / g >= 1:
+                raise UsageError(f"--impact-speed {hi:g} m/s is above the terminal speed {math.sqrt(g / k):.3g} m/s")
+            H = -math.log1p(-k * hi * hi / g) / (2.0 * k)
+        if lo < hi and n_bounces is None:
+            eps_floor_guess = eps_ball
+            n = 1 + math.ceil(math.log(lo / hi) / math.log(eps_floor_guess)) if eps_floor_guess < 1 else N_BOUNCES
+            n = min(max(n, 1), MAX_BOUNCES)
+        notes.append(f"impact speeds {lo:g}..{hi:g} m/s: drop from {H:.4g} m, {n} bounce(s)")
+    elif drop_height_m is not None:
+        H = drop_height_m
+    elif doc:
+        H = float(doc["model"]["drop_height_m"])
+    elif std is not None:
+        H = ball_epsilon(std).drop_height_m
+    else:
+        raise UsageError("give the speeds to calibrate for: --drop-height M or --impact-speed LO[:HI] (m/s)")
     eps_floor, floor_name = 1.0, "rigid floor"
     if floor is not None and str(floor).strip().lower() not in ("rigid", "floor", "steel"):
         floor_name, _, eps_floor = parse_body(floor, K_per_s, standards)
         eps_floor = float(eps_floor)
     target = float(combine_epsilons(eps_ball, eps_floor, K_per_s))
-    dt = check_dt(eng.default_dt_s if dt_s is None else dt_s)
-    notes = (note,)
     if eps_floor != 1.0:
-        notes += (f"floor {floor_name}: epsilon {eps_floor:.6f}; pair {eps_ball:.6f} x {eps_floor:.6f} = "
-                  f"{target:.6f} (Eq. 6)",)
-    return DropSetup(
-        ball=b.key, mass_kg=b.mass_kg.nominal, radius_m=b.radius_m, drop_height_m=window.drop_height_m,
-        epsilon=check_epsilon(target), dt_s=dt, g_m_per_s2=GRAVITY_M_PER_S2, ball_epsilon=eps_ball,
-        floor_epsilon=eps_floor, notes=notes,
+        notes.append(f"floor {floor_name}: epsilon {eps_floor:.4f}; pair {eps_ball:.4f} x {eps_floor:.4f} = "
+                     f"{target:.4f} (Eq. 6)")
+    dt = check_dt(eng.default_dt_s if dt_s is None else dt_s)
+    if eng.name == "mujoco":
+        from vrcal.engines.mujoco import DEFAULT_INTEGRATOR, INTEGRATORS
+
+        integrator = (integrator or DEFAULT_INTEGRATOR).lower()
+        if integrator not in INTEGRATORS:
+            raise UsageError(f"unknown --integrator '{integrator}' (known: {', '.join(INTEGRATORS)})")
+    setup = DropSetup(
+        ball=body.name, mass_kg=body.mass_kg, radius_m=body.radius_m, drop_height_m=float(H),
+        epsilon=check_epsilon(target), dt_s=dt, g_m_per_s2=g, ball_epsilon=eps_ball, floor_epsilon=eps_floor,
+        notes=tuple(notes), n_bounces=n, drag_coefficient=drag, restitution_exponent=exponent,
+        tolerance=tolerance, max_penetration_m=max_penetration_m, integrator=integrator,
+        release_time_s=release, height_offset_m=offset,
     )
+    _check_bounces_reachable(setup)
+    return setup
 
 
-def export(ball, engine, *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
-           K_per_s=DEFAULT_K_PER_S, tolerance=0.005):
-    """Export ``ball``'s calibrated epsilon for ``engine``.
+def _check_bounces_reachable(setup):
+    """Refuse a drop whose last bounce is too slow to measure (below 1 cm of rebound)."""
+    try:
+        apex = setup.model.apex_heights_m[0]
+    except UsageError as exc:
+        raise UsageError(f"cannot model this drop: {exc}") from None
+    if float(apex[-1]) < 1e-3:
+        raise UsageError(f"bounce {setup.n_bounces} of this drop rises only {apex[-1] * 1e3:.2g} mm: "
+                         "ask for fewer bounces or a larger drop height")
+
+
+def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
+           K_per_s=DEFAULT_K_PER_S, tolerance=DEFAULT_TOLERANCE, mass_kg=None, diameter_m=None,
+           drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
+           max_penetration_m=None, stiffness=None, n_phases=N_PHASES):
+    """Export a body's calibrated drop for ``engine``.
 
     Parameters
     ----------
-    ball : str
-        ball key of the standards
+    ball, epsilon, dt_s, floor, standards, K_per_s, tolerance, mass_kg, diameter_m, drop_height_m,
+    impact_speed, g_m_per_s2, from_json, integrator, max_penetration_m
+        see :func:`build_setup`
     engine : str
-        mujoco, ode, bullet, gazebo or tables (physx/unity/box2d)
-    epsilon : float, optional
-        the ball's epsilon against a rigid floor (default: the standard's nominal value)
-    dt_s : float, optional
-        engine time step [s] (default: the engine's entry in :data:`vrcal.engines.ENGINES`)
-    floor : str, optional
-        'rigid' (default), or a body spec (ball key, 'x=..,v=..') for a compliant floor
+        mujoco, ode, bullet (pybullet), gazebo or tables (physx/unity/box2d)
     against : str, optional
-        a second ball: adds the ball/ball2 pair value from Eq. (6)
-    standards : dict, optional
-        from :func:`vrcal.model.standards.load_standards`
-    K_per_s : float
-        rate constant K [1/s] (the pair value does not depend on it)
-    tolerance : float
-        the time step must keep the predicted error below this
+        a second ball of the standards: adds the ball/ball2 pair value from Eq. (6)
+    stiffness : float, optional
+        MuJoCo only: the contact's stiffness S [1/s^2] (0: the damper contact); default: the
+        damper for semi-implicit integrators, a spring for RK4
+    n_phases : int
+        contact phases of MuJoCo's calibration runs
 
     Returns
     -------
     Export
+
+    Raises
+    ------
+    UsageError
+        where the engine cannot meet the tolerance or the penetration limit at the asked step
+        (the message names a step that does, checked in the engine where vrcal runs it)
     """
     eng = get_engine(engine)
-    setup = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, K_per_s)
-    pair = second = pair_setup = None
+    setup = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, K_per_s, mass_kg=mass_kg,
+                        diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
+                        g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator, tolerance=tolerance,
+                        max_penetration_m=max_penetration_m)
+    if stiffness is not None and eng.name != "mujoco":
+        raise UsageError(f"--stiffness applies to MuJoCo only, not to {eng.name}")
+    pair = second = None
     if against is not None:
         b2 = get_ball(against, standards)
         eps2 = ball_epsilon(b2).nominal
@@ -127,63 +301,222 @@ def export(ball, engine, *, epsilon=None, dt_s=None, floor=None, against=None, s
         second = DropSetup(ball=b2.key, mass_kg=b2.mass_kg.nominal, radius_m=b2.radius_m,
                            drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=eps2, dt_s=setup.dt_s,
                            g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2)
-        # g = 0: both balls fall alike, the contact sees only their relative motion
-        pair_setup = DropSetup(ball=pair["name"], mass_kg=setup.mass_kg, radius_m=setup.radius_m,
-                               drop_height_m=setup.drop_height_m, epsilon=eps_pair, dt_s=setup.dt_s,
-                               g_m_per_s2=0.0)
     module = load(eng.name)
+    summary = ""
     if eng.name == "mujoco":
-        text = module.export_mjcf(setup, N_BOUNCES, tolerance,
-                                  pair_bodies=[second, pair_setup] if pair else None)
-        if pair:
-            text = text.replace(
-                "  <contact>",
-                f"  <!-- pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.6f}; MuJoCo would average the two\n"
-                "       geoms' solref, so the ball/ball2 contact has its own <pair> with the pair's solref -->\n"
-                "  <contact>", 1)
-        data = {"engine": "mujoco", "target_epsilon": setup.epsilon}
+        cal = calibrate_or_refuse(setup, stiffness, n_phases)
+        text = module.export_mjcf(setup, cal, pair, second)
+        data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
+                "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
+                "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
+        summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: "
+                   f"worst eps error "
+                   f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
+                   f"{cal.hover_m * 1e3:.3g} mm")
     elif eng.name in ("ode", "bullet"):
-        _check_step(setup, tolerance)
-        data = module.export_params(setup, N_BOUNCES, pair)
+        check_step(setup, eng.name)
+        data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         if pair:
             data["pair"] = pair
         text = dumps(data, "json")
     elif eng.name == "gazebo":
-        _check_step(setup, tolerance)                    # Gazebo runs ODE: the same limit
+        check_step(setup, "gazebo")           # Gazebo runs ODE: the same limit
         text = module.export_sdf(setup, pair, second)
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
-        text = module.format_table(setup, pair)
         data = {"engine": "tables", "rows": module.table(setup, pair)}
-    return Export(eng.name, eng.fmt, text, data, setup, pair)
+        text = module.format_table(setup, pair)
+    return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
 
 
-def _check_step(setup, tolerance, n_bounces=N_BOUNCES):
-    """Refuse a time step whose penetration (up to v dt at the bounce) moves the last apex by > tolerance."""
-    e = setup.epsilon
-    v_last = setup.impact_speed_m_per_s * e ** (n_bounces - 1)
-    h_last = (e * v_last) ** 2 / (2.0 * setup.g_m_per_s2)
-    bound = e * v_last * setup.dt_s / (2.0 * h_last)
-    if bound > tolerance:
-        dt_ok = setup.dt_s * tolerance / bound
-        raise UsageError(
-            f"time step {setup.dt_s:g} s is too large: the ball may sink up to {v_last * setup.dt_s * 1000:.2g} mm "
-            f"into the floor at bounce {n_bounces} before the contact acts, which can move epsilon by "
-            f"{bound:.3g} (> tolerance {tolerance:g}); use --dt {dt_ok:.2g} or smaller"
-        )
+def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
+    """Calibrate MuJoCo's contact at the setup's step; refuse in one line, naming a step that works.
+
+    Returns
+    -------
+    vrcal.engines.mujoco.Calibration
+    """
+    from vrcal.engines import mujoco as M
+
+    kind, w = _contact_choice(setup, stiffness)
+    cal = M.calibrate(setup, n_phases, kind, w)
+    if cal.ok:
+        return cal
+    misses = []
+    if not cal.meets_tolerance:
+        misses.append(f"worst epsilon error {cal.worst_error:.3g} (tolerance {setup.tolerance:g})")
+    if not cal.meets_depth:
+        misses.append(f"the ball turns {cal.depth_m * 1e3:.3g} mm from the floor "
+                      f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+    dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
+    where = (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
+             f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
+    raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
+                     f"misses: {'; '.join(misses)}; {where}; see --trade-off")
+
+
+def _contact_choice(setup, stiffness):
+    """(kind, w) of MuJoCo's contact from ``--stiffness`` (None: the integrator's default)."""
+    from vrcal.engines import mujoco as M
+
+    if stiffness is None:
+        return M.default_kind(setup), None
+    s = float(stiffness)
+    if not (math.isfinite(s) and s >= 0):
+        raise UsageError(f"--stiffness must be a number >= 0 [1/s^2], got {s:g}")
+    if s == 0:
+        return "damper", None
+    return "spring", math.sqrt(s / M.IMPEDANCE)
+
+
+def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, **options):
+    """The achievable (step, contact, stiffness, damping, errors, penetration, hover) of MuJoCo.
+
+    ``options`` as for :func:`build_setup`. Returns a list of dicts, one per calibration.
+    """
+    eng = get_engine(engine)
+    if eng.name != "mujoco":
+        raise UsageError("--trade-off applies to MuJoCo (ODE and PyBullet take epsilon directly)")
+    from vrcal.engines import mujoco as M
+
+    setup = build_setup(ball, "mujoco", **options)
+    rows = []
+    for dt, kind, w, cal in M.trade_off(setup, n_phases):
+        if cal is None:
+            rows.append({"dt_s": dt, "contact": kind, "stiffness_per_s2": M.IMPEDANCE * w * w, "damping_per_s": None,
+                         "margin_m": None, "worst_error": None, "median_error": None, "penetration_m": None,
+                         "hover_m": None, "ok": False})
+            continue
+        c = cal.contact
+        rows.append({"dt_s": dt, "contact": c.kind, "stiffness_per_s2": c.stiffness,
+                     "damping_per_s": c.damping, "margin_m": c.margin_m, "worst_error": cal.worst_error,
+                     "median_error": cal.median_error, "penetration_m": cal.penetration_m, "hover_m": cal.hover_m,
+                     "ok": bool(cal.ok)})
+    return setup, rows
+
+
+def format_trade_off(setup, rows):
+    """The trade-off rows as an aligned table for people (<= 100 columns)."""
+    from vrcal.textout import number, table
+
+    head = (f"MuJoCo trade-off: {setup.ball}, target epsilon {setup.epsilon:.4f}, {setup.integrator}, "
+            f"{N_PHASES} phases x {setup.n_bounces} bounces\n"
+            f"limits: tolerance {setup.tolerance:g}, penetration {setup.penetration_limit_m * 1e3:.3g} mm\n")
+    def num(value, fmt):
+        return "-" if value is None else format(value, fmt)
+
+    cells = [[f"{r['dt_s']:g}", r["contact"], number(r["stiffness_per_s2"], 3),
+              "-" if r["damping_per_s"] is None else number(r["damping_per_s"], 4),
+              num(r["worst_error"], ".4f"), num(r["median_error"], ".4f"),
+              "-" if r["penetration_m"] is None else f"{r['penetration_m'] * 1e3:.3g}",
+              "-" if r["hover_m"] is None else f"{r['hover_m'] * 1e3:.3g}",
+              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else "no bounce"] for r in rows]
+    body = table(cells, ["dt s", "contact", "S 1/s2", "D 1/s", "worst err", "median err", "pen mm", "hover mm",
+                         "meets"])
+    return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")
+
+
+#: How much faster than epsilon x the impact speed a ball leaves the floor in a step of dt, in units of
+#: ``g dt``: ODE and Bullet apply the restitution to the velocity the step's gravity has already added
+#: to (measured: basketball 4 phases x 3 bounces, ODE 1.0-1.3, Bullet 1.8-2.1 at dt = 1-3 ms).
+VELOCITY_STEP_FACTOR = {"ode": 1.5, "gazebo": 1.5, "bullet": 2.5}
+
+
+def step_bound(setup, engine="ode", n_bounces=None):
+    """The largest epsilon error a step of dt can make in ODE or Bullet, and the depth it allows.
+
+    ODE and Bullet detect a contact only once the ball is in the floor and leave from there, so
+    the next apex is lower by up to ``v dt`` (apex error up to ``e v dt / (2 h)`` at the last,
+    slowest bounce); and they reverse the velocity after the step's gravity has acted (velocity
+    error up to ``K e g dt / v``, K of :data:`VELOCITY_STEP_FACTOR`).
+
+    Returns
+    -------
+    (bound, depth_m) : float, float
+        the larger of both errors, and the deepest the fastest impact can sink (``v_1 dt``) [m]
+    """
+    n_bounces = setup.n_bounces if n_bounces is None else n_bounces
+    speeds = setup.impact_speeds_m_per_s[:n_bounces]
+    v_last = float(speeds[-1])
+    e = float(setup.epsilons[n_bounces - 1])
+    h_last = float(setup.model.apex_heights_m[0, n_bounces])
+    apex = e * v_last * setup.dt_s / (2.0 * h_last)
+    velocity = VELOCITY_STEP_FACTOR.get(engine, 1.5) * e * setup.g_m_per_s2 * setup.dt_s / v_last
+    return max(apex, velocity), float(np.max(speeds)) * setup.dt_s
+
+
+def check_step(setup, engine="ode", n_bounces=None):
+    """Refuse a time step at which ODE or Bullet may miss the tolerance or the penetration limit.
+
+    The message names a step that meets both: from :func:`step_bound`, then checked (and made
+    smaller until it passes) by running the engine when it is installed here.
+    """
+    bound, depth = step_bound(setup, engine, n_bounces)
+    if bound <= setup.tolerance and depth <= setup.penetration_limit_m:
+        return
+    scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
+    dt_ok = round_down(setup.dt_s * scale)
+    checked = _check_in_engine(setup, engine, dt_ok)
+    if checked is not None:
+        dt_ok, runs = checked
+        how = (f"--dt {dt_ok:g} meets both (checked in {'ODE' if engine == 'gazebo' else engine}: "
+               f"error {runs.worst_error:.3g}, "
+               f"{runs.penetration_m * 1e3:.3g} mm)")
+    else:
+        how = f"use --dt {dt_ok:g} or smaller"
+    if bound > setup.tolerance:
+        what = (f"its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor, which can "
+                f"move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})")
+    else:
+        what = (f"the ball may sink up to {depth * 1e3:.3g} mm into the floor before the contact acts "
+                f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+    raise UsageError(f"time step {setup.dt_s:g} s is too large for {engine}: {what}; {how}")
+
+
+def _check_in_engine(setup, engine, dt_s, n_phases=N_PHASES, tries=6):
+    """(step, DropRuns) of the first of dt_s, 0.8 dt_s, ... that passes in the engine; None when the
+    engine is not installed here (or nothing passed)."""
+    from vrcal.engines import require_runtime
+    from vrcal.engines.common import check_steps
+    from vrcal.errors import EngineUnavailable
+
+    name = "ode" if engine == "gazebo" else engine
+    try:
+        require_runtime(name)
+    except (EngineUnavailable, UsageError):
+        return None
+    module = load(name)
+    eng = get_engine(name)
+    for _ in range(tries):
+        trial = replace(setup, dt_s=dt_s)
+        try:
+            check_steps(trial, n_phases, name, eng.max_steps)
+        except UsageError:
+            return None
+        params = module.export_params(trial, trial.n_bounces)
+        try:
+            runs = module.drop_test(params, trial, trial.n_bounces, n_phases)
+        except DataError:
+            runs = None
+        if runs is not None and runs.worst_error <= setup.tolerance and \
+                max(runs.penetration_m, runs.hover_m) <= setup.penetration_limit_m:
+            return dt_s, runs
+        dt_s = round_down(0.8 * dt_s)
+    return None
 
 
 def parse_exported(engine, text):
-    """Read an exported file back: the JSON dict (ode, bullet) or the MJCF text (mujoco)."""
+    """Read an exported file back: the JSON dict (ode, bullet) or the MJCF text (mujoco).
+
+    Raises DataError (one line) for a file that is not a vrcal export of that engine.
+    """
     eng = get_engine(engine)
     if eng.name in ("ode", "bullet"):
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise UsageError(f"not a vrcal {eng.name} export (JSON): line {exc.lineno}: {exc.msg}") from None
-        if data.get("engine") != eng.name:
-            raise UsageError(f"not a vrcal {eng.name} export: engine is {data.get('engine')!r}")
-        return data
+        from vrcal.engines.files import read_params
+
+        return read_params(eng.name, text)
     return text
+
+

@@ -114,6 +114,13 @@ def export_sdf(setup, pair=None, second=None):
         "     the floor is set to 1 so the ball's coefficient is the one used; impacts slower than\n"
         f"     the threshold ({BOUNCE_VEL_M_PER_S} m/s) do not bounce (SDF's default 100000 m/s never bounces). -->\n"
     )
+    if setup.drag_coefficient or setup.restitution_exponent:
+        head += (
+            "<!-- from a discover result: Gazebo classic applies no air drag "
+            f"(C_d {setup.drag_coefficient:.4g}) and one\n"
+            "     restitution per surface: add them with a plugin, or export the baseline's effective epsilon\n"
+            "     (vrcal export --epsilon EPS_BASELINE) for an engine without drag. -->\n"
+        )
     if pair:
         head += (
             f"<!-- pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.6f} = product of the two balls' values;\n"

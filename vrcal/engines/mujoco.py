@@ -1,61 +1,92 @@
-"""MuJoCo: restitution as a damped-spring contact (``solref`` in direct form), export and drop test.
+"""MuJoCo: restitution as a contact calibrated in MuJoCo itself, at the user's step and integrator.
 
 MuJoCo has no restitution parameter. A contact is a soft constraint whose reference
-acceleration is ``a_ref = -b v - k r`` (r: penetration, negative inside); with the
-impedance d (``solimp``) the constrained acceleration is ``a = d a_ref + (1 - d) a0``
-and the constraint force ``m d (a_ref - a0)`` may not pull, so the contact ends when
-the force reaches zero. In the direct form ``solref="-S -D"`` MuJoCo uses
-``k = S / dmax^2`` and ``b = D / dmax``; vrcal writes ``S = d w^2``, ``D = 2 zeta w`` and
-``solimp="d d ..."`` with d = 0.9999 so that the contact is the oscillator
-``r'' = -2 zeta w r' - w^2 r`` with gravity held off by the constraint (the (1 - d) share
-of gravity that leaks through is 1e-4 g).
+acceleration is ``a_ref = -b v - k r`` (r: distance minus margin, negative inside); with the
+impedance d (``solimp``) the constrained acceleration is ``a = d a_ref + (1 - d) a0`` and the
+constraint force may not pull, so the contact ends when the force reaches zero. In the direct
+form ``solref="-S -D"`` MuJoCo uses ``k = S / d^2`` and ``b = D / d``, so the contact adds
+``-D v - (S / d) r`` to the acceleration. vrcal writes ``solimp="d d 0.001 0.5 2"`` with
+d = 0.9999 (1e-4 of gravity leaks through a contact).
 
-For that oscillator, ended at zero force, epsilon is (Notes: force-zero relation)
+Two contacts, both calibrated by running MuJoCo (:func:`calibrate`):
 
-    e(zeta) = exp(-zeta/sqrt(1-zeta^2) (pi - atan2(2 zeta sqrt(1-zeta^2), 1 - 2 zeta^2)))
+* **damper** (``S = 0``; Euler, implicit and implicitfast, whose flights are semi-implicit:
+  velocity first, then position). At the first contact step the ball's velocity becomes
+  ``(1 - D dt) v``: with ``D = (1 + eps) / dt`` the contact reverses it to ``-eps v`` in one
+  step, at any step size, so epsilon does not depend on where in its step the impact falls.
+  The ball moves up to ``v dt`` in the step in which it reaches the floor; a contact margin of
+  ``v dt / 2`` (``v`` the fastest impact) makes it turn between ``v dt / 2`` below and above the
+  floor. A resting ball creeps into the floor at ``(1 - d) g / D`` (about 1 um/s at 2 ms).
+* **spring** (``S = d w^2``, any integrator, the only one for RK4): a damped spring of
+  angular frequency w, chosen so that the ball sinks about ``v / w`` = the penetration limit;
+  epsilon then scatters with the contact phase unless ``w dt`` is small. For a linear spring
+  ended at zero force (no gravity)
 
-(zeta < 1/sqrt(2)). Gravity moves the end of the contact a little (the force is zero when
-``a_ref = -g``, not 0), which lowers epsilon by about ``0.5 g/(w v)`` for e = 0.5 at impact
-speed v; :func:`contact_epsilon` models that exactly (it reproduces MuJoCo 4.0 to 2e-4) and
-:func:`zeta_for_epsilon` solves it at the harmonic mean of the first and the last verified
-impact speed, so the speed dependence is split evenly over the bounces.
+      e(zeta) = exp(-zeta/sqrt(1-zeta^2) (pi - atan2(2 zeta sqrt(1-zeta^2), 1 - 2 zeta^2)))
 
-Time step: the contact must be resolved in many steps. The damping force switches on in full
-at the first contact step, so the scatter of epsilon over contact phases grows with
-``zeta w dt`` (measured for a target of 0.5 over 4 phases x 3 bounces: max error 0.0046 at
-w dt = 0.05, 0.0030 at w dt = 0.025, both at w = 1000 rad/s). vrcal sets ``w = 0.025 / dt`` (about 125 steps per
-contact) with a default dt of 2.5e-5 s (w = 1000 rad/s, penetration about v/w = 6 mm for a
-basketball), and refuses a time step whose ``w`` is so low that gravity alone would take
-epsilon out of half the tolerance. Integrator RK4 (measured: about half the phase scatter of
-Euler/implicitfast at the same step).
+  (:func:`epsilon_from_damping_ratio`; gravity ends the contact earlier:
+  :func:`contact_epsilon`). These formulas give the start; the damping is then found by a
+  root-find in MuJoCo at the user's step.
+
+The root-find (:func:`calibrate`) runs the drop test (``n_phases`` contact phases x
+``n_bounces`` bounces, :mod:`vrcal.engines.common`) and moves the damping until the errors
+are centred on the target (their largest and smallest sum to 0), which minimises the worst
+error; a speed-dependent epsilon thus gets the best constant over the drop's impact speeds.
+Where the tolerance or the penetration limit cannot be met at the asked step,
+:func:`suggest_dt` finds, again in MuJoCo, the largest step that meets both.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import brentq
 
-from vrcal.engines.common import flight_time_s, measure_ratios, phase_shifts_m
-from vrcal.errors import EngineUnavailable, UsageError
-
-#: omega * dt used by the export (dimensionless).
-OMEGA_DT = 0.025
+from vrcal.engines.common import (
+    N_PHASES,
+    DropRuns,
+    RunsSummary,
+    check_steps,
+    drag_atol,
+    drop_runs,
+    metadata,
+    phase_shifts_m,
+    round_down,
+)
+from vrcal.errors import DataError, EngineUnavailable, UsageError
 
 #: Impedance d written to solimp (dmin = dmax): close to MuJoCo's maximum 0.9999.
 IMPEDANCE = 0.9999
 
-#: Default MuJoCo time step [s] for export and verify.
-DEFAULT_DT_S = 2.5e-5
+#: MuJoCo's own default time step [s] and integrator: the defaults of export and verify.
+DEFAULT_DT_S = 0.002
+DEFAULT_INTEGRATOR = "euler"
 
-INTEGRATOR = "RK4"
+#: ``--integrator`` values and MuJoCo's spelling of each.
+INTEGRATORS = {"euler": "Euler", "implicit": "implicit", "implicitfast": "implicitfast", "rk4": "RK4"}
 
-#: Largest accepted contact penetration (about v/w), as a fraction of the ball's radius.
-MAX_PENETRATION_RADII = 0.25
+#: Integrators with semi-implicit flights (the damper contact works with these).
+SEMI_IMPLICIT = ("euler", "implicit", "implicitfast")
+
+#: Most MuJoCo steps of one drop test (all contact phases together).
+MAX_STEPS = 4_000_000
+
+#: Steps simulated at once by :func:`run_drops` (memory: 112 bytes per step and drop).
+CHUNK_STEPS = 50_000
+
+#: Most drop tests of one root-find.
+MAX_EVALUATIONS = 10
+
+#: Root-find stops when the errors are centred to within this.
+CENTRE_TOLERANCE = 1e-4
 
 _ZETA_MAX = 1.0 / math.sqrt(2.0)
+
+
+# --------------------------------------------------------------------------- the contact spring
 
 
 def epsilon_from_damping_ratio(zeta):
@@ -107,7 +138,7 @@ def damping_ratio_from_epsilon(epsilon):
 
 
 def contact_epsilon(zeta, omega_per_s, impact_speed_m_per_s, g_m_per_s2):
-    """epsilon of MuJoCo's contact oscillator with gravity, ended at zero constraint force.
+    """epsilon of MuJoCo's contact spring with gravity, ended at zero constraint force.
 
     Parameters
     ----------
@@ -159,11 +190,6 @@ def _contact_epsilon(zeta, omega_per_s, impact_speed_m_per_s, g_m_per_s2):
     return math.sqrt(max(v1 * v1 + 2.0 * g * r1, 0.0)) / v
 
 
-def omega_for_dt(dt_s):
-    """Contact angular frequency w = OMEGA_DT / dt [rad/s]."""
-    return OMEGA_DT / dt_s
-
-
 def zeta_for_epsilon(epsilon, omega_per_s, impact_speed_m_per_s, g_m_per_s2):
     """Damping ratio for which :func:`contact_epsilon` equals ``epsilon`` at the given impact speed."""
     if epsilon >= 1.0:
@@ -173,136 +199,167 @@ def zeta_for_epsilon(epsilon, omega_per_s, impact_speed_m_per_s, g_m_per_s2):
     def f(z):
         return contact_epsilon(z, omega_per_s, impact_speed_m_per_s, g_m_per_s2) - epsilon
 
-    lo = 0.0
-    if f(lo) < 0:
+    if f(0.0) < 0:
         raise UsageError(
             f"a MuJoCo contact at w = {omega_per_s:g} rad/s cannot reach epsilon {epsilon:g} at "
-            f"{impact_speed_m_per_s:.3g} m/s (gravity ends the contact early): use a smaller --dt"
+            f"{impact_speed_m_per_s:.3g} m/s (gravity ends the contact early): use a stiffer contact"
         )
-    return brentq(f, lo, min(zeta0 * 1.5 + 1e-3, _ZETA_MAX * (1 - 1e-9)), xtol=1e-15)
+    return brentq(f, 0.0, min(zeta0 * 1.5 + 1e-3, _ZETA_MAX * (1 - 1e-9)), xtol=1e-15)
 
 
-def contact_parameters(setup, n_bounces=3, tolerance=0.005):
-    """solref/solimp and the numbers behind them for a :class:`DropSetup`.
+# --------------------------------------------------------------------------- contact settings
 
-    Raises
-    ------
-    UsageError
-        when the time step is too large for a contact stiff enough that gravity keeps
-        epsilon within ``tolerance`` over ``n_bounces`` bounces.
+
+@dataclass(frozen=True)
+class Contact:
+    """A ball/floor contact of MuJoCo: ``solref="-S -D"``, ``solimp="d d ..."`` and a margin.
+
+    Attributes
+    ----------
+    stiffness : float
+        S of the direct-form solref [1/s^2] (0: the damper contact)
+    damping : float
+        D of the direct-form solref [1/s]
+    margin_m : float
+        distance at which the contact acts [m]
+    impedance : float
+        d of solimp
     """
-    w = omega_for_dt(setup.dt_s)
-    if setup.g_m_per_s2 == 0:          # ball/ball contact: gravity acts on both, not on their distance
-        zeta = damping_ratio_from_epsilon(setup.epsilon)
-        return {"omega_per_s": w, "damping_ratio": zeta, "damping_ratio_no_gravity": zeta,
-                "solref": [-IMPEDANCE * w * w, -2.0 * zeta * w], "solimp": [IMPEDANCE, IMPEDANCE, 0.001, 0.5, 2]}
-    v0 = setup.impact_speed_m_per_s
-    v_last = v0 * setup.epsilon ** (n_bounces - 1)
-    # gravity lowers epsilon by about c/v: calibrating at the harmonic mean of the first and
-    # the last impact speed splits that error evenly between them
-    v_ref = 2.0 / (1.0 / v0 + 1.0 / v_last)
-    zeta = zeta_for_epsilon(setup.epsilon, w, v_ref, setup.g_m_per_s2)
-    predicted = {v: contact_epsilon(zeta, w, v, setup.g_m_per_s2) for v in (v0, v_last)}
-    worst = max(predicted.values(), key=lambda e: abs(e - setup.epsilon))
-    if abs(worst - setup.epsilon) > tolerance / 2:
-        dt_ok = setup.dt_s * (tolerance / 2) / abs(worst - setup.epsilon)
-        raise UsageError(
-            f"time step {setup.dt_s:g} s is too large for MuJoCo: the contact spring it allows "
-            f"(w = {OMEGA_DT:g}/dt = {w:.4g} rad/s) lets gravity move epsilon to {worst:.4f} "
-            f"over {n_bounces} bounces (target {setup.epsilon:.4f}); use --dt {dt_ok:.2g} or smaller"
-        )
-    if v0 / w > MAX_PENETRATION_RADII * setup.radius_m:
-        dt_ok = OMEGA_DT * MAX_PENETRATION_RADII * setup.radius_m / v0
-        raise UsageError(
-            f"time step {setup.dt_s:g} s is too large for MuJoCo: the contact spring it allows "
-            f"(w = {OMEGA_DT:g}/dt = {w:.4g} rad/s) lets the ball sink about {1000 * v0 / w:.3g} mm into the floor, "
-            f"more than {MAX_PENETRATION_RADII:g} of its radius; use --dt {dt_ok:.2g} or smaller"
-        )
-    stiffness = IMPEDANCE * w * w
-    damping = 2.0 * zeta * w
-    return {
-        "omega_per_s": w,
-        "damping_ratio": zeta,
-        "damping_ratio_no_gravity": damping_ratio_from_epsilon(setup.epsilon),
-        "solref": [-stiffness, -damping],
-        "solimp": [IMPEDANCE, IMPEDANCE, 0.001, 0.5, 2],
-        "max_penetration_m": v0 / w,
-        "calibration_speed_m_per_s": v_ref,
-        "predicted_epsilon_first_bounce": predicted[v0],
-        "predicted_epsilon_last_bounce": predicted[v_last],
-    }
+
+    stiffness: float
+    damping: float
+    margin_m: float = 0.0
+    impedance: float = IMPEDANCE
+
+    @property
+    def kind(self):
+        return "damper" if self.stiffness == 0 else "spring"
+
+    @property
+    def solref(self):
+        return [-float(self.stiffness) if self.stiffness else 0.0, -float(self.damping)]
+
+    @property
+    def solimp(self):
+        return [self.impedance, self.impedance, 0.001, 0.5, 2]
+
+    @property
+    def omega_per_s(self):
+        """Angular frequency of the spring, sqrt(S / d) [rad/s] (0 for the damper)."""
+        return math.sqrt(self.stiffness / self.impedance)
+
+
+def contact_for(x, kind, dt_s, omega_per_s=0.0, margin_m=0.0):
+    """The :class:`Contact` whose own epsilon (no gravity, exact time) is ``x``.
+
+    damper: ``D = (1 + x) / dt``, the velocity reversal of one semi-implicit step; spring:
+    ``S = d w^2``, ``D = 2 zeta(x) w`` (:func:`damping_ratio_from_epsilon`).
+    """
+    if kind == "damper":
+        return Contact(0.0, (1.0 + x) / dt_s, margin_m)
+    zeta = damping_ratio_from_epsilon(min(max(x, 0.2085), 1.0))
+    return Contact(IMPEDANCE * omega_per_s ** 2, 2.0 * zeta * omega_per_s, margin_m)
+
+
+def spring_omega(setup, penetration_m=None):
+    """Angular frequency [rad/s] for which the fastest impact sinks about ``penetration_m`` (v / w)."""
+    p = setup.penetration_limit_m if penetration_m is None else penetration_m
+    return setup.impact_speed_m_per_s / p
+
+
+def damper_margin(setup):
+    """Margin [m] of the damper contact: half the fastest impact's travel in one step."""
+    return 0.5 * setup.impact_speed_m_per_s * setup.dt_s
+
+
+# --------------------------------------------------------------------------- the MJCF
 
 
 def _fmt(x):
     return f"{x:.10g}"
 
 
-def export_mjcf(setup, n_bounces=3, tolerance=0.005, pair_bodies=None):
-    """A complete MJCF model: floor plane, the ball on a free joint, contact pair with solref.
+def integrator_name(setup):
+    """MuJoCo's spelling of the setup's integrator (Euler by default)."""
+    key = (setup.integrator or DEFAULT_INTEGRATOR).lower()
+    if key not in INTEGRATORS:
+        raise UsageError(f"unknown --integrator '{setup.integrator}' (known: {', '.join(INTEGRATORS)})")
+    return INTEGRATORS[key]
+
+
+def model_xml(setup, contact, header=(), pairs=(), extra_bodies=()):
+    """A complete MJCF model: floor plane, the ball on a free joint, the contact pair(s).
 
     Parameters
     ----------
     setup : DropSetup
-    n_bounces, tolerance : int, float
-        used to check that the time step is small enough (see :func:`contact_parameters`)
-    pair_bodies : list of DropSetup, optional
-        ``[second ball (its own epsilon vs floor), pair setup (epsilon of ball/ball2)]``
-        for ``--against``: adds the second ball and ball/ball2 and ball2/floor pairs.
+    contact : Contact
+        the ball/floor contact
+    header : sequence of str
+        comment lines (each kept under 100 columns)
+    pairs : sequence of (geom1, geom2, Contact)
+        further contact pairs (``--against``)
+    extra_bodies : sequence of str
+        MJCF lines of further bodies
 
     Returns
     -------
     str
-        MJCF text (loads with ``mujoco.MjModel.from_xml_string``)
+        MJCF text (loads with ``mujoco.MjModel.from_xml_string``); the drop test's target sits
+        in ``<custom>`` numerics named ``vrcal_*`` (read back by ``vrcal verify --file``)
     """
-    p = contact_parameters(setup, n_bounces, tolerance)
     R, H = setup.radius_m, setup.drop_height_m
-    lines = [
-        '<mujoco model="vrcal-drop">',
-        f"  <!-- vrcal export: {setup.ball} on a rigid floor, target epsilon {setup.epsilon:.6f} -->",
-        f"  <!-- contact spring w = {p['omega_per_s']:.6g} rad/s (w*dt = {OMEGA_DT}), damping ratio "
-        f"{p['damping_ratio']:.6f} (force-zero relation, gravity-corrected at {p['calibration_speed_m_per_s']:.4g} m/s) -->",
-        f"  <!-- predicted epsilon {p['predicted_epsilon_first_bounce']:.5f} at the first impact "
-        f"({setup.impact_speed_m_per_s:.4g} m/s), {p['predicted_epsilon_last_bounce']:.5f} at bounce {n_bounces} -->",
-        f"  <!-- solref direct form: -(d w^2), -(2 zeta w); solimp d = {IMPEDANCE}; "
-        f"max penetration about {p['max_penetration_m'] * 1000:.3g} mm -->",
-        f'  <option timestep="{_fmt(setup.dt_s)}" integrator="{INTEGRATOR}" gravity="0 0 {-setup.g_m_per_s2:g}"/>',
+    fluid = ""
+    option = (f'  <option timestep="{_fmt(setup.dt_s)}" integrator="{integrator_name(setup)}" '
+              f'gravity="0 0 {-setup.g_m_per_s2:g}"')
+    if setup.drag_coefficient:
+        from vrcal.drop.effects import AIR_DENSITY_KG_PER_M3
+
+        option += f' density="{AIR_DENSITY_KG_PER_M3:g}" viscosity="0"'
+        # MuJoCo's ellipsoid model: blunt drag force = C_blunt rho (pi R^2) v^2 = 1/2 rho C_d A v^2
+        fluid = f' fluidshape="ellipsoid" fluidcoef="{_fmt(setup.drag_coefficient / 2.0)} 0 0 0 0"'
+    lines = ['<mujoco model="vrcal-drop">']
+    lines += [f"  <!-- {h} -->" for h in header]
+    lines += [
+        option + "/>",
         "  <default>",
-        '    <geom contype="0" conaffinity="0"/>  <!-- contacts come only from the explicit pairs below -->',
+        '    <geom contype="0" conaffinity="0"/>  <!-- contacts come only from the pairs below -->',
         "  </default>",
         "  <worldbody>",
         '    <geom name="floor" type="plane" size="10 10 0.1"/>',
         f'    <body name="ball" pos="0 0 {_fmt(H + R)}">',
         "      <freejoint/>",
-        f'      <geom name="ball" type="sphere" size="{_fmt(R)}" mass="{_fmt(setup.mass_kg)}"/>',
+        f'      <geom name="ball" type="sphere" size="{_fmt(R)}" mass="{_fmt(setup.mass_kg)}"{fluid}/>',
         "    </body>",
+        *extra_bodies,
+        "  </worldbody>",
+        "  <contact>",
     ]
-    pairs = [("ball", "floor", p)]
-    if pair_bodies:
-        second, pair_setup = pair_bodies
-        p2 = contact_parameters(second, n_bounces, tolerance)
-        pp = contact_parameters(pair_setup, n_bounces, tolerance)
-        R2 = second.radius_m
-        lines += [
-            f'    <body name="ball2" pos="{_fmt(3 * (R + R2))} 0 {_fmt(second.drop_height_m + R2)}">',
-            "      <freejoint/>",
-            f'      <geom name="ball2" type="sphere" size="{_fmt(R2)}" mass="{_fmt(second.mass_kg)}"/>',
-            "    </body>",
-        ]
-        pairs += [("ball2", "floor", p2), ("ball", "ball2", pp)]
-    lines += ["  </worldbody>", "  <contact>"]
-    for g1, g2, q in pairs:
-        solref = " ".join(_fmt(x) for x in q["solref"])
-        solimp = " ".join(_fmt(x) for x in q["solimp"])
-        lines.append(f'    <pair geom1="{g1}" geom2="{g2}" condim="1" solref="{solref}" solimp="{solimp}"/>')
-    lines += ["  </contact>", "</mujoco>", ""]
+    for g1, g2, c in [("ball", "floor", contact), *pairs]:
+        lines.append(f'    <pair geom1="{g1}" geom2="{g2}" condim="1" margin="{_fmt(c.margin_m)}"')
+        lines.append(f'          solref="{" ".join(_fmt(x) for x in c.solref)}" '
+                     f'solimp="{" ".join(_fmt(x) for x in c.solimp)}"/>')
+    lines += ["  </contact>", "  <custom>"]
+    for key, value in metadata(setup).items():
+        lines.append(f'    <numeric name="vrcal_{key}" data="{_fmt(value)}"/>')
+    lines += [f'    <text name="vrcal_ball" data="{_xml_text(setup.ball)}"/>', "  </custom>", "</mujoco>", ""]
     return "\n".join(lines)
+
+
+def _xml_text(text):
+    return (str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
+            .replace(">", "&gt;").replace("\n", " "))
+
+
+# --------------------------------------------------------------------------- running MuJoCo
 
 
 def _mujoco():
     try:
         import mujoco
     except ImportError:
-        raise EngineUnavailable("MuJoCo is not installed: pip install mujoco (or pip install 'vrcal[engines]')") from None
+        raise EngineUnavailable("MuJoCo is not installed: pip install mujoco "
+                                "(or pip install 'vrcal[engines]')") from None
     return mujoco
 
 
@@ -310,25 +367,33 @@ def version():
     return _mujoco().__version__
 
 
-def run_drops(mjcf, drop_height_m, shifts_m, duration_s, radius_m):
-    """Drop the ball of an exported MJCF from ``drop_height_m + shift`` for every shift.
+def load_model(mjcf):
+    """Compile MJCF text; a MuJoCo error becomes one line."""
+    mujoco = _mujoco()
+    try:
+        return mujoco.MjModel.from_xml_string(mjcf)
+    except ValueError as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else "unknown error"
+        raise DataError(f"MuJoCo cannot load the model: {first}") from None
 
-    Uses ``mujoco.rollout`` (one batch, C loop).
+
+def run_drops(model, drop_height_m, shifts_m, duration_s, radius_m, max_steps=MAX_STEPS):
+    """Drop the ball of a compiled model from ``drop_height_m + shift`` for every shift.
+
+    Uses ``mujoco.rollout`` (all drops in one C loop), in chunks of :data:`CHUNK_STEPS`.
 
     Returns
     -------
     z_m, v_m_per_s : ndarray
         (n_shifts, n_steps + 1) bottom height and vertical velocity, sample 0 = release
     dt_s, g_m_per_s2 : float
-        as read back from the loaded model
+        as read from the model
     """
     mujoco = _mujoco()
     from mujoco import rollout
 
-    try:
-        model = mujoco.MjModel.from_xml_string(mjcf)
-    except ValueError as exc:
-        raise UsageError(f"MuJoCo cannot load the model: {exc}") from None
+    if isinstance(model, str):
+        model = load_model(model)
     data = mujoco.MjData(model)
     dt = float(model.opt.timestep)
     g = -float(model.opt.gravity[2])
@@ -343,26 +408,309 @@ def run_drops(mjcf, drop_height_m, shifts_m, duration_s, radius_m):
         st = np.empty(mujoco.mj_stateSize(model, spec))
         mujoco.mj_getState(model, data, st, spec)
         states.append(st)
-    states = np.array(states)
+    state = np.array(states)
     nstep = int(math.ceil(duration_s / dt))
-    out, _ = rollout.rollout(model, data, states, nstep=nstep)
-    # state layout: time, qpos, qvel, ...
-    zq = np.concatenate([states[:, None, 1 + qadr + 2], out[:, :, 1 + qadr + 2]], axis=1) - radius_m
-    vq = np.concatenate([states[:, None, 1 + model.nq + vadr + 2], out[:, :, 1 + model.nq + vadr + 2]], axis=1)
-    return zq, vq, dt, g
+    if nstep * len(states) > max_steps:
+        raise UsageError(f"the MuJoCo run needs {nstep * len(states):,} steps (limit {max_steps:,}): use a larger --dt")
+    iz, iv = 1 + qadr + 2, 1 + model.nq + vadr + 2
+    zs, vs = [state[:, iz:iz + 1]], [state[:, iv:iv + 1]]
+    done = 0
+    while done < nstep:
+        n = min(CHUNK_STEPS, nstep - done)
+        out, _ = rollout.rollout(model, data, state, nstep=n)
+        zs.append(out[:, :, iz])
+        vs.append(out[:, :, iv])
+        state = out[:, -1, :]
+        done += n
+    return np.concatenate(zs, axis=1) - radius_m, np.concatenate(vs, axis=1), dt, g
+
+
+def _semi_implicit(model):
+    mujoco = _mujoco()
+    return int(model.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4)
 
 
 def drop_test(mjcf, setup, n_bounces, n_phases):
-    """Run the exported model and measure apex and velocity ratios, shape (n_phases, n_bounces)."""
+    """Run a model (MJCF text or compiled) and measure it against vrcal's model: a :class:`DropRuns`."""
+    model = load_model(mjcf) if isinstance(mjcf, str) else mjcf
+    setup = replace(setup, n_bounces=int(n_bounces))
     shifts = phase_shifts_m(setup, n_phases)
-    duration = flight_time_s(setup.drop_height_m + shifts[-1], setup.epsilon, n_bounces, setup.g_m_per_s2) * 1.05
-    stiffness = [-float(x) for x in re.findall(r'solref="(-[0-9.e+-]+) ', mjcf)]
-    if stiffness:                      # contacts last about pi/w each: add two periods per bounce
-        duration += n_bounces * 2.0 * math.pi / math.sqrt(min(stiffness))
-    z, v, dt, g = run_drops(mjcf, setup.drop_height_m, shifts, duration, setup.radius_m)
-    apex, vel = [], []
-    for k, shift in enumerate(shifts):
-        a, b = measure_ratios(z[k], v[k], setup.drop_height_m + shift, dt, g, n_bounces)
-        apex.append(a)
-        vel.append(b)
-    return shifts, np.array(apex), np.array(vel)
+    duration = setup.flight_time_s(setup.drop_height_m + shifts[-1]) * 1.05
+    stiff = [-float(s) for s in model.pair_solref[:, 0] if s < 0]
+    if stiff:                            # spring contacts last about pi/w each: two periods per bounce
+        duration += n_bounces * 2.0 * math.pi / math.sqrt(min(stiff))
+    z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
+    return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
+                     drag_atol(setup))
+
+
+# --------------------------------------------------------------------------- calibration in MuJoCo
+
+
+@dataclass
+class Calibration(RunsSummary):
+    """The contact found by :func:`calibrate` and the drop test it passed (or failed)."""
+
+    setup: object
+    contact: Contact
+    runs: DropRuns
+    evaluations: int
+
+    @property
+    def meets_tolerance(self):
+        return self.worst_error <= self.setup.tolerance
+
+    @property
+    def meets_depth(self):
+        return self.depth_m <= self.setup.penetration_limit_m * (1 + 1e-9)
+
+    @property
+    def ok(self):
+        return self.meets_tolerance and self.meets_depth
+
+    @property
+    def excess(self):
+        """The larger of worst error / tolerance and depth / penetration limit (<= 1: meets both)."""
+        return max(self.worst_error / self.setup.tolerance, self.depth_m / self.setup.penetration_limit_m)
+
+    @property
+    def best_constant(self):
+        """The epsilon the contact gives (mean velocity ratio over phases and bounces)."""
+        return float(np.mean(self.runs.velocity_ratios))
+
+
+def default_kind(setup):
+    """damper for semi-implicit integrators, spring for RK4."""
+    return "damper" if (setup.integrator or DEFAULT_INTEGRATOR).lower() in SEMI_IMPLICIT else "spring"
+
+
+def calibrate(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
+    """Find the contact damping in MuJoCo itself, at the setup's step and integrator.
+
+    Parameters
+    ----------
+    setup : DropSetup
+        ball, drop, target, dt, integrator, tolerance and penetration limit
+    n_phases : int
+        contact phases of the drop test (``setup.n_bounces`` bounces each)
+    kind : {"damper", "spring"} or None
+        the contact (default: :func:`default_kind`)
+    omega_per_s : float or None
+        the spring's angular frequency [rad/s] (default :func:`spring_omega`)
+
+    Returns
+    -------
+    Calibration
+        the contact whose drop-test errors are centred on the target (see the module docstring)
+
+    Raises
+    ------
+    UsageError
+        the damper with RK4; a run longer than :data:`MAX_STEPS`
+    """
+    kind = kind or default_kind(setup)
+    if kind == "damper" and (setup.integrator or DEFAULT_INTEGRATOR).lower() not in SEMI_IMPLICIT:
+        raise UsageError("the damper contact needs a semi-implicit integrator (euler, implicit, implicitfast); "
+                         "RK4 takes a spring (give --stiffness)")
+    check_steps(setup, n_phases, "MuJoCo", MAX_STEPS, "the calibration's drop test")
+    if kind == "spring":
+        return _calibrate_at(setup, n_phases, kind, omega_per_s or spring_omega(setup), 0.0)
+    # the damper: the ball turns between margin - v dt and margin; the slow late bounces (low
+    # apexes) want a margin of their own half step, the fast first one half of its step
+    speeds = setup.impact_speeds_m_per_s
+    v1, vn = float(np.max(speeds)), float(np.min(speeds))
+    best = None
+    for margin in (0.5 * v1 * setup.dt_s, 0.25 * (v1 + vn) * setup.dt_s, 0.5 * vn * setup.dt_s):
+        cal = _calibrate_at(setup, n_phases, kind, 0.0, margin)
+        if best is None or cal.excess < best.excess:
+            best = cal
+        if best.excess <= 0.5:
+            break
+    return best
+
+
+def _calibrate_at(setup, n_phases, kind, w, margin):
+    """:func:`calibrate` with the contact's kind, frequency and margin fixed: the root-find on damping."""
+    mujoco = _mujoco()
+    model = load_model(model_xml(setup, contact_for(setup.epsilon, kind, setup.dt_s, w, margin)))
+    targets = setup.epsilons
+    centre = 0.5 * (float(np.max(targets)) + float(np.min(targets)))
+    lo_x, hi_x = (0.0, 1.0) if kind == "damper" else (0.2085, 1.0)
+    cache = {}
+
+    def evaluate(x):
+        c = contact_for(x, kind, setup.dt_s, w, margin)
+        model.pair_solref[0] = c.solref
+        model.pair_margin[0] = c.margin_m
+        try:
+            runs = drop_test(model, setup, setup.n_bounces, n_phases)
+            f = runs.midrange_error
+        except DataError:
+            runs, f = None, -1.0                     # no bounce: far too little epsilon
+        cache[x] = (c, runs, f)
+        return f
+
+    x0 = min(max(centre, lo_x), hi_x)
+    f0 = evaluate(x0)
+    x1 = min(max(x0 - f0, lo_x), hi_x)              # epsilon moves about one for one with x
+    if x1 == x0:
+        x1 = min(max(x0 - math.copysign(1e-3, f0), lo_x), hi_x)
+    f1 = evaluate(x1)
+    lo = hi = None
+    for x, f in ((x0, f0), (x1, f1)):
+        if f < 0:
+            lo = (x, f) if lo is None or x > lo[0] else lo
+        else:
+            hi = (x, f) if hi is None or x < hi[0] else hi
+    ftol = max(CENTRE_TOLERANCE, setup.tolerance / 20.0)
+    while len(cache) < MAX_EVALUATIONS and min(abs(f) for _, _, f in cache.values()) > ftol:
+        if abs(f1 - f0) > 1e-12:
+            x2 = x1 - f1 * (x1 - x0) / (f1 - f0)
+        else:
+            x2 = x1 - f1
+        if lo is not None and hi is not None and not (lo[0] < x2 < hi[0]):
+            x2 = 0.5 * (lo[0] + hi[0])
+        x2 = min(max(x2, lo_x), hi_x)
+        if x2 in cache:
+            break
+        f2 = evaluate(x2)
+        if f2 < 0:
+            lo = (x2, f2) if lo is None or x2 > lo[0] else lo
+        else:
+            hi = (x2, f2) if hi is None or x2 < hi[0] else hi
+        x0, f0, x1, f1 = x1, f1, x2, f2
+    done = [(c, r) for c, r, _ in cache.values() if r is not None]
+    if not done:
+        raise DataError("MuJoCo did not bounce the ball at any damping tried")
+    contact, runs = min(done, key=lambda cr: cr[1].worst_error)
+    del mujoco
+    return Calibration(setup, contact, runs, len(cache))
+
+
+def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
+    """The largest time step (two significant digits) at which MuJoCo meets the tolerance and the
+    penetration limit, found by calibrating in MuJoCo at smaller and smaller steps.
+
+    Returns
+    -------
+    (float, Calibration) or (None, None)
+        the step and the calibration that met both; None when no step down to a run of
+        :data:`MAX_STEPS` steps does
+    """
+    kind = kind or default_kind(setup)
+    V = setup.impact_speed_m_per_s
+    if kind == "damper":
+        start = min(0.9 * setup.dt_s, 0.98 * 2.0 * setup.penetration_limit_m / V)
+        candidates = [start * 0.8 ** j for j in range(12)]
+    else:
+        w = omega_per_s or spring_omega(setup)
+        candidates = [c / w for c in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625)]
+        candidates = [dt for dt in candidates if dt < setup.dt_s]
+    for dt in candidates:
+        dt = round_down(dt)
+        trial = replace(setup, dt_s=dt)
+        try:
+            check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
+        except UsageError:
+            return None, None
+        cal = calibrate(trial, n_phases, kind, omega_per_s)
+        if cal.ok:
+            return dt, cal
+    return None, None
+
+
+def trade_off(setup, n_phases=N_PHASES, steps=None):
+    """Calibrations to choose from: (dt, contact, stiffness, damping, errors, penetration, hover).
+
+    For the setup's step and smaller ones (``steps``, default dt, dt/2, dt/5), the damper
+    (semi-implicit integrators) and springs that sink the fastest impact about R/4 and R/16,
+    each calibrated in MuJoCo.
+
+    Returns
+    -------
+    list of (dt_s, kind, omega_per_s, Calibration or None)
+        None where MuJoCo did not bounce the ball with that contact at that step
+    """
+    steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
+    rows = []
+    for dt in steps:
+        trial = replace(setup, dt_s=float(f"{dt:.3g}"))
+        try:
+            check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
+        except UsageError:
+            continue
+        kinds = [("damper", 0.0)] if default_kind(trial) == "damper" else []
+        R = trial.radius_m
+        kinds += [("spring", spring_omega(trial, R * f)) for f in (0.25, 0.0625)]
+        for kind, w in kinds:
+            try:
+                cal = calibrate(trial, n_phases, kind, w or None)
+            except (UsageError, DataError):
+                cal = None
+            rows.append((trial.dt_s, kind, w, cal))
+    return rows
+
+
+# --------------------------------------------------------------------------- export
+
+
+def header_lines(setup, cal):
+    """Comment lines of an exported MJCF: what was asked, what MuJoCo did (each < 100 columns)."""
+    c = cal.contact
+    how = ("damper: one-step velocity reversal, D = (1 + eps)/dt, margin v dt/2" if c.kind == "damper"
+           else f"spring: w = {c.omega_per_s:.4g} rad/s, sinks about v/w")
+    lines = [
+        f"vrcal export: {setup.ball}, target epsilon {setup.epsilon:.4f}, dt {setup.dt_s:g} s, "
+        f"{integrator_name(setup)}",
+        f"contact {how}",
+        f"calibrated in MuJoCo: {cal.runs.apex_ratios.shape[0]} phases x {setup.n_bounces} bounces, "
+        f"{cal.evaluations} runs",
+        f"worst eps error {cal.worst_error:.4f}, median {cal.median_error:.4f} "
+        f"(tolerance {setup.tolerance:g})",
+        f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
+        f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
+    ]
+    if setup.restitution_exponent:
+        eps = setup.epsilons
+        lines.append(f"eps(v) {eps.min():.4f}..{eps.max():.4f} over the drop: MuJoCo's contact is one "
+                     f"constant, {cal.best_constant:.4f}")
+    if setup.drag_coefficient:
+        lines.append(f"air drag C_d {setup.drag_coefficient:.4g}: MuJoCo's fluid model, blunt drag = C_d/2")
+    if setup.release_time_s:
+        lines.append(f"release state: bottom at {setup.drop_height_m:.4f} m, at rest; the record's release "
+                     f"was at t = {setup.release_time_s:.4f} s")
+    return lines
+
+
+def pair_contact(eps, setup):
+    """The contact of a pair that vrcal does not calibrate in MuJoCo (``--against``): the damper's
+    one-step reversal for semi-implicit integrators, the force-zero spring (no gravity) for RK4."""
+    if default_kind(setup) == "damper":
+        return contact_for(eps, "damper", setup.dt_s, margin_m=damper_margin(setup))
+    w = spring_omega(setup)
+    return contact_for(eps, "spring", setup.dt_s, w)
+
+
+def export_mjcf(setup, cal, pair=None, second=None):
+    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs)."""
+    header = header_lines(setup, cal)
+    pairs, bodies = [], []
+    if pair and second is not None:
+        R, R2 = setup.radius_m, second.radius_m
+        bodies = [
+            f'    <body name="ball2" pos="{_fmt(3 * (R + R2))} 0 {_fmt(second.drop_height_m + R2)}">',
+            "      <freejoint/>",
+            f'      <geom name="ball2" type="sphere" size="{_fmt(R2)}" mass="{_fmt(second.mass_kg)}"/>',
+            "    </body>",
+        ]
+        pairs = [("ball2", "floor", pair_contact(pair["epsilon_ball2"], setup)),
+                 ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
+        header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
+        header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")
+    return model_xml(setup, cal.contact, header, pairs, bodies)
+
+
+def read_solref(mjcf):
+    """The ball/floor ``solref`` of an MJCF text, as written ('?' when absent)."""
+    m = re.search(r'<pair geom1="ball" geom2="floor"[^>]*solref="([^"]+)"', mjcf)
+    return m.group(1) if m else "?"

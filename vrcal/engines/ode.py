@@ -14,15 +14,19 @@ from __future__ import annotations
 
 import ctypes
 import math
+from dataclasses import replace
 
 import numpy as np
 
+from vrcal.drop.effects import AIR_DENSITY_KG_PER_M3
 from vrcal.engines import ode_ctypes as O
-from vrcal.engines.common import stepped_drop_test
+from vrcal.engines.common import (
+    drag_force_coefficient_kg_per_m,
+    metadata,
+    restitution_table,
+    stepped_drop_test,
+)
 from vrcal.errors import UsageError
-
-#: Default ODE time step [s].
-DEFAULT_DT_S = 2e-4
 
 #: Smallest incoming speed that bounces [m/s].
 BOUNCE_VEL_M_PER_S = 0.01
@@ -37,23 +41,27 @@ WORLD_CFM = 1e-10
 WORLD_ERP = 0.0
 
 
-def export_params(setup, n_bounces=3, pair=None):
-    """The ODE settings (JSON-ready dict) that reproduce ``setup.epsilon``.
+def export_params(setup, n_bounces=None, pair=None):
+    """The ODE settings (JSON-ready dict) that reproduce ``setup``'s drop.
 
     Parameters
     ----------
     setup : DropSetup
-    n_bounces : int
-        bounces the settings must survive: ``bounce_vel`` must stay below the impact speed
-        of the last one
+    n_bounces : int, optional
+        bounces the settings must survive (default ``setup.n_bounces``): ``bounce_vel`` must
+        stay below the impact speed of the last one
     pair : dict, optional
         ``{"name": ..., "epsilon": ..., "ball2": ..., "epsilon_ball2": ...}`` for ``--against``
 
     Returns
     -------
     dict
+        ``world``, ``contact``, ``ball``, ``target`` (what ``vrcal verify --file`` checks) and,
+        from a discover result, ``drag`` (the per-step force) and ``restitution_law``
+        (epsilon at each impact speed, set in the near callback)
     """
-    v_last = setup.impact_speed_m_per_s * setup.epsilon ** (n_bounces - 1)
+    n_bounces = setup.n_bounces if n_bounces is None else n_bounces
+    v_last = float(np.min(setup.impact_speeds_m_per_s[:n_bounces]))
     if BOUNCE_VEL_M_PER_S >= v_last:
         raise UsageError(f"bounce_vel {BOUNCE_VEL_M_PER_S} m/s is not below the last impact speed {v_last:.3g} m/s")
     out = {
@@ -61,6 +69,7 @@ def export_params(setup, n_bounces=3, pair=None):
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
                  "drop_height_m": setup.drop_height_m},
         "target_epsilon": setup.epsilon,
+        "target": metadata(setup),
         "world": {"dt": setup.dt_s, "erp": WORLD_ERP, "cfm": WORLD_CFM,
                   "gravity": [0.0, 0.0, -setup.g_m_per_s2], "step": "dWorldStep"},
         "contact": {
@@ -79,6 +88,12 @@ def export_params(setup, n_bounces=3, pair=None):
             "mu is free: friction does not change a vertical drop",
         ],
     }
+    out.update(effect_params(setup))
+    if "drag" in out:
+        out["notes"].append("ODE has no air drag: add the force of 'drag' to the ball before every dWorldStep")
+    if "restitution_law" in out:
+        out["notes"].append("epsilon depends on the impact speed: the near callback sets bounce from the "
+                            "ball's normal speed (formula of 'restitution_law', or interpolate its table)")
     if pair:
         out["pairs"] = {
             f"{setup.ball}/floor": setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon,
@@ -90,6 +105,36 @@ def export_params(setup, n_bounces=3, pair=None):
             "from 'pairs' (Eq. 6: the product of the two bodies' epsilons)"
         )
     return out
+
+
+def effect_params(setup):
+    """``drag`` and ``restitution_law`` entries of an ODE or Bullet export (empty without effects)."""
+    out = {}
+    if setup.drag_coefficient:
+        out["drag"] = {"drag_coefficient": setup.drag_coefficient,
+                       "force_coefficient_kg_per_m": drag_force_coefficient_kg_per_m(setup),
+                       "air_density_kg_per_m3": AIR_DENSITY_KG_PER_M3,
+                       "law": "F = -c |v| v, c = 1/2 rho C_d pi R^2, every step"}
+    if setup.restitution_exponent:
+        speeds, eps = restitution_table(setup)
+        out["restitution_law"] = {
+            "epsilon_ref": setup.epsilon, "reference_speed_m_per_s": setup.impact_speed_m_per_s,
+            "exponent": setup.restitution_exponent,
+            "law": "eps(v) = 1 - (1 - epsilon_ref) (v / reference_speed)^exponent",
+            "table": {"speed_m_per_s": [float(x) for x in speeds], "epsilon": [float(x) for x in eps]},
+        }
+    return out
+
+
+def restitution_at(params, speed_m_per_s):
+    """epsilon of an exported parameter set at an impact speed [m/s] (its law, or its constant)."""
+    law = params.get("restitution_law")
+    if not law:
+        return None
+    v = max(abs(float(speed_m_per_s)), 1e-9)
+    eps = 1.0 - (1.0 - float(law["epsilon_ref"])) * (v / float(law["reference_speed_m_per_s"])) ** float(
+        law["exponent"])
+    return min(max(eps, 0.0), 1.0)
 
 
 def version():
@@ -131,10 +176,19 @@ def run_drop(params, drop_height_m, duration_s):
         v = np.empty(n + 1)
         z[0], v[0] = drop_height_m, 0.0
 
+        c_drag = float(params["drag"]["force_coefficient_kg_per_m"]) if params.get("drag") else 0.0
+        law = params.get("restitution_law")
+
         def near(o1, o2):
+            if law:                      # the near callback of the snippet: bounce from the normal speed
+                surf.bounce = restitution_at(params, lib.dBodyGetLinearVel(body)[2])
             O.add_contacts(lib, world, group, o1, o2, surf, 1)
 
         for i in range(1, n + 1):
+            if c_drag:                   # dBodyAddForce(ball, -c |v| vx, -c |v| vy, -c |v| vz)
+                vel = lib.dBodyGetLinearVel(body)
+                speed = math.sqrt(vel[0] ** 2 + vel[1] ** 2 + vel[2] ** 2)
+                lib.dBodyAddForce(body, -c_drag * speed * vel[0], -c_drag * speed * vel[1], -c_drag * speed * vel[2])
             O.collide_pairs(lib, space, near)
             step(world, dt)
             lib.dJointGroupEmpty(group)
@@ -148,8 +202,8 @@ def run_drop(params, drop_height_m, duration_s):
 
 
 def drop_test(params, setup, n_bounces, n_phases):
-    """Run the exported settings in libode; apex and velocity ratios, shape (n_phases, n_bounces)."""
-    return stepped_drop_test(run_drop, params, setup, n_bounces, n_phases)
+    """Run the exported settings in libode and measure them against vrcal's model: a DropRuns."""
+    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases)
 
 
 C_SNIPPET = """\
@@ -162,7 +216,7 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
         c[i].surface.mode = dContactBounce;          /* no dContactSoftCFM: keep CFM tiny */
         c[i].surface.mu = 0.0;                       /* your friction; a vertical drop ignores it */
         c[i].surface.bounce = {bounce};            /* epsilon ({ball}) */
-        c[i].surface.bounce_vel = {bounce_vel};             /* m/s: slower impacts do not bounce */
+{law}        c[i].surface.bounce_vel = {bounce_vel};             /* m/s: slower impacts do not bounce */
         dJointAttach(dJointCreateContact(world, contact_group, &c[i]),
                      dGeomGetBody(o1), dGeomGetBody(o2));
     }}
@@ -170,12 +224,36 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
 /* world: */
 dWorldSetERP(world, {erp});
 dWorldSetCFM(world, {cfm});
-/* each step: dSpaceCollide(space, 0, near_callback); dWorldStep(world, {dt}); dJointGroupEmpty(contact_group); */
+/* each step: */
+{drag}dSpaceCollide(space, 0, near_callback);
+dWorldStep(world, {dt});
+dJointGroupEmpty(contact_group);
+"""
+
+LAW_C = """\
+        {{  /* epsilon at this impact speed: eps(v) = 1 - (1 - eps_1)(v / v_1)^p */
+            dBodyID b = dGeomGetBody(o1) ? dGeomGetBody(o1) : dGeomGetBody(o2);
+            const dReal *v = dBodyGetLinearVel(b);
+            dReal vn = fabs(v[0]*c[i].geom.normal[0] + v[1]*c[i].geom.normal[1] + v[2]*c[i].geom.normal[2]);
+            c[i].surface.bounce = 1 - (1 - {eps_ref})*pow(vn / {v_ref}, {p});
+        }}
+"""
+
+DRAG_C = """\
+{{  /* air drag: F = -c |v| v, c = 1/2 rho C_d pi R^2 = {c} kg/m */
+    const dReal *v = dBodyGetLinearVel(ball);
+    dReal s = sqrt(v[0]*v[0] + v[1]*v[1] + v[2]*v[2]);
+    dBodyAddForce(ball, -{c}*s*v[0], -{c}*s*v[1], -{c}*s*v[2]);
+}}
 """
 
 
 def c_snippet(params):
-    """The near callback and world settings in C for an exported parameter set."""
-    return C_SNIPPET.format(bounce=f"{params['contact']['bounce']:.6f}", ball=params["ball"]["name"],
+    """The near callback, the per-step drag force and the world settings in C for an exported parameter set."""
+    law, drag = params.get("restitution_law"), params.get("drag")
+    law_c = LAW_C.format(eps_ref=f"{law['epsilon_ref']:.6f}", v_ref=f"{law['reference_speed_m_per_s']:.6g}",
+                         p=f"{law['exponent']:.6g}") if law else ""
+    drag_c = DRAG_C.format(c=f"{drag['force_coefficient_kg_per_m']:.6g}") if drag else ""
+    return C_SNIPPET.format(bounce=f"{params['contact']['bounce']:.6f}", ball=params["ball"]["name"], law=law_c,
                             bounce_vel=params["contact"]["bounce_vel"], erp=params["world"]["erp"],
-                            cfm=params["world"]["cfm"], dt=params["world"]["dt"])
+                            cfm=params["world"]["cfm"], dt=params["world"]["dt"], drag=drag_c)

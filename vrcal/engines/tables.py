@@ -50,15 +50,23 @@ def table(setup, pair=None):
 
 
 def format_table(setup, pair=None):
-    """A plain-text table (fixed-width columns) of :func:`table`."""
+    """A short aligned table of :func:`table` for people (<= 100 columns); the how-to lines below it."""
+    import textwrap
+
+    from vrcal.textout import table as text_table
+
     rows = table(setup, pair)
-    lines = [
-        f"# vrcal export: {setup.ball}, target epsilon {setup.epsilon:.6f} on a rigid floor",
-        "# Eq. 6 of the paper: a pair's epsilon is the product of the bodies' epsilons (same K),",
-        "# so Multiply is the combine mode that carries the calibration; no runtime was run for these.",
-        f"{'engine':<7} {'body':<24} {'restitution':>11}  {'combine':<15} {'threshold':>9}  how",
-    ]
+    head = (f"{setup.ball}: target epsilon {setup.epsilon:.4f} on a rigid floor; Eq. 6: a pair's epsilon is the "
+            "product\nof the bodies' (same K), so Multiply carries the calibration. No runtime was run.\n")
+    cells = [[r["engine"], r["body"], f"{r['restitution']:.4f}", r["combine"], f"{r['threshold_m_per_s']:g}"]
+             for r in rows]
+    body = text_table(cells, ["engine", "body", "restitution", "combine", "threshold m/s"])
+    if setup.drag_coefficient or setup.restitution_exponent:
+        head += ("these engines get no air drag and one restitution per material: add the drag force yourself, or\n"
+                 "use the discover baseline's effective epsilon (vrcal export --epsilon EPS_BASELINE)\n")
+    how = ["how:"]
     for r in rows:
-        lines.append(f"{r['engine']:<7} {r['body']:<24} {r['restitution']:>11.6f}  {r['combine']:<15} "
-                     f"{r['threshold_m_per_s']:>7.2g}  {r['how']}")
-    return "\n".join(lines) + "\n"
+        if r["body"] == setup.ball or r["combine"] == "custom":
+            label = f"  {r['engine']:<6} " + ("pair  " if r["combine"] == "custom" else "")
+            how += textwrap.wrap(r["how"], 100, initial_indent=label, subsequent_indent=" " * 9)
+    return head + body + "\n".join(how) + "\n"

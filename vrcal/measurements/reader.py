@@ -8,18 +8,23 @@ import re
 from typing import Callable, NamedTuple
 
 from vrcal.errors import UsageError
-from vrcal.measurements import apexes, impacts, pixels_ref, tracker, trajectory
+from vrcal.measurements import apexes, impacts, pixels_ref, sound, tracker, trajectory, video
 from vrcal.measurements.table import fail, is_numeric_row, load_text
 
 # --------------------------------------------------------------------------- registry and entry point
 
 
 class Format(NamedTuple):
-    """One file layout: ``detector(text) -> bool``, ``parser(text, **options) -> result``."""
+    """One file layout: ``detector(text) -> bool``, ``parser(text, **options) -> result``.
+
+    A *recording* (``recording=True``: sound, video) is binary: ``detector(head, path)`` gets
+    the file's first 64 bytes and its path, ``parser(path, **options)`` the path and every option.
+    """
 
     detector: Callable
     parser: Callable
     description: str
+    recording: bool = False
 
 
 #: Known layouts, in auto-detection order (the first detector that accepts a file wins).
@@ -35,6 +40,11 @@ FORMATS = {
                          "trajectory: header 't,y' (s, m; x optional; units like 'y (cm)', 'y (px)' + --scale)"),
     "impacts": Format(impacts.detect, impacts.parse,
                       "impact times: a time column ('t', 'time', \"Event time (s)\"), e.g. a phyphox export"),
+    "sound": Format(sound.detect, sound.parse,
+                    "a sound recording (WAV; m4a, mp3, ogg, flac with vrcal[audio]): the impact times", recording=True),
+    "video": Format(video.detect, video.parse,
+                    "a video (mp4, mov, avi, mkv; needs vrcal[video]): the ball's trajectory, scale from its "
+                    "diameter", recording=True),
 }
 
 
@@ -45,13 +55,29 @@ def format_help():
 
 def detect_format(path):
     """Name of the first format in :data:`FORMATS` whose detector accepts the file."""
+    name = _detect_recording(path)
+    if name is not None:
+        return name
     text = load_text(path)
     return _detect(text)
 
 
+def _detect_recording(path):
+    """The recording format (sound, video) a file's first bytes or its name show, or None."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(64)
+    except OSError:
+        return None  # load_text reports it
+    for name, fmt in FORMATS.items():
+        if fmt.recording and fmt.detector(head, str(path)):
+            return name
+    return None
+
+
 def _detect(text):
     for name, fmt in FORMATS.items():
-        if fmt.detector(text):
+        if not fmt.recording and fmt.detector(text):
             return name
     no, line = text.lines[0]
     cells = [c for c in re.split(r"[,;\t]", line) if c.strip()]
@@ -62,7 +88,7 @@ def _detect(text):
           f"(known formats: {', '.join(FORMATS)}; see --format)")
 
 
-def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz=None):
+def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz=None, **recording):
     """Read a measurement file into a Trajectory, ImpactTimes or ApexHeights.
 
     Parameters
@@ -77,7 +103,13 @@ def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz
     y_down : bool
         the file's y axis points down (image rows): height = -y * scale
     fs_hz : float or None
-        sampling (frame) rate for files without a time column [Hz]
+        sampling (frame) rate for files without a time column [Hz]; for a video, the frame
+        rate overriding the container's time stamps (a slow-motion video)
+    **recording :
+        options of the recording readers, ignored by the text layouts: ``diameter_m``
+        (video: the ball's diameter [m], which gives the scale), ``roi``, ``color``
+        (:func:`vrcal.measurements.video.track_video`), ``progress`` (a callable
+        ``progress(fraction, message)``)
 
     Returns
     -------
@@ -94,6 +126,9 @@ def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz
     """
     if fmt is not None and fmt not in FORMATS:
         raise UsageError(f"unknown measurement format '{fmt}' (known: {', '.join(FORMATS)})")
+    name = fmt or _detect_recording(path)
+    if name is not None and FORMATS[name].recording:
+        return FORMATS[name].parser(str(path), scale_m_per_px=scale_m_per_px, fs_hz=fs_hz, **recording)
     text = load_text(path)
-    name = fmt or _detect(text)
+    name = name or _detect(text)
     return FORMATS[name].parser(text, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)

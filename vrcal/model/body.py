@@ -80,3 +80,238 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
         except UsageError as exc:
             raise UsageError(f"{exc}; for another ball give --mass and --diameter") from None
     return BallProperties(float(mass_kg), float(diameter_m), str(name)), None
+
+
+# --------------------------------------------------------------------------- the one body description
+
+
+#: ``schema_version`` values of a ``vrcal discover --json`` file that this version reads (None: the
+#: files written before discover added the key).
+DISCOVER_SCHEMA_VERSIONS = (None, 1)
+
+#: Largest discover JSON file read [bytes] (a result is a few kB; more is not a discover result).
+DISCOVER_JSON_MAX_BYTES = 16 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class Body:
+    """What every command knows of the body it works on: a ball of the standards, a user's own
+    ball (``--mass``/``--diameter``) or the ball of a ``vrcal discover --json`` result.
+
+    Attributes
+    ----------
+    properties : BallProperties
+        mass [kg], diameter [m] and name, what the simulator and the fitter need
+    standard : vrcal.model.standards.Ball or None
+        the standard's entry when the body is (or is based on) a ball of the standards: its
+        drop height and rebound window give the default target of a drop test
+    source : str
+        where the description came from, for reports: ``"standard"``, ``"options"`` or the
+        discover JSON's path
+    discovered : dict or None
+        the validated discover result when the body came from one (see :func:`read_discover_json`)
+    """
+
+    properties: BallProperties
+    standard: object = None
+    source: str = "options"
+    discovered: dict = None
+
+    @property
+    def name(self):
+        return self.properties.name
+
+    @property
+    def mass_kg(self):
+        return float(self.properties.mass_kg)
+
+    @property
+    def diameter_m(self):
+        return float(self.properties.diameter_m)
+
+    @property
+    def radius_m(self):
+        return 0.5 * float(self.properties.diameter_m)
+
+
+def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, standards=None):
+    """The one body description of every command: a standard ball, a user's own, or a discover JSON's.
+
+    Parameters
+    ----------
+    ball : str or None
+        a ball of the standards (``BALL``); any name when ``mass_kg`` and ``diameter_m`` are
+        both given; None for a body given by ``mass_kg`` and ``diameter_m`` alone (named
+        "ball") or by ``from_json``
+    mass_kg, diameter_m : float or None
+        the user's ``--mass`` [kg] and ``--diameter`` [m]; override a standard's nominal values
+        and the discover JSON's ball
+    from_json : str or Path or None
+        a file written by ``vrcal discover DATA --ball B --json FILE`` (``--from FILE``): its
+        ball is the body (``ball`` must then be None or the same name)
+    standards : dict or None
+        :func:`vrcal.model.standards.load_standards` output (the shipped file when None)
+
+    Returns
+    -------
+    Body
+
+    Raises
+    ------
+    UsageError
+        no body given (no BALL, no ``--from``, and not both ``--mass`` and ``--diameter``),
+        a mass or diameter that is not a number > 0, an unknown ball without mass and diameter
+    DataError
+        a ``from_json`` file that is not a discover result (see :func:`read_discover_json`)
+
+    Examples
+    --------
+    >>> describe_body("tennis").properties.name
+    'tennis'
+    >>> describe_body(mass_kg=0.0459, diameter_m=0.0427).name
+    'ball'
+    """
+    if from_json is not None:
+        doc = read_discover_json(from_json)
+        found = doc["ball"]
+        if ball is not None and str(ball).strip().lower() != str(found["name"]).strip().lower():
+            raise UsageError(f"BALL '{ball}' differs from the ball of {from_json} ('{found['name']}'): "
+                             "give one of them")
+        _check_size("--mass", mass_kg)
+        _check_size("--diameter", diameter_m)
+        props = BallProperties(float(found["mass_kg"]) if mass_kg is None else float(mass_kg),
+                               float(found["diameter_m"]) if diameter_m is None else float(diameter_m),
+                               str(found["name"]))
+        standards = load_standards() if standards is None else standards
+        std = standards.get(_norm(found["name"]))
+        return Body(props, std, str(from_json), doc)
+    if ball is None:
+        _check_size("--mass", mass_kg)
+        _check_size("--diameter", diameter_m)
+        if mass_kg is None or diameter_m is None:
+            raise UsageError("no body: give BALL (a ball of the standards), or --mass and --diameter, "
+                             "or --from a discover JSON")
+        return Body(BallProperties(float(mass_kg), float(diameter_m), "ball"), None, "options")
+    props, std = ball_from_options(ball, standards, mass_kg, diameter_m)
+    source = "standard" if std is not None and mass_kg is None and diameter_m is None else "options"
+    return Body(props, std, source)
+
+
+def read_discover_json(path):
+    """Read and check a ``vrcal discover --json`` result: the body, g, the effects and the release state.
+
+    Parameters
+    ----------
+    path : str or Path
+        the JSON file
+
+    Returns
+    -------
+    dict
+        the document, with at least ``ball`` {name, mass_kg, diameter_m}, ``g_m_per_s2``,
+        ``effects`` (list of effect names), ``parameters`` {effect: {param: value}},
+        ``epsilon`` and ``model`` {drop_height_m, release_time_s, epsilon}, all checked
+
+    Raises
+    ------
+    DataError
+        one line naming what is wrong: not a file, not JSON, not an object, a missing or
+        non-numeric key, an unknown ``schema_version``
+    """
+    import json
+
+    from vrcal.errors import DataError
+
+    where = f"{path}"
+    raw = read_limited(path, DISCOVER_JSON_MAX_BYTES, "a discover result")
+    try:
+        doc = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise DataError(f"{where}: not a discover JSON (binary, or not UTF-8 text)") from None
+    except (json.JSONDecodeError, RecursionError) as exc:
+        detail = f"line {exc.lineno}: {exc.msg}" if isinstance(exc, json.JSONDecodeError) else "nested too deeply"
+        raise DataError(f"{where}: not a discover JSON: {detail}") from None
+    if not isinstance(doc, dict):
+        raise DataError(f"{where}: not a discover JSON: the top level is a {type(doc).__name__}, not an object "
+                        "(write one with 'vrcal discover DATA --ball B --json FILE')")
+    version = doc.get("schema_version")
+    if version not in DISCOVER_SCHEMA_VERSIONS:
+        known = ", ".join(str(v) for v in DISCOVER_SCHEMA_VERSIONS if v is not None)
+        raise DataError(f"{where}: discover schema_version {str(version)[:20]!r} is not one this vrcal reads "
+                        f"(known: {known})")
+    missing = [k for k in ("ball", "effects", "parameters", "epsilon", "model", "g_m_per_s2") if k not in doc]
+    if missing:
+        raise DataError(f"{where}: not a discover JSON: missing {', '.join(missing)} "
+                        "(write one with 'vrcal discover DATA --ball B --json FILE')")
+    ball = _obj(doc, "ball", where)
+    _num(ball, "mass_kg", f"{where}: ball.mass_kg", lo=0.0)
+    _num(ball, "diameter_m", f"{where}: ball.diameter_m", lo=0.0)
+    if not isinstance(ball.get("name", "ball"), str):
+        raise DataError(f"{where}: ball.name must be a text")
+    ball.setdefault("name", "ball")
+    _num(doc, "g_m_per_s2", f"{where}: g_m_per_s2", lo=0.0)
+    _num(doc, "epsilon", f"{where}: epsilon", lo=0.0, hi=1.0)
+    model = _obj(doc, "model", where)
+    _num(model, "drop_height_m", f"{where}: model.drop_height_m", lo=0.0)
+    _num(model, "release_time_s", f"{where}: model.release_time_s", lo=-math.inf)
+    effects = doc["effects"]
+    if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
+        raise DataError(f"{where}: effects must be a list of effect names")
+    params = _obj(doc, "parameters", where)
+    for name, values in params.items():
+        if not isinstance(values, dict):
+            raise DataError(f"{where}: parameters.{name} must be an object of numbers")
+        for key in values:
+            _num(values, key, f"{where}: parameters.{name}.{key}", lo=-math.inf)
+    return doc
+
+
+def read_limited(path, max_bytes, what):
+    """The bytes of a regular file of at most ``max_bytes``; DataError (one line) otherwise.
+
+    ``what`` names the expected content in the message ("a discover result").
+    """
+    from pathlib import Path
+
+    from vrcal.errors import DataError
+
+    p = Path(path)
+    try:
+        if not p.is_file():
+            raise DataError(f"{path}: not a file")
+        size = p.stat().st_size
+        if size > max_bytes:
+            raise DataError(f"{path}: {size} bytes is too large for {what} (limit {max_bytes} bytes)")
+        return p.read_bytes()
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+
+def _norm(name):
+    return str(name).strip().lower().replace("-", "_").replace(" ", "_")
+
+
+def _check_size(label, value):
+    if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise UsageError(f"{label} must be a number > 0, got {value}")
+
+
+def _obj(doc, key, where):
+    from vrcal.errors import DataError
+
+    value = doc.get(key)
+    if not isinstance(value, dict):
+        raise DataError(f"{where}: {key} must be an object, got {type(value).__name__}")
+    return value
+
+
+def _num(doc, key, what, lo=0.0, hi=math.inf):
+    """Check that ``doc[key]`` is a finite number in (lo, hi] (lo = -inf: any finite number)."""
+    from vrcal.errors import DataError
+
+    value = doc.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise DataError(f"{what} must be a finite number, got {str(value)[:40]!r}")
+    if not (value > lo or lo == -math.inf) or value > hi:
+        raise DataError(f"{what} = {value:g} is out of range")
+    return float(value)

@@ -7,11 +7,9 @@ given with ``--standards FILE`` follows the same schema.
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 from vrcal.errors import DataError, UsageError
@@ -94,6 +92,13 @@ class EpsilonWindow:
 
 
 def _default_path():
+    """The shipped ``vrcal/standards.yaml`` (beside the package's modules; importlib.resources only
+    when the package is not a plain directory, e.g. zipped -- it costs start-up time)."""
+    path = Path(__file__).resolve().parents[1] / "standards.yaml"
+    if path.is_file():
+        return path
+    from importlib import resources
+
     return resources.files("vrcal").joinpath("standards.yaml")
 
 
@@ -124,7 +129,7 @@ def load_standards(path=None):
 @lru_cache(maxsize=1)
 def _load_default():
     src = _default_path()
-    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml"),
+    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml", trusted=True),
                               "vrcal/standards.yaml")
 
 
@@ -300,6 +305,8 @@ def get_ball(key, standards=None):
     norm = str(key).strip().lower().replace("-", "_").replace(" ", "_")
     if norm in standards:
         return standards[norm]
+    import difflib
+
     close = difflib.get_close_matches(norm, list(standards), n=1, cutoff=0.5)
     hint = f"; did you mean '{close[0]}'?" if close else ""
     raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")

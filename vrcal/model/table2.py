@@ -37,8 +37,10 @@ from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
 from vrcal.model.standards import ball_epsilon
 from vrcal.textout import csv_text as _csv_text
+from vrcal.textout import machine_document, table, wrap
 
-FORMATS = ("markdown", "csv", "json")
+#: text: aligned table for people (<= 100 columns); markdown: the docs' page; csv, json, yaml: machines.
+FORMATS = ("text", "markdown", "csv", "json", "yaml")
 
 #: The two readings of Eq. (10) applied to the paper's Table 2: name -> (formula, T(x, v)).
 READINGS = {
@@ -341,6 +343,44 @@ def _table_markdown(table, as_paper):
     return "\n".join(lines)
 
 
+def _table_text(table_):
+    """Table 2 for people: an aligned table within 100 columns, then the rule in a few lines."""
+    K = table_["K_per_s"]
+    rows = []
+    for r in table_["rows"]:
+        e, v = r["epsilon"], r["v_m_per_s"]
+        rows.append([r["ball"], f"{e['min']:.3f}", f"{e['nominal']:.3f}", f"{e['max']:.3f}",
+                     _paper1_text(r["epsilon_paper_table1"]), _f(r["epsilon_paper_table2"], ".2f"),
+                     _f(r["T_nominal_s"] * 1e3, ".2f"), _f(r["x_m"] * 1e3, ".2f"), _f(v["nominal"], ".4f"),
+                     f"{_f(v['min'], '.4f')}..{_f(v['max'], '.4f')}"])
+    head = ["ball", "ε min", "ε nom", "ε max", "[1] Tab. 1", "[1] Tab. 2", "T [ms]", "x [mm]", "v [m/s]",
+            "v min..max"]
+    text = f"Table 2 of [1], regenerated (K = {K:g} 1/s)\n\n"
+    text += table(rows, head, align="lrrrrrrrrr")
+    text += "\n" + wrap(f"ε: Eq. (9), ε = √(h/H), {table_['convention']}; [1] Tab. 1: the same with the paper's "
+                         "Table 1 heights as printed; [1] Tab. 2: the paper's Table 2 column.")
+    text += wrap("T = −ln(ε)/K (Eq. 7). Virtual body: x = R/2 (the nominal radius halved), v = x/(2T) "
+                 "(Eq. 10) for ε nominal; v min..max: the v for ε min..max at the same x. The paper's "
+                 "own Table 2 follows T = v/(2x) instead: vrcal table2 --compare-paper.")
+    return text
+
+
+def _compare_text(cmp):
+    """The paper's Table 2 under the two readings of Eq. (10), for people (within 100 columns)."""
+    p, s = cmp["readings"]["printed"], cmp["readings"]["swapped"]
+    rows = [[r["ball"], f"{r['epsilon']:g}", f"{r['x']:g}", f"{r['v']:g}", f"{r['T_printed']:#.4g}",
+             f"{r['K_printed']:#.4g}", f"{r['T_swapped']:#.4g}", f"{r['K_swapped']:#.4g}"] for r in cmp["rows"]]
+    text = "The paper's Table 2 under the two readings of Eq. (10)\n\n"
+    text += table(rows, ["ball", "ε", "x", "v", f"printed {p['formula']}", "K", f"swapped {s['formula']}", "K"],
+                  align="lrrrrrrr")
+    rows = [[name, rd["formula"], f"{rd['K_row_min']:#.4g}..{rd['K_row_max']:#.4g}", f"{rd['K_least_squares']:#.4g}",
+             f"{rd['max_abs_epsilon_error']:.4f}"] for name, rd in cmp["readings"].items()]
+    text += "\n" + table(rows, ["reading", "formula", "K of the rows", "least-squares K", "largest |ε error|"],
+                          align="llrrr")
+    text += "\n" + wrap(cmp["finding"]) + "\n" + wrap(f"Units: {cmp['units']}.")
+    return text
+
+
 _TABLE_CSV_HEADER = [
     "ball", "epsilon_min", "epsilon_nominal", "epsilon_max", "epsilon_paper_table1_min",
     "epsilon_paper_table1_max", "epsilon_paper_table2", "K_per_s", "T_nominal_s", "x_m",
@@ -398,7 +438,7 @@ def _compare_csv(cmp):
     return _csv_text(header, out)
 
 
-def table2_text(standards, K_per_s=DEFAULT_K_PER_S, fmt="markdown", compare=False, as_paper=False):
+def table2_text(standards, K_per_s=DEFAULT_K_PER_S, fmt="text", compare=False, as_paper=False):
     """Table 2 as text: regenerated (default) or the paper's rows compared (``compare``).
 
     Parameters
@@ -407,7 +447,7 @@ def table2_text(standards, K_per_s=DEFAULT_K_PER_S, fmt="markdown", compare=Fals
         the result of :func:`vrcal.model.standards.load_standards`
     K_per_s : float
         rate constant K of Eq. (7) [1/s], > 0 (not used by ``compare``)
-    fmt : {"markdown", "csv", "json"}
+    fmt : {"text", "markdown", "csv", "json", "yaml"}
     compare : bool
         report the paper's Table 2 under both readings of Eq. (10) (:func:`compare_paper`)
     as_paper : bool
@@ -416,17 +456,15 @@ def table2_text(standards, K_per_s=DEFAULT_K_PER_S, fmt="markdown", compare=Fals
     Returns
     -------
     str
-        deterministic text ending in a newline; numbers at fixed precision (markdown) or
-        rounded to 6 significant digits (csv, json).
+        deterministic text ending in a newline; numbers at fixed precision (text, markdown) or
+        rounded to 6 significant digits (csv, json, yaml; json and yaml carry ``schema_version``).
     """
     if fmt not in FORMATS:
         raise UsageError(f"unknown format '{fmt}' (known: {', '.join(FORMATS)})")
-    if compare:
-        cmp = compare_paper(standards)
-        if fmt == "json":
-            return dumps(_rounded(cmp), "json")
-        return _compare_csv(cmp) if fmt == "csv" else _compare_markdown(cmp)
-    table = regenerate(standards, K_per_s, as_paper=as_paper)
-    if fmt == "json":
-        return dumps(_rounded(table), "json")
-    return _table_csv(table) if fmt == "csv" else _table_markdown(table, as_paper)
+    data = compare_paper(standards) if compare else regenerate(standards, K_per_s, as_paper=as_paper)
+    if fmt in ("json", "yaml"):
+        return dumps(machine_document(_rounded(data)), fmt)
+    writers = {True: {"text": _compare_text, "csv": _compare_csv, "markdown": _compare_markdown},
+               False: {"text": _table_text, "csv": _table_csv,
+                       "markdown": lambda t: _table_markdown(t, as_paper)}}
+    return writers[bool(compare)][fmt](data)

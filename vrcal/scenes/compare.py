@@ -101,43 +101,46 @@ def compare_results(a, b):
 
 
 def comparison_text(cmp, max_rows=5):
-    """The comparison as a sectioned text report (first ``max_rows`` rows per pair and body)."""
+    """The comparison for people (at most 100 columns): the largest differences first, then the
+    first ``max_rows`` impacts of each pair and apexes of each body, then why the runs differ."""
+    from vrcal.textout import number, table, wrap
+
     ea, eb = cmp.engines
-    lines = [f"[[Comparison]] {ea} vs {eb}" + (f" (ODE step {cmp.dt_s:g} s)" if np.isfinite(cmp.dt_s) else "")]
+    step = f" (ODE step {cmp.dt_s:g} s)" if np.isfinite(cmp.dt_s) else ""
+    text = wrap(f"{ea} against {eb}{step}:")
     if cmp.impacts:
-        lines.append(f"    matched impacts: {len(cmp.impacts)}, largest |dt| = "
-                     f"{cmp.max_impact_time_difference_s:.6g} s"
-                     + (f" = {cmp.max_impact_time_difference_s / cmp.dt_s:.3g} steps" if np.isfinite(cmp.dt_s)
-                        else ""))
+        dt = cmp.max_impact_time_difference_s
+        steps = f" = {number(dt / cmp.dt_s, 3)} steps" if np.isfinite(cmp.dt_s) else ""
+        text += wrap(f"{len(cmp.impacts)} matched impacts, largest |Δt| = {number(dt * 1e3, 3)} ms{steps}",
+                     first="  ")
     else:
-        lines.append("    matched impacts: none")
+        text += "  no matched impacts\n"
     if cmp.apexes:
         rel = cmp.max_apex_relative_difference
-        lines.append(f"    matched apexes:  {len(cmp.apexes)}, largest |dh| = {cmp.max_apex_difference_m:.6g} m"
-                     + (f" (at most {100 * rel:.3g} % of apexes above {100 * MIN_APEX_FOR_RELATIVE_M:g} cm)"
-                        if np.isfinite(rel) else ""))
+        share = (f" (at most {number(100 * rel, 3)} % of the apexes above {100 * MIN_APEX_FOR_RELATIVE_M:g} cm)"
+                 if np.isfinite(rel) else "")
+        text += wrap(f"{len(cmp.apexes)} matched apexes, largest |Δh| = {number(cmp.max_apex_difference_m * 1e3, 3)} "
+                     f"mm{share}", first="  ")
     else:
-        lines.append("    matched apexes:  none")
+        text += "  no matched apexes\n"
     if cmp.solver_messages:
-        lines.append(f"    WARNING: ODE's solver reported {cmp.solver_messages} messages (see the notes above): "
-                     f"its run is unreliable there")
-    lines.append(f"[[Impacts]]  {'pair':<28} {'k':>3} {'t ' + ea + ' [s]':>14} {'t ' + eb + ' [s]':>14} "
-                 f"{'dt [s]':>10}")
-    shown = {}
+        text += wrap(f"WARNING: ODE's solver reported {cmp.solver_messages} messages (see the notes above): "
+                     "its run is unreliable there", first="  ")
+    shown, rows = {}, []
     for key, k, ta, tb, _sa, _sb in cmp.impacts:
         shown[key] = shown.get(key, 0) + 1
         if shown[key] <= max_rows:
-            lines.append(f"            {key:<28} {k:3d} {ta:14.6f} {tb:14.6f} {tb - ta:10.2e}")
-    lines.append(f"[[Apexes]]   {'body':<28} {'k':>3} {'h ' + ea + ' [m]':>14} {'h ' + eb + ' [m]':>14} "
-                 f"{'dh [m]':>10}")
-    shown = {}
+            rows.append([key, str(k), f"{ta:.6f}", f"{tb:.6f}", f"{(tb - ta) * 1e3:+.3f}"])
+    if rows:
+        text += "\n" + table(rows, ["impact", "k", f"t {ea} [s]", f"t {eb} [s]", "Δt [ms]"], align="lrrrr")
+    shown, rows = {}, []
     for name, k, _ta, ha, _tb, hb in cmp.apexes:
         shown[name] = shown.get(name, 0) + 1
         if shown[name] <= max_rows:
-            lines.append(f"            {name:<28} {k:3d} {ha:14.6f} {hb:14.6f} {hb - ha:10.2e}")
-    for text in cmp.unmatched:
-        lines.append(f"[[Unmatched]] {text}")
-    lines.append("[[Why they differ]]")
-    for text in EXPLANATIONS:
-        lines.append(f"    - {text}")
-    return "\n".join(lines) + "\n"
+            rows.append([name, str(k), f"{ha:.6f}", f"{hb:.6f}", f"{(hb - ha) * 1e3:+.3f}"])
+    if rows:
+        text += "\n" + table(rows, ["apex of", "k", f"h {ea} [m]", f"h {eb} [m]", "Δh [mm]"], align="lrrrr")
+    for line in cmp.unmatched:
+        text += wrap(f"unmatched: {line}")
+    text += "\nwhy they differ:\n" + "".join(wrap(e, first="  - ") for e in EXPLANATIONS)
+    return text

@@ -3,17 +3,24 @@ of [1]), the side-view animation (Figure 9), and the printed summary.
 
 Nothing here writes files: text and bytes are returned and the command line writes them
 atomically. :func:`run_scene` runs a scene file with the chosen engine(s) and returns all
-outputs by file name.
+outputs by file name; every name starts with the scene file's name (``NAME.png``,
+``NAME.gif``, ``NAME-trajectories.csv``, ``NAME-contacts.csv``; with ``--compare`` the CSV
+names end in ``-vrcal`` / ``-ode``).
+
+The plot shows the height of each ball's bottom against time (Figure 8); a scene in which no
+ball leaves the floor (a row of balls rolling, like ``examples/cradle.yaml``) shows the
+horizontal position instead. With a second run (``--compare``) a lower panel shows the
+difference between the two runs.
 
 Layouts
 -------
-``trajectories.csv`` (long format: one row per sample time and body, bodies in scene order)::
+``NAME-trajectories.csv`` (long format: one row per sample time and body, bodies in scene order)::
 
     t_s,body,x_m,y_m,z_m,bottom_m,vx_m_per_s,vy_m_per_s,vz_m_per_s,wx_rad_per_s,wy_rad_per_s,wz_rad_per_s
 
 (x, y, z) is the sphere's centre, ``bottom_m = z - R`` the height of its bottom.
 
-``contacts.csv``::
+``NAME-contacts.csv``::
 
     t_s,body_a,body_b,impact_speed_m_per_s,epsilon,normal_impulse_N_s,tangential_impulse_N_s,note
 
@@ -24,10 +31,14 @@ from __future__ import annotations
 
 import io
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from vrcal.textout import csv_text
+from vrcal.textout import csv_text, number, table, wrap
+
+#: A ball whose bottom never rises above this [m] stays on the floor: the plot shows x instead.
+ON_FLOOR_M = 1e-3
 
 TRAJECTORY_COLUMNS = ("t_s", "body", "x_m", "y_m", "z_m", "bottom_m", "vx_m_per_s", "vy_m_per_s", "vz_m_per_s",
                       "wx_rad_per_s", "wy_rad_per_s", "wz_rad_per_s")
@@ -58,8 +69,15 @@ def contacts_csv(result):
     return csv_text(CONTACT_COLUMNS, rows)
 
 
+def leaves_floor(result):
+    """True when some ball's bottom rises more than :data:`ON_FLOOR_M` above the floor."""
+    return bool(np.max(result.bottom_height_m()) > ON_FLOOR_M)
+
+
 def plot_heights(result, ax=None, other=None):
     """Height of every body's bottom against time, the paper's Figure 8.
+
+    A scene in which no ball leaves the floor shows each ball's horizontal position x instead.
 
     Parameters
     ----------
@@ -72,26 +90,68 @@ def plot_heights(result, ax=None, other=None):
     Returns
     -------
     matplotlib Axes
+        one line per body (and per body of ``other``); the legend names the bodies (colours)
+        and the line styles (engines): at most n + 2 entries
     """
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     if ax is None:
         _fig, ax = plt.subplots(figsize=(7, 4))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    vertical = leaves_floor(result) or (other is not None and leaves_floor(other))
+    curve = _bottom_with_floor_contacts if vertical else _horizontal_position
+    handles = []
     for b, name in enumerate(result.scene.names):
         c = colours[b % len(colours)]
-        ax.plot(*_bottom_with_floor_contacts(result, b), color=c, lw=1.4, label=f"{name} ({result.engine})")
+        ax.plot(*curve(result, b), color=c, lw=1.4)
         if other is not None:
-            ax.plot(*_bottom_with_floor_contacts(other, b), color=c, lw=1.0, ls="--",
-                    label=f"{name} ({other.engine})")
+            ax.plot(*curve(other, b), color=c, lw=1.0, ls="--")
+        handles.append(Line2D([], [], color=c, lw=1.4, label=name))
+    if other is not None:
+        handles += [Line2D([], [], color="0.3", lw=1.4, label=result.engine),
+                    Line2D([], [], color="0.3", lw=1.0, ls="--", label=other.engine)]
     ax.set_xlabel("time t [s]")
-    ax.set_ylabel("height of the ball's bottom [m]")
-    ax.set_title(f"{result.scene.name}: bounces (K = {result.scene.K_per_s:g} 1/s)")
-    ax.set_ylim(bottom=0)
+    if vertical:
+        ax.set_ylabel("height of the ball's bottom [m]")
+        ax.set_ylim(bottom=0)
+        what = "bounces"
+    else:
+        ax.set_ylabel("horizontal position x of the centre [m]")
+        what = "no ball leaves the floor: horizontal positions"
+    ax.set_title(f"{result.scene.name}: {what} (K = {result.scene.K_per_s:g} 1/s)", fontsize=10)
     ax.grid(alpha=0.3)
     if len(result.scene.names) <= 12:  # a longer legend would cover the plot
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(handles=handles, fontsize=7, loc="upper right" if vertical else "best")
     return ax
+
+
+def plot_difference(result, other, ax=None):
+    """The difference ``other - result`` of the plotted quantity (bottom height, or x) per body [mm].
+
+    ``other`` is interpolated to ``result``'s sample times. Returns the Axes (one line per body).
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _fig, ax = plt.subplots(figsize=(7, 2))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    vertical = leaves_floor(result) or leaves_floor(other)
+    a = result.bottom_height_m() if vertical else result.position_m[:, :, 0]
+    b = other.bottom_height_m() if vertical else other.position_m[:, :, 0]
+    for k in range(a.shape[1]):
+        diff = np.interp(result.t_s, other.t_s, b[:, k]) - a[:, k]
+        ax.plot(result.t_s, diff * 1e3, color=colours[k % len(colours)], lw=1.0)
+    ax.axhline(0.0, color="0.3", lw=0.8)
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel(f"{'height' if vertical else 'x'}: {other.engine} − {result.engine} [mm]", fontsize=8)
+    ax.grid(alpha=0.3)
+    return ax
+
+
+def _horizontal_position(result, b):
+    """Times [s] and horizontal positions x [m] of body ``b``'s centre."""
+    return result.t_s, result.position_m[:, b, 0]
 
 
 def _bottom_with_floor_contacts(result, b):
@@ -145,7 +205,9 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=80):
     x_hi = float(np.max(pos[:, :, 0] + radii)) + 0.1
     z_hi = float(np.max(pos[:, :, 2] + radii)) * 1.08
     width = max(3.0, min(8.0, 3.6 * (x_hi - x_lo) / z_hi + 1.0))
-    fig, ax = plt.subplots(figsize=(width + 1.6, 4.0), dpi=dpi)
+    # a flat scene (balls rolling on the floor) gets a flat figure, not a wide white margin
+    height = min(4.0, max(1.8, width * 1.03 * z_hi / (x_hi - x_lo) + 1.1))
+    fig, ax = plt.subplots(figsize=(width + 1.6, height), dpi=dpi)
     ax.set_xlim(x_lo, x_hi)
     ax.set_ylim(-0.03 * z_hi, z_hi)
     ax.set_aspect("equal")
@@ -155,7 +217,7 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=80):
     ax.set_title(f"{result.scene.name} ({result.engine})", fontsize=9)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     ax.legend(handles=[Patch(fc=colours[b % len(colours)], ec="k", label=body.name)
-                       for b, body in enumerate(result.scene.bodies)],
+                       for b, body in enumerate(result.scene.bodies[:12])],  # more would not fit
               loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7, frameon=False)
     fig.tight_layout()
     circles, marks = [], []
@@ -192,52 +254,85 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=80):
     return buf.getvalue()
 
 
-def summary_text(result):
-    """A sectioned text summary of one run: scene, pairs' epsilon, contacts, apexes."""
+def summary_text(result, contacts_file="contacts.csv", max_contacts=10):
+    """A short summary of one run for people (at most 100 columns): the scene, its bodies, every
+    pair's epsilon, the first contacts, and each body's apexes or, for a ball that stays on the
+    floor, where it ends and how fast.
+
+    ``contacts_file`` names the file that lists every contact.
+    """
     s = result.scene
-    lines = [f"[[Scene]] {s.name} ({result.engine})"]
-    if s.description:
-        lines.append(f"    {s.description}")
-    lines += [
-        f"    K = {s.K_per_s:g} 1/s, duration {s.duration_s:g} s, g = {s.g_m_per_s2:g} m/s^2, "
-        f"friction mu = {s.friction_mu:g}, rest below {s.rest_speed_m_per_s:g} m/s",
-        f"    floor: x = {s.floor_x_m:g} m, v = {s.floor_v_m_per_s:g} m/s",
-        "[[Bodies]]  epsilon on the floor = exp(-K (x/(2v) + T_floor))  (Eqs. 6, 7)",
-    ]
     eps = s.epsilon_matrix()
-    for b, body in enumerate(s.bodies):
-        kind = f"ball {body.ball}" if body.ball else "explicit"
-        lines.append(f"    {body.name:<14} {kind:<18} m = {body.mass_kg:.4g} kg, R = {body.radius_m:.4g} m, "
-                     f"I = {body.inertia_factor:.3g} m R^2, x = {body.x_m:.4g} m, v = {body.v_m_per_s:.4g} m/s, "
-                     f"epsilon(floor) = {eps[b, -1]:.4f}")
-    pairs = [(a, b) for a in range(len(s.bodies)) for b in range(a + 1, len(s.bodies))]
-    if pairs:
-        lines.append("[[Pairs]]  epsilon = exp(-K (x_A/(2 v_A) + x_B/(2 v_B)))")
-        for a, b in pairs:
-            lines.append(f"    {s.bodies[a].name} - {s.bodies[b].name}: epsilon = {eps[a, b]:.4f}")
-    lines.append(f"[[Contacts]]  {len(result.contacts)} in {s.duration_s:g} s (first 12; all in contacts.csv)")
-    lines.append(f"    {'t [s]':>9}  {'bodies':<28} {'speed [m/s]':>11} {'epsilon':>8}  note")
-    for c in result.contacts[:12]:
-        lines.append(f"    {c.t_s:9.4f}  {c.body_a + ' - ' + c.body_b:<28} {c.impact_speed_m_per_s:11.4f} "
-                     f"{c.epsilon:8.4f}  {c.note}")
-    lines.append("[[Apexes]]  highest bottom height of each body's flights (first 4 per body)")
-    for name in s.names:
-        ap = [(t, h) for n, t, h in result.apexes if n == name][:4]
-        lines.append(f"    {name:<14} " + ", ".join(f"{h:.4f} m at {t:.3f} s" for t, h in ap))
+    floor = ("rigid" if s.floor_x_m == 0
+             else f"x = {number(s.floor_x_m * 1e3, 4)} mm, v = {number(s.floor_v_m_per_s, 4)} m/s")
+    text = wrap(f"{s.name} ({result.engine})" + (f": {s.description}" if s.description else ""))
+    text += wrap(f"K = {s.K_per_s:g} 1/s, {s.duration_s:g} s, g = {s.g_m_per_s2:g} m/s², friction μ = "
+                 f"{s.friction_mu:g}, at rest below {s.rest_speed_m_per_s:g} m/s; floor {floor}")
+    rows = [[b.name, b.ball or "-", number(b.mass_kg * 1e3, 4), number(b.radius_m * 1e3, 4), number(b.x_m * 1e3, 4),
+             number(b.v_m_per_s, 4), number(eps[i, -1], 4)] for i, b in enumerate(s.bodies)]
+    text += "\n" + table(rows, ["body", "ball", "m [g]", "R [mm]", "x [mm]", "v [m/s]", "ε on the floor"],
+                          align="llrrrrr")
+    text += _pairs_text(s, eps)
+    shown = result.contacts[:max_contacts]
+    text += "\n" + wrap(f"{len(result.contacts)} contacts in {s.duration_s:g} s"
+                         + (f" (the first {len(shown)}; all in {contacts_file}):" if len(shown) < len(result.contacts)
+                            else ":"))
+    if shown:
+        text += table([[f"{c.t_s:.4f}", f"{c.body_a} - {c.body_b}", f"{c.impact_speed_m_per_s:.3f}",
+                        number(c.epsilon, 4), c.note] for c in shown],
+                      ["t [s]", "contact", "speed [m/s]", "ε", "note"], align="rlrrl")
+    text += "\n" + _motion_text(result)
     for note in result.notes:
-        lines.append(f"[[Note]] {note}")
-    return "\n".join(lines) + "\n"
+        text += wrap(f"note: {note}")
+    return text
+
+
+def _pairs_text(scene, eps):
+    """Every pair's epsilon (Eqs. 6, 7): a triangle when it fits in 100 columns, else a list."""
+    names = scene.names
+    n = len(names)
+    if n < 2:
+        return ""
+    head = "\n" + wrap("ε of each pair of bodies, exp(−K (x_A/(2 v_A) + x_B/(2 v_B))) (Eqs. 6, 7):")
+    rows = [[names[a], *("" if b <= a else number(eps[a, b], 4) for b in range(1, n))] for a in range(n - 1)]
+    text = table(rows, ["", *names[1:]], align="l" + "r" * (n - 1))
+    if max(len(line) for line in text.splitlines()) <= 100:
+        return head + text
+    rows = [[f"{names[a]} - {names[b]}", number(eps[a, b], 4)] for a in range(n) for b in range(a + 1, n)]
+    return head + table(rows, ["pair", "ε"], align="lr")
+
+
+def _motion_text(result, n_apexes=4):
+    """Each body's first apexes (bottom height [m]), or where a ball that stays on the floor ends."""
+    rows = []
+    for b, name in enumerate(result.scene.names):
+        ap = [h for n, _t, h in result.apexes if n == name]
+        if ap and max(ap) > ON_FLOOR_M:
+            shown = ", ".join(f"{h:.3f}" for h in ap[:n_apexes]) + (", ..." if len(ap) > n_apexes else "")
+            rows.append([name, f"apexes [m]: {shown}"])
+        else:
+            x, v = result.position_m[-1, b, 0], result.velocity_m_per_s[-1, b]
+            rows.append([name, f"stays on the floor; at {result.t_s[-1]:g} s x = {x:.3f} m, "
+                               f"speed {float(np.hypot(v[0], v[1])):.3f} m/s"])
+    return table(rows, ["body", "bottom height at each apex (bounce 0 = start), or the end"], align="ll")
 
 
 def heights_png(result, other=None, dpi=100):
-    """The Figure-8 plot rendered to PNG bytes."""
+    """The Figure-8 plot rendered to PNG bytes; with ``other`` a difference panel below it."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    plot_heights(result, ax=ax, other=other)
+    if other is None:
+        fig, ax = plt.subplots(figsize=(7, 4))
+        plot_heights(result, ax=ax)
+    else:
+        fig, (ax, ax_diff) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True,
+                                          gridspec_kw={"height_ratios": [3, 1.3]})
+        plot_heights(result, ax=ax, other=other)
+        ax.set_xlabel("")
+        plot_difference(result, other, ax=ax_diff)
     fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     plt.close(fig)
     return buf.getvalue()
 
@@ -292,20 +387,22 @@ def run_scene(path, *, engine="vrcal", compare=False, ode_dt_s=None, standards=N
 
             results[name] = simulate_scene_ode(scene, dt_s=DEFAULT_DT_S if ode_dt_s is None else ode_dt_s)
     run = SceneRun(summary="", results=results)
-    texts = []
+    stem = Path(path).stem
     for name, res in results.items():
         suffix = "" if len(results) == 1 else f"-{name}"
-        run.files[f"trajectories{suffix}.csv"] = trajectories_csv(res)
-        run.files[f"contacts{suffix}.csv"] = contacts_csv(res)
-        texts.append(summary_text(res))
+        run.files[f"{stem}-trajectories{suffix}.csv"] = trajectories_csv(res)
+        run.files[f"{stem}-contacts{suffix}.csv"] = contacts_csv(res)
     main = results[engine] if not compare else results["vrcal"]
     other = results["ode"] if compare else None
-    run.files["figure8.png"] = heights_png(main, other=other)
+    run.files[f"{stem}.png"] = heights_png(main, other=other)
     if animate:
-        run.files["scene.gif"] = animation_gif(main)
+        run.files[f"{stem}.gif"] = animation_gif(main)
+    texts = [summary_text(main, f"{stem}-contacts{'-vrcal' if compare else ''}.csv")]
     if compare:
         from vrcal.scenes.compare import compare_results, comparison_text
 
+        texts.append(wrap(f"{other.scene.name} (ode): {len(other.contacts)} contacts")
+                     + "".join(wrap(f"note: {note}") for note in other.notes))
         run.comparison = compare_results(results["vrcal"], results["ode"])
         texts.append(comparison_text(run.comparison))
     run.summary = "\n".join(texts)

@@ -1,0 +1,210 @@
+"""Benchmark of ``vrcal track``: impact times from sounds and ball centres from videos (issue 12).
+
+Prints:
+1. synthetic sounds (vrcal.drop.render: noise, hum, echoes, stereo, clipping, a clap and a voice
+   between bounces), several drops each: the share of audible impacts found within 0.25 ms, the
+   largest error, the spurious events kept -- for vrcal's detector and for a plain
+   high-pass-and-threshold detector (first sample over 6 noise sigmas after a 1 kHz high-pass,
+   20 ms dead time);
+2. synthetic videos (noise, motion blur, a cluttered background, a 24 -> 30 fps conversion):
+   the largest centre error [px] and the error of epsilon from ``discover``;
+3. the real video ../shared/data/realval/ameen/bounceAmeen.avi (26 g, 68.7 mm ball, 29.97 fps)
+   with only its physical parameters: per-bounce epsilon and discover's epsilon;
+4. the time to process a 1-minute 48 kHz recording and a 10-second 1080p video.
+
+Run: python benchmarks/bench_track.py   (needs the video extra; about two minutes)
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from vrcal.drop.render import SoundScene, VideoScene, impact_sound, render_video, write_wav
+from vrcal.drop.simulate import simulate_drops
+from vrcal.measurements.sound import highpassed, track_sound
+from vrcal.model.body import BallProperties
+
+ROOT = Path(__file__).resolve().parents[1]
+BALL = BallProperties(0.0577, 0.067, "tennis")
+AUDIBLE = 10.0     # an impact is audible when its peak is this many times the noise RMS
+MATCH_S = 2.5e-4   # the goal: every audible impact within 0.25 ms
+SPURIOUS_S = 2e-3  # a detection further than this from every true impact is spurious
+
+
+def plain_detector(x, fs, k=6.0, dead_s=0.02):
+    """High-pass (1 kHz) and threshold: the first sample over k noise sigmas, then a dead time."""
+    y = np.abs(highpassed(np.asarray(x, float).reshape(len(x), -1), fs)).max(axis=1)
+    sigma = 1.4826 * np.median(y)
+    over = np.flatnonzero(y > k * sigma)
+    out, last = [], -np.inf
+    for i in over:
+        if i / fs - last > dead_s:
+            out.append(i / fs)
+            last = i / fs
+    return np.array(out)
+
+
+def score(found, truth, audible):
+    """(audible found within MATCH_S, audible, largest error over the audible found [ms], spurious)."""
+    if found.size == 0:
+        return 0, int(audible.sum()), float("nan"), 0
+    err = np.array([np.min(np.abs(found - t)) for t in truth])
+    ok = (err < MATCH_S) & audible
+    spurious = int(sum(np.min(np.abs(truth - f)) > SPURIOUS_S for f in found))
+    matched = audible & (err < SPURIOUS_S)
+    return int(ok.sum()), int(audible.sum()), float(np.max(err[matched]) * 1e3) if matched.any() else float(
+        "nan"), spurious
+
+
+SOUND_SCENES = {
+    "noise": lambda t: SoundScene(noise_rms=0.005),
+    "hum": lambda t: SoundScene(noise_rms=0.002, hum_amplitude=0.3),
+    "echoes": lambda t: SoundScene(noise_rms=0.002, echoes=((0.004, 0.5), (0.009, 0.3))),
+    "stereo": lambda t: SoundScene(noise_rms=0.003, channels=2),
+    "clipping": lambda t: SoundScene(noise_rms=0.002, level=3.0),
+    "clap+voice": lambda t: SoundScene(noise_rms=0.002, clap_times_s=(0.5 * (t[1] + t[2]),),
+                                       voice_times_s=(t[0] + 0.15,)),
+    "all": lambda t: SoundScene(noise_rms=0.003, hum_amplitude=0.2, echoes=((0.005, 0.4),), channels=2, level=2.0,
+                                clap_times_s=(0.5 * (t[2] + t[3]),)),
+}
+
+
+def bench_sounds(tmp):
+    print("1. synthetic sounds: audible impacts found within 0.25 ms / audible, largest error, spurious events")
+    print(f"   {'scene':12s} {'vrcal':>28s}   {'high-pass + threshold':>28s}")
+    totals = {"vrcal": [0, 0, 0.0, 0], "plain": [0, 0, 0.0, 0]}
+    for name, make in SOUND_SCENES.items():
+        rows = {"vrcal": [0, 0, 0.0, 0], "plain": [0, 0, 0.0, 0]}
+        for seed, (H, eps) in enumerate([(0.5, 0.6), (0.8, 0.75), (1.2, 0.85), (1.0, 0.9)]):
+            d = simulate_drops(H, eps, 20, BALL, release_time_s=0.3)
+            t, v = d.impact_times_s[0], d.impact_speeds_m_per_s[0]
+            scene = make(t)
+            x = impact_sound(t, v, fs_hz=48000, scene=scene, seed=seed)
+            path = tmp / f"{name}-{seed}.wav"
+            write_wav(path, x, 48000)
+            audible = scene.level * v / v[0] > AUDIBLE * max(scene.noise_rms, 1e-6)
+            ours = track_sound(path).impacts.t_s
+            for key, found in (("vrcal", ours), ("plain", plain_detector(x, 48000))):
+                ok, n, worst, spur = score(found, t, audible)
+                r = rows[key]
+                r[0] += ok
+                r[1] += n
+                r[2] = max(r[2], worst) if np.isfinite(worst) else r[2]
+                r[3] += spur
+        for key in rows:
+            for i in (0, 1, 3):
+                totals[key][i] += rows[key][i]
+            totals[key][2] = max(totals[key][2], rows[key][2])
+        print(f"   {name:12s} " + "   ".join(f"{r[0]:3d}/{r[1]:3d} max {r[2]:5.3f} ms, {r[3]:2d} spurious"
+                                             for r in rows.values()))
+    print(f"   {'total':12s} " + "   ".join(f"{r[0]:3d}/{r[1]:3d} max {r[2]:5.3f} ms, {r[3]:2d} spurious"
+                                         for r in totals.values()))
+
+
+VIDEO_SCENES = {
+    "plain": {},
+    "noise": {"noise_sd": 5.0},
+    "motion blur": {"blur": True, "noise_sd": 2.0},
+    "clutter": {"clutter": True, "noise_sd": 2.0},
+    "24->30 fps": {"repeat_every": 5, "noise_sd": 2.0},
+    "all": {"blur": True, "clutter": True, "noise_sd": 3.0, "repeat_every": 5},
+}
+
+
+def bench_videos(tmp):
+    from vrcal.discovery.ranking import discover
+    from vrcal.measurements.video import track_video
+
+    print("2. synthetic videos (640x480, ball 27 px): largest centre error, epsilon error (discover)")
+    for name, scene in VIDEO_SCENES.items():
+        worst_px, worst_eps = 0.0, 0.0
+        for seed, eps in enumerate((0.6, 0.8)):
+            d = simulate_drops(0.9, eps, 6, BALL, release_time_s=0.25)
+            path = tmp / f"v{seed}.avi"
+            truth = render_video(path, d, BALL.diameter_m, scene=VideoScene(m_per_px=0.0025, **scene), seed=seed)
+            vt = track_video(path, diameter_m=BALL.diameter_m)
+            k = vt.kept & ~truth["straddles_impact"]
+            err = np.hypot(vt.row_px[k] - truth["row_px"][k], vt.col_px[k] - truth["col_px"][k])
+            worst_px = max(worst_px, float(np.max(err)))
+            worst_eps = max(worst_eps, abs(discover(vt.trajectory, BALL).epsilon - eps))
+        print(f"   {name:12s} centre within {worst_px:.3f} px   epsilon within {worst_eps:.4f}")
+
+
+def bench_real_video():
+    from vrcal.discovery.ranking import discover
+    from vrcal.measurements.video import _bounce_crossings, _flights, track_video
+
+    path = ROOT.parent / "shared" / "data" / "realval" / "ameen" / "bounceAmeen.avi"
+    print("3. real video bounceAmeen.avi (26 g, 68.7 mm ball; only these physical parameters)")
+    if not path.exists():
+        print("   ../shared/data is absent: skipped")
+        return
+    start = time.perf_counter()
+    vt = track_video(path, diameter_m=0.0687)
+    took = time.perf_counter() - start
+    t, row = vt.t_s[vt.kept], vt.row_px[vt.kept]
+    rel = vt.trajectory.release_index
+    flights = _flights(t[rel:], row[rel:])
+    crossings = np.array([c[0] for c in _bounce_crossings(t[rel:], flights)])
+    dt = np.diff(crossings)
+    apex = vt.contact_row_px - np.array([np.polyval(c, -c[1] / (2 * c[0])) for _, c, _ in flights])
+    print(f"   tracked in {took:.1f} s: {vt.kept.sum()} frames, ball {vt.diameter_px:.1f} px, g from the flights "
+          f"{vt.g_measured:.2f} m/s^2")
+    print(f"   per-bounce epsilon from flight times: {', '.join(f'{r:.3f}' for r in dt[1:] / dt[:-1])}")
+    print(f"   per-bounce epsilon from apex heights: "
+          f"{', '.join(f'{r:.3f}' for r in np.sqrt(apex[1:] / apex[:-1]))} (the first is the fall from the hand)")
+    result = discover(vt.trajectory, BallProperties(0.026, 0.0687, "green"))
+    print(f"   discover: baseline epsilon {result.epsilon_baseline:.4f}, engine epsilon {result.epsilon:.4f}, "
+          f"named: {', '.join(result.effects) or 'none'}")
+
+
+def bench_speed(tmp):
+    from vrcal.measurements.video import track_video
+
+    print("4. speed (wall and CPU time on this machine)")
+    rng = np.random.default_rng(0)
+    times = np.sort(rng.uniform(1, 59, 6))
+    t_all = []
+    for t0 in times:  # six drops in one minute
+        d = simulate_drops(0.8, 0.8, 12, BALL, release_time_s=t0)
+        t_all.append((d.impact_times_s[0], d.impact_speeds_m_per_s[0]))
+    x = impact_sound(t_all[0][0], t_all[0][1], duration_s=60.0, scene=SoundScene(noise_rms=0.002, channels=2),
+                     seed=0)
+    path = tmp / "minute.wav"
+    write_wav(path, x, 48000)
+    w, c = time.perf_counter(), time.process_time()
+    track_sound(path)
+    print(f"   1-minute 48 kHz stereo WAV: {time.perf_counter() - w:.2f} s wall, {time.process_time() - c:.2f} s CPU")
+    d = simulate_drops(1.0, 0.8, 12, BALL, release_time_s=0.5)
+    path = tmp / "hd.mp4"
+    scene = VideoScene(width=1920, height=1080, floor_row=1000.0, x_px=960.0, m_per_px=0.0011, noise_sd=2.0,
+                       blur=True)
+    render_video(path, d, BALL.diameter_m, scene=scene, duration_s=10.0, fourcc="mp4v")
+    w, c = time.perf_counter(), time.process_time()
+    vt = track_video(path, diameter_m=BALL.diameter_m)
+    print(f"   10-second 1080p video ({vt.t_s.size} frames, mp4v): {time.perf_counter() - w:.2f} s wall, "
+          f"{time.process_time() - c:.2f} s CPU")
+
+
+def main():
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        bench_sounds(tmp)
+        try:
+            import cv2  # noqa: F401
+        except ImportError:
+            print("OpenCV is not installed (pip install 'vrcal[video]'): the video benchmarks are skipped")
+            return 0
+        bench_videos(tmp)
+        bench_real_video()
+        bench_speed(tmp)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,110 @@
+"""The drop-test setup, its target (vrcal's model) and measuring an engine's run."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal.drop.simulate import simulate_drops
+from vrcal.engines.common import (
+    DropSetup,
+    check_counts,
+    check_dt,
+    check_steps,
+    floor_speed_m_per_s,
+    measure_bounces,
+    phase_shifts_m,
+    round_down,
+)
+from vrcal.errors import DataError, UsageError
+from vrcal.model.body import BallProperties
+
+
+def semi_implicit_flight(z0, v0, g, dt, n):
+    """A free flight stepped as ODE/Bullet/MuJoCo's Euler do: velocity first, then position."""
+    z, v = [z0], [v0]
+    for _ in range(n):
+        v.append(v[-1] - g * dt)
+        z.append(z[-1] + v[-1] * dt)
+    return np.array(z), np.array(v)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.1, 3.0), st.floats(1e-4, 5e-3), st.integers(5, 200))
+def test_floor_speed_is_exact_for_a_semi_implicit_flight(H, dt, k):
+    # every sample of one stepped flight from rest gives the same speed at floor level
+    g = 9.80665
+    z, v = semi_implicit_flight(H, 0.0, g, dt, 400)
+    k = min(k, int(np.argmax(z < 0)) - 1 if np.any(z < 0) else 399)
+    first = floor_speed_m_per_s(z[1], v[1], g, dt, True)
+    later = floor_speed_m_per_s(z[k], v[k], g, dt, True)
+    assert later == pytest.approx(first, rel=1e-9)
+    # the exact-flight formula is off by about g dt / 2 [m/s]
+    assert abs(floor_speed_m_per_s(z[k], v[k], g, dt, False) - first) <= g * dt
+
+
+def test_measure_bounces_of_a_planted_bounce():
+    """A stepped drop with an instantaneous velocity reversal (eps 0.6) at each floor crossing."""
+    g, dt, eps = 9.80665, 1e-4, 0.6
+    z, v = [1.0], [0.0]
+    for _ in range(int(3.0 / dt)):
+        vn = v[-1] - g * dt
+        zn = z[-1] + vn * dt
+        if zn < 0 and vn < 0:
+            vn = -eps * v[-1]                      # the contact step reverses the incoming velocity
+            zn = z[-1] + vn * dt
+        v.append(vn)
+        z.append(zn)
+    b = measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
+    assert np.allclose(b.velocity_ratios, eps, atol=2e-3)
+    assert np.allclose(b.apex_ratios, eps, atol=3e-3)
+    assert b.apex_m[0] == 1.0 and np.all(np.diff(b.apex_m) < 0)
+    with pytest.raises(DataError, match="complete bounce"):
+        measure_bounces(np.array(z[:9000]), np.array(v[:9000]), 1.0, dt, g, 40)
+
+
+def test_setup_model_is_vrcals_simulator_with_drag():
+    s = DropSetup("tt", 0.0027, 0.02, 2.0, 0.86, 1e-3, drag_coefficient=0.4, n_bounces=3)
+    ref = simulate_drops(2.0, 0.86, 3, BallProperties(0.0027, 0.04), effects={"air_drag": {"drag_coefficient": 0.4}})
+    assert np.allclose(s.model.apex_heights_m, ref.apex_heights_m)
+    assert s.impact_speed_m_per_s == pytest.approx(ref.impact_speeds_m_per_s[0, 0])
+    assert s.impact_speed_m_per_s < math.sqrt(2 * 9.80665 * 2.0)           # drag slows the fall
+
+
+def test_speed_dependent_epsilon_is_the_reference_value_at_the_first_impact():
+    s = DropSetup("b", 0.6, 0.12, 1.8, 0.8, 1e-3, restitution_exponent=0.2, n_bounces=3)
+    eps = s.epsilons
+    assert eps[0] == pytest.approx(0.8)
+    assert eps[1] > eps[0] and eps[2] > eps[1]                              # slower bounces, more elastic
+
+
+def test_phase_shifts_cover_one_step():
+    s = DropSetup("b", 0.6, 0.12, 1.8, 0.8, 2e-3)
+    shifts = phase_shifts_m(s, 4)
+    assert shifts[0] == 0 and shifts[1] == pytest.approx(s.impact_speed_m_per_s * 2e-3 / 4)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-3, 1e-320, 1e-9, float("nan"), float("inf"), 0.5, "x"])
+def test_bad_time_steps_are_refused_with_the_limits(bad):
+    with pytest.raises(UsageError, match=r"\[1e-07, 0.1\]|time step in seconds"):
+        check_dt(bad)
+
+
+@pytest.mark.parametrize("bounces, phases", [(0, 4), (1000000, 4), (3, 0), (3, 1000), (2.5, 4)])
+def test_bad_counts_are_refused(bounces, phases):
+    with pytest.raises(UsageError, match="must be an integer"):
+        check_counts(bounces, phases)
+
+
+def test_a_run_too_long_is_refused_up_front_naming_the_limit():
+    s = DropSetup("b", 0.6, 0.12, 1.8, 0.8, 1e-6)
+    with pytest.raises(UsageError, match=r"limit is 400,000 steps: use --dt .* or larger"):
+        check_steps(s, 4, "bullet", 400_000)
+    assert check_steps(DropSetup("b", 0.6, 0.12, 1.8, 0.8, 1e-3), 4, "bullet", 400_000) < 400_000
+
+
+def test_round_down_keeps_two_digits_and_never_rounds_up():
+    assert round_down(0.0013871) == 0.0013
+    assert round_down(2.0e-4) == 2.0e-4

@@ -1,0 +1,82 @@
+"""The one body description: a standard ball, a user's own ball, or a discover result's."""
+
+import json
+
+import pytest
+
+from vrcal.errors import DataError, UsageError
+from vrcal.model.body import describe_body, read_discover_json
+
+
+def test_a_standard_ball():
+    body = describe_body("Basketball")
+    assert body.name == "basketball" and body.standard is not None and body.source == "standard"
+    assert body.radius_m == pytest.approx(body.diameter_m / 2)
+
+
+def test_a_standard_ball_with_its_own_mass():
+    body = describe_body("tennis", mass_kg=0.06)
+    assert body.mass_kg == 0.06 and body.standard.key == "tennis" and body.source == "options"
+
+
+def test_a_users_own_ball():
+    body = describe_body(mass_kg=0.0459, diameter_m=0.0427)
+    assert (body.name, body.mass_kg, body.diameter_m, body.standard) == ("ball", 0.0459, 0.0427, None)
+    assert describe_body("golf", mass_kg=0.0459, diameter_m=0.0427).name == "golf"
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({}, "no body"),
+    ({"mass_kg": 0.05}, "no body"),
+    ({"mass_kg": 0.0, "diameter_m": 0.04}, "--mass must be a number > 0"),
+    ({"mass_kg": 0.05, "diameter_m": float("nan")}, "--diameter must be a number > 0"),
+])
+def test_bad_bodies_are_usage_errors(kwargs, message):
+    with pytest.raises(UsageError, match=message):
+        describe_body(**kwargs)
+
+
+def _write(tmp_path, doc):
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+GOOD = {"ball": {"name": "table_tennis", "mass_kg": 0.0027, "diameter_m": 0.04}, "g_m_per_s2": 9.80665,
+        "effects": ["air_drag"], "parameters": {"air_drag": {"drag_coefficient": 0.38}}, "epsilon": 0.86,
+        "model": {"drop_height_m": 2.65, "release_time_s": 0.28, "epsilon": 0.86}}
+
+
+def test_a_discover_result(tmp_path):
+    body = describe_body(from_json=_write(tmp_path, GOOD))
+    assert (body.name, body.mass_kg, body.diameter_m) == ("table_tennis", 0.0027, 0.04)
+    assert body.standard.key == "table_tennis" and body.discovered["epsilon"] == 0.86
+    assert describe_body(from_json=_write(tmp_path, dict(GOOD, schema_version=1))).mass_kg == 0.0027
+    with pytest.raises(UsageError, match="differs from the ball"):
+        describe_body("tennis", from_json=_write(tmp_path, GOOD))
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"schema_version": 2}, "schema_version"),
+    ({"ball": {"name": "x", "mass_kg": -1, "diameter_m": 0.04}}, "ball.mass_kg"),
+    ({"ball": "table_tennis"}, "ball must be an object"),
+    ({"epsilon": "high"}, "epsilon must be a finite number"),
+    ({"epsilon": 1.5}, "out of range"),
+    ({"model": {"drop_height_m": 1.0}}, "model.release_time_s"),
+    ({"effects": "air_drag"}, "effects must be a list"),
+    ({"parameters": {"air_drag": {"drag_coefficient": None}}}, "parameters.air_drag.drag_coefficient"),
+])
+def test_a_discover_result_with_a_bad_key_is_one_data_error(tmp_path, change, message):
+    with pytest.raises(DataError, match=message):
+        read_discover_json(_write(tmp_path, dict(GOOD, **change)))
+
+
+def test_not_a_discover_result(tmp_path):
+    path = tmp_path / "x.json"
+    for content, message in ((b"[1]", "top level is a list"), (b"\x00\x01\xff", "binary"), (b"{", "line 1"),
+                             (b'{"a": 1}', "missing")):
+        path.write_bytes(content)
+        with pytest.raises(DataError, match=message):
+            read_discover_json(path)
+    with pytest.raises(DataError, match="not a file"):
+        read_discover_json(tmp_path)

@@ -1,0 +1,216 @@
+"""Reading exported engine files back (``vrcal verify --file``): checked, one-line errors, no bombs.
+
+* :func:`read_file` -- the text of a file, refused when it is not a file, too large or binary;
+* :func:`read_params` -- an ODE or PyBullet JSON export, every key the runner uses checked;
+* :func:`read_mjcf` -- an MJCF export, parsed by ``defusedxml`` first (a DTD, an entity -- a
+  "billion laughs" bomb or an external entity -- is refused before anything is expanded, so
+  MuJoCo never sees such a file) and its time step, integrator, ball and ``vrcal_*`` numbers read.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+from vrcal.errors import DataError
+from vrcal.model.body import read_limited
+
+#: Largest exported file read [bytes]; an export is a few kB.
+MAX_FILE_BYTES = 4 * 1024 * 1024
+
+
+def read_file(path):
+    """The UTF-8 text of an exported file; DataError (one line) for anything else."""
+    raw = read_limited(path, MAX_FILE_BYTES, "an exported engine file")
+    if b"\x00" in raw:
+        raise DataError(f"{path}: a binary file, not an exported engine file")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not UTF-8 text, not an exported engine file") from None
+
+
+def _number(value, what, lo=-math.inf, hi=math.inf, lo_open=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise DataError(f"{what} must be a finite number, got {str(value)[:40]!r}")
+    v = float(value)
+    if v < lo or (lo_open and v == lo) or v > hi:
+        raise DataError(f"{what} = {v:g} is out of range")
+    return v
+
+
+def _get(doc, path, engine):
+    cur = doc
+    for key in path.split("."):
+        if not isinstance(cur, dict) or key not in cur:
+            raise DataError(f"not a vrcal {engine} export: missing '{path}'")
+        cur = cur[key]
+    return cur
+
+
+#: (key path, low, high) of the numbers each runner reads.
+_NUMBERS = {
+    "ode": [("ball.mass_kg", 0, 1e6), ("ball.radius_m", 0, 1e3), ("ball.drop_height_m", 0, 1e4),
+            ("target_epsilon", 0, 1), ("world.dt", 0, 1), ("world.erp", 0, 1), ("world.cfm", 0, 1e6),
+            ("contact.mu", 0, math.inf), ("contact.bounce", 0, 1), ("contact.bounce_vel", 0, 1e6)],
+    "bullet": [("ball.mass_kg", 0, 1e6), ("ball.radius_m", 0, 1e3), ("ball.drop_height_m", 0, 1e4),
+               ("target_epsilon", 0, 1), ("setPhysicsEngineParameter.fixedTimeStep", 0, 1),
+               ("changeDynamics.ball.restitution", 0, 1), ("changeDynamics.floor.restitution", 0, 1)],
+}
+
+
+def read_params(engine, text):
+    """An ODE or PyBullet export (JSON) with every number the runner uses checked.
+
+    Parameters
+    ----------
+    engine : {"ode", "bullet"}
+    text : str
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    DataError
+        not JSON, not an object, another engine's file, a missing or non-numeric key
+    """
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataError(f"not a vrcal {engine} export (JSON): line {exc.lineno}: {exc.msg}") from None
+    except RecursionError:
+        raise DataError(f"not a vrcal {engine} export: JSON nested too deeply") from None
+    if not isinstance(data, dict):
+        raise DataError(f"not a vrcal {engine} export: the top level is a {type(data).__name__}, not an object")
+    if data.get("engine") != engine:
+        raise DataError(f"not a vrcal {engine} export: engine is {str(data.get('engine'))[:40]!r}")
+    for path, lo, hi in _NUMBERS[engine]:
+        _number(_get(data, path, engine), f"{engine} export: {path}", lo, hi, lo_open=path.endswith(
+            ("mass_kg", "radius_m", "dt", "fixedTimeStep")))
+    if engine == "ode":
+        gravity = _get(data, "world.gravity", engine)
+        if not (isinstance(gravity, list) and len(gravity) == 3):
+            raise DataError("ode export: world.gravity must be a list of 3 numbers")
+        for x in gravity:
+            _number(x, "ode export: world.gravity", -1e3, 1e3)
+        modes = _get(data, "contact.mode", engine)
+        from vrcal.engines import ode_ctypes as O
+
+        if not (isinstance(modes, list) and all(isinstance(m, str) and m.startswith("dContact")
+                                                and isinstance(getattr(O, m, None), int) for m in modes)):
+            raise DataError("ode export: contact.mode must be a list of dContact... flag names")
+        if data["world"].get("step", "dWorldStep") not in ("dWorldStep", "dWorldQuickStep"):
+            raise DataError("ode export: world.step must be dWorldStep or dWorldQuickStep")
+    else:
+        gravity = _get(data, "setGravity", engine)
+        if not (isinstance(gravity, list) and len(gravity) == 3):
+            raise DataError("bullet export: setGravity must be a list of 3 numbers")
+        for x in gravity:
+            _number(x, "bullet export: setGravity", -1e3, 1e3)
+        for key in ("setPhysicsEngineParameter", "changeDynamics.ball", "changeDynamics.floor"):
+            block = _get(data, key, engine)
+            if not isinstance(block, dict):
+                raise DataError(f"bullet export: {key} must be an object")
+            for name, value in block.items():
+                _number(value, f"bullet export: {key}.{name}")
+    _check_effects(data, engine)
+    _check_target(data, engine)
+    return data
+
+
+def _check_effects(data, engine):
+    drag = data.get("drag")
+    if drag is not None:
+        if not isinstance(drag, dict):
+            raise DataError(f"{engine} export: drag must be an object")
+        _number(drag.get("force_coefficient_kg_per_m"), f"{engine} export: drag.force_coefficient_kg_per_m", 0, 1e3)
+    law = data.get("restitution_law")
+    if law is not None:
+        if not isinstance(law, dict):
+            raise DataError(f"{engine} export: restitution_law must be an object")
+        _number(law.get("epsilon_ref"), f"{engine} export: restitution_law.epsilon_ref", 0, 1, lo_open=True)
+        _number(law.get("reference_speed_m_per_s"), f"{engine} export: restitution_law.reference_speed_m_per_s", 0,
+                1e3, lo_open=True)
+        _number(law.get("exponent"), f"{engine} export: restitution_law.exponent", -1, 2)
+
+
+def _check_target(data, engine):
+    target = data.get("target")
+    if target is None:
+        return
+    if not isinstance(target, dict):
+        raise DataError(f"{engine} export: target must be an object")
+    for key, value in target.items():
+        _number(value, f"{engine} export: target.{key}")
+
+
+def read_mjcf(text):
+    """Read an MJCF export with a hardened parser.
+
+    Returns
+    -------
+    dict
+        ``timestep`` [s], ``integrator`` (lower case), ``radius_m``, ``mass_kg`` (None when the
+        geom gives none), ``ball`` (name) and ``target`` {name: number} from the ``vrcal_*``
+        custom numerics
+
+    Raises
+    ------
+    DataError
+        XML with a DTD or entities (refused unexpanded), malformed XML, not a MuJoCo model,
+        no ball geom, a non-numeric time step
+    """
+    from defusedxml import DefusedXmlException
+    from defusedxml import ElementTree as DET
+
+    try:
+        root = DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DefusedXmlException as exc:
+        raise DataError(f"refused the MJCF file: it declares a DTD or entities ({type(exc).__name__}); "
+                        "a vrcal export has none") from None
+    except Exception as exc:  # noqa: BLE001 - xml.etree.ElementTree.ParseError and friends
+        raise DataError(f"not an MJCF file: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    if root.tag != "mujoco":
+        raise DataError(f"not an MJCF file: the root element is <{root.tag[:40]}>, not <mujoco>")
+    option = root.find("option")
+    out = {"timestep": 0.002, "integrator": "euler"}
+    if option is not None:
+        if option.get("timestep") is not None:
+            out["timestep"] = _xml_number(option.get("timestep"), "<option timestep>", 0, 1)
+        if option.get("integrator") is not None:
+            out["integrator"] = option.get("integrator").strip().lower()
+    ball = None
+    for geom in root.iter("geom"):
+        if geom.get("name") == "ball":
+            ball = geom
+            break
+    if ball is None:
+        raise DataError("the MJCF file has no geom named 'ball' (vrcal's exports name the ball 'ball')")
+    size = (ball.get("size") or "").split()
+    if not size:
+        raise DataError("the MJCF ball geom has no size")
+    out["radius_m"] = _xml_number(size[0], "the ball's size", 0, 1e3)
+    out["mass_kg"] = _xml_number(ball.get("mass"), "the ball's mass", 0, 1e6) if ball.get("mass") else None
+    target = {}
+    for numeric in root.iter("numeric"):
+        name = numeric.get("name") or ""
+        if name.startswith("vrcal_"):
+            target[name[len("vrcal_"):]] = _xml_number(numeric.get("data"), f"<numeric {name}>")
+    out["target"] = target
+    out["ball"] = "ball"
+    for text_el in root.iter("text"):
+        if text_el.get("name") == "vrcal_ball":
+            out["ball"] = (text_el.get("data") or "ball")[:80]
+    return out
+
+
+def _xml_number(text, what, lo=-math.inf, hi=math.inf):
+    try:
+        v = float(str(text).strip())
+    except (TypeError, ValueError):
+        raise DataError(f"MJCF: {what} '{str(text)[:40]}' is not a number") from None
+    if not math.isfinite(v) or v <= lo or v > hi:
+        raise DataError(f"MJCF: {what} {v:g} is out of range")
+    return v

@@ -1,0 +1,523 @@
+"""Sound recordings of a drop (a phone's WAV, or another container through PyAV): the impact times.
+
+This module owns reading audio files into samples (:func:`read_audio`), finding the impact
+onsets in them (:func:`impact_onsets`), keeping only the events that fit a bouncing ball
+(:func:`bounce_sequence`), and the ``sound`` reader of :data:`vrcal.measurements.FORMATS`
+(:func:`parse`), which returns :class:`~vrcal.measurements.types.ImpactTimes`.
+
+How an impact is found
+----------------------
+1. **Band.** Every channel is high-passed (4th-order Butterworth, 1 kHz, causal): mains hum
+   (50/60 Hz and its low harmonics), footsteps and most of a voice's energy are removed,
+   the broadband click of an impact is kept.
+2. **Candidates.** The envelope ``e(t)`` is the RMS of the filtered signal over 0.25 ms
+   (channels summed in energy). A candidate is a peak of the *rise* ``e(t) / (b(t) + n)``,
+   where ``b(t)`` is the mean envelope 1-6 ms earlier and ``n`` the noise level (the
+   median envelope), above :data:`RISE` and with ``e`` above :data:`SNR` times the noise:
+   a new transient, not the ringing or a room echo arriving while the impact still rings.
+3. **Onset.** Each candidate's onset is the change point of the filtered signal's variance
+   (the AIC picker of seismology, Maeda 1985: minimise ``k ln var(x[:k]) + (N-k) ln
+   var(x[k:])`` over a window from 6 ms before to 0.5 ms after the envelope's rise),
+   refined between samples by a parabola through the minimum. It does not depend on the
+   impact's loudness (a threshold crossing does: a quiet impact crosses it later) nor on
+   clipping (which flattens the peak, not the start).
+4. **Physics.** A bouncing ball's impacts fall on a geometric-like sequence of intervals
+   (``dt_{i+1} ~ r dt_i``, r ~ epsilon). :func:`bounce_sequence` keeps the longest chain of
+   candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
+   ratio tracking slow changes) and whose loudness does not jump up; claps, words, echoes
+   and other noises that do not fit are rejected, each with a reason.
+5. **The quiet end.** The chain stops where no candidate is heard at the next predicted
+   impact: the bounces after it are below the noise and are left out (a note gives the
+   time the next one was expected), not guessed.
+
+The impact times kept are then screened like any impact-times file
+(:func:`vrcal.measurements.cleanup.detect_impact_anomalies`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vrcal.errors import DataError, UsageError
+from vrcal.measurements.cleanup import detect_impact_anomalies
+from vrcal.measurements.types import ImpactTimes
+
+#: File name endings read as sound (other than WAV they need the optional PyAV).
+SOUND_EXTENSIONS = (".wav", ".wave", ".m4a", ".aac", ".mp3", ".ogg", ".oga", ".opus", ".flac", ".3gp", ".amr",
+                    ".caf", ".aif", ".aiff", ".wma", ".webm")
+
+#: One-line hint when a compressed container needs the optional extra.
+AUDIO_HINT = "reading this sound file needs PyAV: pip install 'vrcal[audio]' (or save the recording as WAV)"
+
+HIGHPASS_HZ = 1000.0     #: high-pass corner of the onset band [Hz]
+ENVELOPE_S = 2.5e-4      #: RMS window of the envelope [s]
+RISE = 4.0               #: a candidate's envelope is this many times the level 1-6 ms before it
+SNR = 5.0                #: ... and this many times the noise level (the median envelope)
+REFRACTORY_S = 4e-3      #: candidates closer than this are one event [s]
+RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's predicted one
+MIN_IMPACTS = 3          #: fewest impacts a recording must give
+MAX_LISTED = 6           #: rejected events listed one by one in the notes
+
+
+@dataclass(frozen=True)
+class Onsets:
+    """Impact candidates of a recording, from :func:`impact_onsets`.
+
+    Attributes
+    ----------
+    t_s : ndarray
+        onset times [s] from the first sample, increasing
+    snr_db : ndarray
+        peak envelope of each candidate over the noise level [dB]
+    noise_level : float
+        the noise level (median envelope of the high-passed signal, full scale = 1)
+    """
+
+    t_s: np.ndarray
+    snr_db: np.ndarray
+    noise_level: float
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def detect(head, path):
+    """A RIFF/WAVE (or RF64) file, an audio-only MP4 (``M4A``), FLAC, Ogg, MP3, or a sound extension."""
+    if head[:4] in (b"RIFF", b"RF64", b"BW64") and head[8:12] == b"WAVE":
+        return True
+    if head[4:8] == b"ftyp" and head[8:11] in (b"M4A", b"M4B"):
+        return True
+    if head[:4] in (b"fLaC", b"OggS", b"FORM") or head[:3] == b"ID3" or head[:2] in (b"\xff\xfb", b"\xff\xf3"):
+        return True
+    return Path(path).suffix.lower() in SOUND_EXTENSIONS and head[4:8] != b"ftyp" and head[:4] != b"RIFF"
+
+
+def read_audio(path):
+    """Samples of a sound file as floats in [-1, 1], shape (n, channels), and the sample rate.
+
+    WAV (PCM 8/16/24/32-bit, float 32/64, mono or multi-channel) is read with
+    :func:`scipy.io.wavfile.read`; any other container (m4a, mp3, ogg, flac, the sound track
+    of a video) with PyAV, the optional extra ``audio``.
+
+    Returns
+    -------
+    x : ndarray (n, channels)
+        samples, full scale = 1
+    fs_hz : float
+        sample rate [Hz]
+    what : str
+        a short description (``"WAV, 48 kHz, 2 channels, 16-bit"``)
+
+    Raises
+    ------
+    DataError
+        unreadable, corrupt or empty file; EngineUnavailable-like UsageError when PyAV is missing
+    """
+    path = str(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a directory, not a recording") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if head[:4] in (b"RIFF", b"RF64") and head[8:12] == b"WAVE":
+        return _read_wav(path)
+    if Path(path).suffix.lower() in (".wav", ".wave"):
+        raise DataError(f"{path}: not a WAV file (no RIFF/WAVE header): a corrupt or misnamed file")
+    return _read_with_av(path)
+
+
+def _read_wav(path):
+    from scipy.io import wavfile
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fs, data = wavfile.read(path)
+    except (ValueError, EOFError, OSError, IndexError, UnboundLocalError) as exc:  # scipy's errors on bad files
+        raise DataError(f"{path}: not a readable WAV file ({str(exc).strip() or type(exc).__name__}); "
+                        "save the recording as WAV (PCM or float)") from None
+    data = np.asarray(data)
+    if data.ndim == 1:
+        data = data[:, None]
+    if data.dtype.kind == "f":
+        x, bits = data.astype(np.float64), f"{data.dtype.itemsize * 8}-bit float"
+    elif data.dtype == np.uint8:
+        x, bits = (data.astype(np.float64) - 128.0) / 128.0, "8-bit"
+    elif data.dtype.kind == "i":
+        x = data.astype(np.float64) / float(2 ** (8 * data.dtype.itemsize - 1))
+        bits = f"{data.dtype.itemsize * 8}-bit"
+    else:
+        raise DataError(f"{path}: unsupported WAV sample type {data.dtype}")
+    return x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}"
+
+
+def _read_with_av(path):
+    try:
+        import av
+    except ImportError:
+        raise UsageError(f"{path}: {AUDIO_HINT}") from None
+    try:
+        with av.open(path) as container:
+            if not container.streams.audio:
+                raise DataError(f"{path}: no sound track in this file")
+            stream = container.streams.audio[0]
+            chunks = []
+            for frame in container.decode(stream):
+                a = frame.to_ndarray()
+                if not frame.format.is_planar:
+                    a = a.reshape(-1, len(frame.layout.channels)).T
+                if a.dtype.kind == "i":
+                    a = a.astype(np.float64) / float(2 ** (8 * a.dtype.itemsize - 1))
+                elif a.dtype.kind == "u":
+                    a = (a.astype(np.float64) - 128.0) / 128.0
+                chunks.append(np.asarray(a, dtype=np.float64))
+            fs = float(stream.rate or stream.codec_context.sample_rate)
+            codec = stream.codec_context.name
+    except DataError:
+        raise
+    except Exception as exc:  # PyAV raises its own error classes (av.error.*)
+        raise DataError(f"{path}: not a readable sound or video file ({str(exc).strip() or type(exc).__name__})") \
+            from None
+    if not chunks:
+        raise DataError(f"{path}: the sound track holds no samples")
+    x = np.concatenate(chunks, axis=1).T
+    return x, fs, f"{codec} (PyAV), {_rate_text(fs)}, {_channels_text(x.shape[1])}"
+
+
+def _rate_text(fs):
+    return f"{fs / 1000:g} kHz"
+
+
+def _channels_text(n):
+    return {1: "mono", 2: "stereo"}.get(n, f"{n} channels")
+
+
+# --------------------------------------------------------------------------- onsets
+
+
+def highpassed(x, fs_hz, corner_hz=HIGHPASS_HZ):
+    """Causal 4th-order Butterworth high-pass of every channel (axis 0 = time)."""
+    from scipy import signal
+
+    corner = min(corner_hz, 0.2 * fs_hz)
+    sos = signal.butter(4, corner, "highpass", fs=fs_hz, output="sos")
+    return signal.sosfilt(sos, x, axis=0)
+
+
+def envelope(y, fs_hz, window_s=ENVELOPE_S):
+    """RMS over ``window_s`` of a (n, channels) signal, channels summed in energy (centred window)."""
+    from scipy.ndimage import uniform_filter1d
+
+    w = max(1, int(round(window_s * fs_hz)))
+    energy = np.sum(y * y, axis=1)
+    return np.sqrt(np.maximum(uniform_filter1d(energy, w, mode="nearest"), 0.0))
+
+
+def aic_onset(energy):
+    """Sub-sample index of the variance change point of a window (the AIC picker).
+
+    Parameters
+    ----------
+    energy : ndarray (N,)
+        squared signal (summed over channels) in the window
+
+    Returns
+    -------
+    float
+        the onset as a fractional index into the window: ``argmin_k k ln m(0..k) + (N-k) ln m(k..N)``
+        (``m`` the mean energy), refined by a parabola through the minimum and its neighbours.
+    """
+    n = energy.size
+    c = np.cumsum(energy)
+    k = np.arange(2, n - 1)
+    before = c[k - 1] / k
+    after = (c[-1] - c[k - 1]) / (n - k)
+    tiny = 1e-300
+    aic = k * np.log(before + tiny) + (n - k) * np.log(after + tiny)
+    i = int(np.argmin(aic))
+    frac = 0.0
+    if 0 < i < aic.size - 1:
+        a, b, cc = aic[i - 1], aic[i], aic[i + 1]
+        den = a - 2 * b + cc
+        if den > 0:
+            frac = float(np.clip(0.5 * (a - cc) / den, -0.5, 0.5))
+    # k counts samples before the change: the new signal starts at sample k; the change lies
+    # between samples k-1 and k (half a sample earlier on a continuous time axis)
+    return float(k[i]) - 0.5 + frac
+
+
+def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR):
+    """Candidate impact onsets of a recording (every transient that rises out of the noise).
+
+    Parameters
+    ----------
+    x : ndarray (n,) or (n, channels)
+        samples, full scale = 1
+    fs_hz : float
+        sample rate [Hz]
+    highpass_hz : float
+        corner of the onset band [Hz]
+    rise, snr : float
+        a candidate's envelope exceeds ``rise`` times the level 1-6 ms before it and ``snr``
+        times the noise level
+
+    Returns
+    -------
+    Onsets
+        onset times (AIC change point, sub-sample) and peak level over the noise [dB].
+    """
+    from scipy.ndimage import uniform_filter1d
+    from scipy.signal import find_peaks
+
+    x = np.asarray(x, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    y = highpassed(x, fs_hz, highpass_hz)
+    # the filter's start-up transient on a DC offset: ignore the first 5 ms
+    skip = int(0.005 * fs_hz)
+    y[:skip] = 0.0
+    e = envelope(y, fs_hz)
+    noise = float(np.median(e[skip:])) if e.size > skip else 0.0
+    if not noise > 0:
+        noise = max(float(np.max(e)) * 1e-6, 1e-12)
+    w_bg = max(1, int(round(5e-3 * fs_hz)))
+    lag = int(round(1e-3 * fs_hz))
+    bg_mean = uniform_filter1d(e, w_bg, mode="nearest", origin=(w_bg - 1) // 2)  # mean of e[i-w_bg+1 .. i]
+    bg = np.concatenate([np.full(lag, bg_mean[0]), bg_mean[:-lag]]) if lag else bg_mean
+    ratio = e / np.maximum(bg, noise)
+    ratio[e < snr * noise] = 0.0
+    peaks, _ = find_peaks(ratio, height=rise, distance=max(1, int(REFRACTORY_S * fs_hz)))
+    energy = np.sum(y * y, axis=1)
+    times, levels = [], []
+    pre = int(round(6e-3 * fs_hz))
+    post = int(round(5e-4 * fs_hz))
+    last = 0
+    for p in peaks:
+        # the start of the rise: back from the peak of the rise to where e leaves the background
+        start = max(last, p - pre)
+        stop = min(e.size, p + post)
+        if stop - start < 8:
+            continue
+        onset = start + aic_onset(energy[start:stop])
+        peak_level = float(np.max(e[p:min(e.size, p + int(2e-3 * fs_hz) + 1)]))
+        times.append(onset / fs_hz)
+        levels.append(20.0 * math.log10(peak_level / noise))
+        last = p
+    return Onsets(t_s=np.asarray(times), snr_db=np.asarray(levels), noise_level=noise)
+
+
+# --------------------------------------------------------------------------- physics: the bouncing sequence
+
+
+def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=0.005, max_louder_db=6.0,
+                    max_ratio=0.98, max_interval_s=3.0):
+    """Indices of the candidates that form a bouncing ball's impacts, and why the others do not.
+
+    A ball's flight times shrink geometrically, ``dt_{i+1} ~ r dt_i`` (r ~ epsilon, 0.3 < r < 1).
+    Every pair of a start and a first interval, with every third candidate giving a first
+    ratio in (0.3, ``max_ratio``), seeds a chain that is extended while a candidate lies within
+    ``tolerance`` of the predicted next interval ``r dt`` (r the median of the last three
+    ratios; the loudest candidate in that window is taken). An impact may not be louder
+    than the one before it by more than ``max_louder_db`` (each bounce is slower). The
+    longest chain wins; among equally long ones the louder, then the more regular.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        candidate times [s], increasing
+    level_db : ndarray
+        candidate levels over the noise [dB]
+    tolerance : float
+        relative deviation of an interval from its prediction still accepted
+    min_interval_s : float
+        shortest first interval of a chain [s]
+    max_louder_db : float
+        largest rise of loudness from one impact to the next [dB]
+    max_interval_s : float
+        longest first interval [s] (a 3 s flight is a bounce 11 m high)
+    max_ratio : float
+        every interval is shorter than ``max_ratio`` times the one before (the flights
+        shrink: a periodic train of pulses, as a voice's, is no bounce sequence)
+
+    Returns
+    -------
+    chain : ndarray of int
+        indices of the impacts, increasing (empty when fewer than three candidates fit)
+    reasons : dict
+        ``{index: reason}`` for every candidate not in the chain
+    """
+    t = np.asarray(t_s, dtype=float)
+    lv = np.asarray(level_db, dtype=float)
+    n = t.size
+    best, best_key = [], None
+    for i in range(n):
+        for j in range(i + 1, n):
+            dt0 = t[j] - t[i]
+            if dt0 > max_interval_s:
+                break
+            if dt0 < min_interval_s or lv[j] > lv[i] + max_louder_db:
+                continue
+            ks = np.flatnonzero((t > t[j] + 0.3 * dt0) & (t < t[j] + max_ratio * dt0))
+            for k in ks:
+                if lv[k] > lv[j] + max_louder_db:
+                    continue
+                chain = [i, j, int(k)]
+                ratios = [(t[k] - t[j]) / dt0]
+                while True:
+                    r = float(np.median(ratios[-3:]))
+                    dt = t[chain[-1]] - t[chain[-2]]
+                    target = t[chain[-1]] + r * dt
+                    width = tolerance * r * dt
+                    near = np.flatnonzero((np.abs(t - target) <= width) & (lv <= lv[chain[-1]] + max_louder_db)
+                                          & (t - t[chain[-1]] < max_ratio * dt))
+                    near = near[near > chain[-1]]
+                    if near.size == 0:
+                        break
+                    m = int(near[np.argmax(lv[near])])  # the loudest: an impact outshines voices and echoes
+                    ratios.append((t[m] - t[chain[-1]]) / dt)
+                    chain.append(m)
+                spread = float(np.std(np.log(ratios))) if len(ratios) > 1 else 0.0
+                key = (len(chain), float(np.sum(lv[chain])), -spread)
+                if best_key is None or key > best_key:
+                    best, best_key = chain, key
+    chain = np.asarray(best, dtype=int)
+    reasons = {}
+    if chain.size < 3:
+        return np.zeros(0, dtype=int), {i: "no bouncing sequence" for i in range(n)}
+    for i in range(n):
+        if i in best:
+            continue
+        before = chain[t[chain] < t[i]]
+        if before.size == 0:
+            reasons[i] = "before the first impact"
+        elif before.size == chain.size:
+            reasons[i] = _after_chain_reason(t[chain], t[i], tolerance)
+        else:
+            prev = int(before[-1])
+            gap = (t[i] - t[prev]) * 1e3
+            kind = "echo or ringing" if gap < 15.0 else "a noise (clap, voice, ...)"
+            reasons[i] = f"{kind}: {gap:.1f} ms after an impact, off the bounce sequence"
+    return chain, reasons
+
+
+def _after_chain_reason(t_chain, t_i, tolerance):
+    """Why an event after the chain's last impact is not in it: a later impact after ones not
+    heard (the fit needs consecutive impacts), or a noise."""
+    dt = np.diff(t_chain)
+    r = float(np.median(dt[1:] / dt[:-1]))
+    later = t_chain[-1] + np.cumsum(dt[-1] * r ** np.arange(1, 9))  # the next eight predicted impacts
+    k = int(np.argmin(np.abs(later - t_i)))
+    step = dt[-1] * r ** (k + 1)
+    gap_ms = (t_i - t_chain[-1]) * 1e3
+    if k >= 1 and abs(later[k] - t_i) <= 2 * tolerance * step:
+        return (f"a later impact ({gap_ms:.1f} ms after the last one kept) after {k} not heard: "
+                "left out (the fit needs consecutive impacts)")
+    return f"after the last impact, off the bounce sequence ({gap_ms:.1f} ms later)"
+
+
+# --------------------------------------------------------------------------- the reader
+
+
+@dataclass(frozen=True)
+class SoundTrack:
+    """What :func:`track_sound` found: the impacts kept, every candidate, and the signal."""
+
+    impacts: ImpactTimes
+    onsets: Onsets
+    chain: np.ndarray
+    reasons: dict
+    fs_hz: float
+    x: np.ndarray
+    what: str
+
+    @property
+    def snr_db(self):
+        """Level of each kept impact over the noise [dB]."""
+        return self.onsets.snr_db[self.chain][: self.impacts.t_s.size]
+
+
+def track_sound(path, *, progress=None):
+    """Read a sound recording and find the impact times (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        WAV (any other container with the optional PyAV)
+    progress : callable, optional
+        ``progress(fraction, message)`` for long recordings
+
+    Returns
+    -------
+    SoundTrack
+    """
+    path = str(path)
+    if progress:
+        progress(0.0, "reading the sound")
+    x, fs, what = read_audio(path)
+    n = x.shape[0]
+    if n < int(0.05 * fs):
+        raise DataError(f"{path}: the recording is only {n / fs * 1e3:.0f} ms long; record the whole drop")
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if peak == 0.0 or not np.isfinite(peak):
+        raise DataError(f"{path}: the recording is silent (every sample is 0); check the microphone")
+    notes = [f"recording: {what}, {n / fs:.2f} s"]
+    clipped = int(np.sum(np.abs(x) >= 0.999 * max(peak, 0.0))) if peak >= 0.99 else 0
+    if clipped > 3:
+        notes.append(f"clipped: {clipped} samples at full scale (onsets are timed at the start of each "
+                     "impact, which clipping does not move)")
+    if progress:
+        progress(0.3, "finding onsets")
+    onsets = impact_onsets(x, fs)
+    if progress:
+        progress(0.8, "checking the bounce sequence")
+    if onsets.t_s.size == 0:
+        raise DataError(f"{path}: no impact sounds found (loudest transient below {SNR:g} x the noise level, "
+                        f"peak {20 * math.log10(peak):.0f} dBFS); record closer to the floor or in a quieter room")
+    chain, reasons = bounce_sequence(onsets.t_s, onsets.snr_db)
+    if chain.size < MIN_IMPACTS:
+        raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
+                        "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
+    notes.append(f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce sequence "
+                 f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
+                 f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
+    shown = sorted(reasons)
+    for i in shown[:MAX_LISTED]:
+        notes.append(f"event at t = {onsets.t_s[i]:.4f} s ({onsets.snr_db[i]:.0f} dB) rejected: {reasons[i]}")
+    if len(shown) > MAX_LISTED:
+        notes.append(f"... and {len(shown) - MAX_LISTED} more events off the bounce sequence rejected "
+                     f"(t = {onsets.t_s[shown[MAX_LISTED]]:.3f} - {onsets.t_s[shown[-1]]:.3f} s)")
+    t = onsets.t_s[chain]
+    dt = np.diff(t)
+    r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")
+    expected = t[-1] + r * dt[-1]
+    if expected < n / fs:
+        notes.append(f"the sound ends in the noise after impact {chain.size - 1} at t = {t[-1]:.4f} s "
+                     f"({onsets.snr_db[chain[-1]]:.0f} dB over the noise): the next bounce, expected near "
+                     f"t = {expected:.3f} s, and later ones are not heard and left out")
+    else:
+        notes.append(f"the recording ends {n / fs - t[-1]:.3f} s after the last impact heard "
+                     f"(the next was expected at t = {expected:.3f} s)")
+    n_clean, rejected = detect_impact_anomalies(t)
+    if rejected:
+        idx, t0, reason = rejected[0]
+        notes.append(f"impact {idx} at t = {t0:.4f} s: {reason}; fitting the {n_clean} impacts before it, "
+                     f"{len(rejected)} rejected")
+    if n_clean < MIN_IMPACTS:
+        raise DataError(f"{path}: only {n_clean} impact(s) before an anomaly ({rejected[0][2]}); "
+                        f"at least {MIN_IMPACTS} are needed")
+    impacts = ImpactTimes(t_s=t[:n_clean], source=path, notes=tuple(notes), rejected=rejected)
+    if progress:
+        progress(1.0, "done")
+    return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what)
+
+
+def parse(path, *, progress=None, **_ignored):
+    """The ``sound`` reader: impact times of a recording (see :func:`track_sound`)."""
+    return track_sound(path, progress=progress).impacts
