@@ -447,7 +447,7 @@ def yaml_cases():
             [("a", "basketball", [0, 0, 1], "bottom"), ("b", "tennis", [0, 0, 1.1], "bottom")])}),
         Case("scene: body name with comma and newline", S, expect="ok", files={"s.yaml": scene_yaml(
             ['  - name: "x,y\\nz"\n    ball: tennis\n    position_m: [0, 0, 1]'])},
-             check=_csv_rows_consistent("out/trajectories.csv")),
+             check=_csv_rows_consistent("out/s-trajectories.csv")),
         Case("scene: body name 1 MB", S, files={"s.yaml": scene_yaml(
             [f"  - name: {'n' * 1_000_000}\n    ball: tennis\n    position_m: [0, 0, 1]"])}, expect="any"),
         Case("scene: radius 1e-300", S, files={"s.yaml": scene_yaml(
@@ -492,7 +492,7 @@ def output_cases():
         Case("discover --report is a file", ["discover", "traj.csv", "--ball", "tennis", "-q", "--json", "r.json",
                                              "--report", "traj.csv"], files={"traj.csv": "fixture:traj.csv"}),
         Case("scene fails on its third file", ["scene", "s.yaml", "--no-animation", "-o", "out"],
-             files={"s.yaml": "fixture:scene.yaml", "out/figure8.png/x": "block", "out/trajectories.csv/x": "b"}),
+             files={"s.yaml": "fixture:scene.yaml", "out/s.png/x": "a directory where the figure goes"}),
         Case("scene -o unwritable", ["scene", "s.yaml", "--no-animation", "-o", "ro/out"],
              files={"s.yaml": "fixture:scene.yaml", "ro": _unwritable_dir}),
         Case("plot curves -o unwritable", ["plot", "curves", "-o", "ro/figs"], files={"ro": _unwritable_dir}),
@@ -610,7 +610,7 @@ def size_cases():
         Case("scene: unicode names", ["scene", "s.yaml", "--no-animation", "-o", "out"], expect="ok",
              files={"s.yaml": scene_yaml(['  - name: "ball \u00e9\u4e2d\U0001F3C0"\n    ball: tennis\n'
                                           '    position_m: [0, 0, 1]'])},
-             check=_csv_rows_consistent("out/trajectories.csv")),
+             check=_csv_rows_consistent("out/s-trajectories.csv")),
     ]
 
 

@@ -223,6 +223,23 @@ def test_output_to_a_fifo_a_device_or_a_link_is_written_into_not_replaced(tmp_pa
     assert no_hidden_files(tmp_path)
 
 
+def test_a_fifo_as_data_is_read_once(tmp_path, trajectory):
+    """A FIFO is read like a file, once (peeking at its first bytes and reopening it would hang)."""
+    fifo = tmp_path / "drop.csv"
+    os.mkfifo(fifo)
+    text = trajectory.read_text()
+
+    def writer():
+        with open(fifo, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    threading.Thread(target=writer, daemon=True).start()
+    result = run("discover", fifo, "--ball", "tennis", "-q")
+    assert result.exit_code == 0, result.output
+    assert result.stdout == run("discover", trajectory, "--ball", "tennis", "-q").stdout.replace(
+        str(trajectory), str(fifo))
+
+
 # --------------------------------------------------------------------------- hangs and sizes
 
 

@@ -188,10 +188,10 @@ TIME_STEP_S = Real(0, 1, min_open=True, unit="s")
 #: ODE's time step in a scene [s].
 ODE_TIME_STEP_S = Real(1e-7, 0.1, unit="s")
 #: Largest accepted |achieved - target| epsilon.
-TOLERANCE = Real(0, 1)
+TOLERANCE = Real(1e-9, 1)
 #: MuJoCo's contact stiffness [1/s^2]; 0 is the one-step damper.
 STIFFNESS = Real(0, 1e12, unit="1/s^2")
 #: Largest accepted penetration (or hover) of a ball in an engine [m].
-PENETRATION_M = Real(0, 10, min_open=True, unit="m")
+PENETRATION_M = Real(1e-9, 10, unit="m")
 #: A count of at least one (each command may bound it further).
 POSITIVE_COUNT = Count(1, None)
