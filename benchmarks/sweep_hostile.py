@@ -12,7 +12,8 @@ the wall time, the peak memory, and what went wrong:
 * ``SILENT``     -- exit 0 where the input is nonsense (the case expects an error);
 * ``FAILED``     -- an error where the case expects a result;
 * ``MULTILINE``  -- an error that is not the one line ``vrcal: error: ...``;
-* ``LEFT``       -- files left behind by a failed run, or a hidden ``.tmp`` file at all;
+* ``LEFT``       -- files left behind by a failed run, or a hidden ``.tmp`` file at all (after a
+  SIGTERM only the latter: a file renamed into place before the signal is complete);
 * ``REPLACED``   -- a device node, FIFO or symbolic link given as output was replaced;
 * ``CHECK``      -- the case's own check of the output failed (e.g. a CSV whose rows do not parse).
 
@@ -731,7 +732,9 @@ def run_case(case, timeout_s, mem_bytes):
         after = _snapshot(d)
         new = sorted(after - before)
         hidden = [n for n in new if os.path.basename(n).startswith(".") or n.endswith(".tmp")]
-        if hidden or (code != 0 and new and not timed_out):
+        # a signalled run may have finished its (atomic, so complete) writes just before the signal:
+        # there only temporary files count as left behind
+        if hidden or (code != 0 and new and not timed_out and not signalled):
             problems.append("LEFT " + ",".join(new[:4]) + ("..." if len(new) > 4 else ""))
         if case.special and target is not None and not _is_still(target, case.special):
             problems.append("REPLACED")

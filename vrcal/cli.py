@@ -38,11 +38,14 @@ class VrcalGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         try:
-            with _terminate_as_interrupt(), warnings.catch_warnings():
+            with _terminate_as_interrupt() as signalled, warnings.catch_warnings():
                 warnings.filterwarnings("ignore", category=RuntimeWarning, module="numpy")
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_WARNINGS)
                 warnings.showwarning = _show_warning
                 rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            if signalled:  # a SIGTERM that landed where Python swallows exceptions (a weakref callback)
+                click.echo("vrcal: terminated", err=True)
+                sys.exit(143)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
@@ -93,19 +96,32 @@ class _Terminated(KeyboardInterrupt):
 
 @contextlib.contextmanager
 def _terminate_as_interrupt():
-    """Handle SIGTERM as SIGINT while the command runs (only the main thread can set handlers)."""
+    """Handle SIGTERM as SIGINT while the command runs (only the main thread can set handlers).
+
+    Yields a list that is non-empty once a SIGTERM came: where Python swallows the exception (a
+    ``__del__`` or weakref callback) the command runs on, and the caller still exits 143.
+    """
+    signalled = []
+
     def handler(_signum, _frame):
+        signalled.append(True)
         raise _Terminated()
+
+    def unraisable(info):  # no "Exception ignored in ..." traceback for a swallowed SIGTERM
+        if not isinstance(info.exc_value, _Terminated):
+            previous_hook(info)
 
     try:
         previous = signal.signal(signal.SIGTERM, handler)
     except ValueError:  # not the main thread (a test runner's worker)
-        yield
+        yield signalled
         return
+    previous_hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
-        yield
+        yield signalled
     finally:
         signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
 
 
 @click.group(cls=VrcalGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
