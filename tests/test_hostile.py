@@ -315,6 +315,28 @@ def test_sigterm_cleans_up_like_sigint(tmp_path, monkeypatch):
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the handler is the command's only
 
 
+def test_a_sigterm_python_swallows_still_ends_in_exit_143(monkeypatch):
+    """A SIGTERM landing in a __del__ (where Python ignores exceptions) must not be lost."""
+    import vrcal.inverse as inverse
+
+    class SignalsWhenCollected:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(100):  # the handler runs here, inside __del__
+                pass
+
+    real = inverse.fit_ball
+
+    def fit_ball(*args, **kwargs):
+        SignalsWhenCollected()
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(inverse, "fit_ball", fit_ball)
+    result = run("fit", "basketball")
+    assert result.exit_code == 143 and "vrcal: terminated" in result.stderr
+    assert "Exception ignored" not in result.stderr and "Traceback" not in result.stderr
+
+
 def test_sigterm_to_the_installed_command(tmp_path):
     exe = os.path.join(os.path.dirname(sys.executable), "vrcal")
     if not os.path.exists(exe):
