@@ -399,7 +399,8 @@ def yaml_cases():
         cases.append(Case(f"fit --standards after the command: {label}", ["fit", "basketball", "--standards", path]))
     # billion laughs in every place the issue names
     cases += [
-        Case("billion laughs: standards schema_version", F, files={"st.yaml": billion_laughs("schema_version: {bomb}")}),
+        Case("billion laughs: standards schema_version", F,
+             files={"st.yaml": billion_laughs("schema_version: {bomb}")}),
         Case("billion laughs: standards ball name", F, files={"st.yaml": billion_laughs(
             "schema_version: 1\nballs:\n  basketball:\n    name: {bomb}")}),
         Case("billion laughs: scene K_per_s", S, files={"s.yaml": billion_laughs(
@@ -518,7 +519,7 @@ def _block_third_figure(p):
     """Make the third figure of ``plot curves`` unwritable: a directory of its name."""
     if not _FIGURE_NAMES:
         with tempfile.TemporaryDirectory() as d:
-            out = subprocess.run([VRCAL, "plot", "curves", "-o", d], capture_output=True, text=True)
+            subprocess.run([VRCAL, "plot", "curves", "-o", d], capture_output=True, text=True)
             _FIGURE_NAMES.extend(sorted(os.listdir(d)))
     p.mkdir()
     if len(_FIGURE_NAMES) >= 3:

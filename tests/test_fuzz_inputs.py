@@ -23,7 +23,8 @@ from vrcal.measurements import read_measurement
 from vrcal.model.standards import validate_standards
 from vrcal.scenes.spec import validate_scene
 
-FAST = settings(max_examples=int(os.environ.get("VRCAL_FUZZ_EXAMPLES", "60")), deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(max_examples=int(os.environ.get("VRCAL_FUZZ_EXAMPLES", "60")), deadline=None,
+                suppress_health_check=[HealthCheck.too_slow])
 
 STANDARDS_TEXT = resources.files("vrcal").joinpath("standards.yaml").read_text(encoding="utf-8")
 SCENE_TEXTS = [p.read_text(encoding="utf-8") for p in sorted(EXAMPLES.glob("*.yaml"))]
@@ -58,7 +59,8 @@ def mutated(draw, texts):
             new = draw(st.one_of(
                 st.text(max_size=12),
                 st.sampled_from(["nan", "-inf", "1e308", "-1", "0", "1e-320", ":", "- ", "&a", "*a", "[", "{",
-                                 "\n", "\t", ",", ";", "\x00", "'", '"', "#", "!!binary", "999999999999999999999", "1" + "0" * 400]),
+                                 "\n", "\t", ",", ";", "\x00", "'", '"', "#", "!!binary", "999999999999999999999",
+                                 "1" + "0" * 400]),
                 st.floats(allow_nan=True, allow_infinity=True).map(repr)))
             text = text[:i] + new + (text[j:] if op == "replace" else text[i:])
     return text

@@ -274,9 +274,9 @@ def test_discover_writes_no_json_when_the_report_cannot_be_written(tmp_path, tra
 
 
 def test_plot_curves_failing_on_its_third_file_leaves_none(tmp_path):
-    from vrcal.plots import curve_figures
-
     import matplotlib.pyplot as plt
+
+    from vrcal.plots import curve_figures
 
     figures = curve_figures(4.0, "basketball", False, None)
     names = sorted(figures)

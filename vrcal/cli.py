@@ -378,7 +378,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--bounces", type=opt.BOUNCES, default=10, show_default=True, help="Number of floor impacts.")
 @click.option("--epsilon", type=opt.EPSILON, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
 @K_OPTION
-@click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
+@click.option("--x", "x_m", type=opt.DEPTH_M, default=None,
+              help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
 @click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None, help="Virtual body speed v [m/s] (with --x).")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
@@ -392,7 +393,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--seed", type=opt.SEED, default=0, show_default=True, help="Seed of the noise.")
 @click.option("--still", "still_s", type=opt.STILL_S, default=0.2, show_default=True,
               help="Still segment before release [s].")
-@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (a ball outside the standards).")
+@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
+              help="Ball mass [kg] (a ball outside the standards).")
 @click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m].")
 @click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes", "wav", "video"]),
               default="trajectory", show_default=True,
@@ -438,9 +440,11 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 @click.argument("data", type=click.Path(dir_okay=False))
 @click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
 @click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (overrides the standard's).")
-@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m] (overrides the standard's).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
+              help="Ball diameter [m] (overrides the standard's).")
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
-@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None, help="Metres per pixel of a video track.")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
+              help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
 @click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="Frame rate [Hz] when the file has no time column.")
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
@@ -449,7 +453,8 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
-@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True, help="Gravity [m/s^2].")
+@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True,
+              help="Gravity [m/s^2].")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the result as JSON (sorted keys) here.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
@@ -696,14 +701,16 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
               help="--against: the record's format (as discover's --format).")
-@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="--against: frame rate [Hz] of a file without times.")
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None,
+              help="--against: frame rate [Hz] of a file without times.")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None, help="--against: metres per pixel.")
 @click.option("--y-down", is_flag=True, help="--against: the record's y axis points down.")
 @click.option("--data-floor", "data_floor_m", type=opt.FLOOR_M, default=None,
               help="--against: height of the floor in the record's frame [m] (as discover's --floor).")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="--against: also draw the replay (heights and model - data) into this PNG/PDF/SVG.")
-@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None, show_default="3, or as --impact-speed needs",
+@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
+              show_default="3, or as --impact-speed needs",
               help="Bounces per drop (1-50).")
 @click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
               help="Drops with the impact moved across one time step (1-64).")

@@ -15,7 +15,6 @@ import yaml
 
 from vrcal.errors import DataError, UsageError
 
-
 #: Largest YAML file (standards, scene) read [bytes]; PyYAML's safe loader reads about 0.3 MB/s.
 MAX_YAML_BYTES = 1 << 20
 #: Deepest nesting of lists and mappings in a YAML file.
