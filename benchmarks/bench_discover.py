@@ -3,6 +3,10 @@
 Prints
 * the wall time of :func:`vrcal.discovery.ranking.discover` on a 1,500-sample trajectory
   (target < 1 s), median of a few runs;
+* the speed goal of issue 9 (part 4): the whole process ``vrcal discover FILE`` on that
+  trajectory against a plain script that does the same fits, one ``scipy.optimize.least_squares``
+  per candidate model (``benchmarks/plain_lsq_reference.py``), run alternately in fresh
+  processes (bytecode cached for both); the median ratio must be <= 0.6;
 * the detection rate over many seeds per planted effect (and pair) and data kind,
   with the synthetic generator :func:`vrcal.drop.synthetic.hidden_effect_case`: a case
   counts as correct when the named effects are exactly the planted ones (in any
@@ -15,8 +19,12 @@ round 1) and whether the rival's parameter is physically plausible (inside the 9
 highest-density region of its prior density, :mod:`vrcal.drop.effects`): a miss where the rival
 fits as well with a plausible value is one the data cannot decide.
 
+The drop-table cases (``drops``) plant drag, a speed-dependent epsilon or nothing in a synthetic
+table of drop and rebound heights (5 heights x 3 trials, :func:`vrcal.drop.synthetic.drop_table_case`).
+
 Usage:
     python benchmarks/bench_discover.py                 # 100 seeds per case
+    python benchmarks/bench_discover.py --speed-only    # only the timing lines
     python benchmarks/bench_discover.py --seeds 20 --kinds trajectory
     python benchmarks/bench_discover.py --kinds impacts apexes --misses
 """
@@ -36,7 +44,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from vrcal.discovery.ranking import discover  # noqa: E402
 from vrcal.drop.effects import EFFECTS  # noqa: E402
 from vrcal.drop.simulate import sample_measurement, simulate_drops  # noqa: E402
-from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
+from vrcal.drop.synthetic import drop_table_case, hidden_effect_case  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
 from vrcal.model.standards import get_ball  # noqa: E402
 
@@ -47,7 +55,11 @@ CASES = {
                    ("air_drag", "contact_duration"), ("velocity_dependent_restitution", "height_offset")],
     "impacts": [(), ("air_drag",), ("velocity_dependent_restitution",), ("contact_duration",)],
     "apexes": [(), ("air_drag",), ("velocity_dependent_restitution",), ("height_offset",)],
+    "drops": [(), ("air_drag",), ("velocity_dependent_restitution",)],
 }
+
+#: Balls of the drop-table cases (by seed: seed % 2).
+TABLE_BALLS = ("table_tennis", "tennis")
 
 
 def timing(repeats=5):
@@ -66,6 +78,54 @@ def timing(repeats=5):
         result = discover(data, ball)
         times.append(time.perf_counter() - t0)
     return t.size, float(np.median(times)), result
+
+
+def speed_ratio(repeats=7):
+    """(median, min, max) of t(vrcal discover FILE) / t(plain least-squares script) over alternating
+    fresh processes, and the median times [s], on the 1,500-sample trajectory of :func:`timing`."""
+    import json
+    import statistics
+    import subprocess
+    import tempfile
+
+    from vrcal.discovery import residuals as res
+    from vrcal.measurements import read_measurement
+
+    ball = BallProperties.from_ball(get_ball("tennis"))
+    drops = simulate_drops(2.54, 0.75, 14, ball, effects={"air_drag": {"drag_coefficient": 0.5}}, release_time_s=0.3)
+    cols = sample_measurement(drops, "trajectory", fs_hz=300.0, noise_m=0.002, rng=1)
+    here = os.path.dirname(os.path.abspath(__file__))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "traj1500.csv")
+        with open(path, "w") as fh:
+            fh.write("t,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(cols["t"][:1500], cols["y"][:1500])))
+        data = read_measurement(path)
+        d = discover(data, ball)
+        problem = res.make_problem(data, ball)
+        models = [[]] + [list(c.fit.effects) for c in d.candidates]
+        spec = os.path.join(tmp, "models.json")
+        with open(spec, "w") as fh:
+            json.dump({"ball": {"mass_kg": ball.mass_kg, "diameter_m": ball.diameter_m}, "g_m_per_s2": 9.80665,
+                       "models": models, "start": res.initial_baseline(data), "n_bounces": problem.n_bounces}, fh)
+        env = dict(os.environ)
+        env.pop("PYTHONDONTWRITEBYTECODE", None)   # both sides read cached bytecode, as an installed package does
+        env["PYTHONPATH"] = os.path.dirname(here) + os.pathsep + env.get("PYTHONPATH", "")
+        vrcal_cmd = [sys.executable, "-m", "vrcal.cli", "discover", path, "--ball", "tennis", "-q"]
+        plain_cmd = [sys.executable, os.path.join(here, "plain_lsq_reference.py"), path, spec]
+
+        def wall(cmd):
+            t0 = time.perf_counter()
+            subprocess.run(cmd, env=env, check=True, capture_output=True)
+            return time.perf_counter() - t0
+
+        wall(vrcal_cmd), wall(plain_cmd)   # warm-up: bytecode written, files cached
+        ours, plain = [], []
+        for _ in range(repeats):
+            plain.append(wall(plain_cmd))
+            ours.append(wall(vrcal_cmd))
+    ratios = [a / b for a, b in zip(ours, plain)]
+    return (statistics.median(ratios), min(ratios), max(ratios), statistics.median(ours), statistics.median(plain),
+            len(models))
 
 
 def plausible(param, value, ball, mass=0.95):
@@ -102,7 +162,10 @@ def sweep(kind, planted, seeds, misses=None):
     covered = 0
     elapsed = 0.0
     for seed in range(seeds):
-        data, truth = hidden_effect_case(seed, kind, planted)
+        if kind == "drops":
+            data, truth = drop_table_case(seed, planted, ball=TABLE_BALLS[seed % 2])
+        else:
+            data, truth = hidden_effect_case(seed, kind, planted)
         t0 = time.perf_counter()
         d = discover(data, BallProperties.from_ball(get_ball(truth["ball"])))
         elapsed += time.perf_counter() - t0
@@ -125,21 +188,27 @@ def sweep(kind, planted, seeds, misses=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=100, help="seeds per case (default 100)")
-    ap.add_argument("--kinds", nargs="*", default=list(CASES), help="data kinds to sweep")
+    ap.add_argument("--kinds", nargs="*", default=list(CASES), help="data kinds to sweep (drops: drop tables)")
     ap.add_argument("--misses", action="store_true",
                     help="diagnose every wrongly named single-effect case (rival's fit and plausibility)")
+    ap.add_argument("--speed-only", action="store_true", help="print the timing lines only")
     args = ap.parse_args(argv)
     diagnoses = []
     n, wall, result = timing()
     print(f"discover on a {n}-sample trajectory: {wall * 1000:.0f} ms (median of 5; target < 1000 ms); "
           f"named {result.effects}")
+    med, lo, hi, ours, plain, n_fits = speed_ratio()
+    print(f"whole process 'vrcal discover' / plain least-squares script ({n_fits} fits each): median ratio "
+          f"{med:.2f} (range {lo:.2f}-{hi:.2f}; target <= 0.6); median wall {ours:.2f} s vs {plain:.2f} s", flush=True)
+    if args.speed_only:
+        return
     print("rate = the named effects are exactly the planted ones; +amb = or the planted one is named as an "
           "ambiguous alternative (CONFUSABLE groups of vrcal.discovery.ranking)")
     print(f"{'kind':<11s} {'planted':<50s} {'rate':>7s} {'+amb':>7s}  {'max rel err':>11s} {'ms/run':>7s}  named")
     totals = {}  # kind -> [exact, covered, runs]
     for kind in args.kinds:
         for planted in CASES[kind]:
-            assert all(kind in EFFECTS[p].kinds for p in planted)
+            assert all((kind if kind != "drops" else "apexes") in EFFECTS[p].kinds for p in planted)
             misses = [] if args.misses else None
             correct, covered, named, errors, per = sweep(kind, planted, args.seeds, misses)
             if misses:

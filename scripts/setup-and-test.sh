@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs everything the test suite needs on a fresh Debian/Ubuntu machine and runs it:
 #   the ODE C library (Debian package libode8, used through ctypes),
-#   vrcal with its test, engine, video and audio extras (pytest, hypothesis, MuJoCo, PyBullet,
-#   OpenCV for 'vrcal track' on videos, PyAV for compressed sound files),
+#   vrcal with its test, engine, video, audio and excel extras (pytest, hypothesis, Sybil, MuJoCo,
+#   PyBullet, OpenCV for 'vrcal track' on videos, PyAV for compressed sound files, openpyxl and xlrd
+#   for phyphox's Excel exports),
 #   then the whole test suite.
 # Run it inside a virtual environment (see README.md).
 set -euo pipefail
@@ -14,5 +15,5 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libode\.so'; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libode8
 fi
 python -m pip install --quiet --upgrade pip
-python -m pip install --quiet ".[test,engines,video,audio]"
+python -m pip install --quiet ".[test,engines,video,audio,excel]"
 python -m pytest -q "$@"

@@ -57,19 +57,19 @@ BILLION_LAUGHS = "[" + ", ".join(['&a0 "lol"'] + [f"&a{i} [" + ", ".join([f"*a{i
 
 
 @pytest.mark.parametrize("lines, fragment", [
-    ("0.5;250;7\n100;320;\n110;320;\n130;320;\n", "found '0.5;250;7'"),
-    ("0.5;0\n100;320;\n110;320;\n130;320;\n", "found '0.5;0'"),
+    ("0.5;250;7\n100;320;\n110;320;\n130;320;\n", "'LENGTH_M;LENGTH_PX', found 3 cell(s) '0.5;250;7'"),
+    ("0.5;0\n100;320;\n110;320;\n130;320;\n", "needs a length > 0 m spanning > 0 px, got 0.5 m, 0 px"),
 ])
 def test_pixels_ref_reference_line_of_three_cells_or_zero_pixels(tmp_path, lines, fragment):
     p = tmp_path / "px.txt"
     p.write_text(lines)
     result = run("discover", p, "--ball", "tennis", "--format", "pixels-ref", "--fs", "60", "-q")
-    one_line_error(result, 1, f"{p}:1: the reference line must be 'LENGTH_M;LENGTH_PX'", fragment)
+    one_line_error(result, 1, f"{p}:1: ", fragment)
 
 
 def test_pixels_ref_forced_on_a_t_y_csv(trajectory):
     result = run("discover", trajectory, "--ball", "tennis", "--format", "pixels-ref", "--fs", "60", "-q")
-    one_line_error(result, 1, ":1: the reference line must be", "found 't")
+    one_line_error(result, 1, ":1: a pixels-ref file starts with 'LENGTH_M;LENGTH_PX'", "'t")
 
 
 @pytest.mark.parametrize("kind", ["scene", "standards"])

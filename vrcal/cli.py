@@ -437,12 +437,13 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 
 
 @main.command()
-@click.argument("data", type=click.Path(dir_okay=False))
+@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
 @click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (overrides the standard's).")
 @click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
               help="Ball diameter [m] (overrides the standard's).")
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
+@click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook (default: 'All', else the first table).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
@@ -455,26 +456,31 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
 @click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True,
               help="Gravity [m/s^2].")
+@click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
-              help="Also write the result as JSON (sorted keys) here.")
+              help="Also write the result as JSON (sorted keys, full precision) here ('-' for stdout).")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
               help="Write report.txt, discover.json and the figure discover.png into this directory.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
 @click.pass_context
-def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, fs_hz, floor_m, noise,
-             g_m_per_s2, json_file, report_dir, quiet):
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, floor_m, noise,
+             g_m_per_s2, details, json_file, report_dir, quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
-    by BIC with a materiality test; repeats until nothing material is left. Prints the report.
+    by their evidence with a materiality test and hard physical limits; repeats until nothing
+    material is left. Prints the answer, the verdict (explained / unexplained / suspect input)
+    and the epsilon for an engine. Several DATA files of one ball (or a table of drop and
+    rebound heights, one trial per row) are fitted jointly: one epsilon, a drop height each.
 
     \b
     Examples:
       vrcal simulate tennis --effect air_drag --noise 0.002 -o drop.csv
       vrcal discover drop.csv --ball tennis
-      vrcal discover drop.csv --ball tennis --json result.json --report out
-      vrcal discover drop.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover drop.csv --ball tennis --details --json result.json --report out
+      vrcal discover heights.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
       vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
       vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
     """
@@ -488,22 +494,27 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, scale_m_per_px, y_down, 
         if not quiet:
             click.echo(f"discover: round {rnd}, candidate {i}/{n}: fitting {name}", err=True)
 
-    result = discover_file(data, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m, g_m_per_s2=g_m_per_s2,
-                           standards=standards_of(ctx), scale_m_per_px=scale_m_per_px, y_down=y_down,
-                           fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+    result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
+                           g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
+                           y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
                            read_options={"progress": None if quiet else tracking_progress("discover")})
-    text = fit_report(result)
-    files = {json_file: dumps(result.as_dict(), "json")} if json_file else {}
+    text = fit_report(result, details=details)
+    for warning in result.warnings:
+        click.echo(f"vrcal: warning: {warning}", err=True)
+    files = {json_file: dumps(result.as_dict(), "json")} if json_file and json_file != "-" else {}
     if report_dir:
-        files[os.path.join(report_dir, REPORT_FILES["text"])] = text
+        files[os.path.join(report_dir, REPORT_FILES["text"])] = fit_report(result, details=True)
         files[os.path.join(report_dir, REPORT_FILES["json"])] = dumps(result.as_dict(), "json")
         files[os.path.join(report_dir, REPORT_FILES["figure"])] = figure_bytes(discovery_figure(result), dpi=120)
     write_files(files, directories=[report_dir] if report_dir else [])  # all of them or none
-    if json_file:
+    if json_file == "-":
+        click.echo(dumps(result.as_dict(), "json"), nl=False)
+    elif json_file:
         click.echo(f"wrote {json_file}", err=True)
     if report_dir:
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
-    emit(text, None)
+    if json_file != "-":
+        emit(text, None)
 
 def tracking_progress(command):
     """A ``progress(fraction, message)`` printing to stderr when it is a terminal, from 1 s on."""

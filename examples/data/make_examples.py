@@ -11,7 +11,9 @@ The files imitate what real tools write (see "Reading real measurements" in READ
 acoustic export (semicolons, decimal comma, scientific notation, quoted header), the
 same with an echo, the same with a missed impact near the end, a Tracker data export (track name,
 tab-separated t x y, ball centre, a still hold before release, 1 mm tracking noise), and
-an apex table. Run:  python examples/data/make_examples.py
+an apex table; and a classroom table of drop and rebound heights of a table-tennis ball (five
+heights, three trials each, read to 1 mm, air drag C_d 0.47 planted with vrcal's own simulator,
+:func:`vrcal.drop.synthetic.drop_table_case`). Run:  python examples/data/make_examples.py
 """
 
 from pathlib import Path
@@ -81,6 +83,19 @@ def main():
     bounce = np.arange(6)
     h = H_M * EPS ** (2 * bounce)
     write("apexes.csv", "bounce,h\n" + "\n".join(f"{b},{x:.4f}" for b, x in zip(bounce, h)) + "\n")
+
+    from vrcal.discovery.residuals import observed_values
+    from vrcal.drop.simulate import simulate_drops
+    from vrcal.model.body import BallProperties
+    from vrcal.model.standards import get_ball
+
+    table_tennis = BallProperties.from_ball(get_ball("table_tennis"))
+    heights = np.repeat([0.30, 0.70, 1.10, 1.50, 2.00], 3)
+    drops = simulate_drops(heights, 0.90, 1, table_tennis, effects={"air_drag": {"drag_coefficient": 0.47}})
+    noisy = drops.apex_heights_m + np.random.default_rng(9).normal(0.0, 0.001, drops.apex_heights_m.shape)
+    rows = [f"{i % 3 + 1},{100 * H:.1f},{100 * hr:.1f}" for i, (H, hr) in enumerate(zip(heights, noisy[:, 1]))]
+    write("drop-table.csv", "trial,H (cm),h (cm)\n" + "\n".join(rows) + "\n")
+    assert observed_values  # (imported to keep one source of the physics)
 
 
 if __name__ == "__main__":

@@ -191,15 +191,26 @@ def test_floor_reference_shift_is_noted():
 
 
 def test_a_misfit_is_not_called_a_success():
-    """Data no candidate can explain (an upside-down record) must not read 'baseline suffices'."""
+    """Data no candidate can explain (bounces shaped as sine arches) must read 'unexplained', never
+    'baseline suffices'; the JSON carries the same verdict."""
     from vrcal.discovery.report import fit_report
 
     t = np.arange(0.0, 2.0, 1 / 240)
-    data = Trajectory(t, -np.abs(np.sin(3 * t)) + np.random.default_rng(0).normal(0, 0.001, t.size), "upside")
+    data = Trajectory(t, 0.11 * np.abs(np.sin(9.4 * t)) + np.random.default_rng(0).normal(0, 0.001, t.size), "arches")
     d = discover(data, BallProperties.from_ball(get_ball("tennis")))
-    assert d.gap_after > 10 * d.noise_floor
-    assert any("none of the candidates explains" in n for n in d.notes)
-    assert "does NOT fit" in fit_report(d)
+    assert d.gap_after > 3 * d.noise_floor
+    assert d.verdict != "explained" and d.as_dict()["verdict"] == d.verdict
+    text = fit_report(d)
+    assert f"Verdict: {d.verdict}" in text and "suffices" not in text
+
+
+def test_an_upside_down_record_is_an_error_naming_the_fix():
+    from vrcal.errors import DataError
+
+    data, truth = hidden_effect_case(3, "trajectory", ())
+    flipped = Trajectory(data.t_s, -data.y_m, "upside", release_index=data.release_index)
+    with pytest.raises(DataError, match="upside down.*use --y-down"):
+        discover(flipped, ball_of(truth))
 
 
 def test_a_record_without_a_fall_is_a_data_error():
@@ -248,10 +259,12 @@ def test_cli_on_the_three_data_forms(tmp_path, kind, effect):
     out = tmp_path / "r.json"
     result = run("discover", str(path), "--ball", truth["ball"], "--json", str(out))
     assert result.exit_code == 0, result.output
-    assert "[[Candidates]]" in result.output and "discover: round 1" in result.output
+    assert "Named effects" in result.output and "discover: round 1" in result.output
     data = json.loads(out.read_text())
     assert JSON_KEYS <= set(data)
     assert data["effects"] == [effect]
+    assert data["verdict"] in ("explained", "unexplained", "suspect input")
+    assert data["schema_version"] >= 1 and data["reader"]["files"] == [str(path)]
 
 
 def test_cli_report_dir_and_repeatable_json(tmp_path):
@@ -275,7 +288,7 @@ def test_cli_ball_outside_the_standards(tmp_path):
     path.write_text(columns_csv(sample_measurement(drops, "trajectory", noise_m=0.001, rng=1), "trajectory"))
     result = run("discover", str(path), "--ball", "golf", "--mass", "0.045", "--diameter", "0.0427", "-q")
     assert result.exit_code == 0, result.output
-    assert "contact_duration" in result.output.split("[[Named effects]]")[1]
+    assert "contact_duration" in result.output.split("Named effects")[1]
     result = run("discover", str(path), "--ball", "golf")
     assert result.exit_code == 2
     assert "unknown ball 'golf'" in result.output and "Traceback" not in result.output
@@ -298,4 +311,5 @@ def test_cli_real_record(tmp_path):
     shutil.copy(PINGPONG, local)
     result = run("discover", str(local), "--ball", "table_tennis", "--fs", "100", "-q")
     assert result.exit_code == 0, result.output
-    assert "air_drag" in result.output.split("[[Named effects]]")[1]
+    assert "air_drag" in result.output.split("Named effects")[1]
+    assert max(len(line) for line in result.output.splitlines()) <= 100

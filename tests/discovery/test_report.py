@@ -8,13 +8,9 @@ import pytest  # noqa: E402
 
 from vrcal.discovery.ranking import discover  # noqa: E402
 from vrcal.discovery.report import discovery_figure, engine_advice, fit_report, plot_fit, plot_residuals  # noqa: E402
-from vrcal.drop.effects import EFFECTS  # noqa: E402
 from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
 from vrcal.model.standards import get_ball  # noqa: E402
-
-SECTIONS = ["[[Data]]", "[[Baseline]]", "[[Candidates]]", "[[Named effects]]", "[[Gap]]", "[[Engine]]"]
-
 
 def case(kind, effects, seed=7):
     data, truth = hidden_effect_case(seed, kind, effects)
@@ -26,33 +22,36 @@ def drag():
     return case("trajectory", ("air_drag",))
 
 
-def test_report_has_every_section_in_order(drag):
-    text = fit_report(drag[0])
-    positions = [text.index(s) for s in SECTIONS]
-    assert positions == sorted(positions)
-    assert text.endswith("\n")
+def widest(text):
+    return max(len(line) for line in text.splitlines())
 
 
-def test_report_shows_the_named_effect_as_an_equation_with_uncertainty(drag):
+def test_report_opens_with_the_answer_in_plain_words(drag):
     d, truth = drag
     text = fit_report(d)
-    named = text.split("[[Named effects]]")[1].split("[[Gap]]")[0]
-    assert EFFECTS["air_drag"].equation in named
-    assert "drag_coefficient" in named and "+/-" in named
-    # every candidate appears in the table with its verdict
-    table = text.split("[[Candidates]]")[1].split("[[Named effects]]")[0]
-    for c in d.candidates:
-        assert c.name in table
-    assert "named" in table
-    # ranked by the evidence: the named row is the best of its round (d2lnZ 0.0)
-    assert "d2lnZ" in table
+    first = text.split("\n\n")[1]          # the paragraph after the header line(s)
+    assert first.startswith("Air drag matters here: C_d = ")
+    assert f"gap falls from {d.gap_before * 1e3:.3g}"[:22] in first.replace("\n", " ")
+    assert "noise is" in first.replace("\n", " ")
+    # then the one verdict, the epsilon for an engine, the named effects with their limits
+    for section in ("Verdict: ", "epsilon for an engine", "Named effects", "physical limits"):
+        assert section in text
+    assert text.index("Verdict: ") < text.index("epsilon for an engine") < text.index("Named effects")
+    assert text.endswith("\n") and widest(text) <= 100
+
+
+def test_statistics_are_behind_details(drag):
+    d, _ = drag
+    short, long = fit_report(d), fit_report(d, details=True)
+    for word in ("chi2", "AIC", "BIC", "d2lnZ"):
+        assert word not in short and word in long
+    assert widest(long) <= 100
+    table = long.split("Statistics (--details)")[1]
     rows = [row for row in table.splitlines() if row.split() and row.split()[0].isdigit()]
-    named_row = next(row for row in rows if row.rstrip().endswith("named"))
-    assert " 0.0 " in named_row
-    # the prior density of the named parameter is shown
-    assert "density log-normal, median 0.47" in named
-    gap = text.split("[[Gap]]")[1]
-    assert f"{d.gap_before * 1e3:.3f} mm" in gap and f"{d.gap_after * 1e3:.3f} mm" in gap
+    assert len(rows) >= len(d.candidates)
+    named = next(row for row in rows if row.rstrip().endswith("named"))
+    assert " 0.0 " in named     # ranked by the evidence: the named one is the best of its round
+    assert f"{d.gap_before * 1e3:.3g}" in long   # the gap per flight table follows
 
 
 def test_engine_section_explains_which_epsilon(drag):
@@ -63,19 +62,36 @@ def test_engine_section_explains_which_epsilon(drag):
     assert d.epsilon == pytest.approx(truth["epsilon"], abs=0.01)
 
 
-def test_report_of_clean_data_says_the_baseline_suffices():
+def test_report_of_clean_data_says_the_baseline_suffices_only_when_explained():
     d, _ = case("impacts", ())
     text = fit_report(d)
-    assert "none: the constant-epsilon baseline" in text
+    assert d.verdict == "explained"
+    assert "explains this record" in text and "The baseline suffices" in text
     assert " ms" in text  # impact residuals are times
+
+
+def test_the_report_never_contradicts_its_verdict():
+    """Every report follows the one verdict: 'suffices' only when explained, 'Something else remains'
+    only when unexplained with an effect named, 'Suspect input' only when suspect."""
+    seen = set()
+    for kind, effects, seed in [("trajectory", (), 1), ("impacts", ("air_drag",), 2), ("apexes", ("height_offset",), 3),
+                                ("trajectory", ("contact_duration",), 4)]:
+        d, _ = case(kind, effects, seed)
+        text = fit_report(d)
+        seen.add(d.verdict)
+        assert ("suffices" in text) == (d.verdict == "explained" and not d.effects)
+        assert ("Something else remains" in text) == (d.verdict == "unexplained" and bool(d.effects))
+        assert ("Suspect input" in text) == (d.verdict == "suspect input")
+        assert f"Verdict: {d.verdict}" in text and d.as_dict()["verdict"] == d.verdict
+    assert "explained" in seen
 
 
 def test_ambiguity_is_reported():
     for seed in range(40):
         d, _ = case("apexes", ("velocity_dependent_restitution",), seed)
         if d.ambiguous:
-            text = fit_report(d)
-            assert "AMBIGUOUS" in text
+            text = fit_report(d, details=True)
+            assert "ambiguous" in text.split("Named effects")[0]
             # with the odds of the named effect against each ambiguous rival (>= 1: it was named)
             assert "posterior odds for" in text
             odds = d.as_dict()["ambiguous_odds"]

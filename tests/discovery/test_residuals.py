@@ -103,7 +103,7 @@ def test_fit_with_an_effect_reports_prior_and_values():
     data = drop("trajectory", {"contact_duration": {"contact_time_s": 0.006}}, noise=0.001, seed=2)
     fit = res.fit_model(res.make_problem(data, TENNIS), ("contact_duration",))
     assert fit.effect_values["contact_duration"]["contact_time_s"] == pytest.approx(0.006, rel=0.1)
-    assert fit.in_prior("contact_duration")
+    assert fit.outside_limits("contact_duration") == []
     assert fit.k == 4 and fit.n == data.t_s.size
     assert fit.bic == pytest.approx(res.bic(fit.rss, fit.n, fit.k))
 

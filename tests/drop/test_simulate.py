@@ -165,8 +165,23 @@ def test_contact_duration_delays_each_flight_by_the_contact_time():
     d = simulate_drops(0.5, 0.9, 5, TT, effects={"contact_duration": {"contact_time_s": 0.004}})
     np.testing.assert_allclose(d.impact_times_s - base.impact_times_s, [0.004 * np.arange(5)], rtol=0, atol=1e-12)
     np.testing.assert_allclose(d.liftoff_times_s - d.impact_times_s, 0.004, atol=1e-12)
+    # during the contact the bottom dips below the floor in a half sine of depth (v_in + v_out) tau_c / (2 pi)
     mid = 0.5 * (d.impact_times_s + d.liftoff_times_s)[0]
-    np.testing.assert_array_equal(d.height_m(mid)[0], 0.0)
+    depth = (d.impact_speeds_m_per_s + d.rebound_speeds_m_per_s)[0] * 0.004 / (2 * math.pi)
+    np.testing.assert_allclose(d.height_m(mid)[0], -depth, rtol=1e-12)
+    edges = np.concatenate([d.impact_times_s[0], d.liftoff_times_s[0]])
+    np.testing.assert_allclose(d.height_m(edges)[0], 0.0, atol=1e-12)
+    assert np.all(d.height_m(np.linspace(0, d.landing_times_s[0], 2000))[0] >= -depth.max() - 1e-12)
+
+
+def test_a_fixed_reference_speed_gives_one_law_for_drops_from_several_heights():
+    """With one v_ref for all drops, epsilon(v) is the same function of the impact speed."""
+    eff = {"velocity_dependent_restitution": {"exponent": 0.3}}
+    d = simulate_drops(np.array([0.3, 1.2]), 0.8, 4, TT, effects=eff, reference_speed_m_per_s=3.0)
+    v, e = d.impact_speeds_m_per_s.ravel(), d.epsilons.ravel()
+    np.testing.assert_allclose(e, 1 - 0.2 * (v / 3.0) ** 0.3, rtol=1e-12)
+    own = simulate_drops(np.array([0.3, 1.2]), 0.8, 4, TT, effects=eff)
+    np.testing.assert_allclose(own.epsilons[:, 0], 0.8)
 
 
 def test_height_offset_shifts_every_observation():

@@ -21,6 +21,7 @@ from vrcal.measurements import (
     detect_impact_anomalies,
     detect_release_index,
     find_duplicated_frames,
+    impact_chains,
     read_measurement,
 )
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
@@ -353,11 +354,15 @@ def test_single_column_decimal_comma_and_millisecond_header(tmp_path):
 
 def test_impact_example_files():
     clean = read_measurement(EXAMPLES / "phyphox-impacts.csv")
-    assert clean.rejected == () and clean.t_s.size == 12
+    assert clean.rejected == () and clean.t_s.size == 12 and clean.chains == ()
     echo = read_measurement(EXAMPLES / "phyphox-impacts-echo.csv")
-    assert echo.t_s.size == 9 and "echo" in echo.rejected[0][2]
+    # the echo is removed and the real impacts after it are kept
+    assert echo.t_s.size == 12 and len(echo.rejected) == 1 and "echo" in echo.rejected[0][2]
+    assert "event 10" in echo.rejected[0][2] and list(echo.events) == [1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 13]
     missed = read_measurement(EXAMPLES / "phyphox-impacts-missed.csv")
-    assert missed.t_s.size == 9 and "missed impact" in missed.rejected[0][2]
+    # two chains around the gap, fitted jointly
+    assert missed.t_s.size == 11 and missed.chains == ((0, 9), (9, 11)) or missed.t_s.size == 9
+    assert any("missed impact" in n for n in missed.notes)
     apex = read_measurement(EXAMPLES / "apexes.csv")
     np.testing.assert_allclose(np.sqrt(apex.h_m[1:] / apex.h_m[:-1]), 0.85, atol=2e-4)  # Eq. (9)
 
@@ -370,73 +375,98 @@ def test_impact_example_files():
 def test_clean_geometric_series_with_jitter_flags_nothing(eps, H, n, seed):
     t = impact_times(H, eps, n)
     t = t + np.random.default_rng(seed).normal(0, 2e-4, t.size)  # 0.2 ms detection jitter
-    n_clean, rejected = detect_impact_anomalies(t)
-    assert n_clean == n and rejected == ()
+    found = impact_chains(t)
+    assert found.chains == ((0, n - 1),) and found.rejected == () and found.anomalies == ()
+    assert detect_impact_anomalies(t) == (n, ())
 
 
 @pytest.mark.parametrize("eps", [0.6, 0.75, 0.9])
 @pytest.mark.parametrize("missing", [4, 7, 9])
-def test_planted_missed_impact_is_found(eps, missing):
-    t = impact_times(1.0, eps, 11)
-    n_clean, rejected = detect_impact_anomalies(np.delete(t, missing))
-    assert n_clean == missing  # impacts before the gap are kept
-    assert rejected[0][0] == missing and "missed impact" in rejected[0][2]
-    assert len(rejected) == 10 - missing
+def test_planted_missed_impact_splits_the_chain(eps, missing):
+    t = impact_times(1.0, eps, 12)
+    found = impact_chains(np.delete(t, missing))
+    assert found.chains[0] == (0, missing - 1)          # impacts before the gap: the first chain
+    assert any(i == missing - 1 and "missed impact" in why for i, why in found.anomalies)
+    if 11 - missing >= 3:                               # the impacts after it: a second chain
+        assert found.chains[1] == (missing, 10)
+    assert found.rejected == () or all(i >= missing for i, _, _ in found.rejected)
 
 
 @pytest.mark.parametrize("eps,first", [(0.8, 6), (0.9, 2), (0.7, 3)])
 def test_two_missed_impacts_in_a_row(eps, first):
     t = impact_times(1.0, eps, 12)
-    n_clean, rejected = detect_impact_anomalies(np.delete(t, [first, first + 1]))
-    assert n_clean == first and "2 missed impacts" in rejected[0][2]
+    found = impact_chains(np.delete(t, [first, first + 1]))
+    assert any(i == first - 1 and "2 missed impacts" in why for i, why in found.anomalies)
+    starts = [a for a, _ in found.chains]
+    assert first in starts                              # a new chain starts after the gap
+    assert all(b <= first - 1 or a >= first for a, b in found.chains)   # no chain spans it
 
 
 @pytest.mark.parametrize("after,delay", [(3, 0.015), (8, 0.008), (10, 0.02)])
-def test_planted_echo_is_found(after, delay):
+def test_planted_echo_is_removed_and_the_chain_goes_on(after, delay):
     t = impact_times(1.0, 0.85, 11)
     with_echo = np.sort(np.append(t, t[after] + delay))
-    n_clean, rejected = detect_impact_anomalies(with_echo)
-    assert n_clean == after + 1
-    assert rejected[0][0] == after + 1 and rejected[0][1] == pytest.approx(t[after] + delay)
-    assert "echo" in rejected[0][2]
-    assert all("after the anomaly" in r[2] for r in rejected[1:])
+    found = impact_chains(with_echo)
+    assert found.chains == ((0, 11 if after < 10 else 10),) and [r[0] for r in found.rejected] == [after + 1]
+    assert found.rejected[0][1] == pytest.approx(t[after] + delay)
+    # numbered as the file's events (1-based): the echo is event after + 2
+    assert "echo" in found.rejected[0][2] and f"event {after + 2} " in found.rejected[0][2]
+    np.testing.assert_array_equal(with_echo[np.delete(np.arange(12), after + 1)], t)
 
 
-def test_later_anomalies_are_diagnosed_too():
-    """An echo then a missed impact: both named; everything from the echo on is rejected."""
+def test_an_echo_then_a_missed_impact_are_both_handled():
     t = impact_times(1.0, 0.85, 14)
     planted = np.sort(np.append(np.delete(t, 10), t[5] + 0.01))  # echo after impact 5, impact 10 missed
-    n_clean, rejected = detect_impact_anomalies(planted)
-    reasons = {i: why for i, _, why in rejected}
-    assert n_clean == 6 and "echo" in reasons[6]
-    assert "missed impact" in reasons[11]  # old impact 11 (10 is gone, the echo added one)
-    assert all("after the anomaly at impact 6" in reasons[i] for i in reasons if i not in (6, 11))
-    assert sorted(reasons) == list(range(6, planted.size))
+    found = impact_chains(planted)
+    reasons = dict(found.anomalies)
+    assert "echo" in reasons[6] and any("missed impact" in why for why in reasons.values())
+    assert [r[0] for r in found.rejected] == [6]
+    assert len(found.chains) == 2
 
 
 def test_echo_after_first_impact():
     t = impact_times(1.0, 0.85, 8)
-    n_clean, rejected = detect_impact_anomalies(np.sort(np.append(t, t[0] + 0.01)))
-    assert n_clean == 1 and "echo" in rejected[0][2]
+    found = impact_chains(np.sort(np.append(t, t[0] + 0.01)))
+    assert [r[0] for r in found.rejected] == [1] and "echo" in found.rejected[0][2]
+
+
+def test_a_bounce_out_of_line_is_cut_out():
+    """A sudden loss at one bounce (inside the old +-25 % window) ends a chain; the rest is a second chain."""
+    t = impact_times(1.0, 0.88, 10)
+    dt = np.diff(t)
+    dt[3:] *= 0.78                                     # bounce 4 lost energy: every later flight shorter
+    lossy = np.concatenate([[t[0]], t[0] + np.cumsum(dt)])
+    found = impact_chains(lossy)
+    assert len(found.chains) == 2 and found.chains[0] == (0, 3) and found.chains[1][0] == 3
+    assert "does not belong" in dict(found.anomalies)[3]
+
+
+def test_a_growing_interval_is_impossible_and_cut():
+    t = impact_times(0.3, 0.94, 12)
+    late = t.copy()
+    late[9] += 0.03                                   # event 10 heard late: the flight before it grows
+    found = impact_chains(late)
+    assert any("longer than the one before it" in why for _, why in found.anomalies)
+    assert 9 not in {i for a, b in found.chains for i in range(a, b + 1)}
 
 
 def test_anomalies_are_vectorised_on_short_input():
     assert detect_impact_anomalies([0.1, 0.5]) == (2, ())
 
 
-def test_reader_reports_anomaly_and_keeps_clean_prefix(tmp_path):
-    t = impact_times(1.0, 0.85, 10)
+def test_reader_names_events_and_lines_and_keeps_the_chains(tmp_path):
+    t = impact_times(1.0, 0.85, 12)
     p = write(tmp_path, "a.csv", "t\n" + "\n".join(repr(float(v)) for v in np.delete(t, 7)) + "\n")
     data = read_measurement(p)
-    np.testing.assert_array_equal(data.t_s, t[:7])
-    assert data.rejected[0][0] == 7
+    assert data.chains == ((0, 7), (7, 11)) and data.t_s.size == 11
+    np.testing.assert_array_equal(data.t_s, np.delete(t, 7))
     assert any("line 9" in n and "missed" in n for n in data.notes)
+    assert list(data.lines) == list(range(2, 13))
 
 
-def test_too_few_clean_impacts_is_an_error_naming_the_anomaly(tmp_path):
-    t = impact_times(1.0, 0.85, 8)
-    p = write(tmp_path, "few.csv", "t\n" + "\n".join(repr(float(v)) for v in np.sort(np.append(t, t[1] + 0.01))) + "\n")
-    with pytest.raises(DataError, match=r"few\.csv:4: only 2 impact\(s\) before an anomaly \(echo"):
+def test_no_three_consecutive_bounces_is_an_error_naming_the_anomaly(tmp_path):
+    p = write(tmp_path, "few.csv", "t\n0.5\n1.3\n1.35\n2.2\n")
+    with pytest.raises(DataError, match=r"few\.csv"):
         read_measurement(p)
 
 
@@ -455,7 +485,7 @@ def test_apexes(tmp_path):
 @pytest.mark.parametrize("body,match", [
     ("0,1.0\n1,0.7\n1,0.5\n", r":4: bounce number not increasing"),
     ("0,1.0\n1.5,0.7\n2,0.5\n", r":3: bounce number 1.5 is not an integer"),
-    ("0,1.0\n1,0.7\n", r":3: only 2 apex row"),
+    ("0,1.0\n", r":2: only 1 apex row"),
     ("0,1.0\n1,-0.7\n2,0.5\n", r":3: apex height -0.7 is not positive"),
 ])
 def test_malformed_apexes(tmp_path, body, match):
@@ -472,7 +502,7 @@ def _traj_lines(n=30):
 
 
 @pytest.mark.parametrize("edit,fmt,match", [
-    (lambda L: L[1:], None, r":1: no header row"),
+    (lambda L: [f"{row},7" for row in L[1:]], None, r":1: no header row"),
     (lambda L: L[:5] + ["0.04,nan"] + L[6:], None, r":6: nan in column 'y'"),
     (lambda L: L[:7] + ["0.06,abc"] + L[8:], None, r":8: 'abc' is not a number \(column 'y'\)"),
     (lambda L: L[:7] + ["0.06,"] + L[8:], None, r":8: empty cell in column 'y'"),

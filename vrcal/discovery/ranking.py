@@ -16,9 +16,11 @@ The workflow (issue 3, parts 3 and 4):
      (σ_floor from the data alone, :func:`vrcal.discovery.residuals.noise_floor`, for
      trajectories; an assumed instrument noise, :data:`ASSUMED_NOISE`, for the few
      impact times or apex heights of a drop, or the user's ``noise``);
-   * every fitted parameter lies inside the effect's physical prior
-     (``Parameter.prior``), widened by ``Thresholds.prior_sigma`` (2) standard
-     uncertainties so that a true value at the edge of the prior is not lost to noise;
+   * every fitted parameter lies inside the effect's hard physical limits
+     (``Parameter.physical_limits``: C_d 0.2-1.0, a contact time up to twice the ball's
+     membrane estimate, an offset within the ball, ...). A candidate that passes every other
+     test but needs an unphysical value is never named; it is reported with the value it
+     would need and what to check (``Discovery.unphysical``);
    * the RMS gap shrinks by at least ``Thresholds.gap_factor``, or the gap removed,
      sqrt(gap_before² - gap_after²), is at least 0.2 noise sigma (on n samples that is a
      Δχ² of at least 0.04 n, e.g. 60 for a 1,500-sample trajectory);
@@ -32,7 +34,16 @@ The workflow (issue 3, parts 3 and 4):
    (impact times, apex heights: a handful of data), the one whose parameter is physically
    plausible wins (a drag coefficient of 0.47 over a speed exponent of 0.02).
 
-What each data kind can tell apart is documented in README.md ("What each data kind can tell apart"); in
+5. give ONE verdict (:func:`verdict`), which every part of the report follows: "suspect input"
+   when the record looks wrong (:mod:`vrcal.measurements.plausibility`), "explained" when the
+   final model's gap is within :data:`EXPLAINED_FACTOR` of the noise floor (or of the record's
+   own bounce-to-bounce scatter, for impact times), else "unexplained".
+
+Several runs (a drop table, several files, the pieces of a record around a bounce that does
+not belong: :mod:`vrcal.discovery.prepare`) are fitted jointly: one epsilon and one set of
+effects, a release state per run.
+
+What each data kind can tell apart is documented in docs/discover.md ("What each data kind can tell apart"); in
 short: a trajectory separates all five effects; impact times alone cannot see the
 tracked point (height_offset) nor buoyancy, and air drag, a speed-dependent ε and a
 finite contact time all bend the interval sequence in similar ways; apex heights
@@ -57,9 +68,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from vrcal.discovery import residuals as res
+from vrcal.discovery.lsq import chi2_sf, f_sf
+from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced  # noqa: F401 (re-exported)
 from vrcal.errors import UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -70,22 +82,34 @@ from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 #: standard deviation replaces it when the residuals are larger; ``noise=`` overrides it.
 ASSUMED_NOISE = {"impacts": 2e-4, "apexes": 2e-3, "trajectory": 1e-3}
 
-#: A final gap above this many noise sigmas is reported as a misfit the candidates do not explain.
-MISFIT_FACTOR = 3.0
+#: The verdict "explained": the final gap is at most this many times the noise floor (or the
+#: record's bounce-to-bounce scatter, when larger).
+EXPLAINED_FACTOR = 3.0
 
+#: Kept for compatibility: the factor of the misfit note (the same as EXPLAINED_FACTOR).
+MISFIT_FACTOR = EXPLAINED_FACTOR
 
 #: Effects that a data kind cannot reliably tell apart (found with the hidden-effect sweep of
-#: benchmarks/bench_discover.py, see README.md): impact times see only the
+#: benchmarks/bench_discover.py, see docs/discover.md): impact times see only the
 #: flight durations, which air drag, a speed-dependent epsilon and a finite contact time all
 #: stretch in nearly the same way; a handful of apex heights sees only the ratio of
 #: successive heights, which drag, a speed-dependent epsilon and a tracked point above the
 #: bottom (height_offset > 0) all make rise as the bounces get lower. A trajectory separates
-#: all of them (the shape of each flight, the floor level, the contact gap).
+#: all of them (the shape of each flight, the floor level, the contact gap); there a rival is
+#: ambiguous only when its evidence is within ``Thresholds.indistinguishable_bic``.
 CONFUSABLE = {
     "trajectory": (),
     "impacts": (frozenset({"air_drag", "velocity_dependent_restitution", "contact_duration"}),),
     "apexes": (frozenset({"air_drag", "velocity_dependent_restitution", "height_offset"}),),
 }
+
+#: Runs whose drop heights differ by this factor or more are not held to :data:`CONFUSABLE`: their
+#: impact speeds differ from run to run, which tells drag, a speed-dependent epsilon and an offset
+#: apart; a rival is then ambiguous only when its evidence is close.
+SPREAD_SEPARATES = 1.5
+
+#: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
+VERDICTS = ("explained", "unexplained", "suspect input")
 
 
 @dataclass(frozen=True)
@@ -96,8 +120,7 @@ class Thresholds:
     p_value: float = 1e-4
     gap_factor: float = 0.9
     removed_noise_fraction: float = 0.2
-    indistinguishable_bic: float = 2.0   # a rival within this of the winner's score (-2 ln Z) is ambiguous
-    prior_sigma: float = 2.0
+    indistinguishable_bic: float = 6.0   # a rival within this of the winner's -2 ln Z (odds < 20:1) is ambiguous
 
 
 @dataclass
@@ -110,13 +133,14 @@ class Candidate:
     delta_bic: float
     delta_chi2: float
     p_value: float
-    in_prior: bool
+    in_prior: bool                    # every parameter inside its hard physical limits
     gap_ok: bool
     material: bool = False
     verdict: str = ""
     members: tuple = ()
     evidence: float = math.nan        # -2 ln Z of the candidate model (see rank_by_evidence)
     two_ln_bayes: float = math.nan    # 2 ln B against the current model (> 0 favours the candidate)
+    outside: list = field(default_factory=list)   # [(effect, parameter, value, (lo, hi))] beyond the limits
 
     def __post_init__(self):
         if not self.members:
@@ -125,6 +149,10 @@ class Candidate:
     @property
     def gap(self):
         return self.fit.gap
+
+    @property
+    def physical(self):
+        return self.in_prior
 
     @property
     def score(self):
@@ -149,10 +177,23 @@ class Discovery:
     notes: list = field(default_factory=list)
     noise_source: str = ""
     ambiguous: dict = field(default_factory=dict)   # named effect -> alternatives the data cannot rule out
+    warnings: list = field(default_factory=list)    # what looks wrong in the input (verdict "suspect input")
+    labels: tuple = ()                # one label per run
+    scatter: float | None = None      # relative bounce-to-bounce scatter of impact-interval ratios
+    scatter_gap: float | None = None  # the gap that scatter alone leaves [data unit]
+    reader: dict = field(default_factory=dict)      # how the file was read (for a replay)
 
     @property
     def unit(self):
-        return res.KINDS[self.data.kind]
+        return res.KINDS[self.kind]
+
+    @property
+    def kind(self):
+        return self.final.problem.runs[0].kind
+
+    @property
+    def runs(self):
+        return self.final.problem.runs
 
     @property
     def gap_before(self):
@@ -164,8 +205,9 @@ class Discovery:
 
     @property
     def epsilon(self):
-        """ε of the extended model: the contact's own restitution, at the first impact speed
-        when ``velocity_dependent_restitution`` is named."""
+        """ε of the extended model: the contact's own restitution, at the reference speed (the first
+        impact speed of the drop, or of the highest drop of a joint fit) when
+        ``velocity_dependent_restitution`` is named."""
         return self.final.baseline_values["epsilon"]
 
     @property
@@ -177,9 +219,69 @@ class Discovery:
     def candidates(self):
         return [c for rnd in self.rounds for c in rnd]
 
+    @property
+    def reference_gap(self):
+        """What the final gap is compared with: the noise floor, or the scatter's gap when larger."""
+        return max(self.noise_floor or 0.0, self.scatter_gap or 0.0) or None
+
+    @property
+    def verdict(self):
+        return verdict(self)
+
+    @property
+    def unphysical(self):
+        """Candidates that would shrink the gap materially but only with a parameter beyond its
+        physical limits: [{"effect", "parameter", "value", "limits", "gap", "check"}], best first."""
+        from vrcal.drop.effects import EFFECTS
+
+        out, seen = [], set()
+        for c in sorted(self.candidates, key=lambda c: c.fit.gap):
+            if c.material or not c.outside or c.delta_bic < self.thresholds.delta_bic or not c.gap_ok:
+                continue
+            if len(c.members) > 1:
+                continue
+            if any(m in self.effects for m in c.members):
+                continue
+            for effect, param, value, limits in c.outside:
+                if (effect, param) in seen:
+                    continue
+                seen.add((effect, param))
+                out.append({"effect": effect, "parameter": param, "value": value, "limits": list(limits),
+                            "gap": c.fit.gap, "check": EFFECTS[effect].check})
+        return out
+
     def gap_per_bounce(self):
         """RMS residual per flight (trajectory) or per datum (impacts, apexes): (before, after)."""
         return gap_per_bounce(self.baseline, self.final)
+
+    def speed_range(self):
+        """(lowest, highest) impact speed [m/s] of the final model over every run's bounces."""
+        speeds = []
+        for r, run in enumerate(self.runs):
+            drops = self.final.model(run=r)
+            v = np.asarray(drops.impact_speeds_m_per_s)[0]
+            n = len(run.t_s) if run.kind == "impacts" else (int(np.max(run.bounce)) if run.kind == "apexes"
+                                                             else drops.n_bounces)
+            speeds += list(v[:max(n, 1)])
+        return float(min(speeds)), float(max(speeds))
+
+    def epsilon_at(self, speeds_m_per_s):
+        """ε of the final model at these impact speeds [m/s] (the constant ε without a speed law)."""
+        from vrcal.drop.effects import restitution_at_speed
+
+        v = np.asarray(speeds_m_per_s, dtype=float)
+        if "velocity_dependent_restitution" not in self.effects:
+            return np.full(v.shape, self.epsilon)
+        p = self.final.effect_values["velocity_dependent_restitution"]["exponent"]
+        return np.asarray(restitution_at_speed(self.epsilon, v, self.reference_speed, p))
+
+    @property
+    def reference_speed(self):
+        """The impact speed [m/s] at which ``epsilon`` holds for a speed-dependent ε."""
+        v_ref = self.final.problem.reference_speed_m_per_s
+        if v_ref is not None:
+            return float(v_ref)
+        return float(np.asarray(self.final.model().impact_speeds_m_per_s)[0, 0])
 
     @property
     def ambiguous_odds(self):
@@ -198,13 +300,22 @@ class Discovery:
         return out
 
     def as_dict(self):
-        """JSON-ready summary with the stable keys of the issue (and a few more)."""
+        """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader."""
+        from vrcal.textout import SCHEMA_VERSION
+
         before, after = self.gap_per_bounce()
+        runs = self.runs
         data = self.data
+        lo, hi = self.speed_range()
         return {
+            "schema_version": SCHEMA_VERSION,
+            "verdict": self.verdict,
+            "verdict_reason": verdict_reason(self),
+            "warnings": list(self.warnings),
             "effects": list(self.effects),
             "ambiguous": {k: list(v) for k, v in self.ambiguous.items()},
             "ambiguous_odds": self.ambiguous_odds,
+            "unphysical": self.unphysical,
             "parameters": self.final.effect_values,
             "uncertainties": self.final.effect_uncertainties,
             "gap_before": self.gap_before,
@@ -212,21 +323,31 @@ class Discovery:
             "gap_unit": self.unit,
             "gap_per_bounce": {"before": [float(v) for v in before], "after": [float(v) for v in after]},
             "epsilon": self.epsilon,
+            "epsilon_uncertainty": self.final.uncertainty("epsilon"),
             "epsilon_baseline": self.epsilon_baseline,
+            "epsilon_reference_speed_m_per_s": self.reference_speed,
+            "impact_speed_range_m_per_s": [lo, hi],
             "baseline": self.baseline.baseline_values,
             "model": self.final.baseline_values,
+            "runs": [{"source": str(run.source), "label": label, "kind": run.kind, "n": int(res.observed_values(run).size),
+                      "release": {k: v for k, v in self.final.run_values(r).items() if k != "epsilon"}}
+                     for r, (run, label) in enumerate(zip(runs, self.labels or [""] * len(runs)))],
             "noise_floor": self.noise_floor,
             "noise_source": self.noise_source,
+            "scatter": self.scatter,
+            "scatter_gap": self.scatter_gap,
             "statistic": "-2 ln evidence (Laplace, registry priors)",
             "candidates": [
                 {"name": c.name, "round": c.round, "gap": c.gap, "score": c.score, "bic": c.fit.bic,
                  "delta_bic": c.delta_bic, "two_ln_bayes_factor": c.two_ln_bayes,
-                 "p_value": c.p_value, "in_prior": c.in_prior, "material": c.material, "verdict": c.verdict,
+                 "p_value": c.p_value, "in_prior": c.in_prior, "physical": c.physical, "material": c.material,
+                 "verdict": c.verdict,
                  "parameters": ({m: c.fit.effect_values.get(m, {}) for m in c.members} if len(c.members) > 1
                                 else c.fit.effect_values.get(c.name, {}))}
                 for c in self.candidates
             ],
-            "data": {"kind": data.kind, "source": str(data.source), "n": int(self.baseline.n)},
+            "data": {"kind": self.kind, "source": str(data.source), "n": int(self.baseline.n), "runs": len(runs)},
+            "reader": dict(self.reader),
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
                      "diameter_m": float(self.ball.diameter_m)},
             "g_m_per_s2": self.g_m_per_s2,
@@ -234,25 +355,58 @@ class Discovery:
         }
 
 
+def verdict(d):
+    """The one verdict of a discovery (every section of the report follows it):
+
+    * "suspect input": the plausibility checks found something that looks wrong (``d.warnings``);
+    * "explained": the final model's gap is at most :data:`EXPLAINED_FACTOR` times the noise floor
+      (or the gap that the record's own bounce-to-bounce scatter leaves, when larger);
+    * "unexplained": otherwise -- structure that no named effect removes.
+    """
+    if d.warnings:
+        return "suspect input"
+    ref = d.reference_gap
+    if ref and d.gap_after <= EXPLAINED_FACTOR * ref:
+        return "explained"
+    return "unexplained"
+
+
+def verdict_reason(d):
+    """One sentence: why the verdict is what it is."""
+    v = verdict(d)
+    if v == "suspect input":
+        return "; ".join(d.warnings)
+    if not d.rounds:
+        return f"{d.final.n} data and {d.final.k} parameters: nothing is left unexplained, and nothing could be tested"
+    ref = d.reference_gap
+    ratio = d.gap_after / ref if ref else math.inf
+    what = "the bounce-to-bounce scatter's gap" if (d.scatter_gap or 0) > (d.noise_floor or 0) else "the noise floor"
+    if v == "explained":
+        return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
+    return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
+
+
 def gap_per_bounce(before, after):
     """RMS residuals grouped by bounce, for two fits of the same data.
 
     trajectory: samples grouped by the flight they belong to in ``after``'s model
-    (0 = still segment and first fall, j = after the j-th impact); impacts and apexes:
-    the absolute residual of each datum. Returns (before, after) arrays.
+    (0 = still segment and first fall, j = after the j-th impact), run after run; impacts and
+    apexes: the absolute residual of each datum. Returns (before, after) arrays.
     """
-    data = after.problem.data
-    if data.kind != "trajectory":
+    runs = after.problem.runs
+    if runs[0].kind != "trajectory":
         return np.abs(before.residuals), np.abs(after.residuals)
-    t = np.asarray(data.t_s, dtype=float)
-    impacts = after.model().impact_times_s[0]
-    seg = np.searchsorted(impacts, t, side="right")
     out_b, out_a = [], []
-    for j in range(int(seg.max()) + 1):
-        m = seg == j
-        if np.any(m):
-            out_b.append(float(res.rms(before.residuals[m])))
-            out_a.append(float(res.rms(after.residuals[m])))
+    for r, (run, sl) in enumerate(zip(runs, after.run_slices())):
+        t = np.asarray(run.t_s, dtype=float)
+        impacts = after.model(run=r).impact_times_s[0]
+        seg = np.searchsorted(impacts, t, side="right")
+        rb, ra = before.residuals[sl], after.residuals[sl]
+        for j in range(int(seg.max()) + 1):
+            m = seg == j
+            if np.any(m):
+                out_b.append(float(res.rms(rb[m])))
+                out_a.append(float(res.rms(ra[m])))
     return np.asarray(out_b), np.asarray(out_a)
 
 
@@ -313,7 +467,7 @@ def _judge(cand, current, sigma_floor, th):
     var = fit.rss / dof
     # the noise counts as known when the candidate's residuals are consistent with the floor
     # (chi-square goodness of fit, p >= 1e-3); else the residual variance is used
-    known = bool(sigma_floor) and (sigma_floor**2 >= var or stats.chi2.sf(fit.rss / sigma_floor**2, dof) >= 1e-3)
+    known = bool(sigma_floor) and (sigma_floor**2 >= var or chi2_sf(fit.rss / sigma_floor**2, dof) >= 1e-3)
     if known:
         var = sigma_floor**2
     var = max(var, 1e-300)
@@ -321,9 +475,10 @@ def _judge(cand, current, sigma_floor, th):
     cand.delta_chi2 = drop / var
     # noise known (the residuals do not exceed the floor): chi-square test of the RSS drop;
     # otherwise the F test of nested models with the residual variance
-    cand.p_value = float(stats.chi2.sf(cand.delta_chi2, dk) if known else stats.f.sf(cand.delta_chi2 / dk, dk, dof))
+    cand.p_value = chi2_sf(cand.delta_chi2, dk) if known else f_sf(cand.delta_chi2 / dk, dk, dof)
     cand.delta_bic = current.bic - fit.bic
-    cand.in_prior = all(fit.in_prior(m, th.prior_sigma) for m in cand.members)
+    cand.outside = [(m, *o) for m in cand.members for o in fit.outside_limits(m)]
+    cand.in_prior = not cand.outside
     removed = math.sqrt(max(current.gap**2 - fit.gap**2, 0.0))
     cand.gap_ok = (fit.gap <= th.gap_factor * current.gap) or (
         sigma_floor is not None and removed >= th.removed_noise_fraction * sigma_floor)
@@ -332,8 +487,8 @@ def _judge(cand, current, sigma_floor, th):
         reasons.append(f"dBIC {cand.delta_bic:.1f} < {th.delta_bic:g}")
     if cand.p_value > th.p_value:
         reasons.append(f"p {cand.p_value:.2g} > {th.p_value:g}")
-    if not cand.in_prior:
-        reasons.append("parameter outside its physical prior")
+    for effect, param, value, (lo, hi) in cand.outside:
+        reasons.append(f"{param} {value:.3g} outside its physical limits {lo:.3g}-{hi:.3g}")
     if not cand.gap_ok:
         reasons.append("gap barely shrinks")
     cand.material = not reasons
@@ -341,56 +496,17 @@ def _judge(cand, current, sigma_floor, th):
     return cand
 
 
-#: A trajectory whose lowest sample after release lies outside this band [m] is not
-#: referenced to the floor (no tracked point is that far below or above the floor).
-FLOOR_BAND_M = (-0.05, 0.3)
-
-
-def floor_referenced(data, floor_m=None):
-    """A trajectory with heights above the floor, and a note saying what was done (or None).
-
-    Parameters
-    ----------
-    data : Trajectory or ImpactTimes or ApexHeights
-        only trajectories are changed
-    floor_m : float or None
-        height of the floor in the data's frame [m]; subtracted from every height. None:
-        keep the heights when the lowest sample after release lies in
-        :data:`FLOOR_BAND_M`, otherwise subtract the lowest sample (the data's origin is
-        then the lowest tracked position, and ``height_offset`` measures the tracked
-        point at contact relative to it).
-    """
-    import dataclasses
-
-    if data.kind != "trajectory":
-        if floor_m is not None:
-            raise UsageError(f"--floor applies to trajectories, not to {data.kind} data")
-        return data, None
-    y = np.asarray(data.y_m, dtype=float)
-    if floor_m is not None:
-        shift = float(floor_m)
-        note = f"heights shifted by {-shift:+.4f} m (--floor {shift:g} m)"
-    else:
-        low = float(np.min(y[int(getattr(data, "release_index", 0) or 0):]))
-        if FLOOR_BAND_M[0] <= low <= FLOOR_BAND_M[1]:
-            return data, None
-        shift = low
-        note = (f"heights are not referenced to the floor (lowest sample after release at {low:+.4f} m): "
-                f"shifted by {-shift:+.4f} m so that the lowest sample is at 0; height_offset is then the "
-                f"tracked point at contact relative to the lowest sample (give --floor to set the floor)")
-    return dataclasses.replace(data, y_m=y - shift), note
-
-
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
-             progress=None, max_effects=3, floor_m=None, noise=None):
+             progress=None, max_effects=3, floor_m=None, noise=None, y_down=False, reader=None):
     """Name the effects that the constant-ε baseline misses in ``data``.
 
     Parameters
     ----------
-    data : Trajectory or ImpactTimes or ApexHeights
-        a measurement from :func:`vrcal.measurements.read_measurement` (or the synthetic generator)
+    data : Trajectory or ImpactTimes or ApexHeights or Runs
+        a measurement from :func:`vrcal.measurements.read_measurement` (or the synthetic generator);
+        :class:`vrcal.measurements.Runs` are fitted jointly (one contact, a release state per run)
     ball : BallProperties or vrcal.model.standards.Ball
-        mass [kg] and diameter [m] of the ball (used by air drag and buoyancy)
+        mass [kg] and diameter [m] of the ball (used by air drag, buoyancy and the physical limits)
     g_m_per_s2 : float
         gravitational acceleration [m/s²], known (default standard gravity)
     candidates : sequence of str, optional
@@ -407,19 +523,35 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     noise : float or None
         noise of one datum in the data's unit (m or s); default: estimated from a
         trajectory (:func:`vrcal.discovery.residuals.noise_floor`), else :data:`ASSUMED_NOISE`
+    y_down : bool
+        the reader turned the file's y axis over (for the hint when the record looks upside down)
+    reader : dict or None
+        how the file was read (format and options), kept in the result for a replay
 
     Returns
     -------
     Discovery
+
+    Raises
+    ------
+    DataError
+        a record that cannot be fitted as it is (:mod:`vrcal.measurements.plausibility`)
     """
+    from vrcal.discovery.prepare import prepare
     from vrcal.drop.effects import EFFECTS
     from vrcal.model.body import ball_properties
 
     th = thresholds or Thresholds()
     ball = ball_properties(ball)
-    data, floor_note = floor_referenced(data, floor_m)
-    problem = res.make_problem(data, ball, g_m_per_s2)
-    kind = data.kind
+    if noise is not None and not (math.isfinite(noise) and noise > 0):
+        raise UsageError(f"noise must be a number > 0 in the data's unit, got {noise:g}")
+    if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
+        raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
+    given_kind = res._runs_of(data)[0].kind
+    prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,
+                       sigma_m=noise if given_kind == "trajectory" else None)
+    fitted = prepared.data
+    kind = res._runs_of(fitted)[0].kind
     usable = res.applicable_effects(kind)
     if candidates is None:
         pool = list(usable)
@@ -434,21 +566,20 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                                  f"(it shows in: {', '.join(eff.kinds)}; usable here: {', '.join(usable)})")
             pool.append(name)
     if noise is not None:
-        if not (math.isfinite(noise) and noise > 0):
-            raise UsageError(f"noise must be a number > 0 in the data's unit, got {noise:g}")
         sigma_floor, noise_source = float(noise), "given"
     else:
-        sigma_floor = res.noise_floor(data)
+        sigma_floor = res.noise_floor(fitted)
         noise_source = "third differences of the samples"
         if sigma_floor is None:
             sigma_floor, noise_source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
                 noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
+    problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
+    spread = res.drop_height_spread(problem)
     baseline = res.fit_model(problem, ())
-    current, named, rounds, notes, ambiguous = baseline, [], [], [], {}
-    if floor_note:
-        notes.append(floor_note)
-    skipped = sorted(set(res.applicable_effects(kind)) ^ set(_all_effects()))
+    current, named, rounds, ambiguous = baseline, [], [], {}
+    notes = list(prepared.notes)
+    skipped = sorted(set(res.applicable_effects(kind)) ^ set(EFFECTS))
     if skipped:
         notes.append(f"not tried ({kind} data cannot show them): {', '.join(skipped)}")
     while pool and len(named) < max_effects:
@@ -479,7 +610,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if not material:
             break
         win = material[0]
-        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g]
+        # drops from several heights (a drop table, several files) separate what one drop cannot
+        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
         rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
             c.score - win.score < th.indistinguishable_bic or any(c.name in g for g in groups))]
         close = [c.name for c in rivals]
@@ -488,7 +620,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             odds = ", ".join(f"{c.name} {_odds(c.score - win.score)}" for c in rivals)
             notes.append(f"round {rnd}: {win.name} is named (highest evidence) but {', '.join(close)} also "
                          f"explain(s) the {kind} data (posterior odds for {win.name} with the registry's priors: "
-                         f"{odds}); {kind} data cannot reliably tell them apart (a trajectory can)")
+                         f"{odds}); {kind} data cannot reliably tell them apart"
+                         + ("" if kind == "trajectory" else " (a trajectory can)"))
         win.verdict = "named" + (f" (ambiguous with {', '.join(close)})" if close else "")
         named.extend(win.members)
         current = win.fit
@@ -499,12 +632,16 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
     ambiguous = {k: v for k, v in ambiguous.items() if k in named}
-    if current.gap > MISFIT_FACTOR * sigma_floor:
-        notes.append(f"the final model leaves a gap {current.gap / sigma_floor:.1f} times the noise floor: "
-                     f"structure that none of the candidates explains (check units, the y direction, the frame "
-                     f"rate and the ball; or an effect outside the registry)")
-    return Discovery(data, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
-                     noise_source, ambiguous)
+    scatter = scatter_gap = None
+    if kind == "impacts":
+        values = [res.ratio_scatter(run.t_s) for run in problem.runs]
+        values = [v for v in values if v is not None]
+        if values:
+            scatter = float(np.median(values))
+            scatter_gap = res.scatter_gap(current, scatter)
+    return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
+                     noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
+                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m))
 
 
 def _backward(problem, named, added, current, th, rnd, notes):
@@ -528,7 +665,7 @@ def _backward(problem, named, added, current, th, rnd, notes):
 
 def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress):
     """Pairs of effects, tried when no single effect is material but some improve the fit
-    strongly (dBIC >= threshold) with an implausible parameter: two effects can bend the
+    strongly (dBIC >= threshold) with an unphysical parameter: two effects can bend the
     record in opposite ways, so that each alone needs an unphysical value. A pair is
     material when it passes the test against the current model AND beats each of its
     members alone by the dBIC threshold (both are needed)."""
@@ -562,21 +699,16 @@ def _odds(delta_score):
     return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
 
 
-def _all_effects():
-    from vrcal.drop.effects import EFFECTS
-
-    return list(EFFECTS)
-
-
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
                   standards=None, scale_m_per_px=None, y_down=False, fs_hz=None, progress=None, floor_m=None,
-                  noise=None, read_options=None):
-    """Read a measurement file and run :func:`discover` on it (what ``vrcal discover`` calls).
+                  noise=None, sheet=None, read_options=None):
+    """Read measurement file(s) and run :func:`discover` on them (what ``vrcal discover`` calls).
 
     Parameters
     ----------
-    path : str
-        measurement file (see :func:`vrcal.measurements.read_measurement`)
+    path : str or sequence of str
+        measurement file(s) (see :func:`vrcal.measurements.read_measurement`); several files of
+        one ball are fitted jointly
     ball : str
         a ball of the standards, or any name with ``mass_kg`` and ``diameter_m``
     fmt : str or None
@@ -587,8 +719,8 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
         gravitational acceleration [m/s²]
     standards : dict or None
         :func:`vrcal.model.standards.load_standards` output (the shipped file when None)
-    scale_m_per_px, y_down, fs_hz :
-        passed to the reader (pixel scale [m/px], image y axis down, frame rate [Hz])
+    scale_m_per_px, y_down, fs_hz, sheet :
+        passed to the reader (pixel scale [m/px], image y axis down, frame rate [Hz], workbook sheet)
     progress : callable, optional
         see :func:`discover`
     floor_m : float or None
@@ -603,12 +735,17 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     -------
     Discovery
     """
-    from vrcal.measurements import read_measurement
+    from vrcal.measurements import read_measurements
     from vrcal.model.body import ball_from_options
 
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
         raise UsageError(f"--g must be a number > 0 [m/s^2], got {g_m_per_s2:g}")
+    paths = [path] if isinstance(path, (str, bytes)) or not hasattr(path, "__iter__") else list(path)
     props, _std = ball_from_options(ball, standards, mass_kg, diameter_m)
-    data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
-                            diameter_m=float(np.mean(props.diameter_m)), **(read_options or {}))
-    return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise)
+    options = {"scale_m_per_px": scale_m_per_px, "y_down": bool(y_down), "fs_hz": fs_hz, "sheet": sheet}
+    recording = {"diameter_m": float(np.mean(props.diameter_m)), **(read_options or {})}
+    data = read_measurements(paths, fmt, **options, **recording)
+    turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
+    reader = {"files": [str(p) for p in paths], "format": fmt, **options}
+    return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
+                    y_down=turned, reader=reader)

@@ -1,36 +1,79 @@
-"""The text report and the figure of ``vrcal discover`` (a :class:`vrcal.discovery.ranking.Discovery`).
+"""The report and the figure of ``vrcal discover`` (a :class:`vrcal.discovery.ranking.Discovery`).
 
-:func:`fit_report` writes a sectioned text report in the manner of lmfit's
-``fit_report``: [[Data]], [[Baseline]], [[Candidates]], [[Named effects]], [[Gap]],
-[[Engine]], [[Notes]]. The plot functions take ``ax=None`` and return the ax;
-:func:`discovery_figure` draws both panels on a new figure. This module never writes
-files (the command line saves with :func:`vrcal.fileio.atomic_savefig`).
+:func:`fit_report` is written for people: it opens with the answer in plain words ("Air drag
+matters here: C_d = 0.38 ± 0.01. With it the gap falls from 60 mm to 4.1 mm; noise is
+0.5 mm."), then the verdict, the ε to put in an engine, the named effects with their physical
+limits, the runs of a joint fit, and the notes -- every line at most
+:data:`vrcal.textout.MAX_COLUMNS` wide, every statement following the one verdict
+(:func:`vrcal.discovery.ranking.verdict`). ``details=True`` adds the statistics of every
+candidate (χ², AIC, BIC, ΔBIC, p, evidence) and the gap per bounce. The plot functions take
+``ax=None`` and return the ax; :func:`discovery_figure` draws both panels on a new figure.
+This module never writes files (the command line saves them).
 """
 
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
+
+from vrcal.textout import MAX_COLUMNS, number, table
 
 #: File names written by ``vrcal discover --report DIR``.
 REPORT_FILES = {"text": "report.txt", "figure": "discover.png", "json": "discover.json"}
 
 _UNIT_SCALE = {"m": (1e3, "mm"), "s": (1e3, "ms")}
 
+#: How the answer names each effect, and the symbol of its parameter.
+PHRASES = {
+    "air_drag": ("air drag", "C_d"),
+    "velocity_dependent_restitution": ("a speed-dependent epsilon", "exponent p"),
+    "contact_duration": ("the contact's duration", "tau_c"),
+    "height_offset": ("a height offset (the tracked point is not the ball's bottom)", "offset"),
+    "buoyancy": ("buoyancy and the air's added mass", "rho_air"),
+}
+
+#: Short names of the effects in the --details tables (a legend is printed with them).
+SHORT = {"air_drag": "drag", "velocity_dependent_restitution": "eps(v)", "contact_duration": "contact",
+         "height_offset": "offset", "buoyancy": "buoyancy"}
+
 
 def _fmt_gap(value, unit):
+    """A gap in mm or ms, three significant digits: ``_fmt_gap(0.0596, 'm') == '59.6 mm'``."""
     scale, name = _UNIT_SCALE[unit]
-    return f"{value * scale:.3f} {name}"
+    return f"{number(value * scale, 3) if abs(value) > 1e-12 else '0'} {name}"
 
 
-def _pm(value, unc, unit=""):
-    unit = "" if unit in ("", "1") else f" {unit}"
+def _si_scale(unit):
+    """(factor, unit shown) for a parameter unit: seconds in ms, metres in mm."""
+    return {"s": (1e3, "ms"), "m": (1e3, "mm")}.get(unit, (1.0, "" if unit in ("", "1") else unit))
+
+
+def pm(value, unc, unit=""):
+    """``value ± unc`` with the uncertainty to 1-2 significant digits, in ms / mm for s / m.
+
+    ``pm(0.38312, 0.0016) == '0.3831 ± 0.0016'``; ``pm(0.005078, 3.9e-5, 's') == '5.078 ± 0.039 ms'``.
+    """
+    factor, shown = _si_scale(unit)
+    v = float(value) * factor
+    tail = f" {shown}" if shown else ""
     if unc is None or not math.isfinite(unc) or unc <= 0:
-        return f"{value:.6g}{unit}"
-    digits = max(0, 2 - int(math.floor(math.log10(unc))) - 1)
-    digits = min(digits, 9)
-    return f"{value:.{digits}f} +/- {unc:.2g}{unit}"
+        return f"{number(v, 4)}{tail}"
+    u = float(unc) * factor
+    digits = min(max(0, 1 - int(math.floor(math.log10(u)))), 9)
+    return f"{v:.{digits}f} ± {u:.{digits}f}{tail}"
+
+
+def _limits_text(lo, hi, unit):
+    factor, shown = _si_scale(unit)
+    tail = f" {shown}" if shown else ""
+    return f"{number(lo * factor, 3)} to {number(hi * factor, 3)}{tail}"
+
+
+def _wrap(text, indent="", first=None):
+    return textwrap.fill(text, width=MAX_COLUMNS, initial_indent=indent if first is None else first,
+                         subsequent_indent=indent, break_long_words=True, break_on_hyphens=False)
 
 
 def reference_sigma(discovery):
@@ -42,136 +85,272 @@ def reference_sigma(discovery):
     return math.sqrt(f.rss / max(f.n - f.k, 1))
 
 
-def _param_lines(fit, effect, indent="    "):
+def _effects_phrase(names):
+    words = [PHRASES[n][0] for n in names]
+    if len(words) == 1:
+        return words[0]
+    return ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def _param_values(d, name):
     from vrcal.drop.effects import EFFECTS
 
-    lines = []
-    for p, v, u in zip(fit.layout, fit.values, fit.uncertainties):
-        if p.effect != effect:
-            continue
-        label = p.name if effect is None else p.name
-        unit = "" if p.unit in ("", "1") else f" {p.unit}"
-        extra = ""
-        if effect is not None:
-            density = EFFECTS[effect].parameter(p.name).prior_description(fit.problem.ball)
-            extra = f"   (prior {p.prior[0]:g} .. {p.prior[1]:g}{unit}; density {density})"
-        lines.append(f"{indent}{label:<24s} = {_pm(float(v), float(u), p.unit)}{extra}")
-    return lines
+    out = []
+    values, uncs = d.final.effect_values.get(name, {}), d.final.effect_uncertainties.get(name, {})
+    for p in EFFECTS[name].parameters:
+        out.append(f"{PHRASES[name][1]} = {pm(values[p.name], uncs.get(p.name), p.unit)}")
+    return out
 
 
-def _odds_text(odds):
-    return ", ".join(f"{r} {o:.3g}:1" if o < 1e4 else f"{r} >1e4:1" for r, o in odds.items())
+def _noise_text(d):
+    """What the gap is compared with, as a phrase: 'noise is 0.513 mm (measured from the samples)'."""
+    unit = d.unit
+    src = "measured from the samples" if d.noise_source.startswith("third") else (
+        "given" if d.noise_source == "given" else "assumed")
+    noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
+    if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
+        return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "
+                f"{100 * d.scatter:.2g} % from bounce to bounce; timing noise {noise})")
+    return f"noise is {noise}"
 
 
-def fit_report(discovery):
-    """The sectioned text report of a discovery (a string ending with a newline)."""
-    from vrcal.drop.effects import EFFECTS
-
+def answer(discovery):
+    """The answer in plain words: the first paragraph of the report (one string, not wrapped)."""
     d = discovery
     unit = d.unit
-    data = d.data
-    ball = d.ball
-    sigma = reference_sigma(d)
-    lines = ["[[Data]]"]
-    lines.append(f"    source       = {data.source}")
-    lines.append(f"    kind         = {data.kind} ({d.baseline.n} data; residuals in {unit})")
-    lines.append(f"    ball         = {getattr(ball, 'name', 'ball')} (m = {float(ball.mass_kg):.4g} kg, "
-                 f"D = {float(ball.diameter_m):.4g} m)")
-    lines.append(f"    g            = {d.g_m_per_s2:.6g} m/s^2 (known)")
-    if d.noise_floor:
-        lines.append(f"    noise floor  = {_fmt_gap(d.noise_floor, unit)} ({d.noise_source or 'given'})")
+    v = d.verdict
+    before, after = _fmt_gap(d.gap_before, unit), _fmt_gap(d.gap_after, unit)
+    parts = []
+    if v == "suspect input":
+        parts.append("Suspect input (see the verdict): the numbers below assume the input is right.")
+    if d.effects:
+        phrase = _effects_phrase(d.effects)
+        params = ", ".join(p for name in d.effects for p in _param_values(d, name))
+        verb = "matters" if len(d.effects) == 1 else "matter"
+        parts.append(f"{phrase[0].upper() + phrase[1:]} {verb} here: {params}.")
+        it = "it" if len(d.effects) == 1 else "them"
+        parts.append(f"With {it} the gap falls from {before} to {after}; {_noise_text(d)}.")
+        if any(name in d.ambiguous for name in d.effects):
+            rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
+            what = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
+            parts.append(f"But {_effects_phrase(rivals)} would explain {what[d.kind]} about as well "
+                         f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}drops from several "
+                         f"heights tell them apart).")
+    elif not d.rounds:
+        n, k = d.final.n, d.final.k
+        parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
+                     f"{pm(d.epsilon, d.final.uncertainty('epsilon'))} and nothing is left to test an effect "
+                     f"with; a third apex, or drops from several heights (a drop table), would.")
+        if d.kind == "apexes":
+            parts.append(f"With a sphere's air drag (C_d = 0.47) the same heights give epsilon = "
+                         f"{_epsilon_with_typical_drag(d):.4f}.")
     else:
-        lines.append(f"    noise floor  = unknown; final model's residual sigma {_fmt_gap(sigma, unit)} is used")
-    for note in getattr(data, "notes", ()) or ():
-        lines.append(f"    reader note  : {note}")
-    lines.append("[[Baseline]]  the paper's model: constant epsilon (Eq. (3) of [1]), g known")
-    lines += _param_lines(d.baseline, None)
-    b = d.baseline
-    lines.append(f"    gap (RMS)                = {_fmt_gap(b.gap, unit)}   chi-square = {b.rss / sigma**2:.1f}   "
-                 f"BIC = {b.bic:.1f}   (n = {b.n}, k = {b.k})")
-    th = d.thresholds
-    lines.append("[[Candidates]]  ranked within each round by the evidence Z (Laplace; prior densities of the "
-                 "registry); d2lnZ = 2 ln(Z_best/Z)")
-    lines.append("                (0 = best; odds exp(d2lnZ/2) against); material = dBIC >= "
-                 f"{th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test),")
-    lines.append(f"                parameter inside its prior, gap x{th.gap_factor:g} or "
-                 f"{th.removed_noise_fraction:g} noise floor removed; the material one with the highest Z is named")
-    scale, uname = _UNIT_SCALE[unit]
-    head = (f"    {'rnd':>3s}  {'effect':<31s} {'k':>2s} {'RSS':>10s} {'chi2':>10s} {'AIC':>10s} {'BIC':>10s} "
-            f"{'dBIC':>8s} {'d2lnZ':>8s} {'gap ' + uname:>10s}  verdict")
-    lines.append(head)
-    best = {}
-    for c in d.candidates:
-        best[c.round] = min(best.get(c.round, math.inf), c.score)
-    for c in d.candidates:
-        f = c.fit
-        lines.append(f"    {c.round:>3d}  {c.name:<31s} {f.k:>2d} {f.rss:>10.3e} {f.rss / sigma**2:>10.1f} "
-                     f"{f.aic:>10.1f} {f.bic:>10.1f} {c.delta_bic:>8.1f} {c.score - best[c.round]:>8.1f} "
-                     f"{f.gap * scale:>10.3f}  {c.verdict}")
-    lines.append("[[Named effects]]")
-    from vrcal.discovery.ranking import MISFIT_FACTOR
+        if v == "explained":
+            parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
+                         f"{pm(d.epsilon, d.final.uncertainty('epsilon'))}. Its gap, {after}, is within what the "
+                         f"record allows: {_noise_text(d)}. No effect of the registry is needed.")
+        else:
+            parts.append(f"The paper's constant-epsilon model leaves a gap of {after} ({_noise_text(d)}), and "
+                         f"no effect of the registry explains it.")
+    if v == "unexplained" and d.effects:
+        ratio = d.gap_after / d.reference_gap if d.reference_gap else math.inf
+        parts.append(f"Something else remains: {after} is {ratio:.1f} times the noise, structure that no candidate "
+                     f"of the registry removes.")
+    for need in [n for n in d.unphysical if n["gap"] < d.gap_after][:1]:
+        lo, hi = need["limits"]
+        from vrcal.drop.effects import EFFECTS
 
-    misfit = d.noise_floor and d.gap_after > MISFIT_FACTOR * d.noise_floor
-    if not d.effects and not misfit:
-        lines.append("    none: the constant-epsilon baseline explains the data down to the noise")
-    elif not d.effects:
-        lines.append(f"    none material -- but the baseline does NOT fit: its gap is {d.gap_after / d.noise_floor:.0f} "
-                     f"times the noise floor (see [[Notes]])")
-    for name in d.effects:
-        eff = EFFECTS[name]
-        lines.append(f"    {name}: {eff.equation}")
-        lines += _param_lines(d.final, name, indent="        ")
-        lines.append(f"        ({eff.description})")
-        if name in d.ambiguous:
-            odds = d.ambiguous_odds.get(name, {})
-            lines.append(f"        AMBIGUOUS: {', '.join(d.ambiguous[name])} also explain(s) these {data.kind} data; "
-                         f"a trajectory tells them apart")
-            if odds:
-                lines.append(f"        posterior odds for {name} (registry priors): {_odds_text(odds)}")
-    lines.append("[[Gap]]  RMS of data - model")
-    lines.append(f"    before = {_fmt_gap(d.gap_before, unit)}, after = {_fmt_gap(d.gap_after, unit)}"
-                 + (f", noise floor = {_fmt_gap(d.noise_floor, unit)}" if d.noise_floor else ""))
-    before, after = d.gap_per_bounce()
-    label = "flight" if data.kind == "trajectory" else ("impact" if data.kind == "impacts" else "bounce")
-    lines.append(f"    {label:>8s} {'before ' + uname:>12s} {'after ' + uname:>12s}")
-    idx = (np.asarray(data.bounce) if data.kind == "apexes"
-           else np.arange(len(before)) + (0 if data.kind == "trajectory" else 1))
-    for i, bb, aa in zip(idx, before, after):
-        lines.append(f"    {int(i):>8d} {bb * scale:>12.3f} {aa * scale:>12.3f}")
-    lines.append("[[Engine]]")
-    lines += ["    " + s for s in engine_advice(d)]
-    if d.notes:
-        lines.append("[[Notes]]")
-        lines += [f"    {n}" for n in d.notes]
-    lines.append("[1] The Graphical Method for Decision of Restitution Coefficient and Its Applications.")
-    return "\n".join(lines) + "\n"
+        p = EFFECTS[need["effect"]].parameter(need["parameter"])
+        factor, shown = _si_scale(p.unit)
+        parts.append(f"{PHRASES[need['effect']][0][0].upper() + PHRASES[need['effect']][0][1:]} would shrink the gap "
+                     f"to {_fmt_gap(need['gap'], unit)} but only with {PHRASES[need['effect']][1]} = "
+                     f"{number(need['value'] * factor, 3)}{' ' + shown if shown else ''} (physical: "
+                     f"{_limits_text(lo, hi, p.unit)}): {need['check']}.")
+    return " ".join(parts)
+
+
+def _epsilon_with_typical_drag(d):
+    """ε of the first two apexes of the first run with the drag of a sphere (C_d 0.47): Eq. (9) corrected."""
+    from vrcal.drop.effects import drag_constant_per_m, epsilon_from_heights_with_drag
+
+    run = d.runs[0]
+    k = drag_constant_per_m(0.47, float(d.ball.diameter_m), float(d.ball.mass_kg))
+    return float(epsilon_from_heights_with_drag(run.h_m[1], run.h_m[0], k))
 
 
 def engine_advice(discovery):
-    """Lines saying which ε to put in a physics engine, and why."""
+    """Lines saying which ε to put in a physics engine, and why (they follow the verdict)."""
     d = discovery
     f = d.final
     eps = d.epsilon
-    i_eps = [p.key for p in f.layout].index("epsilon")
-    out = [f"epsilon = {_pm(eps, float(f.uncertainties[i_eps]))}  (the extended model's contact restitution)"]
+    u = f.uncertainty("epsilon")
+    out = []
+    if d.verdict == "suspect input":
+        out.append("(check the input first: these values assume it is right)")
     if not d.effects:
-        out.append("The baseline suffices: this constant epsilon reproduces the record in any engine.")
+        out.append(f"epsilon = {pm(eps, u)}")
+        if not d.rounds:
+            out.append("(nothing tested: an engine without air drag reproduces these heights with it)")
+        elif d.verdict == "explained":
+            out.append("The baseline suffices: this constant epsilon reproduces the record in any engine.")
+        else:
+            out.append("The baseline does not reproduce the record to its noise (see above); this is the constant "
+                       "that comes closest.")
         return out
-    drops = f.model()
-    v = np.asarray(drops.impact_speeds_m_per_s)[0]
-    e = np.asarray(drops.epsilons)[0]
     if "velocity_dependent_restitution" in d.effects:
-        out.append(f"epsilon depends on the impact speed; it is {eps:.4f} at the first impact speed "
-                   f"{v[0]:.2f} m/s and {e[min(len(e) - 1, 4)]:.4f} at {v[min(len(v) - 1, 4)]:.2f} m/s:")
+        lo, hi = d.speed_range()
+        e_lo, e_hi = d.epsilon_at([lo, hi])
+        out.append(f"epsilon depends on the impact speed: {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s "
+                   f"(the speeds of this record);")
         out.append("choose the value at the impact speeds of your simulation.")
+    else:
+        out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution)")
     if "air_drag" in d.effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
-        out.append(f"an engine without drag reproduces the observed bounce heights better with the baseline's "
-                   f"effective epsilon = {d.epsilon_baseline:.4f}")
-        out.append("(it folds the flight losses into the contact).")
+        out.append(f"an engine without drag reproduces the bounce heights better with the baseline's effective "
+                   f"epsilon = {d.epsilon_baseline:.4f}.")
     elif "height_offset" in d.effects or "contact_duration" in d.effects:
-        out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named above; "
-                   f"use {eps:.4f}.")
+        out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
+                   f"{eps:.4f}.")
+    return out
+
+
+def _named_table(d):
+    from vrcal.drop.effects import EFFECTS
+
+    rows = []
+    for name in d.effects:
+        values, uncs = d.final.effect_values[name], d.final.effect_uncertainties[name]
+        for p in EFFECTS[name].parameters:
+            lo, hi = p.physical_limits(d.ball)
+            amb = ", ".join(d.ambiguous.get(name, ())) or "-"
+            rows.append([name, p.name, pm(values[p.name], uncs.get(p.name), p.unit), _limits_text(lo, hi, p.unit),
+                         amb])
+    return table(rows, ["effect", "parameter", "value", "physical limits", "ambiguous with"], align="lllll",
+                 indent="  ")
+
+
+def _runs_table(d):
+    rows = []
+    for r, (run, label) in enumerate(zip(d.runs, d.labels or [""] * len(d.runs))):
+        vals = d.final.run_values(r)
+        n = int(np.asarray(run.t_s if run.kind != "apexes" else run.h_m).size)
+        rows.append([str(r + 1), label or str(run.source), str(n), number(vals["drop_height_m"], 4)])
+    return table(rows, ["run", "what", "data", "drop height m"], align="llrr", indent="  ")
+
+
+def _speed_lines(d):
+    lo, hi = d.speed_range()
+    lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
+    if "velocity_dependent_restitution" in d.effects:
+        speeds = np.linspace(lo, hi, 4)
+        eps = d.epsilon_at(speeds)
+        lines.append("  epsilon(v): " + ", ".join(f"{e:.4f} at {v:.2f} m/s" for v, e in zip(speeds, eps)))
+    names = set(d.effects) | {r for v in d.ambiguous.values() for r in v}
+    if {"air_drag", "velocity_dependent_restitution"} <= names:
+        lines.append(_wrap(f"Air drag and a speed-dependent epsilon both fit: the speeds covered ({lo:.2f}-{hi:.2f} "
+                           f"m/s, a factor {hi / lo:.2g}) are too narrow to tell them apart; add drops from other "
+                           f"heights (several files, or a drop table).", "  "))
+    return lines
+
+
+def fit_report(discovery, details=False):
+    """The report of a discovery for people (a string ending with a newline; lines <= 100 columns).
+
+    Parameters
+    ----------
+    discovery : Discovery
+    details : bool
+        add the statistics of every candidate and the gap per bounce
+    """
+    d = discovery
+    ball = d.ball
+    n_data = d.baseline.n
+    runs = len(d.runs)
+    what = {"trajectory": "samples", "impacts": "impact times", "apexes": "heights"}[d.kind]
+    joint = f" in {runs} runs fitted jointly" if runs > 1 else ""
+    head = (f"vrcal discover: {d.data.source} ({d.kind}, {n_data} {what}{joint}); ball {getattr(ball, 'name', 'ball')} "
+            f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
+    lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
+    lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
+    if d.effects:
+        lines += ["", "Named effects", _named_table(d).rstrip("\n")]
+    if runs > 1 or "velocity_dependent_restitution" in d.effects or d.ambiguous:
+        lines += ["", "Speeds"] + _speed_lines(d)
+    if runs > 1:
+        lines += ["", "Runs (one epsilon and one set of effects; a drop height each)", _runs_table(d).rstrip("\n")]
+    reader_notes = [n for run in d.runs for n in getattr(run, "notes", ())]
+    notes = list(dict.fromkeys(list(getattr(d.data, "notes", ()) if runs > 1 else []) + reader_notes + list(d.notes)))
+    if notes:
+        lines += ["", "Notes"] + [_wrap(n, "    ", "  - ") for n in notes]
+    if details:
+        lines += ["", *details_lines(d)]
+    else:
+        lines += ["", _wrap("More: --details (statistics of every candidate, gap per bounce), --report DIR "
+                            "(figure), --json FILE (every number).")]
+    return "\n".join(lines) + "\n"
+
+
+def _verdict_reason(d):
+    from vrcal.discovery.ranking import verdict_reason
+
+    return verdict_reason(d)
+
+
+def details_lines(d):
+    """The statistics of every candidate (χ², AIC, BIC, ΔBIC, p, evidence) and the gap per bounce."""
+    unit = d.unit
+    scale, uname = _UNIT_SCALE[unit]
+    sigma = reference_sigma(d)
+    th = d.thresholds
+    b = d.baseline
+    out = ["Statistics (--details)",
+           _wrap(f"Baseline (the paper's model: constant epsilon, g = {d.g_m_per_s2:.6g} m/s^2 known): gap "
+                 f"{_fmt_gap(b.gap, unit)}, chi2 = {b.rss / sigma**2:.1f} at sigma = {_fmt_gap(sigma, unit)}, "
+                 f"AIC = {b.aic:.1f}, BIC = {b.bic:.1f} (n = {b.n}, k = {b.k}).", "  "),
+           _wrap(f"A candidate is material when dBIC >= {th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test), "
+                 f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}, or by "
+                 f"{th.removed_noise_fraction:g} noise sigma); of the material ones the highest evidence Z "
+                 f"(Laplace, the registry's prior densities) is named. d2lnZ = 2 ln(Z_best / Z) in its round.", "  "),
+           _wrap("Short names: " + ", ".join(f"{v} = {k}" for k, v in SHORT.items() if v != k) + ".", "  ")]
+    best = {}
+    for c in d.candidates:
+        best[c.round] = min(best.get(c.round, math.inf), c.score)
+    rows, reasons = [], []
+    for c in d.candidates:
+        f = c.fit
+        name = "+".join(SHORT[m] for m in c.members)
+        verdict = "named" if c.verdict.startswith("named") else ("material" if c.material else "no")
+        rows.append([str(c.round), name, str(f.k), number(f.gap * scale, 4), number(f.rss / sigma**2, 4),
+                     f"{f.aic:.1f}", f"{f.bic:.1f}", f"{c.delta_bic:.1f}", f"{c.p_value:.2g}",
+                     f"{c.score - best[c.round]:.1f}", verdict])
+        if not c.material and not c.verdict.startswith("named"):
+            reasons.append(f"round {c.round}, {name}: {c.verdict.replace('not material: ', '')}")
+        elif c.verdict.startswith("named,"):
+            reasons.append(f"round {c.round}, {name}: {c.verdict}")
+    out.append(table(rows, ["rnd", "effect", "k", f"gap {uname}", "chi2", "AIC", "BIC", "dBIC", "p", "d2lnZ",
+                            "verdict"], indent="  ").rstrip("\n"))
+    if reasons:
+        out.append("  not material:")
+        out += [_wrap(r, "      ", "    ") for r in reasons]
+    for name in d.effects:
+        odds = d.ambiguous_odds.get(name, {})
+        if odds:
+            text = ", ".join(f"{r} {o:.3g}:1" if o < 1e4 else f"{r} >1e4:1" for r, o in odds.items())
+            out.append(_wrap(f"posterior odds for {name} against its ambiguous rivals (registry priors): {text}", "  "))
+    before, after = d.gap_per_bounce()
+    label = "flight" if d.kind == "trajectory" else ("impact" if d.kind == "impacts" else "bounce")
+    if d.kind == "apexes":
+        idx = [f"{r + 1}:{int(x)}" if len(d.runs) > 1 else str(int(x))
+               for r, run in enumerate(d.runs) for x in run.bounce]
+    elif d.kind == "impacts":
+        idx = [str(int(e)) for run in d.runs for e in (run.events if run.events is not None
+                                                       else np.arange(1, len(run.t_s) + 1))]
+    else:
+        idx = [str(i) for i in range(len(before))]
+    rows = [[i, number(bb * scale, 3), number(aa * scale, 3)] for i, bb, aa in zip(idx, before, after)]
+    out += ["", f"Gap per {label} (RMS of data - model, {uname}; before = baseline, after = with the named effects)",
+            table(rows, [label, "before", "after"], indent="  ").rstrip("\n")]
     return out
 
 
@@ -192,38 +371,59 @@ def _effects_label(d):
 
 def plot_fit(discovery, ax=None):
     """Data, baseline and extended model: heights vs time (trajectory), impact intervals vs
-    impact number (impacts) or apex heights vs bounce (apexes). Returns the ax."""
+    impact number (impacts) or apex heights vs bounce (apexes), every run. Returns the ax."""
     ax = _new_ax(ax)
     d = discovery
-    data = d.data
-    if data.kind == "trajectory":
-        t = np.asarray(data.t_s, dtype=float)
-        ax.plot(t, data.y_m, ".", ms=2.5, color="0.35", label=f"data ({data.source})")
-        tt = np.linspace(t[0], t[-1], max(2000, 4 * t.size))
-        ax.plot(tt, d.baseline.predict_at(tt), "-", lw=1.0, color="tab:orange", label="baseline (constant ε)")
-        ax.plot(tt, d.final.predict_at(tt), "-", lw=1.2, color="tab:blue", label=_effects_label(d))
+    kind = d.kind
+    runs = d.runs
+    slices = d.final.run_slices()
+    for r, (run, sl) in enumerate(zip(runs, slices)):
+        first = r == 0
+        data_label = f"data ({d.data.source})" if first else None
+        base_label = "baseline (constant ε)" if first else None
+        final_label = _effects_label(d) if first else None
+        if kind == "trajectory":
+            t = np.asarray(run.t_s, dtype=float)
+            ax.plot(t, run.y_m, ".", ms=2.5, color="0.35", label=data_label)
+            tt = np.linspace(t[0], t[-1], max(2000, 4 * t.size))
+            ax.plot(tt, d.baseline.predict_at(tt, run=r), "-", lw=1.0, color="tab:orange", label=base_label)
+            ax.plot(tt, d.final.predict_at(tt, run=r), "-", lw=1.2, color="tab:blue", label=final_label)
+        elif kind == "impacts":
+            t = np.asarray(run.t_s, dtype=float)
+            events = np.asarray(run.events if run.events is not None else np.arange(1, t.size + 1))
+            ax.plot(events[1:], np.diff(t) * 1e3, "o", color="0.35", label=data_label)
+            for fit, style, color, label in ((d.baseline, "--", "tab:orange", base_label),
+                                             (d.final, "-", "tab:blue", final_label)):
+                model = t - fit.residuals[sl]
+                ax.plot(events[1:], np.diff(model) * 1e3, style, marker=".", color=color, label=label)
+        else:
+            b = np.asarray(run.bounce) + (0.0 if len(runs) == 1 else 0.0)
+            h = np.asarray(run.h_m, dtype=float)
+            x = b if len(runs) == 1 else np.full(b.size, float(h[0])) + 0 * b
+            if len(runs) == 1:
+                ax.semilogy(b, h, "o", color="0.35", label=data_label)
+                for fit, style, color, label in ((d.baseline, "--", "tab:orange", base_label),
+                                                 (d.final, "-", "tab:blue", final_label)):
+                    ax.semilogy(b, h - fit.residuals[sl], style, marker=".", color=color, label=label)
+            else:   # a drop table: rebound against drop height
+                ax.plot(x[1:], h[1:], "o", color="0.35", label=data_label)
+                for fit, marker, color, label in ((d.baseline, "x", "tab:orange", base_label),
+                                                  (d.final, "+", "tab:blue", final_label)):
+                    ax.plot(x[1:], (h - fit.residuals[sl])[1:], marker, color=color, label=label)
+    if kind == "trajectory":
         ax.set_xlabel("time t [s]")
         ax.set_ylabel("height y [m]")
-    elif data.kind == "impacts":
-        t = np.asarray(data.t_s, dtype=float)
-        n = np.arange(2, t.size + 1)
-        ax.plot(n, np.diff(t) * 1e3, "o", color="0.35", label=f"data ({data.source})")
-        for fit, style, color, label in ((d.baseline, "--", "tab:orange", "baseline (constant ε)"),
-                                         (d.final, "-", "tab:blue", _effects_label(d))):
-            model = t - fit.residuals
-            ax.plot(n, np.diff(model) * 1e3, style, marker=".", color=color, label=label)
-        ax.set_xlabel("impact number")
+    elif kind == "impacts":
+        ax.set_xlabel("event number")
         ax.set_ylabel("interval to the previous impact [ms]")
-    else:
-        b = np.asarray(data.bounce)
-        h = np.asarray(data.h_m, dtype=float)
-        ax.semilogy(b, h, "o", color="0.35", label=f"data ({data.source})")
-        for fit, style, color, label in ((d.baseline, "--", "tab:orange", "baseline (constant ε)"),
-                                         (d.final, "-", "tab:blue", _effects_label(d))):
-            ax.semilogy(b, h - fit.residuals, style, marker=".", color=color, label=label)
+    elif len(runs) == 1:
         ax.set_xlabel("bounce")
         ax.set_ylabel("apex height [m]")
-    ax.set_title(f"vrcal discover: {', '.join(d.effects) or 'no effect named'}; ε = {d.epsilon:.4f}", fontsize=10)
+    else:
+        ax.set_xlabel("drop height [m]")
+        ax.set_ylabel("rebound height [m]")
+    ax.set_title(f"vrcal discover: {', '.join(d.effects) or 'no effect named'}; ε = {d.epsilon:.4f}; {d.verdict}",
+                 fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     return ax
@@ -233,17 +433,20 @@ def plot_residuals(discovery, ax=None):
     """Residuals (data - model) of the baseline and of the extended model. Returns the ax."""
     ax = _new_ax(ax)
     d = discovery
-    data = d.data
     scale, uname = _UNIT_SCALE[d.unit]
-    if data.kind == "trajectory":
-        x = np.asarray(data.t_s, dtype=float)
-        xlabel, style = "time t [s]", "."
-    elif data.kind == "impacts":
-        x = np.arange(1, len(data.t_s) + 1)
-        xlabel, style = "impact number", "o"
-    else:
-        x = np.asarray(data.bounce)
-        xlabel, style = "bounce", "o"
+    xs = []
+    for run in d.runs:
+        if d.kind == "trajectory":
+            xs.append(np.asarray(run.t_s, dtype=float))
+        elif d.kind == "impacts":
+            xs.append(np.asarray(run.events if run.events is not None else np.arange(1, len(run.t_s) + 1), float))
+        else:
+            xs.append(np.asarray(run.bounce, dtype=float) if len(d.runs) == 1 else
+                      np.full(len(run.h_m), float(run.h_m[0])))
+    x = np.concatenate(xs)
+    xlabel = {"trajectory": "time t [s]", "impacts": "event number"}.get(
+        d.kind, "bounce" if len(d.runs) == 1 else "drop height [m]")
+    style = "." if d.kind == "trajectory" else "o"
     ax.plot(x, d.baseline.residuals * scale, style, ms=3, color="tab:orange",
             label=f"before: RMS {d.gap_before * scale:.3g} {uname}")
     ax.plot(x, d.final.residuals * scale, style, ms=3, color="tab:blue",

@@ -7,8 +7,8 @@ more candidate effects of the registry :data:`vrcal.drop.effects.EFFECTS`. This 
 * lays out the free parameters of a model for a data kind (:func:`parameter_layout`),
 * predicts the data with the vectorised simulator (:func:`predict`): many parameter
   sets in ONE :func:`vrcal.drop.simulate.simulate_drops` call,
-* fits a model by bounded least squares with a finite-difference Jacobian computed
-  in one vectorised call (:func:`fit_model`),
+* fits a model by bounded least squares (Levenberg-Marquardt, :mod:`vrcal.discovery.lsq`)
+  with a finite-difference Jacobian computed in one vectorised call (:func:`fit_model`),
 * computes the statistics of the fit from the same residuals (:func:`rss`,
   :func:`chi_square`, :func:`aic`, :func:`bic`), the evidence of a model with the
   registry's prior densities (:func:`minus_two_ln_evidence`) and the noise floor of the
@@ -40,8 +40,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
-
 from vrcal.errors import DataError, UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -200,12 +198,22 @@ def noise_floor(data):
     (a parabola, or nearly so with drag) is zero, so the third differences are noise
     with variance 20 σ² (coefficients 1, -3, 3, -1). The median absolute deviation
     makes the estimate robust to the few differences that straddle an impact or the
-    release. Impact times and apex heights are too few for a model-free estimate:
-    None (the discover workflow then uses the fitted model's residuals).
+    release. Several runs: the root mean square of the runs' estimates (weighted by their
+    samples). Impact times and apex heights are too few for a model-free estimate:
+    None (the discover workflow then assumes an instrument noise).
     """
-    if getattr(data, "kind", None) != "trajectory":
+    runs = _runs_of(data)
+    if runs[0].kind != "trajectory":
         return None
-    return _third_difference_sigma(np.asarray(data.t_s, dtype=float), np.asarray(data.y_m, dtype=float))
+    values, weights = [], []
+    for run in runs:
+        s = _third_difference_sigma(np.asarray(run.t_s, dtype=float), np.asarray(run.y_m, dtype=float))
+        if s is not None:
+            values.append(s * s)
+            weights.append(len(run.t_s))
+    if not values:
+        return None
+    return float(math.sqrt(np.average(values, weights=weights)))
 
 
 def _third_difference_sigma(t, y):
@@ -223,7 +231,59 @@ def _third_difference_sigma(t, y):
         return None
     mad = np.median(np.abs(d3 - np.median(d3)))
     sigma = 1.4826 * mad / math.sqrt(20.0)
-    return float(sigma) if sigma > 0 else None
+    # below a millionth of the height range the "noise" is rounding: a simulation, no measurement
+    return float(sigma) if sigma > 1e-6 * float(np.ptp(y)) else None
+
+
+def ratio_scatter(t_s):
+    """Bounce-to-bounce scatter of a series of impact times: the robust standard deviation of
+    the change of ln(dt_{i+1} / dt_i) from one ratio to the next, divided by sqrt(2)
+    (dimensionless; 0.006 = the interval ratios scatter by 0.6 %), or None with fewer than
+    four ratios.
+
+    A slow trend of the ratios (air drag, a speed-dependent epsilon, a contact time) hardly
+    changes successive ratios; a ball that hits the floor at slightly different spots, with
+    some spin or drifting sideways, changes each one at random. This is the scatter a
+    constant law cannot follow, whatever its effects.
+    """
+    t = np.asarray(t_s, dtype=float)
+    if t.size < 6:
+        return None
+    dt = np.diff(t)
+    d = np.diff(np.log(dt[1:] / dt[:-1]))
+    mad = float(np.median(np.abs(d - np.median(d))))
+    return 1.4826 * mad / math.sqrt(2.0)
+
+
+def scatter_gap(fit, scatter):
+    """RMS residual [s] a fit of impact times leaves when each bounce's epsilon scatters at random
+    by the relative standard deviation ``scatter`` (:func:`ratio_scatter`).
+
+    A change d ln(eps_j) at bounce j stretches every later flight by the same factor, so impact
+    k moves by (t_k - t_j) d ln(eps_j): the times' covariance is s^2 A A^T with
+    ``A[k, j] = t_k - t_j`` (j < k). The fit absorbs the part in the span of its Jacobian J;
+    the expected residual sum of squares is ``trace((I - P) s^2 A A^T)``, P the projection on J.
+    """
+    data_runs = fit.problem.runs
+    if scatter is None or data_runs[0].kind != "impacts":
+        return None
+    obj = _Objective(fit.layout, fit.problem, _scales(fit.layout, fit.values))
+    J = obj.jac(np.asarray(fit.values, dtype=float).copy())
+    blocks, start = [], 0
+    n_total = J.shape[0]
+    A = np.zeros((n_total, n_total))
+    for run in data_runs:
+        t = np.asarray(run.t_s, dtype=float)
+        n = t.size
+        block = np.tril(t[:, None] - t[None, :], -1)
+        A[start:start + n, start:start + n] = block
+        blocks.append(n)
+        start += n
+    Q, _ = np.linalg.qr(J)
+    R = A - Q @ (Q.T @ A)
+    expected = scatter**2 * float(np.sum(R * R))
+    dof = max(n_total - J.shape[1], 1)
+    return math.sqrt(expected / dof)
 
 
 # --------------------------------------------------------------------------- model layout
@@ -233,29 +293,38 @@ def _third_difference_sigma(t, y):
 class FitParameter:
     """One free parameter of a model, in SI units."""
 
-    key: str            # "epsilon" or "air_drag.drag_coefficient"
+    key: str            # "epsilon", "drop_height_m[2]" (run 2 of a joint fit) or "air_drag.drag_coefficient"
     effect: str | None  # None for the baseline's parameters
     name: str           # parameter name inside its effect (or the baseline name)
     unit: str
     bounds: tuple
     prior: tuple
     null: float | None  # value at which the effect vanishes (None for the baseline)
+    run: int | None = None  # the run of a release-state parameter (0-based); None when shared
 
 
-def _baseline_parameters(kind, data, ball):
-    """The baseline's parameters: drop height, release time (not for apexes), ε."""
-    out = [FitParameter("drop_height_m", None, "drop_height_m", "m", (1e-3, 100.0), (1e-3, 100.0), None)]
-    if kind != "apexes":
-        t = _data_times(data)
-        span = float(t[-1] - t[0]) if t.size > 1 else 10.0
-        lo, hi = float(t[0]) - span - 10.0, float(t[-1])
-        out.append(FitParameter("release_time_s", None, "release_time_s", "s", (lo, hi), (lo, hi), None))
+def _runs_of(data):
+    """The runs of a measurement: its ``runs`` (a :class:`vrcal.measurements.Runs`) or (data,)."""
+    runs = getattr(data, "runs", None)
+    return tuple(runs) if runs is not None else (data,)
+
+
+def _baseline_parameters(runs):
+    """The baseline's parameters: per run a drop height and a release time (not for apexes), then ε."""
+    out = []
+    joint = len(runs) > 1
+    for r, run in enumerate(runs):
+        suffix = f"[{r + 1}]" if joint else ""
+        out.append(FitParameter("drop_height_m" + suffix, None, "drop_height_m", "m", (1e-3, 100.0), (1e-3, 100.0),
+                                None, r))
+        if run.kind != "apexes":
+            t = np.asarray(run.t_s, dtype=float)
+            span = float(t[-1] - t[0]) if t.size > 1 else 10.0
+            lo, hi = float(t[0]) - span - 10.0, float(t[-1])
+            out.append(FitParameter("release_time_s" + suffix, None, "release_time_s", "s", (lo, hi), (lo, hi),
+                                    None, r))
     out.append(FitParameter("epsilon", None, "epsilon", "1", (0.05, 0.999), (0.05, 0.999), None))
     return out
-
-
-def _data_times(data):
-    return np.asarray(data.t_s, dtype=float)
 
 
 def applicable_effects(kind):
@@ -272,12 +341,14 @@ def _check_kind(kind):
 
 
 def parameter_layout(data, effects=(), ball=None):
-    """The free parameters of the baseline plus ``effects`` for ``data`` (a tuple of FitParameter)."""
+    """The free parameters of the baseline plus ``effects`` for ``data`` (a tuple of FitParameter);
+    ``data`` is one measurement or :class:`vrcal.measurements.Runs` (a release state per run)."""
     from vrcal.drop.effects import EFFECTS
 
-    kind = data.kind
+    runs = _runs_of(data)
+    kind = runs[0].kind
     _check_kind(kind)
-    layout = _baseline_parameters(kind, data, ball)
+    layout = _baseline_parameters(runs)
     for name in effects:
         if name not in EFFECTS:
             raise UsageError(f"unknown effect '{name}' (known: {', '.join(sorted(EFFECTS))})")
@@ -296,63 +367,114 @@ def parameter_layout(data, effects=(), ball=None):
 
 @dataclass(frozen=True)
 class Problem:
-    """What the fitter needs besides the parameters: the data, the ball, g, the bounce count."""
+    """What the fitter needs besides the parameters: the data (one run or several), the ball, g,
+    the bounce count, and for a joint fit the one reference speed of a speed-dependent ε."""
 
     data: object
     ball: object                 # vrcal.model.body.BallProperties
     g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
     n_bounces: int = 1
+    reference_speed_m_per_s: float | None = None
+    noise: float | None = None   # noise of one datum [data unit], for uncertainties without degrees of freedom
+
+    @property
+    def runs(self):
+        """The runs fitted jointly ((data,) for one record)."""
+        return _runs_of(self.data)
 
 
-def _split(theta, layout):
-    """Parameter matrix (m, k) -> (drop height, release time, ε, effects dict) of arrays (m,)."""
+def _split(theta, layout, n_runs=1):
+    """Parameter matrix (m, k) -> (drop heights (m, R), release times (m, R), ε (m,), effects dict of (m,))."""
     theta = np.atleast_2d(np.asarray(theta, dtype=float))
-    base, effects = {}, {}
+    m = theta.shape[0]
+    H = np.zeros((m, n_runs))
+    t0 = np.zeros((m, n_runs))
+    eps = None
+    effects = {}
     for j, p in enumerate(layout):
-        if p.effect is None:
-            base[p.name] = theta[:, j]
-        else:
+        if p.effect is not None:
             effects.setdefault(p.effect, {})[p.name] = theta[:, j]
-    t0 = base.get("release_time_s", np.zeros(theta.shape[0]))
-    return base["drop_height_m"], t0, base["epsilon"], effects
+        elif p.name == "epsilon":
+            eps = theta[:, j]
+        elif p.name == "drop_height_m":
+            H[:, p.run or 0] = theta[:, j]
+        else:
+            t0[:, p.run or 0] = theta[:, j]
+    return H, t0, eps, effects
 
 
 def simulate(theta, layout, problem, n_bounces=None):
-    """Simulate the model for every parameter set (rows of ``theta``): a :class:`vrcal.drop.simulate.Drops`."""
+    """Simulate the model for every parameter set (rows of ``theta``) and every run: a
+    :class:`vrcal.drop.simulate.Drops` whose drop ``i * R + r`` is run r of set i."""
     from vrcal.drop.simulate import simulate_drops
 
-    H, t0, eps, effects = _split(theta, layout)
-    return simulate_drops(H, eps, int(n_bounces or problem.n_bounces), problem.ball, effects=effects or None,
-                          g_m_per_s2=problem.g_m_per_s2, release_time_s=t0)
+    R = len(problem.runs)
+    H, t0, eps, effects = _split(theta, layout, R)
+    if R > 1:
+        eps = np.repeat(eps, R)
+        effects = {e: {k: np.repeat(v, R) for k, v in ps.items()} for e, ps in effects.items()}
+    return simulate_drops(H.ravel(), eps, int(n_bounces or problem.n_bounces), problem.ball,
+                          effects=effects or None, g_m_per_s2=problem.g_m_per_s2, release_time_s=t0.ravel(),
+                          reference_speed_m_per_s=problem.reference_speed_m_per_s)
+
+
+def _run_prediction(drops, rows, run):
+    if run.kind == "trajectory":
+        return np.asarray(drops.height_m(np.asarray(run.t_s, dtype=float)), dtype=float)
+    if run.kind == "impacts":
+        return np.asarray(drops.impact_times_s, dtype=float)[:, :len(run.t_s)]
+    return np.asarray(drops.observed_apex_heights_m, dtype=float)[:, np.asarray(run.bounce, dtype=int)]
 
 
 def predict(theta, layout, problem):
-    """Model values of the data for every parameter set: ndarray (m, n_data).
+    """Model values of the data for every parameter set: ndarray (m, n_data), the runs one after another.
 
     trajectory: height of the observed point at the sample times [m];
     impacts: time of the first ``n`` floor impacts [s];
     apexes: apex heights of the observed point at the data's bounce numbers [m].
     """
-    data = problem.data
     drops = simulate(theta, layout, problem)
-    kind = data.kind
-    if kind == "trajectory":
-        return np.asarray(drops.height_m(np.asarray(data.t_s, dtype=float)), dtype=float)
-    if kind == "impacts":
-        n = len(data.t_s)
-        return np.asarray(drops.impact_times_s, dtype=float)[:, :n]
-    bounce = np.asarray(data.bounce, dtype=int)
-    # apex heights of the OBSERVED point (bottom + height_offset)
-    return np.asarray(drops.observed_apex_heights_m, dtype=float)[:, bounce]
+    runs = problem.runs
+    if len(runs) == 1:
+        return _run_prediction(drops, None, runs[0])
+    R = len(runs)
+    m = drops.n_drops // R
+    if runs[0].kind == "trajectory":
+        sizes = [len(r.t_s) for r in runs]
+        width = max(sizes)
+        T = np.empty((R, width))
+        for r, run in enumerate(runs):
+            t = np.asarray(run.t_s, dtype=float)
+            T[r, :t.size] = t
+            T[r, t.size:] = t[-1]
+        y = np.asarray(drops.height_m(np.tile(T, (m, 1))), dtype=float).reshape(m, R, width)
+        return np.concatenate([y[:, r, :n] for r, n in enumerate(sizes)], axis=1)
+    out = []
+    for r, run in enumerate(runs):
+        sub = _SubDrops(drops, r, R)
+        out.append(_run_prediction(sub, None, run))
+    return np.concatenate(out, axis=1)
+
+
+class _SubDrops:
+    """The drops of one run (every R-th drop from r) of a joint simulation (impacts, apexes)."""
+
+    def __init__(self, drops, r, R):
+        self.impact_times_s = np.asarray(drops.impact_times_s)[r::R]
+        self.observed_apex_heights_m = np.asarray(drops.observed_apex_heights_m)[r::R]
 
 
 def observed_values(data):
-    """The data values the residuals compare with: (n_data,) in the data's unit."""
-    if data.kind == "trajectory":
-        return np.asarray(data.y_m, dtype=float)
-    if data.kind == "impacts":
-        return np.asarray(data.t_s, dtype=float)
-    return np.asarray(data.h_m, dtype=float)
+    """The data values the residuals compare with: (n_data,) in the data's unit, the runs one after another."""
+    out = []
+    for run in _runs_of(data):
+        if run.kind == "trajectory":
+            out.append(np.asarray(run.y_m, dtype=float))
+        elif run.kind == "impacts":
+            out.append(np.asarray(run.t_s, dtype=float))
+        else:
+            out.append(np.asarray(run.h_m, dtype=float))
+    return out[0] if len(out) == 1 else np.concatenate(out)
 
 
 def residuals(theta, layout, problem):
@@ -390,7 +512,7 @@ def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
     around it, above it) exceeds 8 noise standard deviations (``sigma_m``, estimated
     from the data when None) and 0.5 % of the height range.
     """
-    from scipy.signal import find_peaks
+    from vrcal.measurements.cleanup import prominent_minima
 
     y = np.asarray(y_m, dtype=float)
     r = int(release_index)
@@ -400,12 +522,11 @@ def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
     if sigma_m is None:
         sigma_m = _third_difference_sigma(np.asarray(t_s, dtype=float), y) or 0.0
     span = float(np.max(seg) - np.min(seg))
-    idx, _ = find_peaks(-seg, prominence=max(8.0 * sigma_m, 0.005 * span, 1e-9))
-    return idx.astype(int) + r
+    return prominent_minima(seg, max(8.0 * sigma_m, 0.005 * span, 1e-9)) + r
 
 
 def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
-    """Starting values {drop_height_m, release_time_s, epsilon} read from the data.
+    """Starting values {drop_height_m, release_time_s, epsilon} read from the data (one run).
 
     trajectory: drop height from the still level before release (or the first sample),
     ε from the ratios of successive impact intervals, release time from the first
@@ -460,6 +581,24 @@ def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     return {"drop_height_m": still, "release_time_s": t0, "epsilon": eps}
 
 
+def initial_values(problem):
+    """Starting values by parameter key for every run (see :func:`initial_baseline`); ε is the
+    median of the runs' estimates."""
+    runs = problem.runs
+    joint = len(runs) > 1
+    out, eps = {}, []
+    for r, run in enumerate(runs):
+        base = initial_baseline(run, problem.g_m_per_s2)
+        suffix = f"[{r + 1}]" if joint else ""
+        for k, v in base.items():
+            if k == "epsilon":
+                eps.append(v)
+            else:
+                out[k + suffix] = v
+    out["epsilon"] = float(np.median(eps))
+    return out
+
+
 # --------------------------------------------------------------------------- fitting
 
 
@@ -512,10 +651,16 @@ class FitResult:
     def uncertainty(self, key):
         return float(self.uncertainties[[p.key for p in self.layout].index(key)])
 
+    def run_values(self, run=0):
+        """{drop_height_m, release_time_s (not for apexes), epsilon} of one run (the release state)."""
+        out = {p.name: float(v) for p, v in zip(self.layout, self.values)
+               if p.effect is None and p.run in (run, None)}
+        return out
+
     @property
     def baseline_values(self):
-        """{drop_height_m, release_time_s (not for apexes), epsilon}."""
-        return {p.name: float(v) for p, v in zip(self.layout, self.values) if p.effect is None}
+        """{drop_height_m, release_time_s (not for apexes), epsilon} of the first run."""
+        return self.run_values(0)
 
     def _by_effect(self, numbers):
         out = {}
@@ -534,20 +679,44 @@ class FitResult:
         """{effect: {parameter: 1-sigma uncertainty}} of the effects on top of the baseline."""
         return self._by_effect(self.uncertainties)
 
-    def in_prior(self, effect, n_sigma=0.0):
-        """True when every parameter of ``effect`` lies in its physically plausible range,
-        widened by ``n_sigma`` times the parameter's 1-σ uncertainty (a value at the edge of
-        the prior is not rejected for its noise)."""
-        return all(p.prior[0] - n_sigma * u <= v <= p.prior[1] + n_sigma * u
-                   for p, v, u in zip(self.layout, self.values, self.uncertainties) if p.effect == effect)
+    def outside_limits(self, effect):
+        """[(parameter, value, (lo, hi))] of the parameters of ``effect`` outside their hard physical
+        limits (:meth:`vrcal.drop.effects.Parameter.physical_limits`, for this ball); [] when all lie inside."""
+        from vrcal.drop.effects import EFFECTS
 
-    def model(self, n_bounces=None):
-        """The fitted model simulated once (a :class:`vrcal.drop.simulate.Drops` with n_drops = 1)."""
-        return simulate(self.values[None, :], self.layout, self.problem, n_bounces)
+        out = []
+        for p, v in zip(self.layout, self.values):
+            if p.effect == effect:
+                lo, hi = EFFECTS[effect].parameter(p.name).physical_limits(self.problem.ball)
+                if not lo <= v <= hi:
+                    out.append((p.name, float(v), (lo, hi)))
+        return out
 
-    def predict_at(self, t_s):
+    def model(self, n_bounces=None, run=0):
+        """The fitted model of one run simulated once (a :class:`vrcal.drop.simulate.Drops` with n_drops = 1)."""
+        drops = simulate(self.values[None, :], self.layout, self.problem, n_bounces)
+        R = len(self.problem.runs)
+        if R == 1:
+            return drops
+        from vrcal.drop.simulate import simulate_drops
+
+        H, t0, eps, effects = _split(self.values[None, :], self.layout, R)
+        return simulate_drops(H[:, run], eps, int(n_bounces or self.problem.n_bounces), self.problem.ball,
+                              effects=effects or None, g_m_per_s2=self.problem.g_m_per_s2,
+                              release_time_s=t0[:, run], reference_speed_m_per_s=self.problem.reference_speed_m_per_s)
+
+    def predict_at(self, t_s, run=0):
         """Height of the observed point [m] at times ``t_s`` (trajectory models), (n_t,)."""
-        return np.asarray(self.model().height_m(np.asarray(t_s, dtype=float)), dtype=float)[0]
+        return np.asarray(self.model(run=run).height_m(np.asarray(t_s, dtype=float)), dtype=float)[0]
+
+    def run_slices(self):
+        """The residuals' slice of each run."""
+        out, start = [], 0
+        for run in self.problem.runs:
+            n = observed_values(run).size
+            out.append(slice(start, start + n))
+            start += n
+        return out
 
 
 def _scales(layout, x0):
@@ -608,12 +777,12 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
     Parameters
     ----------
     problem : Problem
-        data, ball, g [m/s²] and the number of bounces to simulate
+        data (one run or several), ball, g [m/s²] and the number of bounces to simulate
     effects : sequence of str
         effect names on top of the baseline (registry :data:`vrcal.drop.effects.EFFECTS`)
     start : dict, optional
         starting values by parameter key ("epsilon", "air_drag.drag_coefficient", ...);
-        missing keys start at :func:`initial_baseline` and at each effect's default.
+        missing keys start at :func:`initial_values` and at each effect's default.
     max_nfev : int
         most Jacobian evaluations (each one vectorised simulation of k + 1 sets)
 
@@ -622,18 +791,19 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
     FitResult
         uncertainties are 1-σ from the Jacobian, (JᵀJ)⁻¹ σ² with σ² = RSS/(n - k).
     """
+    from vrcal.discovery.lsq import least_squares_box
     from vrcal.drop.effects import EFFECTS
 
     data = problem.data
     layout = parameter_layout(data, tuple(effects))
     start = dict(start or {})
-    base0 = initial_baseline(data, problem.g_m_per_s2)
+    base0 = problem_start(problem)
     x0 = []
     for p in layout:
         if p.key in start:
             v = start[p.key]
         elif p.effect is None:
-            v = base0[p.name]
+            v = base0[p.key]
         else:
             v = next(q.default for q in EFFECTS[p.effect].parameters if q.name == p.name)
         lo, hi = p.bounds
@@ -642,30 +812,59 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
         x0.append(v)
     x0 = np.asarray(x0, dtype=float)
     n = observed_values(data).size
-    if n <= len(layout):
+    if n < len(layout):
         raise DataError(f"{data.source}: {n} data cannot fit {len(layout)} parameters")
     scales = _scales(layout, x0)
     obj = _Objective(layout, problem, scales)
     lo = np.array([p.bounds[0] for p in layout])
     hi = np.array([p.bounds[1] for p in layout])
-    sol = least_squares(obj.fun, x0, jac=obj.jac, bounds=(lo, hi), x_scale=scales, method="trf",
-                        max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
-    r = obj.fun(sol.x)
-    J = obj.jac(sol.x)
-    dof = max(n - len(layout), 1)
-    s2 = float(r @ r) / dof
+    sol = least_squares_box(obj.fun, obj.jac, x0, lo, hi, scales, max_iter=max_nfev, xtol=1e-10, ftol=1e-8)
+    r, J = sol.fun, sol.jac
+    # sigma^2 from the residuals; with no degree of freedom left (as many data as parameters: two
+    # apexes give epsilon exactly) from the noise the problem assumes
+    s2 = float(r @ r) / (n - len(layout)) if n > len(layout) else float(problem.noise or 0.0) ** 2
     cov = np.linalg.pinv(J.T @ J) * s2
     unc = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return FitResult(tuple(effects), layout, sol.x.copy(), unc, r.copy(), problem, nfev=obj.nsim,
                      success=bool(sol.success), message=str(sol.message), extra={"start": x0, "jtj": J.T @ J})
 
 
-def make_problem(data, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
-    """A :class:`Problem` for ``data`` with enough bounces simulated to cover it."""
-    _check_kind(getattr(data, "kind", None))
+def problem_start(problem):
+    """The baseline's starting values of a problem (cached on it)."""
+    cache = problem.__dict__.get("_start")
+    if cache is None:
+        cache = initial_values(problem)
+        object.__setattr__(problem, "_start", cache)
+    return cache
+
+
+def make_problem(data, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, noise=None):
+    """A :class:`Problem` for ``data`` (one measurement or Runs) with enough bounces simulated to cover it.
+
+    A joint fit of several runs takes one reference speed for a speed-dependent ε: the first
+    impact speed of the highest drop as the starting values give it, sqrt(2 g H_max) (fixed,
+    so that every run follows one law ε(v)).
+    """
+    runs = _runs_of(data)
+    kinds = {getattr(r, "kind", None) for r in runs}
+    for k in kinds:
+        _check_kind(k)
+    if len(kinds) > 1:
+        raise UsageError(f"a joint fit needs runs of one kind, got {', '.join(sorted(map(str, kinds)))}")
     g = float(g_m_per_s2)
     if not (math.isfinite(g) and g > 0):
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
-    base = initial_baseline(data, g)
-    n_b = count_bounces(data, base["drop_height_m"], base["epsilon"], base.get("release_time_s", 0.0), g)
-    return Problem(data, ball, g, max(n_b, 1))
+    n_b, heights = 1, []
+    for run in runs:
+        base = initial_baseline(run, g)
+        n_b = max(n_b, count_bounces(run, base["drop_height_m"], base["epsilon"], base.get("release_time_s", 0.0), g))
+        heights.append(max(base["drop_height_m"], 1e-4))
+    v_ref = math.sqrt(2.0 * g * max(heights)) if len(runs) > 1 else None
+    return Problem(data, ball, g, max(n_b, 1), v_ref, noise)
+
+
+def drop_height_spread(problem):
+    """Highest over lowest starting drop height of the runs (1 for one run): how much the impact
+    speeds differ between runs, which is what separates drag from a speed-dependent ε."""
+    heights = [v for k, v in problem_start(problem).items() if k.startswith("drop_height_m")]
+    return max(heights) / min(heights) if heights and min(heights) > 0 else 1.0

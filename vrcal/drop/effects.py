@@ -26,10 +26,12 @@ References
 
 Prior densities
 ---------------
-Every parameter has hard ``bounds`` (what the fitter may try), a plausible range
-``prior`` (a fitted value outside it, by more than its noise, makes a candidate
-implausible) and a proper prior *density* (``Parameter.density``; uniform over
-``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
+Every parameter has ``bounds`` (what the fitter may try: wide, so that a value an effect
+would need is seen even where it is unphysical), hard physical ``limits`` (a candidate
+whose fitted value lies outside them is never named: ``vrcal discover`` reports the
+value it would need instead; they may depend on the ball, :meth:`Parameter.physical_limits`),
+a plausible range ``prior`` and a proper prior *density* (``Parameter.density``; uniform
+over ``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
 evidence (:func:`vrcal.discovery.residuals.minus_two_ln_evidence`). The densities come from
 physics and the literature, not from the synthetic generator:
 
@@ -49,6 +51,21 @@ physics and the literature, not from the synthetic generator:
   (video trackers) or the top (FIBA) of the ball: an equal mixture of normals at 0
   (sd 10 mm, a mis-set floor line), D/2 and D (sd max(0.1 D, 5 mm));
 * ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range.
+
+Physical limits (hard; ``Parameter.limits``)
+--------------------------------------------
+* ``air_drag.drag_coefficient``: 0.2-1.0, a sphere over the Reynolds numbers of a drop
+  (1e3-3e5: 0.4-0.5 below the drag crisis, down to 0.2 past it, up to about 0.6 for fuzzy
+  or seamed balls [4, 6]; 1.0 leaves room for rough balls);
+* ``velocity_dependent_restitution.exponent``: 0-1 (1/5 viscoelastic [2]; inflated balls
+  flatter; beyond 1 no contact model);
+* ``contact_duration.contact_time_s``: 0 to twice the membrane estimate
+  :func:`inflated_contact_time_s` of the ball (its size and a 60 kPa gauge pressure): a
+  factor 2 covers 15-240 kPa and the wall's stiffness; a shorter contact (a solid ball)
+  is always physical;
+* ``height_offset.offset_m``: -D to D + max(0.1 D, 5 mm): the tracked point lies on the ball
+  (bottom 0, centre D/2, top D), give or take a mis-set floor line;
+* ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day).
 
 Departures from [1]
 -------------------
@@ -143,8 +160,10 @@ class TrackedPointPrior:
 class Parameter:
     """One parameter of an effect.
 
-    ``bounds``: hard limits of the fitter; ``prior``: the physically plausible range (the
-    materiality test's in/out check); ``density``: a proper prior density (an object with
+    ``bounds``: what the fitter may try; ``limits``: hard physical limits (a tuple, or a
+    function of (mass [kg], diameter [m]) giving one; see :meth:`physical_limits`): a
+    candidate outside them is never named; ``prior``: the plausible range (the uniform
+    density's support); ``density``: a proper prior density (an object with
     ``pdf(x, ball)``; uniform over ``prior`` when None) for the evidence that ranks the
     candidates (see the module docstring, "Prior densities").
     """
@@ -156,6 +175,18 @@ class Parameter:
     prior: tuple
     description: str
     density: object = None
+    limits: object = None
+
+    def physical_limits(self, ball=None):
+        """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
+        depend on it: ``limits`` is then a function of (mass [kg], diameter [m])); ``bounds``
+        when none are set."""
+        lim = self.limits if self.limits is not None else self.bounds
+        if callable(lim):
+            if ball is None:
+                raise UsageError(f"the limits of {self.name} depend on the ball: give its mass and diameter")
+            lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)))
+        return float(lim[0]), float(lim[1])
 
     def prior_pdf(self, x, ball=None):
         """Prior density at ``x`` [1/unit]; ``ball`` (mass_kg, diameter_m) for ball-dependent priors."""
@@ -175,7 +206,8 @@ class Parameter:
 
 @dataclass(frozen=True)
 class Effect:
-    """One named candidate effect (see the module docstring)."""
+    """One named candidate effect (see the module docstring). ``check`` says what to check in
+    the input when the effect would fit only with an unphysical value."""
 
     name: str
     parameters: tuple
@@ -185,6 +217,7 @@ class Effect:
     kinds: tuple
     null_values: dict
     function: object = field(default=None, compare=False, repr=False)
+    check: str = ""
 
     @property
     def defaults(self):
@@ -381,8 +414,10 @@ def liftoff_time_s(impact_time_s, contact_time_s):
     -----
     Departure from [1], whose contacts are instantaneous in the flight timeline. (The
     paper's Eq. (10) T = x/(2v) is the time of its *virtual* bodies, not this one.)
-    The ball rests with its bottom at y = 0 during the contact and leaves with the
-    rebound speed.
+    During the contact the ball's bottom dips below the floor level in a half sine of
+    depth ``(v_in + v_out) tau_c / (2 pi)`` (the compression of a linear spring-damper
+    contact; :meth:`vrcal.drop.simulate.Drops.height_m`) and leaves with the rebound speed:
+    a soft contact's dip is part of this effect, not a height offset.
     """
     return _out(np.asarray(impact_time_s, dtype=float) + np.asarray(contact_time_s, dtype=float))
 
@@ -440,7 +475,8 @@ EFFECTS = {
         parameters=(
             Parameter("drag_coefficient", "1", 0.5, (0.0, 3.0), (0.1, 1.0),
                       "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)",
-                      LogNormalPrior(0.47, 0.3, "sphere below the drag crisis (Achenbach 1972; Mehta 1985)")),
+                      LogNormalPrior(0.47, 0.3, "sphere below the drag crisis (Achenbach 1972; Mehta 1985)"),
+                      limits=(0.2, 1.0)),
         ),
         equation="a = -g - k v|v|,  k = rho C_d pi D^2 / (8 m),  rho = 1.204 kg/m^3",
         description="quadratic air drag during the flights; lowers each apex below eps^2 times the previous "
@@ -449,13 +485,15 @@ EFFECTS = {
         kinds=("trajectory", "impacts", "apexes"),
         null_values={"drag_coefficient": 0.0},
         function=drag_constant_per_m,
+        check="check the ball's mass and diameter, the length scale and the frame rate",
     ),
     "velocity_dependent_restitution": Effect(
         name="velocity_dependent_restitution",
         parameters=(
             Parameter("exponent", "1", 0.2, (-1.0, 2.0), (0.0, 0.5),
                       "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 for viscoelastic spheres, 0 = constant eps",
-                      LogNormalPrior(0.2, math.log(2.0), "viscoelastic spheres, p = 1/5 (Ramirez et al. 1999)")),
+                      LogNormalPrior(0.2, math.log(2.0), "viscoelastic spheres, p = 1/5 (Ramirez et al. 1999)"),
+                      limits=(0.0, 1.0)),
         ),
         equation="eps(v) = 1 - (1 - eps_ref) (v / v_ref)^p,  v_ref = first impact speed",
         description="epsilon depends on the impact speed: slower (later) bounces are more elastic for p > 0",
@@ -464,6 +502,7 @@ EFFECTS = {
         kinds=("trajectory", "impacts", "apexes"),
         null_values={"exponent": 0.0},
         function=restitution_at_speed,
+        check="check the time scale and for bounces that do not belong (a kick, a second surface)",
     ),
     "contact_duration": Effect(
         name="contact_duration",
@@ -472,15 +511,17 @@ EFFECTS = {
                       "time the ball spends on the floor at each bounce (about 1 ms table tennis, 4-10 ms "
                       "tennis/basketball)",
                       LogNormalPrior(inflated_contact_time_s, 1.0,
-                                     "half period of an inflated ball, gauge pressure 60 kPa")),
+                                     "half period of an inflated ball, gauge pressure 60 kPa"),
+                      limits=lambda m, D: (0.0, 2.0 * float(inflated_contact_time_s(m, D)))),
         ),
-        equation="t_liftoff = t_impact + tau_c;  y = 0 during the contact",
+        equation="t_liftoff = t_impact + tau_c;  in contact a half-sine dip of (v_in + v_out) tau_c / (2 pi)",
         description="each contact lasts tau_c: the impact intervals grow by tau_c each, unlike a pure "
                     "geometric series",
         reference="Cross, Am. J. Phys. 67, 222 (1999)",
         kinds=("trajectory", "impacts"),
         null_values={"contact_time_s": 0.0},
         function=liftoff_time_s,
+        check="check the frame rate or time scale, and the ball's mass and diameter",
     ),
     "height_offset": Effect(
         name="height_offset",
@@ -488,7 +529,8 @@ EFFECTS = {
             Parameter("offset_m", "m", 0.02, (-0.5, 0.5), (-0.05, 0.25),
                       "tracked point above the ball's bottom: D/2 for the centre, D for the top, or a mis-set "
                       "floor line",
-                      TrackedPointPrior(basis="ITTF (bottom), video trackers (centre), FIBA (top)")),
+                      TrackedPointPrior(basis="ITTF (bottom), video trackers (centre), FIBA (top)"),
+                      limits=lambda m, D: (-D, D + max(0.1 * D, 0.005))),
         ),
         equation="y_observed = y_bottom + offset",
         description="the tracked point is not the bottom of the ball (or the floor line is mis-set): "
@@ -498,12 +540,13 @@ EFFECTS = {
         kinds=("trajectory", "apexes"),
         null_values={"offset_m": 0.0},
         function=observed_height_m,
+        check="check the floor line (--floor), the length scale, and for a bounce off something above the floor",
     ),
     "buoyancy": Effect(
         name="buoyancy",
         parameters=(
             Parameter("air_density_kg_per_m3", "kg/m^3", AIR_DENSITY_KG_PER_M3, (0.0, 2.0), (0.9, 1.3),
-                      "density of the displacing air (1.204 at 20 C, sea level)"),
+                      "density of the displacing air (1.204 at 20 C, sea level)", limits=(0.8, 1.4)),
         ),
         equation="g_eff = g (m - rho V) / (m + rho V / 2),  V = pi D^3 / 6",
         description="Archimedes' force and the added mass of air: a hollow ball falls with a smaller "
@@ -513,6 +556,7 @@ EFFECTS = {
         kinds=("trajectory",),
         null_values={"air_density_kg_per_m3": 0.0},
         function=buoyant_gravity_m_per_s2,
+        check="check the frame rate and the length scale (g from the flights)",
     ),
 }
 

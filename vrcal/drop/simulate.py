@@ -233,35 +233,93 @@ class Drops:
         -------
         y_m : ndarray (n_drops, n_t)
             the ball's bottom plus ``offset_m``. Before release the ball is held still at
-            H; during a contact its bottom is at 0; after the landing that ends the last
-            flight it rests on the floor (bottom at 0).
+            H; during a contact of duration tau_c it dips below the floor level in a half
+            sine, ``-A sin(pi (t - t_impact) / tau_c)`` with ``A = (v_in + v_out) tau_c / (2 pi)``
+            (the compression of a linear spring-damper contact, the mean of the speeds in and
+            out); after the landing that ends the last flight it rests on the floor (bottom at 0).
         """
         t = np.asarray(t_s, dtype=float)
         if t.ndim == 1:
             t = np.broadcast_to(t, (self.n_drops, t.size))
         if t.ndim != 2 or t.shape[0] != self.n_drops:
             raise UsageError(f"t_s must have shape (n_t,) or ({self.n_drops}, n_t), got {np.shape(t_s)}")
-        seg = np.zeros(t.shape, dtype=np.intp)
-        for col in range(self._breaks.shape[1]):
-            seg += t >= self._breaks[:, col:col + 1]
-        kind = np.take_along_axis(self._kinds, seg, axis=1)
-        start = np.take_along_axis(self._starts, seg, axis=1)
-        value = np.take_along_axis(self._values, seg, axis=1)
-        tau = t - start
-        g = self.g_m_per_s2[:, None]
-        k = self.k_per_m[:, None]
+        shape = t.shape
+        n_cols = self._kinds.shape[1]
+        flat = (_segment_index(self._breaks, t) + (np.arange(self.n_drops) * n_cols)[:, None]).ravel()
+        kind = self._kinds.ravel().take(flat)
+        value = self._values.ravel().take(flat)
+        tau = t.ravel() - self._starts.ravel().take(flat)
+        row = flat // n_cols
+        y = np.where(kind == _HOLD, value, 0.0)
         with np.errstate(all="ignore"):
-            down = value - distance_fallen_m(tau, g, k)
-            up = height_rising_m(tau, value, g, k)
-        y = np.select([kind == _HOLD, kind == _DOWN, kind == _UP], [value, down, up], 0.0)
-        return y + self.offset_m[:, None]
+            down = np.flatnonzero(kind == _DOWN)
+            if down.size:
+                r = row[down]
+                y[down] = value[down] - _fallen(tau[down], self.g_m_per_s2[r], self.k_per_m[r])
+            up = np.flatnonzero(kind == _UP)
+            if up.size:
+                r = row[up]
+                y[up] = _risen(tau[up], value[up], self.g_m_per_s2[r], self.k_per_m[r])
+            contact = np.flatnonzero(kind == _CONTACT)
+            if contact.size:
+                rate = self._rates.ravel().take(flat[contact])
+                y[contact] = -value[contact] * np.sin(rate * tau[contact])
+        return y.reshape(shape) + self.offset_m[:, None]
+
+
+def _fallen(tau, g, k):
+    """Distance fallen from rest after tau [m] (:func:`distance_fallen_m` for tau >= 0), lean: the
+    drag formula only where k > 0, ``ln cosh(b) / k`` with b = tau sqrt(g k) written as
+    ``log1p(2 sinh^2(b / 2))`` below b = 1 and ``b + log1p(exp(-2 b)) - ln 2`` above (no overflow)."""
+    out = 0.5 * g * tau * tau
+    pos = k > K_NEGLIGIBLE_PER_M
+    if pos.any():
+        if not pos.all():
+            idx = np.flatnonzero(pos)
+            out[idx] = _fallen(tau[idx], g[idx], k[idx])
+            return out
+        b = tau * np.sqrt(g * k)
+        small = b < 1.0
+        logcosh = np.where(small, np.log1p(2.0 * np.sinh(0.5 * np.where(small, b, 0.0)) ** 2),
+                           b + np.log1p(np.exp(-2.0 * b)) - math.log(2.0))
+        return logcosh / k
+    return out
+
+
+def _risen(tau, u, g, k):
+    """Height tau after leaving the floor at speed u [m] (:func:`height_rising_m`), lean."""
+    pos = k > K_NEGLIGIBLE_PER_M
+    if not pos.any():
+        return u * tau - 0.5 * g * tau * tau
+    if not pos.all():
+        out = u * tau - 0.5 * g * tau * tau
+        idx = np.flatnonzero(pos)
+        out[idx] = _risen(tau[idx], u[idx], g[idx], k[idx])
+        return out
+    sgk = np.sqrt(g * k)
+    b = tau * sgk
+    z = u * sgk / g
+    return np.log1p(z * np.sin(b) - 2.0 * np.sin(0.5 * b) ** 2) / k
+
+
+def _segment_index(breaks, t):
+    """Per row, how many of the row's (sorted) breaks are <= each time: one flat searchsorted."""
+    n_rows, n_breaks = breaks.shape
+    lo = min(float(np.min(breaks)), float(np.min(t)))
+    span = max(float(np.max(breaks)), float(np.max(t))) - lo + 1.0
+    offsets = (np.arange(n_rows, dtype=float) * span)[:, None]
+    flat_breaks = ((breaks - lo) + offsets).ravel()
+    pos = np.searchsorted(flat_breaks, ((t - lo) + offsets).ravel(), side="right").reshape(t.shape)
+    return pos - (np.arange(n_rows) * n_breaks)[:, None]
 
 
 def _as_drop_array(name, value, n):
     arr = np.asarray(value, dtype=float)
+    if arr.shape == (n,):
+        return arr.copy()
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
         raise UsageError(f"{name} must be a number or an array of shape ({n},), got shape {arr.shape}")
-    return np.broadcast_to(arr.reshape(-1) if arr.ndim else arr, (n,)).astype(float)
+    return np.full(n, float(arr.reshape(-1)[0]) if arr.ndim else float(arr))
 
 
 def _check(name, arr, lo, hi=np.inf, lo_open=True):
@@ -271,7 +329,7 @@ def _check(name, arr, lo, hi=np.inf, lo_open=True):
 
 
 def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
-                   g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, release_time_s=0.0):
+                   g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, release_time_s=0.0, reference_speed_m_per_s=None):
     """Simulate drop tests: n_bounces impacts and the flight after the last one, for many drops.
 
     Parameters
@@ -292,6 +350,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         gravitational acceleration [m/s^2]
     release_time_s : float or ndarray
         time of release [s]
+    reference_speed_m_per_s : float or ndarray or None
+        v_ref of ``velocity_dependent_restitution`` [m/s]: ``epsilon`` is the value at this
+        impact speed; None takes each drop's first impact speed (a joint fit of several drops
+        passes one fixed speed, so that they share one law eps(v))
 
     Returns
     -------
@@ -302,8 +364,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     Event-driven: each flight is a closed form (see the module docstring), so impacts
     are exact. With ``buoyancy`` the flights use g_eff = g (m - rho V)/(m + rho V/2)
     and the drag constant is divided by the same added-mass factor (m + rho V/2)/m.
-    ``velocity_dependent_restitution`` takes each drop's first impact speed as v_ref, so
-    ``epsilon`` is the first bounce's (the drop-test value of Eq. (9) of [1]).
+    ``velocity_dependent_restitution`` takes each drop's first impact speed as v_ref (unless
+    ``reference_speed_m_per_s`` is given), so ``epsilon`` is the first bounce's (the drop-test
+    value of Eq. (9) of [1]). With ``contact_duration`` the ball's bottom dips below the floor
+    during each contact (see :meth:`Drops.height_m`).
 
     Without effects the apexes are ``eps^(2n) H`` and the impact times the geometric
     series ``t_n = t_1 + 2 t_1 (eps + ... + eps^(n-1))``, ``t_1 = sqrt(2 H / g)`` after release.
@@ -356,6 +420,10 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     offset = param("height_offset", "offset_m")
     offset = np.zeros(N) if offset is None else offset
 
+    v_ref = None if reference_speed_m_per_s is None else _as_drop_array(
+        "reference_speed_m_per_s", reference_speed_m_per_s, N)
+    if v_ref is not None:
+        _check("reference_speed_m_per_s", v_ref, 0.0)
     impact_t = np.empty((N, n))
     impact_v = np.empty((N, n))
     rebound_v = np.empty((N, n))
@@ -370,7 +438,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     for j in range(n):
         impact_t[:, j] = apex_t[:, j] + t_fall
         impact_v[:, j] = v_land
-        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0], p)
+        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0] if v_ref is None else v_ref, p)
         eps_used[:, j] = e
         u = e * v_land
         rebound_v[:, j] = u
@@ -393,6 +461,12 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     kinds[:, 0], values[:, 0], starts[:, 0] = _HOLD, H, t0
     kinds[:, 1], values[:, 1], starts[:, 1] = _DOWN, H, t0
     kinds[:, 2:-1:3], starts[:, 2:-1:3] = _CONTACT, impact_t
+    rates = np.zeros((N, 3 * n + 3))
+    if tc is not None:
+        dur = np.broadcast_to(np.asarray(tc, dtype=float)[:, None], impact_t.shape)
+        pos = dur > 1e-9   # a contact shorter than a nanosecond has no dip worth computing
+        rates[:, 2:-1:3] = np.where(pos, math.pi / np.where(pos, dur, 1.0), 0.0)
+        values[:, 2:-1:3] = np.where(pos, (impact_v + rebound_v) * dur / (2.0 * math.pi), 0.0)
     kinds[:, 3:-1:3], starts[:, 3:-1:3], values[:, 3:-1:3] = _UP, liftoff_t, rebound_v
     kinds[:, 4::3], starts[:, 4::3], values[:, 4::3] = _DOWN, apex_t[:, 1:], apex_h[:, 1:]
     kinds[:, -1], starts[:, -1] = _REST, landing_t
@@ -400,7 +474,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         impact_times_s=impact_t, impact_speeds_m_per_s=impact_v, rebound_speeds_m_per_s=rebound_v,
         epsilons=eps_used, liftoff_times_s=liftoff_t, apex_times_s=apex_t, apex_heights_m=apex_h,
         landing_times_s=landing_t, landing_speeds_m_per_s=v_land, offset_m=offset, g_m_per_s2=g, k_per_m=k,
-        effects=eff, _breaks=breaks, _kinds=kinds, _starts=starts, _values=values,
+        effects=eff, _breaks=breaks, _kinds=kinds, _starts=starts, _values=values, _rates=rates,
     )
 
 

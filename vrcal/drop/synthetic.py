@@ -309,3 +309,68 @@ def measurement_csv(measurement):
     if measurement.kind == "impacts":
         return columns_csv({"t": measurement.t_s}, "impacts")
     return columns_csv({"bounce": measurement.bounce, "h": measurement.h_m}, "apexes")
+
+
+# --------------------------------------------------------------------------- drop tables
+
+
+#: Drop heights of a synthetic drop table [m] (the classroom experiment: a few heights, a few trials each).
+TABLE_HEIGHTS_M = {"table_tennis": (0.3, 2.0), "*": (0.5, 2.5)}
+
+
+def drop_table_case(seed, effects=(), *, ball="table_tennis", n_heights=5, trials=3, noise=0.002,
+                    standards=None):
+    """A synthetic table of drop and rebound heights (one trial per row) hiding ``effects``.
+
+    Parameters
+    ----------
+    seed : int
+        seed of ``numpy.random.default_rng``
+    effects : tuple of str
+        effects that apex heights can show (``air_drag``, ``velocity_dependent_restitution``,
+        ``height_offset``), drawn from :data:`STRENGTH_RANGES`
+    ball : str
+        a ball of the standards
+    n_heights, trials : int
+        drop heights (evenly spread over :data:`TABLE_HEIGHTS_M`, 4-6 in the tests) and trials per height
+    noise : float
+        standard deviation of each height reading [m] (a ruler read to a few mm)
+
+    Returns
+    -------
+    (Runs, truth) : the table as the reader gives it (ApexHeights of bounces 0 and 1 per row) and
+        ``{"ball", "epsilon", "effects", "heights_m", "noise"}``
+    """
+    from vrcal.measurements import ApexHeights, Runs
+    from vrcal.model.standards import ball_epsilon, get_ball, load_standards
+
+    standards = load_standards() if standards is None else standards
+    std = get_ball(ball, standards)
+    props = BallProperties.from_ball(std)
+    rng = np.random.default_rng(seed)
+    lo, hi = TABLE_HEIGHTS_M.get(std.key, TABLE_HEIGHTS_M["*"])
+    heights = np.repeat(np.linspace(lo, hi, n_heights), trials)
+    w = ball_epsilon(std)
+    eps = float(rng.uniform(max(0.3, w.min), min(0.97, w.max)))
+    planted = {}
+    for name in effects:
+        if name == "height_offset":
+            planted[name] = {"offset_m": 0.5 * float(props.diameter_m)}
+        else:
+            a, b = _strength_range(name, std.key)
+            planted[name] = {_param_name(name): float(rng.uniform(a, b))}
+    v_ref = float(np.sqrt(2.0 * STANDARD_GRAVITY_M_PER_S2 * hi))
+    drops = simulate_drops(heights, eps, 1, props, effects=planted or None, reference_speed_m_per_s=v_ref)
+    apex = drops.observed_apex_heights_m + rng.normal(0.0, noise, (heights.size, 2))
+    runs = tuple(ApexHeights(bounce=np.array([0, 1]), h_m=apex[i], source=f"synthetic:seed={seed}:row{i + 1}")
+                 for i in range(heights.size))
+    labels = tuple(f"row {i + 1}" for i in range(heights.size))
+    truth = {"ball": std.key, "epsilon": eps, "effects": planted, "heights_m": heights, "noise": noise,
+             "reference_speed_m_per_s": v_ref}
+    return Runs(runs=runs, source=f"synthetic:seed={seed}", labels=labels), truth
+
+
+def drop_table_csv(runs):
+    """CSV text of a drop table (``H (m),h (m)``, one trial per row) that the readers read back."""
+    lines = ["H (m),h (m)"] + [f"{float(r.h_m[0]):.6g},{float(r.h_m[1]):.6g}" for r in runs.runs]
+    return "\n".join(lines) + "\n"

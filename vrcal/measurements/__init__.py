@@ -54,11 +54,26 @@ Errors are :class:`vrcal.errors.DataError` with a one-line message
 
 from __future__ import annotations
 
-from vrcal.measurements.cleanup import detect_impact_anomalies, detect_release_index, find_duplicated_frames
-from vrcal.measurements.reader import FORMATS, Format, detect_format, format_help, read_measurement
-from vrcal.measurements.types import ApexHeights, ImpactTimes, Trajectory
+from vrcal.measurements.cleanup import (
+    detect_impact_anomalies,
+    detect_release_index,
+    find_duplicated_frames,
+    impact_chains,
+    prominent_minima,
+)
+from vrcal.measurements.reader import (
+    FORMATS,
+    READER_OPTIONS,
+    Format,
+    detect_format,
+    format_help,
+    read_measurement,
+    read_measurements,
+)
+from vrcal.measurements.types import ApexHeights, ImpactTimes, Runs, Trajectory
 
 __all__ = [
-    "FORMATS", "ApexHeights", "Format", "ImpactTimes", "Trajectory", "detect_format", "detect_impact_anomalies",
-    "detect_release_index", "find_duplicated_frames", "format_help", "read_measurement",
+    "FORMATS", "READER_OPTIONS", "ApexHeights", "Format", "ImpactTimes", "Runs", "Trajectory", "detect_format",
+    "detect_impact_anomalies", "detect_release_index", "find_duplicated_frames", "format_help", "impact_chains",
+    "prominent_minima", "read_measurement", "read_measurements",
 ]

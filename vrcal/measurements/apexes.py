@@ -1,5 +1,7 @@
 """Apex heights of successive bounces of one drop: a header ``bounce,h`` (bounce 0 is the drop
-height; ``h`` in m unless the header names cm, mm or px).
+height; ``h`` in m unless the header names cm, mm or px), or a single column ``h`` (one row per
+bounce, the first the drop height). Two rows (drop and first rebound) give epsilon and nothing
+more.
 """
 
 from __future__ import annotations
@@ -21,12 +23,17 @@ from vrcal.measurements.table import (
 )
 from vrcal.measurements.types import ApexHeights
 
-#: Fewest apex rows.
-MIN_APEXES = 3
+#: Fewest apex rows (the drop height and one rebound give epsilon; a third row is needed to test an effect).
+MIN_APEXES = 2
+
 
 def detect(text):
     cols = header_columns(text)
-    return bool(cols) and find_column(cols, BOUNCE_NAMES) is not None and find_column(cols, H_NAMES) is not None
+    if not cols:
+        return False
+    if len(cols) == 1:
+        return find_column(cols, H_NAMES) is not None
+    return find_column(cols, BOUNCE_NAMES) is not None and find_column(cols, H_NAMES) is not None
 
 
 
@@ -34,12 +41,15 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     table = parse_table(text)
     b_col, h_col = find_column(table.cols, BOUNCE_NAMES), find_column(table.cols, H_NAMES)
-    if b_col is None or h_col is None:
-        fail(path, table.header_line, "an apex file needs the columns 'bounce,h'")
+    if h_col is None or (b_col is None and len(table.cols) > 1):
+        fail(path, table.header_line, "an apex file needs the columns 'bounce,h' (or one column 'h')")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     line_numbers = np.array([no for no, _ in table.rows])
-    bounce = column_values(path, table, b_col, what="bounce number")
+    if b_col is None:
+        bounce = np.arange(len(table.rows), dtype=float)
+    else:
+        bounce = column_values(path, table, b_col, what="bounce number")
     nonint = np.flatnonzero(bounce != np.round(bounce))
     if nonint.size:
         fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer")
@@ -48,7 +58,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         fail(path, int(line_numbers[0]), f"bounce number {bounce[0]:g} is negative (bounce 0 = drop height)")
     h = column_values(path, table, h_col, what="apex height")
     factor = unit_factor(path, table, h_col, LENGTH_UNITS, "length")
-    notes = ["format: apexes (bounce, h; bounce 0 = drop height)"]
+    notes = ["format: apexes (bounce, h; bounce 0 = drop height)" if b_col is not None else
+             "format: apexes (one column of heights: the drop height, then one apex per bounce)"]
     if factor is None:
         if scale_m_per_px is None:
             raise UsageError(f"{path}: column 'h' is in pixels: give --scale M_PER_PX")
@@ -56,6 +67,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     elif scale_m_per_px is not None:
         factor = scale_m_per_px
         notes.append(f"heights scaled by --scale {factor:g} m per file unit")
+    elif factor != 1.0:
+        notes.append(f"heights converted from {h_col.unit} to m")
     h_m = h * factor
     nonpos = np.flatnonzero(h_m <= 0)
     if nonpos.size:
@@ -67,8 +80,5 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     gaps = np.flatnonzero(np.diff(bounce) > 1)
     if gaps.size:
         notes.append(f"bounce numbers skip after bounce {int(bounce[gaps[0]])}")
-    rising = np.flatnonzero(np.diff(h_m) >= 0)
-    if rising.size:
-        notes.append(f"apex height does not fall after bounce {int(bounce[rising[0]])}")
-    return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes))
+    return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes), lines=line_numbers)
 

@@ -1,8 +1,11 @@
 """Clean-up of raw records, one pure function each: the still segment before release,
-duplicated video frames, and missed impacts and echoes in a series of impact times.
+duplicated video frames, the bounces of a trajectory (prominent minima), and echoes,
+missed impacts and odd bounces in a series of impact times (chains of consecutive bounces).
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -141,108 +144,265 @@ def find_duplicated_frames(positions, release_index=0):
     return i[dup]
 
 
-def _first_interval_anomaly(dt, r, labels, tolerance, timing_sigma_s, echo_fraction, max_missed):
-    """(k, kind, reason) of the first anomalous interval dt[k] of one chain, or None.
+def prominent_minima(y, prominence):
+    """Indices of the local minima of ``y`` whose prominence is at least ``prominence``.
 
-    ``labels[j]`` names event j of the chain (its index in the file); kind is "echo",
-    "missed" or "off-trend"; the event after interval k (``labels[k + 1]``) is the anomaly.
+    The prominence of a minimum is how far it lies below the lower of the two highest
+    points between it and the nearest lower sample on either side (or the end of the
+    record), as ``scipy.signal.find_peaks(-y, prominence=...)`` defines it; a flat
+    minimum (equal samples) counts once, at its middle. Written with numpy alone: importing
+    scipy.signal costs more than a whole ``vrcal discover`` run.
+
+    Parameters
+    ----------
+    y : array_like
+        the series (heights [m], any unit)
+    prominence : float
+        least prominence, in the unit of ``y``
+
+    Returns
+    -------
+    ndarray of int
     """
-    if dt.size < 2:
-        return None
-    q = dt[1:] / dt[:-1] / r  # q[i-1] = dt_i / dt_exp_i for intervals i = 1..
-    u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
-    bad = np.abs(np.log(q)) > np.log1p(tolerance + 4.0 * u)
-    if dt[0] < echo_fraction * dt[1] / r and (  # an echo after the chain's first event
-            dt.size < 3 or abs(np.log(dt[2] / (r * (dt[0] + dt[1])))) < np.log1p(tolerance + 4.0 * u[1])):
-        return 0, "echo", (f"echo or spurious event: only {dt[0] * 1e3:.1f} ms after impact {labels[0]}, "
-                           f"the next interval suggests about {dt[1] / r * 1e3:.0f} ms")
-    if not np.any(bad):
-        return None
-    k = int(np.flatnonzero(bad)[0]) + 1
-    expected = r * dt[k - 1]
-    ratio = dt[k] / expected
-    trend = f"(interval ratio {dt[k] / dt[k - 1]:.2f}, trend {r:.2f})"
-    spans = np.cumsum(r ** np.arange(max_missed + 1))[1:]  # 1+r, 1+r+r^2, ...
-    n_missed = int(np.argmin(np.abs(np.log(ratio / spans)))) + 1
-    if ratio < echo_fraction:
-        return k, "echo", (f"echo or spurious event: only {dt[k] * 1e3:.1f} ms after impact {labels[k]}, "
-                           f"expected about {expected * 1e3:.0f} ms {trend}")
-    if abs(np.log(ratio / spans[n_missed - 1])) < np.log1p(tolerance + 4.0 * u[k - 1]):
-        what = "a missed impact" if n_missed == 1 else f"{n_missed} missed impacts"
-        return k, "missed", (f"follows {what}: interval {dt[k]:.4f} s after impact {labels[k]} is {ratio:.2f} x "
-                             f"the expected {expected:.4f} s {trend}")
-    return k, "off-trend", (f"interval {dt[k]:.4f} s after impact {labels[k]} is {ratio:.2f} x the expected "
-                            f"{expected:.4f} s {trend}")
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if n < 3:
+        return np.zeros(0, dtype=int)
+    # candidate minima: a sample lower than its left neighbour that starts a plateau closed by a rise
+    d = np.diff(y)
+    nonzero = np.flatnonzero(d != 0)
+    down = np.flatnonzero(d < 0) + 1                  # y[i] < y[i-1]
+    k = np.searchsorted(nonzero, down)                # first change at or after i
+    ok = k < nonzero.size
+    down, k = down[ok], k[ok]
+    ends = nonzero[k]
+    rises = d[ends] > 0
+    starts, ends = down[rises], ends[rises]           # y[starts..ends] equal, y[ends + 1] > y[ends]
+    if starts.size == 0:
+        return np.zeros(0, dtype=int)
+    values = y.tolist()
+    prev_lower = _previous_lower(values)
+    next_lower = _previous_lower(values[::-1])[::-1]
+    next_lower = [n - 1 - j if j >= 0 else n for j in next_lower]
+    table = _range_max_table(y)
+    left_lo = np.array([prev_lower[i] + 1 for i in starts])     # first sample after the nearest lower one
+    right_hi = np.array([next_lower[j] - 1 for j in ends])      # last sample before the next lower one
+    left = np.where(starts > left_lo, _range_max(table, left_lo, starts - 1), -np.inf)
+    right = np.where(right_hi > ends, _range_max(table, ends + 1, right_hi), -np.inf)
+    prom = np.minimum(left, right) - y[starts]
+    keep = prom >= prominence
+    return ((starts[keep] + ends[keep]) // 2).astype(int)
 
 
-def detect_impact_anomalies(t_s, *, tolerance=0.25, timing_sigma_s=2e-4, echo_fraction=0.5, max_missed=3):
-    """Find missed impacts and echoes in a series of impact times.
+def _previous_lower(values):
+    """For each i, the last j < i with values[j] < values[i] (-1 when none): one pass with a stack."""
+    out, stack = [-1] * len(values), []
+    for i, v in enumerate(values):
+        while stack and values[stack[-1]] >= v:
+            stack.pop()
+        out[i] = stack[-1] if stack else -1
+        stack.append(i)
+    return out
 
-    Between impacts the flight times dt_i = t_{i+1} - t_i fall geometrically,
-    dt_{i+1} ~ r dt_i with r roughly constant (r = epsilon without drag, 0 < r < 1).
-    The reference ratio r is the median of the ratios that lie in (0.3, 1) (all
-    ratios if none do); the expected interval is ``dt_exp_i = r dt_{i-1}``.
 
-    * a missed impact: dt_i ~ dt_exp_i (1 + r + ... + r^k) for k = 1..``max_missed``
-      missed impacts (an interval ratio near 2 followed by one near 0.5);
-    * an echo (or a spurious event): dt_i < ``echo_fraction`` dt_exp_i;
-    * anything else outside ``dt_exp_i (1 +- tol_i)``: an interval off the trend.
+def _range_max_table(y):
+    """Sparse table of running maxima: level j holds max(y[i : i + 2**j])."""
+    table = [np.asarray(y, dtype=float)]
+    span = 1
+    while 2 * span <= y.size:
+        prev = table[-1]
+        table.append(np.maximum(prev[:-span], prev[span:]))
+        span *= 2
+    return table
 
-    ``tol_i = tolerance + 4 u_i`` widens with the timing noise: ``u_i = sqrt(2)
-    timing_sigma_s sqrt(1/dt_i^2 + 1/dt_{i-1}^2)`` is the relative uncertainty of the
-    ratio dt_i / dt_{i-1}, which matters for the millisecond intervals at the end of a run.
-    A first interval already too short compared with the second (dt_0 <
-    ``echo_fraction`` dt_1 / r, and dt_2 ~ r (dt_0 + dt_1) when known) marks impact 1
-    as an echo.
 
-    After an anomaly the search goes on, so that later ones are diagnosed too: an echo
-    is removed and the chain continues; after a missed impact (or an off-trend
-    interval) a new chain starts at the event that follows it. Only the impacts before
-    the first anomaly are clean.
+def _range_max(table, lo, hi):
+    """max(y[lo..hi]) (inclusive) for arrays of ranges with lo <= hi (other entries are garbage)."""
+    lo = np.asarray(lo)
+    hi = np.maximum(np.asarray(hi), lo)
+    length = hi - lo + 1
+    level = np.floor(np.log2(np.maximum(length, 1))).astype(int)
+    out = np.empty(lo.size)
+    for j in np.unique(level):
+        m = level == j
+        row = table[j]
+        out[m] = np.maximum(row[lo[m]], row[hi[m] - (1 << j) + 1])
+    return out
+
+
+class ImpactChains(NamedTuple):
+    """What :func:`impact_chains` finds in a series of impact times."""
+
+    chains: tuple     # ((first, last), ...) indices (inclusive) into the events of consecutive bounces
+    kept: np.ndarray  # indices of the events kept (not echoes)
+    rejected: tuple   # ((index, time_s, reason), ...) events in no chain
+    anomalies: tuple  # ((index, reason), ...) every anomaly found, at the event it concerns
+
+
+def _trend_ratio(q, w):
+    """Robust straight line through ln q (Theil-Sen over the plausible ratios): expected q_i."""
+    i = np.arange(q.size, dtype=float)
+    ok = (q > 0.3) & (q < 1.0)
+    if ok.sum() < 2:
+        return np.full(q.size, float(np.median(q)))
+    x, v = i[ok], np.log(q[ok])
+    a, b = np.triu_indices(x.size, 1)
+    slope = float(np.median((v[b] - v[a]) / (x[b] - x[a]))) if a.size else 0.0
+    slope = 0.0 if ok.sum() < 4 else slope    # too few ratios for a trend
+    level = float(np.median(v - slope * x))
+    return np.exp(level + slope * i)
+
+
+def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5, max_missed=3, labels=None):
+    """Split a series of impact times into chains of consecutive bounces.
+
+    Between impacts the flight times dt_i = t_{i+1} - t_i shrink geometrically,
+    dt_{i+1} = q_i dt_i with q_i close to epsilon and changing slowly (air drag, a
+    speed-dependent epsilon and a finite contact all move it gradually). Found here:
+
+    * an echo or spurious event: an interval shorter than ``echo_fraction`` times the
+      expected one (an event right after the first one is judged from the interval after
+      it). The event is removed and the chain goes on;
+    * every ratio q_i off the robust trend of the ratios (a Theil-Sen line through ln q)
+      by more than ``tolerance + 4 u_i`` (``u_i = sqrt(2) timing_sigma_s sqrt(1/dt_i^2 +
+      1/dt_{i+1}^2)``, the relative timing uncertainty of the ratio; 5 u_i), or above 1 (a flight
+      longer than the one before it: impossible for a ball bouncing on a floor): a missed
+      impact (the interval is about (1 + q + ... + q^k) times the expected one), a bounce
+      that lost or gained energy it should not have (a kick, a second surface, a late
+      event).
+
+    The chains are the runs of consecutive good ratios (a good ratio links three events):
+    a chain ends before an anomaly and the next one starts after it; they may share the
+    event between them (a lossy bounce leaves both its neighbours' flights intact).
 
     Parameters
     ----------
     t_s : array_like
         impact times [s], strictly increasing
     tolerance : float
-        relative deviation from the expected interval still counted as clean
+        relative deviation of a ratio from the trend still counted as clean
     timing_sigma_s : float
-        standard deviation of the timing of one impact [s] (sound onset detection)
+        standard deviation of the timing of one impact [s]
     echo_fraction : float
         an interval shorter than this fraction of the expected one is an echo
     max_missed : int
         most consecutive missed impacts tried when explaining a long interval
+    labels : sequence of str or None
+        how to name each event in the reasons ("event 10 (line 11)"); default "event i+1"
+
+    Returns
+    -------
+    ImpactChains
+    """
+    t = np.asarray(t_s, dtype=float)
+    n = t.size
+    name = (lambda i: labels[i]) if labels is not None else (lambda i: f"event {i + 1}")
+    kept = np.arange(n)
+    anomalies = []
+    # 1. echoes, one at a time
+    while kept.size >= 4:
+        dt = np.diff(t[kept])
+        q = dt[1:] / dt[:-1]
+        plausible = q[(q > 0.3) & (q < 1.0)]
+        r = float(np.median(plausible if plausible.size else q))
+        # expected from the interval before and from the one after: an echo is short against both
+        # (after a missed impact the next interval is short only against the long one before it)
+        before = np.concatenate([[np.inf], r * dt[:-1]])
+        after = np.concatenate([dt[1:] / r, [np.inf]])
+        expected = np.minimum(before, after)
+        short = np.flatnonzero(dt + 4.0 * np.sqrt(2.0) * timing_sigma_s < echo_fraction * expected)
+        if short.size == 0:
+            break
+        k = int(short[0])
+        if k == 0 and dt.size >= 3 and abs(np.log(dt[2] / (r * (dt[0] + dt[1])))) > np.log1p(tolerance + 0.1):
+            break   # the first interval is short but the event after it does not look spurious
+        idx = int(kept[k + 1])
+        anomalies.append((idx, f"{name(idx)} at t = {t[idx]:.4f} s is an echo or a spurious event: only "
+                               f"{dt[k] * 1e3:.1f} ms after {name(int(kept[k]))}, where about "
+                               f"{expected[k] * 1e3:.0f} ms were expected; removed"))
+        kept = np.delete(kept, k + 1)
+    m = kept.size
+    if m < 4:
+        chains = ((0, m - 1),) if m >= 3 else ()
+    else:
+        dt = np.diff(t[kept])
+        q = dt[1:] / dt[:-1]
+        u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
+        trend = _trend_ratio(q, u)
+        dev = np.log(q / trend)
+        bad = (np.abs(dev) > np.log1p(tolerance + 5.0 * u)) | (q > 1.0 + 5.0 * u)
+        for i in np.flatnonzero(bad):
+            # ratio i = dt[i+1] / dt[i] concerns the bounce at kept event i+1 and the flight after it
+            e0, e1, e2 = (int(kept[i + j]) for j in range(3))
+            ratio = q[i] / trend[i]
+            spans = np.cumsum(trend[i] ** np.arange(max_missed + 1))[1:]   # 1+q, 1+q+q^2, ...
+            n_missed = int(np.argmin(np.abs(np.log(ratio / spans)))) + 1
+            flight = f"the flight from {name(e1)} to {name(e2)} ({dt[i + 1]:.4f} s)"
+            if ratio > 1.0 and abs(np.log(ratio / spans[n_missed - 1])) < np.log1p(tolerance + 5.0 * u[i]):
+                what = "a missed impact" if n_missed == 1 else f"{n_missed} missed impacts"
+                why = f"{flight} is {ratio:.2f} x the expected {trend[i] * dt[i]:.4f} s: {what}"
+            elif q[i] > 1.0:
+                why = (f"{flight} is longer than the one before it ({dt[i]:.4f} s): impossible for a ball "
+                       f"bouncing on a floor (epsilon > 1): a late or spurious event, or missed impacts")
+            elif bad[i - 1] if i > 0 else False:
+                continue   # the second ratio of an anomaly already named
+            else:
+                why = (f"{flight} is {ratio:.2f} x the expected {trend[i] * dt[i]:.4f} s (interval ratio "
+                       f"{q[i]:.3f}, trend {trend[i]:.3f}): the bounce at {name(e1)} does not belong "
+                       f"(a kick, a second surface, a late event)")
+            anomalies.append((e1, why))
+        chains = []
+        i = 0
+        while i < bad.size:
+            if bad[i]:
+                i += 1
+                continue
+            j = i
+            while j + 1 < bad.size and not bad[j + 1]:
+                j += 1
+            chains.append((i, j + 2))
+            i = j + 1
+        chains = tuple(chains)
+    in_chain = np.zeros(n, dtype=bool)
+    for a, b in chains:
+        in_chain[kept[a:b + 1]] = True
+    why = dict(anomalies)
+
+    def reason(i):
+        if i in why:
+            return why[i]
+        before = [j for j in why if j < i]
+        after = f" (after the anomaly at {name(max(before))})" if before else ""
+        return "in no chain of three or more consecutive bounces" + after
+
+    rejected = tuple((int(i), float(t[i]), reason(int(i))) for i in range(n) if not in_chain[i])
+    chains = tuple((int(kept[a]), int(kept[b])) for a, b in chains)
+    return ImpactChains(chains, kept, rejected, tuple(sorted(anomalies)))
+
+
+def detect_impact_anomalies(t_s, **options):
+    """Find missed impacts and echoes in a series of impact times (the first chain of
+    :func:`impact_chains`).
 
     Returns
     -------
     n_clean : int
-        number of leading impacts before the first anomaly (all of them when none)
+        number of leading impacts of the first chain when it starts at the first impact and
+        no echo interrupts it (all of them when nothing is found)
     rejected : tuple
-        ``((index, time_s, reason), ...)`` for impacts ``n_clean .. n - 1``: an anomaly
-        carries its diagnosis, the others are rejected as following the first anomaly.
+        ``((index, time_s, reason), ...)`` for impacts ``n_clean .. n - 1``
     """
     t = np.asarray(t_s, dtype=float)
     n = t.size
-    dt = np.diff(t)
-    if dt.size < 2:
+    if n < 3:
         return n, ()
-    ratios = dt[1:] / dt[:-1]
-    plausible = ratios[(ratios > 0.3) & (ratios < 1.0)]
-    r = float(np.median(plausible if plausible.size else ratios))
-    chain = np.arange(n)
-    found = {}
-    while chain.size >= 3:
-        hit = _first_interval_anomaly(np.diff(t[chain]), r, chain, tolerance, timing_sigma_s, echo_fraction,
-                                      max_missed)
-        if hit is None:
-            break
-        k, kind, reason = hit
-        found[int(chain[k + 1])] = reason
-        chain = np.delete(chain, k + 1) if kind == "echo" else chain[k + 1:]
-    if not found:
+    found = impact_chains(t, **options)
+    if not found.anomalies and len(found.chains) <= 1 and not found.rejected:
         return n, ()
-    first = min(found)
-    rejected = tuple((j, float(t[j]), found.get(j, f"after the anomaly at impact {first} (not fitted)"))
-                     for j in range(first, n))
-    return first, rejected
-
+    first_bad = min([i for i, _ in found.anomalies] + [i for i, _, _ in found.rejected] + [n])
+    n_clean = first_bad if found.chains and found.chains[0][0] == 0 else 0
+    why = dict(found.anomalies)
+    first = min(why) if why else n_clean
+    rejected = tuple((j, float(t[j]), why.get(j, f"after the anomaly at event {first + 1} (not fitted)"))
+                     for j in range(n_clean, n))
+    return n_clean, rejected

@@ -1,17 +1,27 @@
-"""Impact times, e.g. a phyphox *Acoustic Stopwatch* / *(In)elastic collision* CSV export: a
-(possibly quoted) header such as ``"Event time (s)"``, separators comma, semicolon or tab,
-decimal point or comma, scientific notation. With several columns the time column is picked
-by its name. ``vrcal simulate --format impacts`` writes ``t``. Missed impacts and echoes are
-screened (:func:`vrcal.measurements.cleanup.detect_impact_anomalies`); the clean prefix is kept.
+"""Impact times, e.g. a phyphox *Acoustic Stopwatch* / *(In)elastic collision* export: a (possibly
+quoted) header such as ``"Event time (s)"``, separators comma, semicolon or tab, decimal point or
+comma, scientific notation. One column is read as impact times whatever its name (``t``,
+``t_impact``, ``time``), or with no header at all; with several columns the time column is picked
+by its name. Units ``s`` or ``ms`` in the header. ``vrcal simulate --format impacts`` writes ``t``.
+
+The events are split into chains of consecutive bounces
+(:func:`vrcal.measurements.cleanup.impact_chains`): echoes are removed, a missed impact or a
+bounce that does not belong ends a chain and the next starts after it; every event left out is
+named by its number in the file and its line (:func:`impact_times_from_events`, which a reader
+of raw sound can call too).
 """
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
-from vrcal.measurements.cleanup import detect_impact_anomalies
+from vrcal.measurements.cleanup import impact_chains
+from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
+    H_NAMES,
     TIME_NAMES,
     TIME_UNITS,
     Y_NAMES,
@@ -20,24 +30,55 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
+    numeric_width,
     parse_table,
     unit_factor,
 )
-from vrcal.measurements.types import ImpactTimes
+from vrcal.measurements.types import ImpactTimes, Runs
 
-#: Fewest impacts after removing anomalies.
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
+
+#: Fewest impacts in a chain (and in a file).
 MIN_IMPACTS = 3
+
+
+def _other_layout(cols):
+    """True when the columns name heights or bounces: another layout's file."""
+    return any(find_column(cols, names) is not None for names in (Y_NAMES, BOUNCE_NAMES, H_NAMES))
+
 
 def detect(text):
     cols = header_columns(text)
-    return (bool(cols) and find_column(cols, Y_NAMES) is None and find_column(cols, BOUNCE_NAMES) is None
-            and find_column(cols, TIME_NAMES, contains="time") is not None)
+    if cols is None:
+        return numeric_width(text) == 1 or _one_decimal_comma_column(text)
+    if _other_layout(cols):
+        return False
+    return len(cols) == 1 or find_column(cols, TIME_NAMES, contains="time") is not None
 
+
+def _one_decimal_comma_column(text):
+    """A headerless file of numbers such as ``0,2804`` (one column, decimal comma): read as two
+    columns, the first would not increase; read as decimals, the values do."""
+    if numeric_width(text) != 2:
+        return False
+    rows = [line.strip() for _, line in text.lines[:50]]
+    if not all(_DECIMAL_COMMA.match(row) for row in rows):
+        return False
+    first = np.array([float(r.split(",")[0]) for r in rows])
+    joined = np.array([float(r.replace(",", ".")) for r in rows])
+    return bool(np.any(np.diff(first) <= 0) and np.all(np.diff(joined) > 0))
 
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
-    table = parse_table(text)
+    notes = ["format: impacts (one impact time per row)"]
+    if header_columns(text) is None:
+        if _one_decimal_comma_column(text):
+            text = type(text)(text.path, [(no, line.replace(",", ".")) for no, line in text.lines], text.multi)
+        table = parse_table(text, headerless=("t",))
+        notes.append("no header: one column read as impact times in s")
+    else:
+        table = parse_table(text)
     col = find_column(table.cols, TIME_NAMES, contains="time")
     if col is None:
         if len(table.cols) == 1:
@@ -47,25 +88,84 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
                   "name it 't' or 'time'")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
-    notes = ["format: impacts (one impact time per row)"]
-    if len(table.cols) > 1:
-        notes.append(f"impact times from column '{col.name}'" + (f" ({col.unit})" if col.unit else ""))
     if table.decimal_comma:
         notes.append("decimal comma")
-    t = column_values(path, table, col, what="impact time")
+    same = [c for c in table.cols if c.name == col.name and c.unit == col.unit]
+    if len(same) > 1:   # runs side by side (a spreadsheet with one column per trial)
+        runs, labels = [], []
+        for k, c in enumerate(same, start=1):
+            t, lines = _times(path, table, c, allow_empty=True)
+            run = impact_times_from_events(f"{path} (column {c.index + 1})", t, lines,
+                                           [*notes, f"impact times from column {c.index + 1} '{c.raw}'"])
+            runs.append(run)
+            labels.append(f"column {c.index + 1}")
+        return Runs(runs=tuple(runs), source=path, labels=tuple(labels),
+                    notes=(f"{len(same)} columns '{col.raw}': one run each, fitted jointly",))
+    if len(table.cols) > 1:
+        notes.append(f"impact times from column '{col.raw or col.name}'" + (f" ({col.unit})" if col.unit else ""))
+    t, line_numbers = _times(path, table, col)
+    if col.unit not in ("", "s", "sec"):
+        notes.append(f"impact times converted from {col.unit} to s")
+    return impact_times_from_events(path, t, line_numbers, notes)
+
+
+def _times(path, table, col, allow_empty=False):
+    """(times [s], their lines) of one column; empty cells skipped when allowed (a shorter run)."""
+    t = column_values(path, table, col, what="impact time", allow_empty=allow_empty)
     t = t * unit_factor(path, table, col, TIME_UNITS, "time")
     line_numbers = np.array([no for no, _ in table.rows])
+    ok = np.isfinite(t)
+    t, line_numbers = t[ok], line_numbers[ok]
     check_increasing(path, t, line_numbers, "impact time")
-    if t.size < MIN_IMPACTS:
-        fail(path, int(line_numbers[-1]), f"only {t.size} impact(s); at least {MIN_IMPACTS} are needed")
-    n_clean, rejected = detect_impact_anomalies(t)
-    if rejected:
-        idx, t0, reason = rejected[0]
-        notes.append(f"impact {idx} at t = {t0:.4f} s (line {int(line_numbers[idx])}): {reason}; "
-                     f"fitting the {n_clean} impacts before it, {len(rejected)} rejected")
-    if n_clean < MIN_IMPACTS:
-        idx, t0, reason = rejected[0]
-        fail(path, int(line_numbers[idx]), f"only {n_clean} impact(s) before an anomaly ({reason}); "
-              f"at least {MIN_IMPACTS} are needed")
-    return ImpactTimes(t_s=t[:n_clean], source=path, notes=tuple(notes), rejected=rejected)
+    return t, line_numbers
 
+
+def impact_times_from_events(path, t_s, lines=None, notes=()):
+    """ImpactTimes from a file's events: chains of consecutive bounces, the rest named and left out.
+
+    Parameters
+    ----------
+    path : str
+        the file (for messages)
+    t_s : ndarray
+        every event's time [s], strictly increasing, in file order
+    lines : ndarray of int or None
+        the file's line of each event
+    notes : sequence of str
+        the reader's notes so far
+
+    Raises
+    ------
+    DataError
+        fewer than three impacts, or no chain of three consecutive bounces
+    """
+    t = np.asarray(t_s, dtype=float)
+    lines = None if lines is None else np.asarray(lines, dtype=int)
+    notes = list(notes)
+
+    def label(i):
+        return f"event {i + 1}" + (f" (line {int(lines[i])})" if lines is not None else "")
+
+    where = int(lines[-1]) if lines is not None and lines.size else 0
+    if t.size < MIN_IMPACTS:
+        fail(path, where, f"only {t.size} impact(s); at least {MIN_IMPACTS} are needed")
+    check_impact_times(t, path)   # units and shrinking intervals first: a list in ms or backwards stops here
+    found = impact_chains(t, labels=[label(i) for i in range(t.size)])
+    for _, why in found.anomalies:
+        notes.append(why)
+    if not found.chains:
+        fail(path, where, f"no {MIN_IMPACTS} consecutive bounces: " + "; ".join(w for _, w in found.anomalies[:2]))
+    keep = [int(i) for i in found.kept if any(a <= i <= b for a, b in found.chains)]
+    pos = {i: k for k, i in enumerate(keep)}
+    chains = tuple((pos[a], pos[b] + 1) for a, b in found.chains)
+    if len(chains) > 1:
+        parts = ", ".join(f"events {a + 1}-{b + 1}" for a, b in found.chains)
+        notes.append(f"{len(chains)} chains of consecutive bounces ({parts}), fitted jointly: one epsilon, "
+                     "one release state per chain")
+    left_out = [i for i, _, _ in found.rejected]
+    if left_out:
+        notes.append(f"left out: {', '.join(label(i) for i in left_out[:8])}"
+                     + (", ..." if len(left_out) > 8 else ""))
+    return ImpactTimes(t_s=t[keep], source=path, notes=tuple(notes), rejected=found.rejected,
+                       chains=chains if len(chains) > 1 else (), events=np.asarray(keep) + 1,
+                       lines=None if lines is None else lines[keep])

@@ -5,10 +5,11 @@ The frame rate is not in the file: it needs ``fs_hz``.
 
 from __future__ import annotations
 
-import math
 import re
 
-from vrcal.measurements.table import Column, Table, fail, is_numeric_row, to_float
+import numpy as np
+
+from vrcal.measurements.table import Column, Table, fail, is_numeric_row
 from vrcal.measurements.trajectory import trajectory_from_table
 
 
@@ -21,18 +22,31 @@ def detect(text):
         return False
     length_m, length_px = (float(c) for c in first)
     # a reference length of a few cm to metres spanning many pixels (at most 10 cm per px)
-    return 0 < length_m <= 0.1 * length_px and length_px >= 10 and len(second) in (1, 2)
+    if not (0 < length_m <= 0.1 * length_px and length_px >= 10 and len(second) in (1, 2)):
+        return False
+    # a headerless t, y file: line 1's first number starts the evenly spaced times of the next lines
+    lead = []
+    for _, line in text.lines[:10]:
+        cells = [c for c in re.split(r"[;,\t ]+", line.strip()) if c]
+        if not cells or not is_numeric_row(cells[:1], False):
+            break
+        lead.append(float(cells[0]))
+    step = np.diff(lead)
+    evenly = step.size >= 3 and np.all(step > 0) and np.all(np.abs(step - np.median(step)) <= 0.1 * np.median(step))
+    return not evenly
 
 
 def parse(text, *, scale_m_per_px=None, y_down=True, fs_hz=None):
     path = text.path
     first_no, first = text.lines[0]
-    cells = [c for c in re.split(r"[;,\t ]+", first.strip()) if c]
-    values = [to_float(c, False) for c in cells]
-    if len(cells) != 2 or None in values or not all(math.isfinite(v) and v > 0 for v in values):
-        fail(path, first_no, f"the reference line must be 'LENGTH_M;LENGTH_PX' (a length in metres and the "
-                             f"pixels it spans, both > 0), found {first.strip()[:60]!r}")
-    length_m, length_px = values
+    ref = [c for c in re.split(r"[;,\t ]+", first.strip()) if c]
+    if len(ref) != 2 or not is_numeric_row(ref, False):
+        fail(path, first_no, f"a pixels-ref file starts with 'LENGTH_M;LENGTH_PX', found {len(ref)} cell(s) "
+                             f"{first.strip()[:40]!r}")
+    length_m, length_px = (float(c) for c in ref)
+    if not (np.isfinite(length_m) and np.isfinite(length_px) and length_m > 0 and length_px > 0):
+        fail(path, first_no, f"the reference line needs a length > 0 m spanning > 0 px, got {length_m:g} m, "
+                             f"{length_px:g} px")
     ref_scale = length_m / length_px
     notes = [f"format: pixels-ref (line {first_no}: {length_m:g} m spans {length_px:g} px, "
              f"{ref_scale * 1e3:.4g} mm per px)"]

@@ -1,5 +1,8 @@
 """The one entry point of :mod:`vrcal.measurements`: :func:`read_measurement`, and the
 registry of layouts :data:`FORMATS` (one reader module per layout, as pvlib's ``iotools``).
+:func:`read_measurements` reads several files of one ball into :class:`Runs` for a joint fit.
+Spreadsheets (``.xlsx``, ``.xls``) are read through :mod:`vrcal.measurements.excel` and then
+parsed like any text table.
 """
 
 from __future__ import annotations
@@ -9,8 +12,9 @@ import re
 from typing import Callable, NamedTuple
 
 from vrcal.errors import UsageError
-from vrcal.measurements import apexes, impacts, pixels_ref, sound, tracker, trajectory, video
+from vrcal.measurements import apexes, drops, excel, impacts, pixels_ref, sound, tracker, trajectory, video
 from vrcal.measurements.table import fail, is_numeric_row, load_text
+from vrcal.measurements.types import Runs
 
 # --------------------------------------------------------------------------- registry and entry point
 
@@ -36,17 +40,26 @@ FORMATS = {
     "tracker": Format(tracker.detect, tracker.parse,
                       "Tracker data export: line 1 the track name (mass_A), then columns t, x, y "
                       "(tab, space, comma or semicolon)"),
+    "drops": Format(drops.detect, drops.parse,
+                    "drop table: one trial per row, drop and rebound heights ('H,h', 'drop,rebound'; m, cm, mm)"),
     "apexes": Format(apexes.detect, apexes.parse, "apex heights: header 'bounce,h' (bounce 0 = drop height, m)"),
     "trajectory": Format(trajectory.detect, trajectory.parse,
-                         "trajectory: header 't,y' (s, m; x optional; units like 'y (cm)', 'y (px)' + --scale)"),
+                         "trajectory: header 't,y' (s, m; x optional; units like 'y (cm)', 'y (px)' + --scale), "
+                         "or two numeric columns without a header"),
     "impacts": Format(impacts.detect, impacts.parse,
-                      "impact times: a time column ('t', 'time', \"Event time (s)\"), e.g. a phyphox export"),
+                      "impact times: one column (any name or none), or a time column ('time', \"Event time (s)\")"),
     "sound": Format(sound.detect, sound.parse,
                     "a sound recording (WAV; m4a, mp3, ogg, flac with vrcal[audio]): the impact times", recording=True),
     "video": Format(video.detect, video.parse,
                     "a video (mp4, mov, avi, mkv; needs vrcal[video]): the ball's trajectory, scale from its "
                     "diameter", recording=True),
 }
+
+#: Options of the readers (``read_measurement(..., **options)``) and what a replay needs to read a
+#: file again the same way (``vrcal discover`` writes them into its JSON).
+READER_OPTIONS = ("scale_m_per_px", "y_down", "fs_hz", "sheet")
+#: Options only the recording readers (sound, video) take.
+RECORDING_OPTIONS = ("diameter_m", "roi", "color", "progress")
 
 
 def format_help():
@@ -92,33 +105,32 @@ def _detect(text):
           f"(known formats: {', '.join(FORMATS)}; see --format)")
 
 
-def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz=None, **recording):
-    """Read a measurement file into a Trajectory, ImpactTimes or ApexHeights.
+def read_measurement(path, fmt=None, **options):
+    """Read a measurement file into a Trajectory, ImpactTimes, ApexHeights or Runs.
 
     Parameters
     ----------
     path : str or Path
-        the file to read
+        the file to read (a text table, or an .xlsx/.xls workbook)
     fmt : str or None
         a key of :data:`FORMATS`; None detects it from the file
-    scale_m_per_px : float or None
-        metres per unit of the file's position column (pixels); overrides the header
-        unit and the reference line of a ``pixels-ref`` file [m/px]
-    y_down : bool
-        the file's y axis points down (image rows): height = -y * scale
-    fs_hz : float or None
-        sampling (frame) rate for files without a time column [Hz]; for a video, the frame
-        rate overriding the container's time stamps (a slow-motion video)
-    **recording :
-        options of the recording readers, ignored by the text layouts: ``diameter_m``
-        (video: the ball's diameter [m], which gives the scale), ``roi``, ``color``
-        (:func:`vrcal.measurements.video.track_video`), ``progress`` (a callable
-        ``progress(fraction, message)``)
+    **options
+        ``scale_m_per_px`` (float or None): metres per unit of the file's position column
+        (pixels); overrides the header unit and the reference line of a ``pixels-ref`` file
+        [m/px]; ``y_down`` (bool): the file's y axis points down (image rows): height = -y *
+        scale; ``fs_hz`` (float or None): sampling (frame) rate for files without a time
+        column [Hz] (for a video, the frame rate overriding the container's time
+        stamps: a slow-motion video); ``sheet`` (str or None): the sheet of a workbook (default: phyphox's
+        ``All``, else the first with a table)
+        Recordings (sound, video) also take ``diameter_m`` (video: the ball's diameter [m], which
+        gives the scale), ``roi``, ``color`` (:func:`vrcal.measurements.video.track_video`) and
+        ``progress`` (a callable ``progress(fraction, message)``); the text layouts ignore them.
 
     Returns
     -------
-    Trajectory or ImpactTimes or ApexHeights
-        ``.kind`` is "trajectory", "impacts" or "apexes".
+    Trajectory or ImpactTimes or ApexHeights or Runs
+        ``.kind`` is "trajectory", "impacts" or "apexes"; a drop table (one trial per row)
+        gives :class:`Runs` of ApexHeights.
 
     Raises
     ------
@@ -126,13 +138,60 @@ def read_measurement(path, fmt=None, *, scale_m_per_px=None, y_down=False, fs_hz
         "FILE:LINE: what is wrong" for an unreadable, empty, binary or malformed file.
     UsageError
         an unknown ``fmt`` (the message names the known ones), a missing ``fs_hz`` or
-        ``scale_m_per_px`` that the file needs.
+        ``scale_m_per_px`` that the file needs, a workbook without its reader library.
     """
     if fmt is not None and fmt not in FORMATS:
         raise UsageError(f"unknown measurement format '{fmt}' (known: {', '.join(FORMATS)})")
+    unknown = sorted(set(options) - set(READER_OPTIONS) - set(RECORDING_OPTIONS))
+    if unknown:
+        raise UsageError(f"unknown reader option(s) {', '.join(unknown)} (known: {', '.join(READER_OPTIONS)})")
     name = fmt or _detect_recording(path)
     if name is not None and FORMATS[name].recording:
-        return FORMATS[name].parser(str(path), scale_m_per_px=scale_m_per_px, fs_hz=fs_hz, **recording)
-    text = load_text(path)
+        passed = {k: v for k, v in options.items() if k not in ("y_down", "sheet") and v is not None}
+        return FORMATS[name].parser(str(path), **passed)
+    for key in RECORDING_OPTIONS:
+        options.pop(key, None)
+    sheet = options.pop("sheet", None)
+    if excel.is_spreadsheet(path):
+        text = excel.load_sheet_text(path, sheet)
+    else:
+        if sheet is not None:
+            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks only")
+        text = load_text(path)
     name = name or _detect(text)
-    return FORMATS[name].parser(text, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
+    parsed = {k: v for k, v in options.items() if v is not None}
+    parsed.setdefault("y_down", False)
+    return FORMATS[name].parser(text, **parsed)
+
+
+def read_measurements(paths, fmt=None, **options):
+    """Read several files of one ball into :class:`Runs` (one file: what :func:`read_measurement` gives).
+
+    Every file is read with the same ``fmt`` and ``options``; a file that is itself several runs
+    (a drop table) adds all of them. The runs must be of one kind (a joint fit compares data of
+    one unit).
+
+    Raises
+    ------
+    UsageError
+        files of different kinds
+    """
+    paths = [str(p) for p in paths]
+    if len(paths) == 1:
+        return read_measurement(paths[0], fmt, **options)
+    runs, labels, notes = [], [], []
+    for path in paths:
+        data = read_measurement(path, fmt, **options)
+        if isinstance(data, Runs):
+            runs += list(data.runs)
+            labels += [f"{path} {label}" for label in data.labels]
+            notes += [f"{path}: {n}" for n in data.notes]
+        else:
+            runs.append(data)
+            labels.append(path)
+    kinds = sorted({r.kind for r in runs})
+    if len(kinds) > 1:
+        by_kind = "; ".join(f"{k}: {', '.join(sorted({lab.split(' ')[0] for r, lab in zip(runs, labels) if r.kind == k}))}"
+                            for k in kinds)
+        raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind})")
+    return Runs(runs=tuple(runs), source=", ".join(paths), notes=tuple(notes), labels=tuple(labels))

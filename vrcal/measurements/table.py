@@ -32,8 +32,9 @@ LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "px": None, "pixel": 
 
 class Column(NamedTuple):
     index: int
-    name: str
-    unit: str
+    name: str      # lower case, runs of blanks and '_' as one blank
+    unit: str      # lower case, from brackets: 't (ms)', 'y [cm]'
+    raw: str = ""  # the name as written (case kept: 'H' and 'h' differ in a drop table)
 
 
 @dataclass
@@ -147,9 +148,9 @@ def columns(cells):
     cols = []
     for i, cell in enumerate(cells):
         m = _NAME_UNIT.match(cell.strip())
-        name = re.sub(r"[\s_]+", " ", (m.group("name") or "").strip().lower())
+        raw = re.sub(r"[\s_]+", " ", (m.group("name") or "").strip())
         unit = (m.group("unit") or "").strip().lower()
-        cols.append(Column(i, name, unit))
+        cols.append(Column(i, raw.lower(), unit, raw))
     return cols
 
 
@@ -173,8 +174,12 @@ class Table(NamedTuple):
     preamble: list  # [(lineno, text)] before the header
 
 
-def parse_table(text, header_at=0):
-    """Split a text into header, columns and rows (cells as strings)."""
+def parse_table(text, header_at=0, headerless=None):
+    """Split a text into header, columns and rows (cells as strings).
+
+    ``headerless``: column names (e.g. ``("t", "y")``) for a file whose first line already
+    holds numbers with that many cells; without it such a file is an error.
+    """
     lines = text.lines
     if header_at >= len(lines):
         fail(text.path, lines[-1][0], "no header row")
@@ -183,6 +188,12 @@ def parse_table(text, header_at=0):
     sep, decimal_comma = sniff(header, [s for _, s in body[:20]])
     head_cells = split_cells(header, sep)
     if is_numeric_row(head_cells, decimal_comma):
+        if headerless is not None and len(head_cells) == len(headerless):
+            rows = [(no, split_cells(s, sep)) for no, s in lines[header_at:]]
+            for no, cells in rows:
+                if len(cells) > len(headerless):
+                    fail(text.path, no, f"{len(cells)} cells but the first line holds {len(headerless)}")
+            return Table(0, columns(list(headerless)), rows, sep, decimal_comma, lines[:header_at])
         fail(text.path, header_no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
     rows = [(no, split_cells(s, sep)) for no, s in body]
@@ -195,6 +206,17 @@ def parse_table(text, header_at=0):
 
 def column_values(path, table, col, *, what, allow_empty=False):
     """Float values of one column with line-accurate errors; NaN where empty and allowed."""
+    i = col.index
+    try:   # the common case, all cells numbers: one conversion by numpy
+        cells = [cells[i] for _, cells in table.rows]
+        if table.decimal_comma:
+            cells = [c.replace(",", ".") for c in cells]
+        if not any("_" in c for c in cells):
+            fast = np.array(cells, dtype=float)
+            if np.all(np.isfinite(fast)):
+                return fast
+    except (IndexError, ValueError):
+        pass
     out = np.empty(len(table.rows))
     label = col.name or f"column {col.index + 1}"
     for k, (no, cells) in enumerate(table.rows):
@@ -229,6 +251,7 @@ def check_increasing(path, values, line_numbers, label):
 
 
 def header_columns(text, header_at=0):
+    """The columns named by line ``header_at``, or None when it holds numbers (no header)."""
     if header_at >= len(text.lines):
         return None
     header = text.lines[header_at][1]
@@ -238,4 +261,18 @@ def header_columns(text, header_at=0):
     if is_numeric_row(cells, dc):
         return None
     return columns(cells)
+
+
+def numeric_width(text, n_lines=20):
+    """Cells per line of a headerless numeric file (the same count on the first ``n_lines``
+    lines, every cell a number), or 0 when the file has a header or is not such a table."""
+    head = [s for _, s in text.lines[:n_lines]]
+    sep, dc = sniff(head[0], head[1:])
+    widths = set()
+    for line in head:
+        cells = split_cells(line, sep)
+        if not is_numeric_row(cells, dc):
+            return 0
+        widths.add(len(cells))
+    return widths.pop() if len(widths) == 1 else 0
 

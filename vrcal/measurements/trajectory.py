@@ -1,6 +1,8 @@
 """Trajectories: a header naming a time column (``t``, ``time``) and a height column ``y``
 (``x`` optional), one row per sample; units in brackets (``t (s)``, ``y [cm]``, ``y (px)``).
-Without a time column the sample times come from the frame rate. ``vrcal simulate`` writes ``t,y``.
+Without a time column the sample times come from the frame rate. A file without a header
+whose lines hold two numbers, the first increasing, is read as ``t, y`` in s and m.
+``vrcal simulate`` writes ``t,y``.
 
 Also the shared last step of every video-track reader (:func:`trajectory_from_table`):
 units and scale, the y direction, repeated rows, duplicated frames and the release.
@@ -23,7 +25,11 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
+    numeric_width,
     parse_table,
+    split_cells,
+    sniff,
+    to_float,
     unit_factor,
 )
 from vrcal.measurements.types import Trajectory
@@ -33,7 +39,19 @@ MIN_TRAJECTORY_SAMPLES = 20
 
 def detect(text):
     cols = header_columns(text)
-    return bool(cols) and find_column(cols, Y_NAMES) is not None
+    if cols is None:
+        return _headerless_t_y(text)
+    return find_column(cols, Y_NAMES) is not None
+
+
+def _headerless_t_y(text):
+    """Two numbers per line, the first strictly increasing (times): a headerless t, y file."""
+    if numeric_width(text) != 2:
+        return False
+    head = [s for _, s in text.lines[:50]]
+    sep, dc = sniff(head[0], head[1:])
+    first = np.array([to_float(split_cells(s, sep)[0], dc) for s in head])
+    return bool(np.all(np.diff(first) > 0))
 
 
 
@@ -69,7 +87,8 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
                      f"t = {t_s[release]:.4g} s, line {int(line_numbers[release])}); kept for the fit")
     else:
         notes.append("no still segment before release detected")
-    return Trajectory(t_s=t_s, y_m=y_m, source=path, notes=tuple(notes), release_index=int(release))
+    return Trajectory(t_s=t_s, y_m=y_m, source=path, notes=tuple(notes), release_index=int(release),
+                      lines=np.asarray(line_numbers, dtype=int))
 
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
@@ -135,8 +154,13 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
 
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
-    table = parse_table(text)
+    notes = ["format: trajectory (t, y columns)"]
+    if header_columns(text) is None:
+        table = parse_table(text, headerless=("t", "y"))
+        notes.append("no header: two columns read as t [s], y [m]")
+    else:
+        table = parse_table(text)
     return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
-                                  notes=("format: trajectory (t, y columns)",))
+                                  notes=tuple(notes))
 
 

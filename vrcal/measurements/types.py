@@ -3,7 +3,9 @@
 :class:`Trajectory` (heights against time), :class:`ImpactTimes` (the times of the floor
 impacts) and :class:`ApexHeights` (the apex height of each bounce). ``kind`` names the kind;
 the fitter (:mod:`vrcal.discovery`) and the synthetic generator (:mod:`vrcal.drop.synthetic`)
-use the same classes.
+use the same classes. :class:`Runs` holds several runs of one ball and one kind that are
+fitted jointly (a table of drop and rebound heights, several files, or the pieces of one
+record around a bounce that does not belong): shared contact, one release state per run.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ class Trajectory:
     release_index : int
         index (into ``t_s``) of the first sample after the still segment; 0 when none
         was detected. The still samples are kept: the fitter models the hold.
+    lines : ndarray of int or None
+        the file's line of each sample (None when unknown), for notes that name them
     """
 
     t_s: np.ndarray
@@ -38,6 +42,7 @@ class Trajectory:
     notes: tuple = ()
     release_index: int = 0
     kind: str = "trajectory"
+    lines: np.ndarray = None
 
 
 @dataclass(frozen=True)
@@ -47,15 +52,23 @@ class ImpactTimes:
     Attributes
     ----------
     t_s : ndarray
-        impact times kept for fitting [s], strictly increasing: the clean prefix before
-        the first detected anomaly
+        impact times kept for fitting [s], strictly increasing (echoes and events that fit in
+        no chain of bounces removed)
     source : str
         the file it was read from
     notes : tuple of str
         human-readable remarks
     rejected : tuple
-        ``((index, time_s, reason), ...)`` for every impact not kept; ``index`` counts
-        the file's impacts from 0
+        ``((index, time_s, reason), ...)`` for every event not kept; ``index`` counts
+        the file's events from 0 (the file's event number is index + 1)
+    chains : tuple
+        ``((start, stop), ...)``: slices of ``t_s`` holding consecutive bounces; a missed
+        impact or a bounce that does not belong ends a chain and the next starts after
+        it (they may share an event). ``()``: one chain, all of ``t_s``
+    events : ndarray of int or None
+        the file's event number (1-based) of each kept impact; None: 1, 2, ...
+    lines : ndarray of int or None
+        the file's line of each kept impact (None when unknown)
     """
 
     t_s: np.ndarray
@@ -63,6 +76,9 @@ class ImpactTimes:
     notes: tuple = ()
     rejected: tuple = ()
     kind: str = "impacts"
+    chains: tuple = ()
+    events: np.ndarray = None
+    lines: np.ndarray = None
 
 
 @dataclass(frozen=True)
@@ -79,6 +95,8 @@ class ApexHeights:
         the file it was read from
     notes : tuple of str
         human-readable remarks
+    lines : ndarray of int or None
+        the file's line of each row (None when unknown)
     """
 
     bounce: np.ndarray
@@ -86,3 +104,32 @@ class ApexHeights:
     source: str
     notes: tuple = ()
     kind: str = "apexes"
+    lines: np.ndarray = None
+
+
+@dataclass(frozen=True)
+class Runs:
+    """Several runs of one ball, of one kind, fitted jointly: the contact (epsilon and the
+    effects) is shared, every run has its own release state (drop height, release time).
+
+    Attributes
+    ----------
+    runs : tuple
+        the runs (Trajectory, ImpactTimes or ApexHeights, all of one kind)
+    source : str
+        what they were read from (one file, or several joined by ', ')
+    notes : tuple of str
+        human-readable remarks about the whole
+    labels : tuple of str
+        one short label per run ("row 3 (line 5)", "golf_80cm.csv", "bounces 1-4")
+    """
+
+    runs: tuple
+    source: str
+    notes: tuple = ()
+    labels: tuple = ()
+
+    @property
+    def kind(self):
+        """The kind of the runs ("trajectory", "impacts" or "apexes")."""
+        return self.runs[0].kind

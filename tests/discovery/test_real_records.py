@@ -1,0 +1,57 @@
+"""Real records that no one here wrote give epsilon within 0.02 of an independent estimate, with only
+physical parameters named (issue 9, "Done means"). The estimates are the textbook ones of
+benchmarks/real_records.py (which runs every shared record): the golf ball's first rebound measured
+with a ruler (the authors' Method 1), drag-corrected interval ratios of the first flights,
+finite-difference or parabola speeds at the contact, drag-corrected apex heights."""
+
+import importlib.util
+
+import pytest
+from helpers import ROOT, shared_file
+
+from vrcal.discovery.prepare import floor_referenced
+from vrcal.discovery.ranking import discover_file
+from vrcal.measurements import read_measurement
+
+_spec = importlib.util.spec_from_file_location("real_records", ROOT / "benchmarks" / "real_records.py")
+real = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(real)
+
+
+def only_physical(d):
+    return all(not c.outside for rnd in d.rounds for c in rnd if c.verdict.startswith("named"))
+
+
+def test_golf_impacts_agree_with_the_first_rebound_measured_by_hand():
+    table = read_measurement(shared_file("realval/giiulia_method1/golf_110cm_first_rebound.csv"))
+    k = real.drag_constant_per_m(0.47, 0.042, 0.0415)
+    method1 = float(real.epsilon_from_heights_with_drag(table.h_m[1], table.h_m[0], k))
+    for run in (1, 2, 3, 4):
+        d = discover_file(str(shared_file(f"realval/giiulia/golf_110cm_r{run}.csv")), "golf", mass_kg=0.0415,
+                          diameter_m=0.042)
+        assert d.epsilon == pytest.approx(method1, abs=0.02), run
+        assert only_physical(d)
+
+
+@pytest.mark.parametrize("name", ["pingpong_30cm_L1", "tennis_65cm_L1", "blue_65cm_L5", "golf_100cm_CR"])
+def test_phone_records_agree_with_drag_corrected_interval_ratios(name):
+    ball, m, D = real.BALLS[name.split("_")[0]]
+    path = str(shared_file(f"realval/giiulia/{name}.csv"))
+    d = discover_file(path, ball, mass_kg=m, diameter_m=D)
+    indep = real.interval_ratio_epsilon(read_measurement(path).t_s, float(d.ball.mass_kg), float(d.ball.diameter_m))
+    assert real.bounce_epsilon(d) == pytest.approx(indep, abs=0.02)
+    assert only_physical(d)
+
+
+@pytest.mark.parametrize("path,ball,opts,indep_path", [
+    ("realval/engcomp/fallingtennisball02.csv", "tennis", {}, None),
+    ("realval/dde/dde_ball1_7_clean.csv", "tennis", {}, "realval/dde/dde_ball1_7_fromapex.csv"),
+    ("pingpong-drop-video/raw.txt", "pingpong", {"fs_hz": 100.0}, None),
+])
+def test_video_tracks_and_the_known_answer_agree_with_the_contact(path, ball, opts, indep_path):
+    name, m, D = real.BALLS[ball]
+    d = discover_file(str(shared_file(path)), name, mass_kg=m, diameter_m=D, **opts)
+    data, _ = floor_referenced(read_measurement(str(shared_file(indep_path or path)), **opts))
+    indep, _ = real.independent_epsilon(data, float(d.ball.mass_kg), float(d.ball.diameter_m))
+    assert d.epsilon == pytest.approx(indep, abs=0.02)
+    assert only_physical(d) and "height_offset" not in d.effects[:1]

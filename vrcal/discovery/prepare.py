@@ -1,0 +1,285 @@
+"""From a record as read to the runs that are fitted: floor reference, plausibility, and the bounces
+that do not belong.
+
+``vrcal discover`` fits one model to every run of a record at once (shared contact, one release
+state per run). This module decides what the runs are:
+
+* a trajectory's heights are referred to the floor (:func:`floor_referenced`);
+* the record is checked against physics (:func:`vrcal.measurements.plausibility.check`: units,
+  orientation, g, frame rate, rebounds below drops); what cannot be fitted stops here in one
+  line, what only looks off becomes a warning (the verdict "suspect input");
+* a bounce that does not belong is cut out, and the pieces around it become runs: in a
+  trajectory, a bounce whose contact lies far above the floor level of the others (it hit
+  something) or whose flight lost or gained energy out of line with the rest
+  (:func:`odd_bounces`); in impact times, the reader's chains of consecutive bounces
+  (:func:`vrcal.measurements.cleanup.impact_chains`). Every cut is a note naming the file's
+  line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from vrcal.errors import UsageError
+
+#: A trajectory whose lowest sample after release lies outside this band [m] is not
+#: referenced to the floor (no tracked point is that far below or above the floor).
+FLOOR_BAND_M = (-0.05, 0.3)
+
+#: A contact this many ball diameters above the floor level of the other bounces hit something else.
+ODD_CONTACT_DIAMETERS = 0.5
+
+
+class Prepared(NamedTuple):
+    """The record ready for the fit."""
+
+    data: object          # one measurement, or vrcal.measurements.Runs
+    labels: tuple         # a label per run
+    notes: tuple          # what was done (floor shift, cuts)
+    warnings: tuple       # what looks off (the verdict "suspect input")
+    floor_shifts_m: tuple  # subtracted from the heights of each trajectory as read [m] (0 when none)
+
+
+def floor_referenced(data, floor_m=None):
+    """A trajectory with heights above the floor, and a note saying what was done (or None).
+
+    Parameters
+    ----------
+    data : Trajectory or ImpactTimes or ApexHeights
+        only trajectories are changed
+    floor_m : float or None
+        height of the floor in the data's frame [m]; subtracted from every height. None:
+        keep the heights when the lowest sample after release lies in
+        :data:`FLOOR_BAND_M`, otherwise subtract the lowest sample (the data's origin is
+        then the lowest tracked position, and ``height_offset`` measures the tracked
+        point at contact relative to it).
+
+    Returns
+    -------
+    (data, note) ; the shift is ``data.y_m_before - data.y_m_after``
+    """
+    if data.kind != "trajectory":
+        if floor_m is not None:
+            raise UsageError(f"--floor applies to trajectories, not to {data.kind} data")
+        return data, None
+    y = np.asarray(data.y_m, dtype=float)
+    if floor_m is not None:
+        if not math.isfinite(floor_m):
+            raise UsageError(f"--floor must be a finite height in m, got {floor_m!r}")
+        shift = float(floor_m)
+        note = f"heights shifted by {-shift:+.4f} m (--floor {shift:g} m)"
+    else:
+        low = float(np.min(y[int(getattr(data, "release_index", 0) or 0):]))
+        if FLOOR_BAND_M[0] <= low <= FLOOR_BAND_M[1]:
+            return data, None
+        shift = low
+        note = (f"heights are not referenced to the floor (lowest sample after release at {low:+.4f} m): "
+                f"shifted by {-shift:+.4f} m so that the lowest sample is at 0; height_offset is then the "
+                f"tracked point at contact relative to the lowest sample (give --floor to set the floor)")
+    return dataclasses.replace(data, y_m=y - shift), note
+
+
+def _line(data, i):
+    lines = getattr(data, "lines", None)
+    return f"line {int(lines[i])}" if lines is not None and 0 <= i < len(lines) else f"sample {i + 1}"
+
+
+def _flight_line(t, y, lo, hi, g):
+    """(a, b) of the flight y = a + b t - g t^2 / 2 through samples lo..hi-1 (least squares), or None."""
+    if hi - lo < 2:
+        return None
+    ts = t[lo:hi]
+    z = y[lo:hi] + 0.5 * g * ts * ts
+    if hi - lo == 2:
+        b = (z[1] - z[0]) / (ts[1] - ts[0])
+        return z[0] - b * ts[0], b
+    b, a = np.polyfit(ts, z, 1)
+    return a, b
+
+
+def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
+    """Time and height of each contact: where the flight before a bounce meets the flight after it.
+
+    Each flight is a parabola of curvature -g through its samples (leaving out the sample
+    at the bounce); two such parabolas meet where their straight parts do. A bounce with
+    fewer than two samples on a side keeps its lowest sample.
+
+    Returns
+    -------
+    (t_c, y_c) : ndarrays, one entry per minimum
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(y_m, dtype=float)
+    g = float(g_m_per_s2)
+    edges = [int(release_index)] + [int(m) for m in minima] + [t.size]
+    tc, yc = [], []
+    for k, m in enumerate(minima):
+        before = _flight_line(t, y, max(edges[k], m - 6), m, g)
+        after = _flight_line(t, y, m + 1, min(edges[k + 2], m + 7), g)
+        if before is None or after is None or before[1] == after[1]:
+            tc.append(float(t[m]))
+            yc.append(float(y[m]))
+            continue
+        tm = (after[0] - before[0]) / (before[1] - after[1])
+        if not (t[max(m - 1, 0)] - 0.5 * (t[m] - t[max(m - 1, 0)]) <= tm <= t[min(m + 1, t.size - 1)] + 1e-12):
+            tm = float(t[m])
+        tc.append(float(tm))
+        yc.append(float(before[0] + before[1] * tm - 0.5 * g * tm * tm))
+    return np.asarray(tc), np.asarray(yc)
+
+
+def odd_bounces(data, diameter_m, g_m_per_s2, sigma_m=0.0):
+    """Bounces of a trajectory that do not belong: [(minimum's sample index, reason)].
+
+    * a contact more than max(:data:`ODD_CONTACT_DIAMETERS` D, 2 cm, 5 robust sd) above the
+      median contact height of the bounces: the ball hit something above the floor;
+    * a bounce whose flights are out of line with the others (the chain test of the impact
+      times, :func:`vrcal.measurements.cleanup.impact_chains`, on the contact times): a kick,
+      a second surface, a sudden loss.
+    """
+    from vrcal.discovery.residuals import impacts_in_trajectory
+    from vrcal.measurements.cleanup import impact_chains
+
+    r = int(getattr(data, "release_index", 0) or 0)
+    minima = impacts_in_trajectory(data.t_s, data.y_m, r, sigma_m or None)
+    if minima.size < 2:
+        return [], minima
+    tc, yc = contact_points(data.t_s, data.y_m, minima, r, g_m_per_s2)
+    floor = float(np.median(yc))
+    spread = 1.4826 * float(np.median(np.abs(yc - floor)))
+    limit = max(ODD_CONTACT_DIAMETERS * float(diameter_m), 0.02, 5.0 * spread)
+    odd = {}
+    for k, (m, h) in enumerate(zip(minima, yc)):
+        if h - floor > limit:
+            odd[int(m)] = (f"bounce {k + 1} ({_line(data, int(m))}, t = {tc[k]:.3f} s) touches at "
+                           f"{h - floor:.3f} m above the floor level of the other bounces: the ball hit something")
+    if minima.size >= 4:
+        labels = [f"bounce {k + 1} ({_line(data, int(m))})" for k, m in enumerate(minima)]
+        found = impact_chains(tc, labels=labels, tolerance=0.15, timing_sigma_s=0.5 * float(np.median(np.diff(data.t_s))))
+        for idx, why in found.anomalies:
+            odd.setdefault(int(minima[idx]), why)
+    return sorted(odd.items()), minima
+
+
+def split_trajectory(data, odd, minima):
+    """The pieces of a trajectory around its odd bounces: [(piece, label)] and notes.
+
+    A piece ends at the sample before an odd bounce; the next starts at the apex after it
+    (the ball is at rest there, vertically: a release from that height). Pieces without a
+    normal bounce inside say nothing about the contact and are left out.
+    """
+    t = np.asarray(data.t_s, dtype=float)
+    y = np.asarray(data.y_m, dtype=float)
+    n = t.size
+    bad = [m for m, _ in odd]
+    starts, ends = [0], []
+    for m in bad:
+        ends.append(m)          # exclusive: up to the sample before the odd contact
+        following = [x for x in minima if x > m]
+        nxt = following[0] if following else n
+        apex = m + int(np.argmax(y[m:nxt])) if nxt > m + 1 else m + 1
+        starts.append(apex)
+    ends.append(n)
+    pieces, notes = [], []
+    for a, b in zip(starts, ends):
+        inside = [x for x in minima if a < x < b - 1 and x not in bad]
+        if b - a < 10 or not inside:
+            if b > a:
+                notes.append(f"samples {a + 1}-{b} ({_line(data, a)} to {_line(data, b - 1)}) left out: "
+                             f"no whole bounce in them")
+            continue
+        piece = dataclasses.replace(
+            data, t_s=t[a:b], y_m=y[a:b], release_index=int(data.release_index) if a == 0 else 0,
+            lines=None if data.lines is None else np.asarray(data.lines)[a:b])
+        pieces.append((piece, f"{_line(data, a)} to {_line(data, b - 1)}"))
+    return pieces, notes
+
+
+def _impact_runs(data, label):
+    chains = getattr(data, "chains", ()) or ()
+    if len(chains) <= 1:
+        return [(data, label)]
+    out = []
+    events = data.events if data.events is not None else np.arange(1, len(data.t_s) + 1)
+    for a, b in chains:
+        sub = dataclasses.replace(data, t_s=np.asarray(data.t_s)[a:b], chains=(), events=np.asarray(events)[a:b],
+                                  lines=None if data.lines is None else np.asarray(data.lines)[a:b])
+        name = f"events {int(events[a])}-{int(events[b - 1])}"
+        out.append((sub, f"{label} {name}".strip()))
+    return out
+
+
+def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None):
+    """The runs to fit, with notes and warnings (see the module docstring).
+
+    Parameters
+    ----------
+    data : Trajectory or ImpactTimes or ApexHeights or Runs
+    ball : BallProperties
+    g_m_per_s2 : float
+    floor_m : float or None
+        see :func:`floor_referenced`
+    y_down : bool
+        the reader turned the y axis over (for the hint of an upside-down record)
+    sigma_m : float or None
+        noise of one height [m] when known
+
+    Returns
+    -------
+    Prepared
+    """
+    from vrcal.discovery.residuals import _third_difference_sigma
+    from vrcal.measurements import Runs
+    from vrcal.measurements import plausibility
+
+    runs = list(data.runs) if isinstance(data, Runs) else [data]
+    labels = list(data.labels) if isinstance(data, Runs) and data.labels else (
+        [f"run {i + 1}" for i in range(len(runs))] if len(runs) > 1 else [""])
+    notes, shifted = list(getattr(data, "notes", ()) if isinstance(data, Runs) else ()), []
+    shifts = []
+    for run in runs:
+        new, note = floor_referenced(run, floor_m)
+        shifts.append(float(np.asarray(run.y_m)[0] - np.asarray(new.y_m)[0]) if note else 0.0)
+        if note:
+            notes.append(note)
+        shifted.append(new)
+    record = Runs(runs=tuple(shifted), source=data.source, labels=tuple(labels)) if isinstance(data, Runs) \
+        else shifted[0]
+    diameter = float(np.mean(ball.diameter_m))
+    sigma = sigma_m
+    if sigma is None and shifted[0].kind == "trajectory":
+        sigma = _third_difference_sigma(np.asarray(shifted[0].t_s, float), np.asarray(shifted[0].y_m, float))
+    checked = plausibility.check(record, diameter, g_m_per_s2, y_down=y_down, sigma_m=sigma or 0.0)
+    notes += list(checked.notes)
+    warnings = list(checked.warnings)
+    record = checked.data
+    runs = list(record.runs) if isinstance(record, Runs) else [record]
+    labels = list(record.labels) if isinstance(record, Runs) else [""]
+    out = []
+    for run, label in zip(runs, labels):
+        if run.kind == "impacts":
+            out += _impact_runs(run, label)
+        elif run.kind == "trajectory":
+            odd, minima = odd_bounces(run, diameter, g_m_per_s2, sigma or 0.0)
+            if not odd:
+                out.append((run, label))
+                continue
+            for _, why in odd:
+                notes.append(why + "; left out")
+            pieces, cut_notes = split_trajectory(run, odd, minima)
+            notes += cut_notes
+            if not pieces:
+                warnings.append(f"{run.source}: every bounce is odd; fitting the record as it is")
+                out.append((run, label))
+            out += [(p, f"{label} {lab}".strip()) for p, lab in pieces]
+        else:
+            out.append((run, label))
+    if len(out) == 1:
+        fitted = out[0][0]
+    else:
+        fitted = Runs(runs=tuple(r for r, _ in out), source=data.source, labels=tuple(lab for _, lab in out))
+    return Prepared(fitted, tuple(lab for _, lab in out), tuple(notes), tuple(warnings), tuple(shifts))

@@ -1,0 +1,126 @@
+"""Spreadsheets (phyphox's Excel exports, ``.xlsx`` and the older ``.xls``) read as text tables.
+
+A sheet becomes the same :class:`vrcal.measurements.table.Text` a CSV file gives (cells joined by
+tabs, one line per row, the sheet's row numbers as line numbers), so every layout of
+:data:`vrcal.measurements.reader.FORMATS` reads spreadsheets too. Which sheet: the one named with
+``sheet``; else phyphox's ``All`` (every event of the Acoustic Stopwatch) when there is one; else
+the first sheet with a table in it. Needs the optional extra ``pip install vrcal[excel]``
+(openpyxl for ``.xlsx``, xlrd for ``.xls``); without it the error says so in one line.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vrcal.errors import DataError, UsageError
+from vrcal.measurements.table import Text
+
+#: File signatures: zip (xlsx) and OLE2 compound documents (xls).
+_XLSX_MAGIC = b"PK\x03\x04"
+_XLS_MAGIC = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
+
+#: Sheets preferred when none is named (phyphox: "All" holds every event).
+PREFERRED_SHEETS = ("All",)
+
+#: Most rows read from a sheet.
+MAX_ROWS = 1_000_000
+
+_HINT = "install the optional extra: pip install 'vrcal[excel]'"
+
+
+def spreadsheet_kind(path):
+    """'xlsx', 'xls' or None, from the file's first bytes (not its name)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return None
+    if head.startswith(_XLSX_MAGIC) and str(path).lower().endswith((".xlsx", ".xlsm")):
+        return "xlsx"
+    if head == _XLS_MAGIC:
+        return "xls"
+    return None
+
+
+def _cell(value):
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value).replace("\t", " ").replace("\n", " ").strip()
+
+
+def _sheets(path, kind):
+    """[(name, rows)] with rows as lists of cell values."""
+    if kind == "xlsx":
+        try:
+            import openpyxl
+        except ImportError:
+            raise UsageError(f"{path}: reading .xlsx files needs openpyxl: {_HINT}") from None
+        try:
+            wb = openpyxl.load_workbook(path, read_only=True, data_only=True)
+        except Exception as exc:  # noqa: BLE001 - any failure of the library is a bad file
+            raise DataError(f"{path}: not a readable .xlsx workbook ({type(exc).__name__})") from None
+        try:
+            return [(ws.title, [list(r) for r in ws.iter_rows(values_only=True, max_row=MAX_ROWS)])
+                    for ws in wb.worksheets]
+        finally:
+            wb.close()
+    try:
+        import xlrd
+    except ImportError:
+        raise UsageError(f"{path}: reading .xls files needs xlrd: {_HINT}") from None
+    try:
+        book = xlrd.open_workbook(path, on_demand=True)
+    except Exception as exc:  # noqa: BLE001
+        raise DataError(f"{path}: not a readable .xls workbook ({type(exc).__name__})") from None
+    out = []
+    for sh in book.sheets():
+        out.append((sh.name, [sh.row_values(i) for i in range(min(sh.nrows, MAX_ROWS))]))
+    return out
+
+
+def load_sheet_text(path, sheet=None):
+    """The chosen sheet of a spreadsheet as a :class:`Text` (path shown as ``FILE[SHEET]``).
+
+    Raises
+    ------
+    UsageError
+        the reader library is missing (the message says how to install it), or ``sheet``
+        names no sheet (the message lists them)
+    DataError
+        an unreadable workbook, or no sheet with a table
+    """
+    kind = spreadsheet_kind(path)
+    sheets = _sheets(str(path), kind)
+    names = [name for name, _ in sheets]
+
+    def as_text(name, rows):
+        lines = []
+        for i, row in enumerate(rows, start=1):
+            cells = [_cell(v) for v in row]
+            while cells and cells[-1] == "":
+                cells.pop()
+            if any(cells):
+                lines.append((i, "\t".join(cells)))
+        return Text(f"{path}[{name.strip()}]", lines)
+
+    if sheet is not None:
+        for name, rows in sheets:
+            if name == sheet or name.strip() == str(sheet).strip():
+                text = as_text(name, rows)
+                if not text.lines:
+                    raise DataError(f"{path}: sheet '{name.strip()}' is empty")
+                return text
+        raise UsageError(f"{path}: no sheet '{sheet}' (sheets: {', '.join(repr(n.strip()) for n in names)})")
+    order = [s for s in sheets if s[0].strip() in PREFERRED_SHEETS] + sheets
+    for name, rows in order:
+        text = as_text(name, rows)
+        if len(text.lines) >= 2:
+            return text
+    raise DataError(f"{path}: no sheet holds a table (sheets: {', '.join(repr(n.strip()) for n in names)})")
+
+
+def is_spreadsheet(path):
+    """True for an .xlsx or .xls workbook (by its first bytes)."""
+    return spreadsheet_kind(Path(path)) is not None

@@ -1,0 +1,352 @@
+"""Is the record physically possible? Plausibility checks from physics, in one place.
+
+A file can be read without error and still be wrong in a way no parser sees: heights in mm
+under a header that says m, impact times in ms under ``s``, a track upside down, a list of
+"impacts" whose intervals grow. Fitted as they are, they give confident nonsense. Each check
+here ends in one of three ways:
+
+* nothing to say (the record is plausible), or a note;
+* a **warning** (:class:`Finding` with level "warning"): something looks off but the record
+  can still be fitted (g from the flights 12 % off 9.81); ``vrcal discover`` then gives the
+  verdict "suspect input" and names what looks wrong;
+* a one-line :class:`vrcal.errors.DataError` (exit status 1) naming what looks wrong and the
+  fix ("the record looks upside down: use --y-down", "heights look like mm, not m: ...").
+
+The checks (each a function below):
+
+* the sampling: a frame rate between :data:`FRAME_RATE_HZ` (a video at 1 frame per second is
+  no drop record, nor is one at 10^14 frames per second; times in ms read as s give the one,
+  times scaled by 1e-12 the other) (:func:`check_sampling`);
+* g from the flights of a trajectory (a parabola through each flight between bounces)
+  against the g the fit assumes: its sign tells a record upside down, its size the units of
+  heights and times (mm read as m give 1000 g) and the frame rate (:func:`flight_gravity`);
+* the bounces shrink: the impact intervals of a bouncing ball shrink (epsilon <= 1), its
+  apexes fall, a rebound stays below its drop (:func:`check_impact_times`, :func:`check_apexes`);
+* the ball's size against the record's scale: drop heights between half a ball diameter and
+  :data:`MAX_DROP_M` (a drop table in cm read as m has drops of 110 m).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import NamedTuple
+
+import numpy as np
+
+from vrcal.errors import DataError
+from vrcal.measurements.cleanup import prominent_minima
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+
+#: Sampling rates a drop record can have [Hz]: a slow video to a fast tracker or a sound card.
+FRAME_RATE_HZ = (2.0, 2e5)
+
+#: Highest plausible drop height [m] (a drop from a building; beyond it the units are wrong).
+MAX_DROP_M = 50.0
+
+#: Flight durations of a plausible first rebound [s]: 10 ms (a rebound of 0.1 mm) to 6 s (44 m).
+FLIGHT_S = (0.01, 6.0)
+
+#: |g from the flights| / g: inside this band the record is plausible (air drag and buoyancy
+#: change the mean curvature of a flight by a few per cent); outside it but inside the wider
+#: one a warning; beyond it an error.
+G_OK = (0.85, 1.2)
+G_WARN = (0.6, 1.6)
+
+#: Unit mix-ups tried when a scale is far off: (factor by which the record is too large, what it means).
+LENGTH_MIXUPS = ((1e3, "mm", 1e-3), (1e2, "cm", 1e-2), (1e-2, "m under a header in cm", 1e2),
+                 (1e-3, "m under a header in mm", 1e3))
+
+
+class Finding(NamedTuple):
+    """One result of a check: level "note" or "warning", and what was found."""
+
+    level: str
+    text: str
+
+
+class Checked(NamedTuple):
+    """The record after the checks (runs that cannot be physical left out) and what was found."""
+
+    data: object
+    findings: tuple
+
+    @property
+    def warnings(self):
+        return tuple(f.text for f in self.findings if f.level == "warning")
+
+    @property
+    def notes(self):
+        return tuple(f.text for f in self.findings if f.level == "note")
+
+
+def _fail(source, text):
+    raise DataError(f"{source}: {text}")
+
+
+# --------------------------------------------------------------------------- sampling and g
+
+
+def check_sampling(t_s, source="data"):
+    """The sample interval of a trajectory must give a plausible frame rate.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        sample times [s], increasing
+    source : str
+        the file (for messages)
+
+    Raises
+    ------
+    DataError
+        a frame rate outside :data:`FRAME_RATE_HZ`, naming the likely unit mix-up
+    """
+    t = np.asarray(t_s, dtype=float)
+    if t.size < 2:
+        return
+    dt = float(np.median(np.diff(t)))
+    fs = 1.0 / dt if dt > 0 else math.inf
+    lo, hi = FRAME_RATE_HZ
+    if fs < lo:
+        hint = (": the times look like ms, not s (write 't (ms)' in the header)" if lo <= fs * 1e3 <= hi else
+                ": the times are not in seconds")
+        _fail(source, f"samples are {dt:.4g} s apart ({fs:.3g} frames/s){hint}")
+    if fs > hi:
+        hint = (": the times look like s under a header in ms" if lo <= fs / 1e3 <= hi else
+                ": the times are not in seconds (a video runs at 24-1000 frames/s)")
+        _fail(source, f"samples are {dt:.3g} s apart (a frame rate of {fs:.3g} Hz){hint}")
+
+
+def _flight_fits(t, y, sign, release, sigma):
+    """Parabolas through the flights of ``sign * y`` between its prominent minima:
+    [(curvature y'' [unit/s^2], rms residual [unit], samples)]."""
+    z = sign * y[release:]
+    tt = t[release:]
+    if z.size < 8:
+        return []
+    span = float(np.ptp(z))
+    minima = prominent_minima(z, max(8.0 * sigma, 0.05 * span))
+    edges = [0] + [int(m) for m in minima] + ([z.size - 1] if minima.size else [])
+    out = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        lo, hi = a + 2, b - 1      # leave out the samples next to a contact
+        if hi - lo < 6:
+            continue
+        ts = tt[lo:hi] - tt[lo]
+        coef, res, *_ = np.polyfit(ts, z[lo:hi], 2, full=True)
+        rms = math.sqrt(float(res[0]) / (hi - lo)) if res.size else 0.0
+        # a clean flight is a parabola to the noise; one with a small bounce (or a cusp) inside is not
+        if rms <= max(4.0 * sigma, 0.01 * float(np.ptp(z[lo:hi]))):
+            out.append((2.0 * float(coef[0]), rms, hi - lo))
+    return out
+
+
+def flight_gravity(t_s, y_m, release_index=0, sigma_m=0.0):
+    """g seen in the flights of a trajectory, and whether the record is upside down.
+
+    Parabolas are fitted to the flights between the bounces (prominent minima) of the record
+    and of the record turned over, and kept where they fit to the noise; the orientation with
+    more samples on such parabolas is the true one (turned over, each "flight" has a bounce's
+    cusp inside).
+
+    Parameters
+    ----------
+    t_s, y_m : ndarray
+        sample times [s] and heights [m]
+    release_index : int
+        first sample after the still segment
+    sigma_m : float
+        noise of one height [m] (sets the least prominence of a bounce)
+
+    Returns
+    -------
+    (g_m_per_s2, upside_down, n_flights) : (float or None, bool, int)
+        g = minus the median curvature of the flights (None when no flight has 7 samples
+        clear of the contacts); upside_down when the turned-over record is the one with parabolic flights
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(y_m, dtype=float)
+    up = _flight_fits(t, y, 1.0, release_index, sigma_m)
+    down = _flight_fits(t, y, -1.0, release_index, sigma_m)
+
+    def samples(fits):
+        return sum(f[2] for f in fits)
+
+    # the true orientation has its flights between the bounces: more samples on clean parabolas
+    fits, upside = up, False
+    if samples(down) > 1.5 * samples(up):
+        fits, upside = down, True
+    if not fits:
+        return None, False, 0
+    curv = np.array([f[0] for f in fits])
+    weights = np.array([f[2] for f in fits], dtype=float)
+    order = np.argsort(curv)
+    cum = np.cumsum(weights[order])
+    g = -float(curv[order][np.searchsorted(cum, 0.5 * cum[-1])])
+    return g, upside, len(fits)
+
+
+def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0):
+    """Sampling, orientation and g of a trajectory: a list of :class:`Finding`, or a DataError."""
+    check_sampling(data.t_s, data.source)
+    g_fit, upside, n = flight_gravity(data.t_s, data.y_m, getattr(data, "release_index", 0) or 0, sigma_m)
+    if g_fit is None:
+        return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
+    if g_fit < 0 and not upside:
+        return [Finding("note", "g cannot be checked: the flights do not curve one way")]
+    if upside:
+        fix = "remove --y-down" if y_down else "use --y-down"
+        _fail(data.source, f"the record looks upside down (its flights curve upward, {abs(g_fit):.3g} m/s^2): {fix}")
+    ratio = g_fit / g_m_per_s2
+    text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({ratio:.3f} x {g_m_per_s2:.4g})"
+    if G_OK[0] <= ratio <= G_OK[1]:
+        return [Finding("note", text)]
+    if G_WARN[0] <= ratio <= G_WARN[1]:
+        return [Finding("warning", f"{text}: the frame rate or the length scale looks off (check --fs, --scale "
+                                   f"and the units in the header)")]
+    drop = float(np.ptp(data.y_m))
+    for factor, unit, scale in LENGTH_MIXUPS:
+        if G_OK[0] <= ratio / factor <= G_OK[1]:
+            _fail(data.source, f"heights look like {unit}, not as read: the flights fall with {g_fit:.3g} m/s^2 "
+                               f"({ratio:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
+                               f"header, e.g. 'y (mm)', or give --scale {scale:g})")
+    for factor, unit in ((1e-6, "ms"), (1e6, "s under a header in ms")):
+        if G_OK[0] <= ratio / factor <= G_OK[1]:
+            _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 ({ratio:.3g} x g)")
+    _fail(data.source, f"{text}: the heights or the times are not in the units read (check --fs, --scale and the "
+                       f"units in the header)")
+
+
+# --------------------------------------------------------------------------- impacts and apexes
+
+
+def check_impact_times(t_s, source="data"):
+    """Impact times of one drop must be those of a bouncing ball: the longest of the first three
+    flights between 10 ms and 6 s, intervals that shrink. Raises DataError otherwise (naming the
+    likely unit mix-up)."""
+    t = np.asarray(t_s, dtype=float)
+    if t.size < 2:
+        return
+    dt = np.diff(t)
+    first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
+    lo, hi = FLIGHT_S
+    height = STANDARD_GRAVITY_M_PER_S2 * first**2 / 8.0
+    if first > hi or first < lo:
+        if lo <= first * 1e-3 <= hi:
+            hint = "the times look like ms, not s (write 't (ms)' in the header)"
+        elif lo <= first * 1e3 <= hi:
+            hint = "the times look like s under a header in ms"
+        else:
+            hint = "the times are not in seconds"
+        _fail(source, f"the first flights last up to {first:.3g} s, a rebound {height:.3g} m high: {hint}")
+    if dt.size >= 3:
+        ratio = float(np.median(dt[1:] / dt[:-1]))
+        if ratio > 1.0:
+            _fail(source, f"the intervals between impacts grow (median ratio {ratio:.3f}): a ball bouncing on a "
+                          f"floor makes them shrink (epsilon <= 1); are these impact times of one drop, in order?")
+
+
+def _drop_scale(h_m, diameter_m, source, label=""):
+    """Drop height against the ball and the world: DataError for a unit mix-up; a warning text or None."""
+    H = float(np.max(h_m))
+    where = f"{label}: " if label else ""
+    if H > MAX_DROP_M:
+        best = min((abs(math.log10(H * s)), unit, s) for _, unit, s in LENGTH_MIXUPS if s < 1)
+        _fail(source, f"{where}a drop of {H:.4g} m is not a lab drop: heights look like {best[1]} (write "
+                      f"'H ({best[1]})' in the header, or give --scale {best[2]:g})")
+    if diameter_m and H < 0.5 * diameter_m:
+        return (f"{where}the drop ({H * 100:.3g} cm) is less than half the ball's diameter ({diameter_m * 100:.3g} "
+                f"cm): are the heights in m, not cm or mm?")
+    return None
+
+
+def check_apexes(data, diameter_m=None, label=""):
+    """One drop's apex heights: the rebound below the drop and the apexes falling.
+
+    Returns (data, findings): a later apex that rises ends the record there (a note);
+    DataError when the first rebound is above the drop or the drop is out of scale.
+    """
+    findings = []
+    h = np.asarray(data.h_m, dtype=float)
+    warn = _drop_scale(h, diameter_m, data.source, label)
+    if warn:
+        findings.append(Finding("warning", warn))
+    rise = np.flatnonzero(np.diff(h) > 0)
+    if rise.size == 0:
+        return data, findings
+    k = int(rise[0])
+    lines = getattr(data, "lines", None)
+    at = f" (line {int(lines[k + 1])})" if lines is not None else ""
+    if k == 0:
+        _fail(data.source, f"{label + ': ' if label else ''}the rebound{at}, {h[1]:.4g} m, is higher than the drop, "
+                           f"{h[0]:.4g} m: a ball cannot bounce above the height it fell from (epsilon > 1); "
+                           f"are the columns or rows swapped?")
+    findings.append(Finding("note", f"{label + ': ' if label else ''}apex {int(data.bounce[k + 1])}{at} is higher "
+                                    f"than apex {int(data.bounce[k])}: impossible for a ball bouncing on a floor; "
+                                    f"the apexes from there on are left out"))
+    return replace(data, bounce=data.bounce[:k + 1], h_m=h[:k + 1],
+                   lines=None if lines is None else lines[:k + 1]), findings
+
+
+# --------------------------------------------------------------------------- the whole record
+
+
+def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0):
+    """Every check that applies to ``data`` (one run, or :class:`vrcal.measurements.Runs`).
+
+    Parameters
+    ----------
+    data : Trajectory or ImpactTimes or ApexHeights or Runs
+    diameter_m : float or None
+        the ball's diameter [m] (the ruler of records without time)
+    g_m_per_s2 : float
+        the gravity the fit will assume [m/s^2]
+    y_down : bool
+        the reader turned the y axis over (for the upside-down hint)
+    sigma_m : float
+        noise of one height [m], 0 when unknown
+
+    Returns
+    -------
+    Checked
+        the record (runs or apexes that cannot be physical left out, with a note) and the findings
+
+    Raises
+    ------
+    DataError
+        a record that cannot be fitted as it is (one line: what looks wrong and the fix)
+    """
+    from vrcal.measurements.types import Runs
+
+    if isinstance(data, Runs):
+        runs, labels, findings = [], [], []
+        dropped = []
+        for run, label in zip(data.runs, data.labels or [f"run {i + 1}" for i in range(len(data.runs))]):
+            if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] > run.h_m[0]:
+                dropped.append(label)
+                continue
+            checked = _check_one(run, diameter_m, g_m_per_s2, y_down, sigma_m, label)
+            runs.append(checked.data)
+            labels.append(label)
+            findings += checked.findings
+        if dropped:
+            if len(dropped) * 2 > len(data.runs):
+                _fail(data.source, f"the rebound is higher than the drop in {len(dropped)} of {len(data.runs)} "
+                                   f"trials: are the drop and rebound columns swapped?")
+            findings.append(Finding("note", f"left out (rebound higher than the drop, impossible): "
+                                            f"{', '.join(dropped)}"))
+        return Checked(replace(data, runs=tuple(runs), labels=tuple(labels)), tuple(findings))
+    return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "")
+
+
+def _check_one(data, diameter_m, g, y_down, sigma_m, label):
+    if data.kind == "trajectory":
+        return Checked(data, tuple(check_trajectory(data, g, y_down=y_down, sigma_m=sigma_m)))
+    if data.kind == "impacts":
+        chains = getattr(data, "chains", ()) or ((0, len(data.t_s)),)
+        for a, b in chains:
+            check_impact_times(np.asarray(data.t_s)[a:b], data.source)
+        return Checked(data, ())
+    checked, findings = check_apexes(data, diameter_m, label)
+    return Checked(checked, tuple(findings))
