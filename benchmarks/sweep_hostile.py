@@ -312,7 +312,8 @@ def measurement_cases():
     for label, content in bad.items():
         extra = ["--fs", "60"] if label.startswith("pixels-ref") else []
         fmt = ["--format", "pixels-ref"] if label.startswith("pixels-ref") else []
-        owner = "discover" if label in ("apexes rising",) else "hostile"
+        # what a file means (units, sign, which column) is the discover helper's plausibility part
+        owner = "discover" if label in ("apexes rising", "impacts negative", "only x column") else "hostile"
         expect = "any" if label in ("latin-1", "utf-16") else "error"
         cases.append(Case(f"discover data: {label}", D + extra + fmt, owner=owner, expect=expect,
                           files={"data": content}))
