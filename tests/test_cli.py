@@ -90,7 +90,7 @@ BAD_INPUTS = [
     (["fit", "baskteball"], 2, "did you mean 'basketball'"),
     (["fit", "basketball", "--K", "0"], 2, "K must be"),
     (["fit", "basketball", "--K", "-1"], 2, "K must be"),
-    (["fit", "basketball", "--K", "abc"], 2, "is not a valid float"),
+    (["fit", "basketball", "--K", "abc"], 2, "--K must be a number"),
     (["fit", "basketball", "--x", "-0.1"], 2, "--x must be"),
     (["fit", "basketball", "--x", "0.1", "--v", "1"], 2, "not both"),
     (["fit", "basketball", "--n", "0"], 2, "--n must be"),

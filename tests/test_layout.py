@@ -20,7 +20,7 @@ LAYERS = [
     {"vrcal.discovery"},
     {"vrcal.engines"},
     {"vrcal.scenes", "vrcal.plots"},
-    {"vrcal.cli", "vrcal.__main__"},
+    {"vrcal.cli", "vrcal.options", "vrcal.__main__"},
 ]
 
 

@@ -7,11 +7,15 @@ message on stderr and an exit status in one place, :class:`VrcalGroup`.
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import warnings
 
 import click
 
 from vrcal import __version__
+from vrcal import options as opt
 from vrcal.errors import VrcalError
 
 # --------------------------------------------------------------------------- the group
@@ -22,33 +26,102 @@ class VrcalGroup(click.Group):
 
     Library errors (:class:`VrcalError`) exit 1 (data) or 2 (usage); click's own usage
     errors (a bad option value, a missing argument) exit 2 -- without click's
-    multi-line usage block.
+    multi-line usage block. SIGTERM is handled as SIGINT (temporary files removed, exit 143);
+    numpy's floating-point RuntimeWarnings never reach the user (the error that follows does),
+    other warnings are one line ``vrcal: warning: ...``.
     """
+
+    command_class = opt.FiniteCommand
+    group_class = type  # subgroups (plot) are VrcalGroups too, so their commands refuse nan/inf
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         try:
-            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            with _terminate_as_interrupt() as signalled, warnings.catch_warnings():
+                warnings.filterwarnings("ignore", category=RuntimeWarning, module="numpy")
+                warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_WARNINGS)
+                warnings.showwarning = _show_warning
+                rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            if signalled:  # a SIGTERM that landed where Python swallows exceptions (a weakref callback)
+                click.echo("vrcal: terminated", err=True)
+                sys.exit(143)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
-            click.echo(f"vrcal: error: {exc.format_message()}{hint}", err=True)
+            click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
-            click.echo("vrcal: aborted", err=True)
-            sys.exit(1)
+        except click.Abort as exc:
+            terminated = isinstance(exc.__context__, _Terminated)
+            click.echo("vrcal: terminated" if terminated else "vrcal: aborted", err=True)
+            sys.exit(143 if terminated else 1)
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except VrcalError as exc:
-            click.echo(f"vrcal: error: {exc}", err=True)
+            click.echo(f"vrcal: error: {_one_line(str(exc))}", err=True)
             ctx.exit(exc.exit_code)
+        except _Terminated:
+            click.echo("vrcal: terminated", err=True)
+            ctx.exit(143)
         except KeyboardInterrupt:  # pragma: no cover
             click.echo("vrcal: interrupted", err=True)
             ctx.exit(130)
+
+
+#: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
+_NUMPY_WARNINGS = r"(overflow|invalid value|divide by zero|underflow) encountered"
+#: Longest error message printed; a longer one (a huge value quoted) keeps its start and end.
+MAX_MESSAGE_CHARS = 400
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A library's warning (matplotlib, ...) as one line ``vrcal: warning: ...``, without source lines."""
+    click.echo(f"vrcal: warning: {_one_line(str(message))}", err=True)
+
+
+def _one_line(message):
+    """An error message as one line of at most :data:`MAX_MESSAGE_CHARS` characters."""
+    text = " ".join(str(message).split())
+    if len(text) > MAX_MESSAGE_CHARS:
+        text = f"{text[:MAX_MESSAGE_CHARS - 120]} ... [{len(text):,} characters] ... {text[-100:]}"
+    return text
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like SIGINT's KeyboardInterrupt so that every cleanup runs."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """Handle SIGTERM as SIGINT while the command runs (only the main thread can set handlers).
+
+    Yields a list that is non-empty once a SIGTERM came: where Python swallows the exception (a
+    ``__del__`` or weakref callback) the command runs on, and the caller still exits 143.
+    """
+    signalled = []
+
+    def handler(_signum, _frame):
+        signalled.append(True)
+        raise _Terminated()
+
+    def unraisable(info):  # no "Exception ignored in ..." traceback for a swallowed SIGTERM
+        if not isinstance(info.exc_value, _Terminated):
+            previous_hook(info)
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread (a test runner's worker)
+        yield signalled
+        return
+    previous_hook, sys.unraisablehook = sys.unraisablehook, unraisable
+    try:
+        yield signalled
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
 
 
 @click.group(cls=VrcalGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -123,7 +196,7 @@ FORMAT_OPTION = click.option(
          "(also chosen by -o's extension .yaml/.yml/.json; other -o files get yaml).")
 
 
-K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0",
+K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
 
@@ -133,9 +206,10 @@ K_OPTION = click.option("--K", "K", type=float, default=None, show_default="4.0"
 @main.command(short_help="Parameter file of a ball: epsilon, T and its (x, v) family.")
 @click.argument("ball")
 @K_OPTION
-@click.option("--x", "x_m", type=float, default=None, help="Fix the virtual body's depth x [m]; gives v.")
-@click.option("--v", "v_m_per_s", type=float, default=None, help="Fix the virtual body's speed v [m/s]; gives x.")
-@click.option("--n", "n", type=int, default=11, show_default=True, help="Number of (x, v) family members.")
+@click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Fix the virtual body's depth x [m]; gives v.")
+@click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None,
+              help="Fix the virtual body's speed v [m/s]; gives x.")
+@click.option("--n", "n", type=opt.FAMILY_SIZE, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
 @FORMAT_OPTION
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
@@ -203,7 +277,7 @@ def plot():
 
 
 def _output_dir(path):
-    """The -o directory of ``plot curves``: created when its parent exists."""
+    """The -o directory of ``plot curves``, checked: it exists, or its parent does (it is created then)."""
     from pathlib import Path
 
     from vrcal.errors import UsageError
@@ -216,10 +290,6 @@ def _output_dir(path):
     parent = d.parent if str(d.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"cannot create -o '{d}': its parent directory '{parent}' does not exist")
-    try:
-        d.mkdir()
-    except OSError as exc:
-        raise UsageError(f"cannot create -o '{d}': {exc.strerror or exc}") from None
     return d
 
 
@@ -245,7 +315,7 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from vrcal.fileio import atomic_savefig
+    from vrcal.fileio import figure_bytes, write_files
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.plots import curve_figures
     from vrcal.textout import table
@@ -253,8 +323,8 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
-        for name in sorted(figures):
-            atomic_savefig(figures[name], d / name, dpi=120, metadata={"Software": None})
+        write_files({d / name: figure_bytes(figures[name], dpi=120, metadata={"Software": None})
+                     for name in sorted(figures)}, directories=[d])  # all of them or none
         click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
                          ["wrote", "what"], align="ll"), nl=False)
     finally:
@@ -303,27 +373,29 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 
 @main.command(short_help="Simulate a drop test (exact impacts, optional effects) and write CSV data.")
 @click.argument("ball")
-@click.option("--drop", "drop_m", type=float, default=None,
+@click.option("--drop", "drop_m", type=opt.HEIGHT_M, default=None,
               help="Drop height of the ball's bottom [m] (default: the standard's).")
-@click.option("--bounces", type=int, default=10, show_default=True, help="Number of floor impacts.")
-@click.option("--epsilon", type=float, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
+@click.option("--bounces", type=opt.BOUNCES, default=10, show_default=True, help="Number of floor impacts.")
+@click.option("--epsilon", type=opt.EPSILON, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
 @K_OPTION
-@click.option("--x", "x_m", type=float, default=None, help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
-@click.option("--v", "v_m_per_s", type=float, default=None, help="Virtual body speed v [m/s] (with --x).")
+@click.option("--x", "x_m", type=opt.DEPTH_M, default=None,
+              help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
+@click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None, help="Virtual body speed v [m/s] (with --x).")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
                    "height_offset, buoyancy.")
-@click.option("--fs", "fs_hz", type=float, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
               help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
-@click.option("--noise", "noise_m", type=float, default=0.0, show_default=True,
+@click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
-@click.option("--jitter", "jitter_s", type=float, default=0.0, show_default=True,
+@click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
               help="Gaussian noise on impact times [s].")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise.")
-@click.option("--still", "still_s", type=float, default=0.2, show_default=True,
+@click.option("--seed", type=opt.SEED, default=0, show_default=True, help="Seed of the noise.")
+@click.option("--still", "still_s", type=opt.STILL_S, default=0.2, show_default=True,
               help="Still segment before release [s].")
-@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (a ball outside the standards).")
-@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m].")
+@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
+              help="Ball mass [kg] (a ball outside the standards).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m].")
 @click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes", "wav", "video"]),
               default="trajectory", show_default=True,
               help="CSV data, or a recording to try 'vrcal track' on: wav (the impacts' sound in a room with "
@@ -367,20 +439,23 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 @main.command()
 @click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
-@click.option("--mass", "mass_kg", type=float, default=None, help="Ball mass [kg] (overrides the standard's).")
-@click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m] (overrides the standard's).")
+@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (overrides the standard's).")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
+              help="Ball diameter [m] (overrides the standard's).")
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
 @click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook (default: 'All', else the first table).")
-@click.option("--scale", "scale_m_per_px", type=float, default=None, help="Metres per pixel of a video track.")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
+              help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
-@click.option("--fs", "fs_hz", type=float, default=None, help="Frame rate [Hz] when the file has no time column.")
-@click.option("--floor", "floor_m", type=float, default=None,
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="Frame rate [Hz] when the file has no time column.")
+@click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
-@click.option("--noise", type=float, default=None,
+@click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
-@click.option("--g", "g_m_per_s2", type=float, default=9.80665, show_default=True, help="Gravity [m/s^2].")
+@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True,
+              help="Gravity [m/s^2].")
 @click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the result as JSON (sorted keys, full precision) here ('-' for stdout).")
@@ -413,7 +488,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
 
     from vrcal.discovery.ranking import discover_file
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
-    from vrcal.fileio import atomic_savefig, atomic_write, dumps
+    from vrcal.fileio import dumps, figure_bytes, write_files
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -426,19 +501,17 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     text = fit_report(result, details=details)
     for warning in result.warnings:
         click.echo(f"vrcal: warning: {warning}", err=True)
-    if json_file:
-        if json_file == "-":
-            click.echo(dumps(result.as_dict(), "json"), nl=False)
-        else:
-            emit(dumps(result.as_dict(), "json"), json_file)
+    files = {json_file: dumps(result.as_dict(), "json")} if json_file and json_file != "-" else {}
     if report_dir:
-        try:
-            os.makedirs(report_dir, exist_ok=True)
-        except OSError as exc:
-            raise click.UsageError(f"cannot create '{report_dir}': {exc.strerror or exc}") from None
-        atomic_write(os.path.join(report_dir, REPORT_FILES["text"]), fit_report(result, details=True))
-        atomic_write(os.path.join(report_dir, REPORT_FILES["json"]), dumps(result.as_dict(), "json"))
-        atomic_savefig(discovery_figure(result), os.path.join(report_dir, REPORT_FILES["figure"]), dpi=120)
+        files[os.path.join(report_dir, REPORT_FILES["text"])] = fit_report(result, details=True)
+        files[os.path.join(report_dir, REPORT_FILES["json"])] = dumps(result.as_dict(), "json")
+        files[os.path.join(report_dir, REPORT_FILES["figure"])] = figure_bytes(discovery_figure(result), dpi=120)
+    write_files(files, directories=[report_dir] if report_dir else [])  # all of them or none
+    if json_file == "-":
+        click.echo(dumps(result.as_dict(), "json"), nl=False)
+    elif json_file:
+        click.echo(f"wrote {json_file}", err=True)
+    if report_dir:
         click.echo(f"wrote {report_dir}/{{{', '.join(sorted(REPORT_FILES.values()))}}}", err=True)
     if json_file != "-":
         emit(text, None)
@@ -467,12 +540,12 @@ def tracking_progress(command):
 @click.option("--format", "fmt", type=click.Choice(["sound", "video"]), default=None,
               help="What the recording is (default: from its content; 'sound' takes a video's sound track).")
 @click.option("--ball", default=None, help="Video: a ball of the standards (its diameter gives the scale).")
-@click.option("--diameter", "diameter_m", type=float, default=None, help="Video: the ball's diameter [m].")
+@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Video: the ball's diameter [m].")
 @click.option("--roi", default=None, metavar="X,Y,W,H", help="Video: search the ball only in this region [px].")
 @click.option("--color", default=None, help="Video: the ball's colour (a name like 'green', #RRGGBB or B,G,R).")
-@click.option("--fps", "fps", type=float, default=None,
+@click.option("--fps", "fps", type=opt.RATE_HZ, default=None,
               help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
-@click.option("--scale", "scale_m_per_px", type=float, default=None,
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Video: metres per pixel overriding the scale from the diameter.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
 @STANDARDS_OPTION
@@ -492,7 +565,9 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
       vrcal track drop.mp4 --ball tennis -o drop.csv --plot drop.png
       vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
     """
-    from vrcal.fileio import atomic_savefig, atomic_write
+    import os
+
+    from vrcal.fileio import figure_bytes, write_files
     from vrcal.measurements.recording import track as track_recording
     from vrcal.measurements.recording import track_figure
 
@@ -504,18 +579,21 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
                              scale_m_per_px=scale_m_per_px,
                              progress=None if quiet else tracking_progress("track"))
+    files = {}
     if plot_file:
         import matplotlib.pyplot as plt
 
         fig = track_figure(result)
         try:
-            atomic_savefig(fig, plot_file, dpi=110)
+            files[plot_file] = figure_bytes(fig, os.path.splitext(plot_file)[1].lstrip(".") or "png", dpi=110)
         finally:
             plt.close(fig)
+    if output not in (None, "-"):
+        files[output] = result.text
+    write_files(files)  # the plot and the measurement, or neither
     if output in (None, "-"):
         click.echo(result.text, nl=False)
         return
-    atomic_write(output, result.text)
     if not quiet:
         click.echo(result.summary(), nl=False)
     click.echo(f"wrote {output}" + (f" and {plot_file}" if plot_file else ""), err=True)
@@ -531,29 +609,29 @@ _ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "phy
 def _engine_options(f):
     """The options export and verify share: the body, the speeds, the step and the limits."""
     options = [
-        click.option("--mass", "mass_kg", type=float, default=None,
+        click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
                      help="Ball mass [kg] (with --diameter: a ball of your own; overrides a standard's)."),
-        click.option("--diameter", "diameter_m", type=float, default=None, help="Ball diameter [m]."),
+        click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m]."),
         click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
                      help="A 'vrcal discover --json' result: its ball, release state, drag and epsilon."),
-        click.option("--epsilon", type=float, default=None,
+        click.option("--epsilon", type=opt.EPSILON, default=None,
                      help="Target epsilon (0-1] (default: the standard's, or the --from result's)."),
-        click.option("--drop-height", "drop_height_m", type=float, default=None,
+        click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
                      help="Drop height of the ball's bottom [m] (default: the standard's)."),
         click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
                      help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
-        click.option("--g", "g_m_per_s2", type=float, default=None, show_default="9.80665",
+        click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=None, show_default="9.80665",
                      help="Gravity [m/s^2]."),
-        click.option("--dt", "dt_s", type=float, default=None,
+        click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
                      help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
         click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
                                                        case_sensitive=False), default=None,
                      help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
-        click.option("--stiffness", type=float, default=None,
+        click.option("--stiffness", type=opt.STIFFNESS, default=None,
                      help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
-        click.option("--tolerance", type=float, default=0.01, show_default=True,
+        click.option("--tolerance", type=opt.TOLERANCE, default=0.01, show_default=True,
                      help="Largest accepted |achieved - target| epsilon."),
-        click.option("--max-penetration", "max_penetration_m", type=float, default=None,
+        click.option("--max-penetration", "max_penetration_m", type=opt.PENETRATION_M, default=None,
                      help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
                           "about what a real ball deforms at drop-test speed]."),
         click.option("--floor", default=None, help="'rigid' (default), a ball, or 'x=DEPTH,v=SPEED' (Eq. 6 pair)."),
@@ -634,16 +712,18 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
               help="--against: the record's format (as discover's --format).")
-@click.option("--fs", "fs_hz", type=float, default=None, help="--against: frame rate [Hz] of a file without times.")
-@click.option("--scale", "scale_m_per_px", type=float, default=None, help="--against: metres per pixel.")
+@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None,
+              help="--against: frame rate [Hz] of a file without times.")
+@click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None, help="--against: metres per pixel.")
 @click.option("--y-down", is_flag=True, help="--against: the record's y axis points down.")
-@click.option("--data-floor", "data_floor_m", type=float, default=None,
+@click.option("--data-floor", "data_floor_m", type=opt.FLOOR_M, default=None,
               help="--against: height of the floor in the record's frame [m] (as discover's --floor).")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="--against: also draw the replay (heights and model - data) into this PNG/PDF/SVG.")
-@click.option("--bounces", "n_bounces", type=int, default=None, show_default="3, or as --impact-speed needs",
+@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
+              show_default="3, or as --impact-speed needs",
               help="Bounces per drop (1-50).")
-@click.option("--phases", "n_phases", type=int, default=4, show_default=True,
+@click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
               help="Drops with the impact moved across one time step (1-64).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION
@@ -732,7 +812,7 @@ def engines_cmd():
 @click.option("--engine", type=click.Choice(["vrcal", "ode"]), default="vrcal", show_default=True,
               help="vrcal's event-driven simulator, or the real ODE library (libode8).")
 @click.option("--compare", is_flag=True, help="Run both engines and report where they differ (apexes, impacts).")
-@click.option("--ode-dt", "ode_dt_s", type=float, default=None, show_default="1e-4",
+@click.option("--ode-dt", "ode_dt_s", type=opt.ODE_TIME_STEP_S, default=None, show_default="1e-4",
               help="ODE's fixed time step [s].")
 @click.option("--no-animation", is_flag=True, help="Skip the GIF (the slowest output).")
 @STANDARDS_OPTION
@@ -754,20 +834,15 @@ def scene(ctx, scene_file, out_dir, engine, compare, ode_dt_s, no_animation):
     """
     from pathlib import Path
 
-    from vrcal.errors import UsageError
-    from vrcal.fileio import atomic_write
+    from vrcal.fileio import write_files
     from vrcal.scenes.output import run_scene
 
     run = run_scene(scene_file, engine=engine, compare=compare, ode_dt_s=ode_dt_s, standards=standards_of(ctx),
                     animate=not no_animation)
     directory = Path(out_dir) if out_dir else Path(Path(scene_file).stem)
-    try:
-        directory.mkdir(exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"cannot create output directory '{directory}': {exc.strerror or exc}") from None
+    write_files({directory / name: run.files[name] for name in sorted(run.files)}, directories=[directory])
     click.echo(run.summary, nl=False)
     for name in sorted(run.files):
-        atomic_write(directory / name, run.files[name])
         click.echo(f"wrote {directory / name}", err=True)
 
 

@@ -159,3 +159,15 @@ def _numeric(text):
         return True
     except ValueError:
         return t in ("-", "nan", "inf")
+
+
+def csv_text(header, rows):
+    """CSV text (the csv module: a cell with a comma, a quote or a newline is quoted); None is empty."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(["" if c is None else c for c in row] for row in rows)
+    return buf.getvalue()

@@ -210,8 +210,8 @@ def test_cli_honours_standards_file(tmp_path):
 
 
 @pytest.mark.parametrize("args, code, text", [
-    (["table2", "--K", "0"], 2, "K must be a finite number > 0"),
-    (["table2", "--K", "abc"], 2, "'abc' is not a valid float"),
+    (["table2", "--K", "0"], 2, "--K must be a number between"),
+    (["table2", "--K", "abc"], 2, "--K must be a number between 1e-06 and 1e+06 [1/s], got 'abc'"),
     (["table2", "--format", "xml"], 2, "Invalid value for '--format'"),
     (["table2", "-o", "/nonexistent-dir/t.md"], 2, "does not exist"),
 ])

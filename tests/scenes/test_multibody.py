@@ -339,7 +339,7 @@ def test_a_ball_resting_on_another_stops_with_a_clear_error():
                {"name": "top", "mass_kg": 0.06, "radius_m": 0.03, "virtual_body": {"x_m": 0.01, "v_m_per_s": 0.1},
                 "position_m": [0, 0, 0.3]},
            ]}
-    with pytest.raises(DataError, match="resting on another ball"):
+    with pytest.raises(DataError, match="a ball resting on a ball"):
         mb.simulate_scene(validate_scene(doc, "t.yaml"), max_events=2000)
 
 

@@ -508,6 +508,10 @@ def observations(drops, kind, t_s=None):
     raise UsageError(f"unknown format '{kind}' (valid: {', '.join(FORMATS)})")
 
 
+#: Most frames of a simulated trajectory (2 million CSV rows take about 12 s to write).
+MAX_FRAMES = 2_000_000
+
+
 def sample_measurement(drops, kind, *, fs_hz=240.0, noise_m=0.0, jitter_s=0.0, rng=None, t_start_s=0.0,
                        drop_index=0):
     """What an experimenter records from one simulated drop, as columns of the CSV layouts.
@@ -549,8 +553,8 @@ def sample_measurement(drops, kind, *, fs_hz=240.0, noise_m=0.0, jitter_s=0.0, r
         n_t = int(math.floor((drops.landing_times_s[i] - t_start_s) * fs_hz)) + 1
         if n_t < 2:
             raise UsageError("the trajectory ends before the first frame: check --fs and the start time")
-        if n_t > 10_000_000:
-            raise UsageError(f"{n_t} frames is too many: lower --fs or --bounces")
+        if n_t > MAX_FRAMES:
+            raise UsageError(f"{n_t} frames, more than the limit of {MAX_FRAMES:,}: lower --fs or --bounces")
         t = t_start_s + np.arange(n_t) / fs_hz
         y = drops.height_m(np.broadcast_to(t, (drops.n_drops, n_t)))[i]
         if noise_m > 0:

@@ -10,6 +10,8 @@ the first sheet with a table in it. Needs the optional extra ``pip install vrcal
 
 from __future__ import annotations
 
+import os
+
 from pathlib import Path
 
 from vrcal.errors import DataError, UsageError
@@ -30,6 +32,8 @@ _HINT = "install the optional extra: pip install 'vrcal[excel]'"
 
 def spreadsheet_kind(path):
     """'xlsx', 'xls' or None, from the file's first bytes (not its name)."""
+    if os.path.exists(path) and not os.path.isfile(path):
+        return None  # a FIFO or a device is read once, by the text reader: no peeking
     try:
         with open(path, "rb") as fh:
             head = fh.read(8)

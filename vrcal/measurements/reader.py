@@ -7,6 +7,7 @@ parsed like any text table.
 
 from __future__ import annotations
 
+import os
 import re
 from typing import Callable, NamedTuple
 
@@ -78,8 +79,11 @@ def detect_format(path):
 def _detect_recording(path):
     """The recording format (sound, video) a file's first bytes or its name show, or None."""
     try:
-        with open(path, "rb") as fh:
-            head = fh.read(64)
+        if os.path.exists(path) and not os.path.isfile(path):
+            head = b""  # a FIFO or a device is read once, by load_text: no peeking (only the name tells)
+        else:
+            with open(path, "rb") as fh:
+                head = fh.read(64)
     except OSError:
         return None  # load_text reports it
     for name, fmt in FORMATS.items():

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError
+from vrcal.fileio import MAX_TEXT_BYTES, read_bytes_bounded
 
 _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
@@ -53,7 +54,7 @@ def fail(path, line, what):
 def load_text(path):
     path_s = str(path)
     try:
-        raw = Path(path).read_bytes()
+        raw = read_bytes_bounded(Path(path), MAX_TEXT_BYTES, "measurement")
     except IsADirectoryError:
         raise DataError(f"{path_s}: is a directory, not a measurement file") from None
     except OSError as exc:

@@ -129,7 +129,7 @@ def load_standards(path=None):
 @lru_cache(maxsize=1)
 def _load_default():
     src = _default_path()
-    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml"),
+    return validate_standards(parse_yaml(src.read_text(encoding="utf-8"), "vrcal/standards.yaml", trusted=True),
                               "vrcal/standards.yaml")
 
 
@@ -166,7 +166,7 @@ def _number(fields, name, where, path, *, positive=True, required=True):
             raise _err(where, f"{path}.{name}", "missing")
         return None
     value = fields[name]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not abs(value) <= 1e308:  # nan, inf, huge
         raise _err(where, f"{path}.{name}", f"must be a number, got {value!r}")
     if positive and value <= 0:
         raise _err(where, f"{path}.{name}", f"must be > 0, got {value!r}")

@@ -26,8 +26,6 @@ as printed. The paper states no units for x and v; vrcal's regenerated table is 
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 
 import numpy as np
@@ -38,6 +36,7 @@ from vrcal.fileio import dumps
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
 from vrcal.model.standards import ball_epsilon
+from vrcal.textout import csv_text as _csv_text
 from vrcal.textout import machine_document, table, wrap
 
 #: text: aligned table for people (<= 100 columns); markdown: the docs' page; csv, json, yaml: machines.
@@ -387,15 +386,6 @@ _TABLE_CSV_HEADER = [
     "epsilon_paper_table1_max", "epsilon_paper_table2", "K_per_s", "T_nominal_s", "x_m",
     "v_nominal_m_per_s", "v_at_epsilon_min_m_per_s", "v_at_epsilon_max_m_per_s",
 ]
-
-
-def _csv_text(header, rows):
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(header)
-    for row in rows:
-        writer.writerow(["" if c is None else c for c in row])
-    return buf.getvalue()
 
 
 def _table_csv(table):

@@ -25,8 +25,13 @@ Choices (departures from [1], which relied on ODE for all of this):
   (epsilon = 0, with the same friction impulse) and puts the ball at rest on the floor: its
   vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno). A ball at
   rest keeps its horizontal velocity and spin (no rolling friction, no sliding friction while it
-  rests). A ball resting on another ball is not modelled: such a scene stops with an error after
-  ``max_events`` events.
+  rests). A ball resting on another ball is not modelled: a scene that starts with one is refused
+  up front, and one that comes to it (a ball settling on a ball that rests on the floor, or
+  contacts piling up at one instant) stops at that moment with an error naming the bodies.
+* Cost: every event screens every pair of bodies (numpy) and solves the few that may meet, so a
+  run costs about events x (pairs + :data:`EVENT_COST_CHECKS`) contact checks.
+  :func:`check_simulable` estimates the events (floor impacts before each body rests or the
+  scene ends) and refuses a scene above :data:`MAX_CONTACT_CHECKS` before it starts.
 
 References
 ----------
@@ -45,6 +50,15 @@ from vrcal.scenes.spec import SceneContact, SceneResult
 CONTACT_TOLERANCE_M = 1e-9
 #: Default cap on the number of events (contacts and snapshots) of one run.
 DEFAULT_MAX_EVENTS = 200_000
+#: Most contact checks (events x (pairs + EVENT_COST_CHECKS)) a scene may be estimated to need: about
+#: 20 s at ~2 us a check. A run whose events outgrow the estimate stops at 1.5 times this.
+MAX_CONTACT_CHECKS = 10_000_000
+#: The work of an event besides its pair checks (solving the contact, the snapshot), in checks.
+EVENT_COST_CHECKS = 500
+#: Events this close together in time [s] count as piling up at one instant ...
+ZENO_STEP_S = 1e-6
+#: ... and this many of them in a row stop the run (a ball settling on a ball, never at rest).
+ZENO_EVENTS = 200
 
 _FLOOR = -1
 
@@ -256,11 +270,23 @@ def _point_velocity(st, k, r):
     return st.v[k] + np.cross(st.w[k], r)
 
 
+def _pair_gaps(st):
+    """Gap between the surfaces of every pair i < j (vectorised; exact to rounding) [m], (n, n) upper."""
+    d = st.p[:, None, :] - st.p[None, :, :]
+    gaps = np.sqrt(np.einsum("ijk,ijk->ij", d, d)) - st.R[:, None] - st.R[None, :]
+    return np.triu(gaps, 1) + np.tril(np.full((st.n, st.n), np.inf))
+
+
 def _touching_approaching(st):
-    """All touching pairs that approach, fastest first: [(v_rel, i, j)]."""
+    """All touching pairs that approach, fastest first: [(v_rel, i, j)].
+
+    The gaps of all pairs are screened at once (numpy); only the pairs that may touch (a margin of
+    1e-9 m covers rounding) are examined one by one, exactly as before the screening.
+    """
     found = []
+    near = _pair_gaps(st) <= CONTACT_TOLERANCE_M + 1e-9
     for i in range(st.n):
-        for j in [_FLOOR] + list(range(i + 1, st.n)):
+        for j in [_FLOOR] + [int(k) for k in np.flatnonzero(near[i])]:
             n, ra, rb, gap = _contact_geometry(st, i, j)
             if gap > CONTACT_TOLERANCE_M:
                 continue
@@ -277,6 +303,9 @@ def _resolve(st, i, j, vrel, contacts):
     name_b = "floor" if j == _FLOOR else scene.bodies[j].name
     eps = float(st.eps[i, j])  # j == -1 picks the floor's column
     to_rest = j == _FLOOR and -vrel < scene.rest_speed_m_per_s
+    if j != _FLOOR and -vrel < scene.rest_speed_m_per_s and (st.rest[i] or st.rest[j]) and abs(n[2]) > 0.5:
+        lower, upper = (i, j) if st.rest[i] else (j, i)
+        raise _resting_on_ball(scene, st.t, upper, lower)
     if to_rest:
         eps = 0.0  # a perfectly inelastic last impact (with friction) puts the ball at rest
     inv_ia = np.eye(3) / st.I[i]
@@ -328,19 +357,107 @@ def _resolve_all(st, contacts, max_rounds=10_000):
     raise DataError(f"t = {st.t:.6g} s: simultaneous contacts did not settle after {max_rounds} impulses")
 
 
-def _next_event(st):
+def _next_event(st, horizon_s=np.inf):
+    """The earliest event (time from now [s], (i, j)); none (inf, None) within ``horizon_s``.
+
+    A pair whose surfaces cannot close their gap before the earliest floor impact (or the
+    horizon) -- its relative speed and acceleration bound how far they can approach -- is
+    skipped without solving for its contact time: it cannot be the earliest event. The rest
+    are solved one by one in the same order as without the screening, so the result is the same.
+    """
     best, what = np.inf, None
     a = st.accel()
+    floor_t = [_floor_time(st.p[i, 2], st.v[i, 2], st.R[i], st.g) if not st.rest[i] else np.inf
+               for i in range(st.n)]
+    bound = min(min(floor_t, default=np.inf), horizon_s)
+    dv = np.linalg.norm(st.v[:, None, :] - st.v[None, :, :], axis=2)
+    da = np.linalg.norm(a[:, None, :] - a[None, :, :], axis=2)
+    gaps = _pair_gaps(st)
+    upper = np.triu(np.ones((st.n, st.n), dtype=bool), 1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        reach = dv * bound + 0.5 * da * bound * bound if np.isfinite(bound) else np.full_like(gaps, np.inf)
+        may_meet = upper & ~(reach < gaps - 1e-9 * (1.0 + np.abs(gaps)))
     for i in range(st.n):
-        if not st.rest[i]:
-            t = _floor_time(st.p[i, 2], st.v[i, 2], st.R[i], st.g)
-            if t < best:
-                best, what = t, (i, _FLOOR)
-        for j in range(i + 1, st.n):
+        if floor_t[i] < best:
+            best, what = floor_t[i], (i, _FLOOR)
+        for j in np.flatnonzero(may_meet[i]):
+            j = int(j)
             t = _pair_time(st.p[i] - st.p[j], st.v[i] - st.v[j], a[i] - a[j], st.R[i] + st.R[j])
             if t < best:
                 best, what = t, (i, j)
     return best, what
+
+
+def _resting_on_ball(scene, t_s, upper, lower):
+    a, b = scene.bodies[upper].name, scene.bodies[lower].name
+    return DataError(f"{scene.source}: t = {t_s:.6g} s: {a!r} comes to rest on {b!r}, which rests on the floor: "
+                     "vrcal's simulator does not model a ball resting on a ball; use --engine ode, move the "
+                     f"balls apart sideways, or end the scene before {t_s:.4g} s (duration_s)")
+
+
+def floor_impacts_estimate(scene, cap=None):
+    """Floor impacts of all bodies before each rests or the scene ends, as if no body met another.
+
+    Parameters
+    ----------
+    scene : vrcal.scenes.spec.Scene
+    cap : int or None
+        stop counting above this many
+
+    Returns
+    -------
+    int
+        the count: each body falls from its start, rebounds with its floor epsilon (Eqs. 6, 7) and
+        rests once an impact is slower than ``rest_speed_m_per_s``
+    """
+    eps = scene.epsilon_matrix()[:-1, -1]
+    g, end, rest = scene.g_m_per_s2, scene.duration_s, max(scene.rest_speed_m_per_s, 1e-9)
+    total = 0
+    for body, e in zip(scene.bodies, eps):
+        vz = body.velocity_m_per_s[2]
+        v = float(np.sqrt(vz * vz + 2.0 * g * max(body.position_m[2] - body.radius_m, 0.0)))
+        t = (vz + v) / g
+        while t < end and v >= rest:
+            total += 1
+            if cap is not None and total > cap:
+                return total
+            v *= e
+            t += 2.0 * v / g
+    return total
+
+
+def check_simulable(scene):
+    """Refuse, before any work, a scene this simulator cannot run (in seconds) or does not model.
+
+    Raises
+    ------
+    DataError
+        a ball starts resting on a ball that rests on the floor (not modelled), or the run would
+        need more than :data:`MAX_CONTACT_CHECKS` pair checks (too many bodies for the time asked)
+    """
+    p = np.array([b.position_m for b in scene.bodies])
+    v = np.array([b.velocity_m_per_s for b in scene.bodies])
+    r = np.array([b.radius_m for b in scene.bodies])
+    on_floor = (p[:, 2] - r <= CONTACT_TOLERANCE_M) & (v[:, 2] <= 0)
+    for lower in np.flatnonzero(on_floor):
+        d = p - p[lower]
+        gap = np.linalg.norm(d, axis=1) - r - r[lower]
+        for upper in np.flatnonzero((gap <= CONTACT_TOLERANCE_M) & (d[:, 2] > 0.5 * (r + r[lower]))):
+            if v[upper] @ d[upper] <= 0:  # not moving away: gravity presses it onto the lower ball
+                raise DataError(f"{scene.source}: {scene.bodies[upper].name!r} starts resting on "
+                                f"{scene.bodies[lower].name!r}, which rests on the floor: vrcal's simulator does "
+                                "not model a ball resting on a ball; use --engine ode, or lift it or move it "
+                                "sideways")
+    n = len(scene.bodies)
+    per_event = n * (n + 1) // 2 + EVENT_COST_CHECKS
+    impacts = floor_impacts_estimate(scene, cap=MAX_CONTACT_CHECKS // per_event + 1)
+    if impacts * per_event > MAX_CONTACT_CHECKS:
+        more = "at least " if impacts > MAX_CONTACT_CHECKS // per_event else ""
+        raise DataError(f"{scene.source}: too many bodies for the time asked: {more}{impacts} floor impacts, "
+                        f"each checking {n * (n + 1) // 2} pairs of bodies and floor: {impacts * per_event:.2g} "
+                        f"contact checks, more than the limit of {MAX_CONTACT_CHECKS:.0e} (about 20 s): fewer "
+                        "bodies or a shorter duration_s")
+    return impacts
 
 
 def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
@@ -359,18 +476,30 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
         trajectories at ``scene.sample_times_s()``, every contact with its epsilon and impulses,
         and every apex (exact, from the flight parabolas)
     """
+    check_simulable(scene)
+    n = len(scene.bodies)
+    max_events = min(max_events, 3 * MAX_CONTACT_CHECKS // (2 * (n * (n + 1) // 2 + EVENT_COST_CHECKS)))
     st = _State(scene)
     contacts = []
     _resolve_all(st, contacts)
     snaps = [st.snapshot()]
     n_events = 0
+    piled = 0  # events in a row closer together than ZENO_STEP_S
     while st.t < scene.duration_s:
-        dt, what = _next_event(st)
+        dt, what = _next_event(st, scene.duration_s - st.t)
         if st.t + dt >= scene.duration_s or what is None:
             st.advance(scene.duration_s - st.t)
             snaps.append(st.snapshot())
             break
         st.advance(dt)
+        piled = piled + 1 if dt < ZENO_STEP_S else 0
+        if piled >= ZENO_EVENTS:
+            last = contacts[-1] if contacts else None
+            who = f" ({last.body_a!r} on {last.body_b!r})" if last else ""
+            raise DataError(f"{scene.source}: t = {st.t:.6g} s: {ZENO_EVENTS} contacts in a row less than "
+                            f"{ZENO_STEP_S:g} s apart{who}: the simulation cannot advance (a ball settling on a "
+                            "ball is not modelled by vrcal's simulator); use --engine ode, move the balls apart, "
+                            f"or end the scene before {st.t:.4g} s (duration_s)")
         i, j = what
         if j == _FLOOR:
             st.p[i, 2] = st.R[i]  # the root of the quadratic: the bottom is at z = 0
@@ -380,9 +509,9 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
         if n_events >= max_events:
             last = contacts[-1] if contacts else None
             who = f" (last contact: {last.body_a} on {last.body_b})" if last else ""
-            raise DataError(f"{scene.source}: more than {max_events} events before t = {st.t:.6g} s{who}: "
-                            "a ball resting on another ball is not modelled; offset the bodies or shorten "
-                            "duration_s")
+            raise DataError(f"{scene.source}: more than {max_events} events before t = {st.t:.6g} s{who}, the "
+                            f"limit for {n} bodies (1.5 x {MAX_CONTACT_CHECKS:.0e} contact checks): fewer bodies "
+                            "or a shorter duration_s")
     return _sample(scene, snaps, contacts)
 
 

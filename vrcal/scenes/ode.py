@@ -54,6 +54,8 @@ WORLD_ERP = 0.2
 MAX_CORRECTING_VEL_M_PER_S = 0.1
 #: Largest number of contact points per geom pair.
 MAX_CONTACTS = 4
+#: Most body-steps (time steps x bodies) of one run: about 30 s at ~15 us a body-step.
+MAX_BODY_STEPS = 2_000_000
 
 
 def near_callback_bounce(virtual_a, virtual_b, K_per_s):
@@ -138,6 +140,11 @@ def simulate_scene_ode(scene, *, dt_s=DEFAULT_DT_S):
     if not (math.isfinite(dt_s) and 0 < dt_s <= scene.sample_dt_s):
         raise UsageError(f"--ode-dt must be > 0 and at most the scene's sample_dt_s = {scene.sample_dt_s:g} s, "
                          f"got {dt_s!r}")
+    body_steps = scene.duration_s / dt_s * len(scene.bodies)
+    if body_steps > MAX_BODY_STEPS:
+        raise UsageError(f"{scene.source}: duration_s / --ode-dt = {scene.duration_s / dt_s:.3g} steps of "
+                         f"{len(scene.bodies)} bodies, more than the limit of {MAX_BODY_STEPS:.0e} body-steps: "
+                         "a larger --ode-dt or a shorter duration_s")
     lib = O.load_ode()
     with _OdeMessages(lib) as messages:
         result = _run(O, lib, scene, dt_s)

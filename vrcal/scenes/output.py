@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vrcal.textout import number, table, wrap
+from vrcal.textout import csv_text, number, table, wrap
 
 #: A ball whose bottom never rises above this [m] stays on the floor: the plot shows x instead.
 ON_FLOOR_M = 1e-3
@@ -54,21 +54,19 @@ def trajectories_csv(result):
     """The sampled trajectories as CSV text (layout in the module docstring)."""
     names = result.scene.names
     bottom = result.bottom_height_m()
-    lines = [",".join(TRAJECTORY_COLUMNS)]
+    rows = []
     for k, t in enumerate(result.t_s):
         for b, name in enumerate(names):
             p, v, w = result.position_m[k, b], result.velocity_m_per_s[k, b], result.spin_rad_per_s[k, b]
-            lines.append(",".join([_g(t), name, *map(_g, p), _g(bottom[k, b]), *map(_g, v), *map(_g, w)]))
-    return "\n".join(lines) + "\n"
+            rows.append([_g(t), name, *map(_g, p), _g(bottom[k, b]), *map(_g, v), *map(_g, w)])
+    return csv_text(TRAJECTORY_COLUMNS, rows)  # names quoted where they hold a comma or a newline
 
 
 def contacts_csv(result):
     """Every contact as CSV text (layout in the module docstring)."""
-    lines = [",".join(CONTACT_COLUMNS)]
-    for c in result.contacts:
-        lines.append(",".join([_g(c.t_s), c.body_a, c.body_b, _g(c.impact_speed_m_per_s), _g(c.epsilon),
-                               _g(c.normal_impulse_N_s), _g(c.tangential_impulse_N_s), c.note]))
-    return "\n".join(lines) + "\n"
+    rows = [[_g(c.t_s), c.body_a, c.body_b, _g(c.impact_speed_m_per_s), _g(c.epsilon),
+             _g(c.normal_impulse_N_s), _g(c.tangential_impulse_N_s), c.note] for c in result.contacts]
+    return csv_text(CONTACT_COLUMNS, rows)
 
 
 def leaves_floor(result):
@@ -123,7 +121,8 @@ def plot_heights(result, ax=None, other=None):
         what = "no ball leaves the floor: horizontal positions"
     ax.set_title(f"{result.scene.name}: {what} (K = {result.scene.K_per_s:g} 1/s)", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(handles=handles, fontsize=7, loc="upper right" if vertical else "best")
+    if len(result.scene.names) <= 12:  # a longer legend would cover the plot
+        ax.legend(handles=handles, fontsize=7, loc="upper right" if vertical else "best")
     return ax
 
 
@@ -218,7 +217,7 @@ def animation_gif(result, *, max_frames=150, fps=None, dpi=80):
     ax.set_title(f"{result.scene.name} ({result.engine})", fontsize=9)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     ax.legend(handles=[Patch(fc=colours[b % len(colours)], ec="k", label=body.name)
-                       for b, body in enumerate(result.scene.bodies)],
+                       for b, body in enumerate(result.scene.bodies[:12])],  # more would not fit
               loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7, frameon=False)
     fig.tight_layout()
     circles, marks = [], []

@@ -63,6 +63,20 @@ DEFAULT_REST_SPEED_M_PER_S = 0.05
 INERTIA_FACTORS = {"hollow": 2.0 / 3.0, "solid": 2.0 / 5.0}
 #: Floor materials with a known virtual body.
 FLOOR_MATERIALS = {"steel": (0.0, 0.0), "rigid": (0.0, 0.0)}
+#: Most bodies in one scene.
+MAX_BODIES = 100
+#: Most output rows (sample times x bodies) of one scene; 10**6 rows take about 15 s and 40 MB of CSV.
+MAX_SAMPLE_ROWS = 1_000_000
+#: Longest name of a scene or a body [characters].
+MAX_NAME_CHARS = 100
+#: Largest values of a scene's quantities (the command line's options have the same ranges, docs/limits.md).
+MAX_K_PER_S = 1e6
+MAX_GRAVITY_M_PER_S2 = 1e3
+MAX_MASS_KG = 1e4
+MAX_RADIUS_M = 5.0
+MAX_POSITION_M = 1e4
+MAX_SPEED_M_PER_S = 1e4
+MAX_SPIN_RAD_PER_S = 1e6
 
 _TOP_FIELDS = {
     "name", "description", "K_per_s", "duration_s", "sample_dt_s", "gravity_m_per_s2", "friction_mu",
@@ -223,28 +237,43 @@ def _err(where, path, msg):
     return DataError(f"{where}: {path}: {msg}")
 
 
-def _number(fields, key, where, path, *, default=None, minimum=None, strict=True):
+def _brief(value, limit=40):
+    """``repr(value)``, cut to ``limit`` characters (a huge value in a message)."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit - 3]}..."
+
+
+def _finite(value):
+    """True for a finite int or float (not a bool; an int beyond float's range is not finite)."""
+    return (not isinstance(value, bool) and isinstance(value, (int, float))
+            and (abs(value) <= 1e308 if isinstance(value, int) else math.isfinite(value)))
+
+
+def _number(fields, key, where, path, *, default=None, minimum=None, strict=True, maximum=None):
     if key not in fields or fields[key] is None:
         if default is None:
             raise _err(where, f"{path}{key}", "missing")
         return float(default)
     value = fields[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise _err(where, f"{path}{key}", f"must be a number, got {value!r}")
+    if not _finite(value):
+        raise _err(where, f"{path}{key}", f"must be a number, got {_brief(value)}")
     if minimum is not None and (value <= minimum if strict else value < minimum):
         raise _err(where, f"{path}{key}", f"must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+    if maximum is not None and value > maximum:
+        raise _err(where, f"{path}{key}", f"must be <= {maximum:g}, got {value!r}")
     return float(value)
 
 
-def _vector(fields, key, where, path, *, default=None):
+def _vector(fields, key, where, path, *, default=None, maximum=None):
     if key not in fields or fields[key] is None:
         if default is None:
             raise _err(where, f"{path}{key}", "missing")
         return tuple(default)
     value = fields[key]
-    if (not isinstance(value, (list, tuple)) or len(value) != 3
-            or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) for c in value)):
-        raise _err(where, f"{path}{key}", f"must be a list of 3 numbers [x, y, z], got {value!r}")
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(_finite(c) for c in value):
+        raise _err(where, f"{path}{key}", f"must be a list of 3 numbers [x, y, z], got {_brief(value)}")
+    if maximum is not None and max(abs(c) for c in value) > maximum:
+        raise _err(where, f"{path}{key}", f"every component must lie within +-{maximum:g}, got {value!r}")
     return tuple(float(c) for c in value)
 
 
@@ -276,18 +305,21 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
     if not isinstance(doc, dict):
         raise DataError(f"{where}: top level must be a mapping with K_per_s, duration_s, floor and bodies")
     _unknown(doc, _TOP_FIELDS, where, "")
-    K = _number(doc, "K_per_s", where, "", minimum=0)
+    K = _number(doc, "K_per_s", where, "", minimum=0, maximum=MAX_K_PER_S)
     duration = _number(doc, "duration_s", where, "", minimum=0)
     sample_dt = _number(doc, "sample_dt_s", where, "", default=DEFAULT_SAMPLE_DT_S, minimum=0)
     if sample_dt > duration:
         raise _err(where, "sample_dt_s", f"must not exceed duration_s = {duration:g}, got {sample_dt:g}")
-    g = _number(doc, "gravity_m_per_s2", where, "", default=eq.STANDARD_GRAVITY_M_PER_S2, minimum=0)
+    n_samples = duration / sample_dt + 1
+    g = _number(doc, "gravity_m_per_s2", where, "", default=eq.STANDARD_GRAVITY_M_PER_S2, minimum=0,
+                maximum=MAX_GRAVITY_M_PER_S2)
     mu = _number(doc, "friction_mu", where, "", default=DEFAULT_FRICTION_MU, minimum=0, strict=False)
     rest = _number(doc, "rest_speed_m_per_s", where, "", default=DEFAULT_REST_SPEED_M_PER_S, minimum=0,
                    strict=False)
     name = doc.get("name", default_name)
-    if not isinstance(name, str) or not name.strip():
-        raise _err(where, "name", f"must be a non-empty text, got {name!r}")
+    if not isinstance(name, str) or not name.strip() or len(name.strip()) > MAX_NAME_CHARS:
+        raise _err(where, "name", f"must be a non-empty text (at most {MAX_NAME_CHARS} characters), "
+                                  f"got {_brief(name)}")
     description = doc.get("description", "")
     if not isinstance(description, str):
         raise _err(where, "description", "must be text")
@@ -295,6 +327,12 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
     raw_bodies = doc.get("bodies")
     if not isinstance(raw_bodies, list) or not raw_bodies:
         raise _err(where, "bodies", "must be a non-empty list of bodies")
+    if len(raw_bodies) > MAX_BODIES:
+        raise _err(where, "bodies", f"{len(raw_bodies)} bodies, more than the limit of {MAX_BODIES}")
+    if n_samples * len(raw_bodies) > MAX_SAMPLE_ROWS:
+        raise _err(where, "sample_dt_s", f"duration_s / sample_dt_s = {n_samples - 1:.3g} samples of "
+                                         f"{len(raw_bodies)} bodies, more than the limit of {MAX_SAMPLE_ROWS:.0e} "
+                                         "rows: raise sample_dt_s or shorten duration_s")
     bodies = []
     for i, fields in enumerate(raw_bodies):
         bodies.append(_body(fields, i, where, K, standards))
@@ -338,8 +376,10 @@ def _body(fields, i, where, K, standards):
         raise _err(where, label, "must be a mapping with name, position_m and ball (or mass_kg, radius_m, "
                                  "virtual_body)")
     name = fields.get("name")
-    if not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor":
-        raise _err(where, f"{label}.name", f"must be a non-empty text other than 'floor', got {name!r}")
+    if (not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor"
+            or len(name.strip()) > MAX_NAME_CHARS):
+        raise _err(where, f"{label}.name", f"must be a non-empty text other than 'floor' (at most "
+                                           f"{MAX_NAME_CHARS} characters), got {_brief(name)}")
     name = name.strip()
     path = f"{label} (name {name!r})."
     _unknown(fields, _BODY_FIELDS, where, path)
@@ -361,8 +401,8 @@ def _body(fields, i, where, K, standards):
         mass, radius, x, v = ball.mass_kg.nominal, ball.radius_m, vb.x_m, vb.v_m_per_s
     elif "as_paper" in fields:
         raise _err(where, f"{path}as_paper", "only applies to a body with a 'ball'")
-    mass = _number(fields, "mass_kg", where, path, default=mass, minimum=0)
-    radius = _number(fields, "radius_m", where, path, default=radius, minimum=0)
+    mass = _number(fields, "mass_kg", where, path, default=mass, minimum=0, maximum=MAX_MASS_KG)
+    radius = _number(fields, "radius_m", where, path, default=radius, minimum=0, maximum=MAX_RADIUS_M)
     if "virtual_body" in fields or ball_key is None:
         vb = fields.get("virtual_body")
         vpath = f"{path}virtual_body"
@@ -381,7 +421,7 @@ def _body(fields, i, where, K, standards):
     inertia = fields.get("inertia", "hollow")
     if inertia not in INERTIA_FACTORS:
         raise _err(where, f"{path}inertia", f"must be one of {sorted(INERTIA_FACTORS)}, got {inertia!r}")
-    position = _vector(fields, "position_m", where, path)
+    position = _vector(fields, "position_m", where, path, maximum=MAX_POSITION_M)
     position_of = fields.get("position_of", "centre")
     if position_of not in ("centre", "bottom"):
         raise _err(where, f"{path}position_of", f"must be 'centre' or 'bottom', got {position_of!r}")
@@ -390,8 +430,8 @@ def _body(fields, i, where, K, standards):
     if position[2] < radius:
         raise _err(where, f"{path}position_m", f"the sphere reaches below the floor: centre z = {position[2]:g} m "
                                                f"< radius {radius:g} m")
-    velocity = _vector(fields, "velocity_m_per_s", where, path, default=(0.0, 0.0, 0.0))
-    spin = _vector(fields, "spin_rad_per_s", where, path, default=(0.0, 0.0, 0.0))
+    velocity = _vector(fields, "velocity_m_per_s", where, path, default=(0.0, 0.0, 0.0), maximum=MAX_SPEED_M_PER_S)
+    spin = _vector(fields, "spin_rad_per_s", where, path, default=(0.0, 0.0, 0.0), maximum=MAX_SPIN_RAD_PER_S)
     return SceneBody(name=name, mass_kg=mass, radius_m=radius, inertia_factor=INERTIA_FACTORS[inertia], x_m=x,
                      v_m_per_s=v, position_m=position, velocity_m_per_s=velocity, spin_rad_per_s=spin,
                      ball=ball_key)

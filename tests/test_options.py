@@ -1,0 +1,123 @@
+"""Tests of vrcal.options: every numeric option of every command refuses NaN, infinities and values
+out of its range while the command line is parsed -- one line, exit status 2, the range named."""
+
+import math
+
+import click
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vrcal import options as opt
+from vrcal.cli import main
+
+
+def _commands(group=main, path=()):
+    for name, cmd in sorted(group.commands.items()):
+        if isinstance(cmd, click.Group):
+            yield from _commands(cmd, (*path, name))
+        else:
+            yield (*path, name), cmd
+
+
+def _numeric_options():
+    for path, cmd in _commands():
+        for p in cmd.params:
+            if isinstance(p, click.Option) and (isinstance(p.type, (click.types.FloatParamType,
+                                                                     click.types.IntParamType))
+                                                or getattr(p.type, "numeric_kind", None)):
+                yield path, cmd, p
+
+
+def _minimal_args(cmd):
+    """Placeholder values for the command's required arguments and options (parsing stops before work)."""
+    args = []
+    for p in cmd.params:
+        if not p.required:
+            continue
+        value = p.type.choices[0] if isinstance(p.type, click.Choice) else "x"
+        args += [value] if isinstance(p, click.Argument) else [max(p.opts, key=len), value]
+    return args
+
+
+NUMERIC = list(_numeric_options())
+
+
+def test_every_numeric_option_has_a_range_type():
+    plain = [f"{' '.join(path)} {max(p.opts, key=len)}" for path, _cmd, p in NUMERIC
+             if not isinstance(p.type, (opt.Real, opt.Count))]
+    assert plain == [], f"numeric options without a vrcal.options type: {plain}"
+
+
+@pytest.mark.parametrize("path,cmd,param", NUMERIC, ids=[f"{' '.join(p)} {max(q.opts, key=len)}"
+                                                         for p, _c, q in NUMERIC])
+def test_every_numeric_option_refuses_nan_and_infinity(path, cmd, param):
+    name = max(param.opts, key=len)
+    for bad in (["nan", "inf", "-inf"] if getattr(param.type, "numeric_kind", "float") == "float"
+                else ["-1e9", "1.5", "x"]):
+        result = CliRunner().invoke(main, [*path, *_minimal_args(cmd), f"{name}={bad}"])
+        assert result.exit_code == 2, (bad, result.output)
+        lines = result.output.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"vrcal: error: {name} must be"), (bad, result.output)
+        assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["discover", "d.csv", "--ball", "tennis", "--floor", "nan"],
+     "--floor must be a finite number between -10000 and 10000 [m], got nan"),
+    (["discover", "d.csv", "--ball", "tennis", "--scale", "nan"], "--scale must be a finite number"),
+    (["simulate", "tennis", "--seed", "-1"], "--seed must be an integer >= 0, got -1"),
+    (["fit", "basketball", "--n", "10000000"], "--n must be an integer between 1 and 10000, got 10000000"),
+    (["simulate", "tennis", "--bounces", "10000000"], "--bounces must be an integer between 1 and 1000"),
+    (["simulate", "tennis", "--bounces", "9" * 200], "got one of 200 characters"),
+    (["fit", "basketball", "--K", "1e-320"], "--K must be a number between 1e-06 and 1e+06 [1/s], got 1e-320"),
+])
+def test_the_issue_cases_are_one_line_errors(args, message):
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and message in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1
+
+
+def test_real_range_text():
+    assert opt.Real(0, 1, min_open=True).range_text() == "in (0, 1]"
+    assert opt.Real(0, unit="m").range_text() == ">= 0 [m]"
+    assert opt.Real(None, 5, max_open=True).range_text() == "< 5"
+    assert opt.Real(1e-6, 1e6, unit="1/s").range_text() == "between 1e-06 and 1e+06 [1/s]"
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.text(max_size=20)))
+def test_real_accepts_exactly_the_finite_numbers_in_range(text):
+    t = opt.Real(0, 10, min_open=True)
+    try:
+        x = float(text)
+    except (ValueError, OverflowError):
+        x = None
+    try:
+        got = t.convert(text, None, None)
+    except click.UsageError as exc:
+        assert "must be" in exc.message
+        assert x is None or not (math.isfinite(x) and 0 < x <= 10)
+    else:
+        assert got == x and 0 < got <= 10
+
+
+def test_a_plain_float_option_is_caught_by_the_net():
+    @click.command(cls=opt.FiniteCommand)
+    @click.option("--h", type=float)
+    def cmd(h):
+        click.echo(f"h={h}")
+
+    assert CliRunner().invoke(cmd, ["--h", "1.5"]).output == "h=1.5\n"
+    result = CliRunner().invoke(cmd, ["--h", "nan"])
+    assert result.exit_code == 2 and "--h must be a finite number, got nan" in result.output
+
+
+def test_docs_limits_lists_every_numeric_option_with_its_range():
+    from helpers import ROOT
+
+    text = " ".join((ROOT / "docs" / "limits.md").read_text(encoding="utf-8").split())
+    missing = [f"{max(p.opts, key=len)} {p.type.range_text()}" for _path, _cmd, p in NUMERIC
+               if f"| `{max(p.opts, key=len)}` | {p.type.range_text()} |" not in text]
+    assert missing == [], f"docs/limits.md does not list: {missing}"

@@ -1,0 +1,197 @@
+"""The numeric command-line option types, with their ranges, in one place.
+
+Every numeric option of every command takes one of the types here, so a value that is not a
+number, NaN, an infinity, or outside the option's range is refused while the command line is
+parsed -- one line, exit status 2, the range in the message -- before any work starts::
+
+    vrcal: error: --floor must be a finite number between -10000 and 10000 [m], got nan (see 'vrcal discover --help')
+
+The ranges are those where vrcal's models mean something and its outputs stay a sensible
+size; they are listed in docs/limits.md. The library functions check their own arguments
+too; these types are the command line's first and uniform gate.
+
+:class:`FiniteCommand` is the safety net for an option declared with plain ``type=float``:
+it refuses NaN and infinities for every float option of a command that uses it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import click
+
+
+def _range_text(lo, hi, lo_open=False, hi_open=False, unit=""):
+    """'> 0', 'in (0, 1]', 'between 1e-06 and 1e+06 [1/s]', '>= 1' ('' without bounds)."""
+    unit = f" [{unit}]" if unit else ""
+    if lo is not None and hi is not None:
+        if lo_open or hi_open:
+            return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}{unit}"
+        return f"between {lo:g} and {hi:g}{unit}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {lo:g}{unit}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {hi:g}{unit}"
+    return ""
+
+
+class Real(click.ParamType):
+    """A finite real number in [minimum, maximum] (an end excluded with ``min_open``/``max_open``).
+
+    Parameters
+    ----------
+    minimum, maximum : float or None
+        the range; None for no bound on that side
+    min_open, max_open : bool
+        exclude the bound itself (``> 0`` rather than ``>= 0``)
+    unit : str
+        the unit, shown in messages and in ``--help`` (e.g. "m", "1/s")
+    """
+
+    name = "number"
+    numeric_kind = "float"
+
+    def __init__(self, minimum=None, maximum=None, *, min_open=False, max_open=False, unit=""):
+        self.minimum, self.maximum = minimum, maximum
+        self.min_open, self.max_open = min_open, max_open
+        self.unit = unit
+
+    def range_text(self):
+        """The range as people write it: '> 0', 'in (0, 1]', 'between 1e-06 and 1e+06 [1/s]'."""
+        return _range_text(self.minimum, self.maximum, self.min_open, self.max_open, self.unit)
+
+    def get_metavar(self, param, ctx=None):
+        return "NUMBER"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, bool):
+            _fail(param, ctx, f"must be a number {self.range_text()}, got {value!r}")
+        try:
+            x = float(value)
+        except (TypeError, ValueError, OverflowError):
+            _fail(param, ctx, f"must be a number {self.range_text()}, got {_brief(value)!r}")
+        lo, hi = self.minimum, self.maximum
+        if (not math.isfinite(x) or (lo is not None and (x < lo or (self.min_open and x == lo)))
+                or (hi is not None and (x > hi or (self.max_open and x == hi)))):
+            finite = "a finite number" if not math.isfinite(x) else "a number"
+            _fail(param, ctx, f"must be {finite} {self.range_text()}, got {_brief(value)}")
+        return x
+
+    def __repr__(self):
+        return f"Real({self.range_text()})"
+
+
+class Count(click.ParamType):
+    """A whole number in [minimum, maximum] (None: no bound on that side)."""
+
+    name = "integer"
+    numeric_kind = "int"
+
+    def __init__(self, minimum=None, maximum=None):
+        self.minimum, self.maximum = minimum, maximum
+
+    def range_text(self):
+        """The range as people write it: '>= 0', 'between 1 and 1000'."""
+        return _range_text(self.minimum, self.maximum)
+
+    def get_metavar(self, param, ctx=None):
+        return "INTEGER"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, bool):
+            _fail(param, ctx, f"must be an integer {self.range_text()}, got {value!r}")
+        if isinstance(value, int):
+            n = value
+        else:
+            text = str(value).strip()
+            if len(text) > 50:
+                _fail(param, ctx, f"must be an integer {self.range_text()}, got one of {len(text)} characters")
+            try:
+                n = int(text)
+            except ValueError:
+                _fail(param, ctx, f"must be an integer {self.range_text()}, got {_brief(value)!r}")
+        if (self.minimum is not None and n < self.minimum) or (self.maximum is not None and n > self.maximum):
+            _fail(param, ctx, f"must be an integer {self.range_text()}, got {n}")
+        return n
+
+    def __repr__(self):
+        return f"Count({self.range_text()})"
+
+
+def _fail(param, ctx, message):
+    """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2)."""
+    name = max(param.opts, key=len) if param is not None and param.opts else "value"
+    raise click.UsageError(f"{name} {message}", ctx)
+
+
+def _brief(value, limit=40):
+    text = str(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+class FiniteCommand(click.Command):
+    """A command that refuses NaN and infinities for every float option, whatever its declared type.
+
+    The options typed with :class:`Real` already do; this catches one declared ``type=float``.
+    """
+
+    def parse_args(self, ctx, args):
+        rest = super().parse_args(ctx, args)
+        for p in self.params:
+            value = ctx.params.get(p.name)
+            if isinstance(p.type, click.types.FloatParamType) and isinstance(value, float) \
+                    and not math.isfinite(value):
+                _fail(p, ctx, f"must be a finite number, got {value}")
+        return rest
+
+
+# --------------------------------------------------------------------------- the options' types
+
+#: Rate constant K of Eq. (7) [1/s].
+K_PER_S = Real(1e-6, 1e6, unit="1/s")
+#: Depth x of a virtual body [m].
+DEPTH_M = Real(0, 10, min_open=True, unit="m")
+#: Speed v of a virtual body [m/s].
+SPEED_M_PER_S = Real(0, 1e4, min_open=True, unit="m/s")
+#: Number of (x, v) family members of ``fit``.
+FAMILY_SIZE = Count(1, 10_000)
+#: Drop height [m].
+HEIGHT_M = Real(1e-6, 1e4, unit="m")
+#: Number of floor impacts of ``simulate`` (after a few hundred bounces a ball is at rest).
+BOUNCES = Count(1, 1000)
+#: Coefficient of restitution (below 0.001 a ball is dead: nothing to calibrate).
+EPSILON = Real(1e-3, 1)
+#: Frame (sampling) rate [Hz].
+RATE_HZ = Real(1e-3, 1e7, unit="Hz")
+#: Noise of simulated heights [m].
+NOISE_M = Real(0, 1, unit="m")
+#: Noise of simulated impact times [s].
+JITTER_S = Real(0, 1, unit="s")
+#: Seed of a random generator.
+SEED = Count(0, None)
+#: Still segment before a release [s].
+STILL_S = Real(0, 1000, unit="s")
+#: Mass of a ball [kg].
+MASS_KG = Real(1e-6, 1e4, unit="kg")
+#: Diameter of a ball [m].
+DIAMETER_M = Real(1e-4, 10, unit="m")
+#: Metres per pixel of a video track [m/px].
+SCALE_M_PER_PX = Real(1e-9, 1e3, unit="m/px")
+#: Height of the floor in a record's frame [m].
+FLOOR_M = Real(-1e4, 1e4, unit="m")
+#: Noise of one datum in the data's unit (m, or s for impacts).
+DATA_NOISE = Real(1e-9, 1e3)
+#: Gravitational acceleration [m/s^2].
+GRAVITY_M_PER_S2 = Real(1e-2, 1e3, unit="m/s^2")
+#: A physics engine's time step [s] (each engine may bound it further).
+TIME_STEP_S = Real(0, 1, min_open=True, unit="s")
+#: ODE's time step in a scene [s].
+ODE_TIME_STEP_S = Real(1e-7, 0.1, unit="s")
+#: Largest accepted |achieved - target| epsilon.
+TOLERANCE = Real(1e-9, 1)
+#: MuJoCo's contact stiffness [1/s^2]; 0 is the one-step damper.
+STIFFNESS = Real(0, 1e12, unit="1/s^2")
+#: Largest accepted penetration (or hover) of a ball in an engine [m].
+PENETRATION_M = Real(1e-9, 10, unit="m")
+#: A count of at least one (each command may bound it further).
+POSITIVE_COUNT = Count(1, None)
