@@ -27,7 +27,7 @@ def test_a_users_own_ball():
 
 @pytest.mark.parametrize("kwargs, message", [
     ({}, "no body"),
-    ({"mass_kg": 0.05}, "no body"),
+    ({"mass_kg": 0.05}, "--mass without --diameter"),
     ({"mass_kg": 0.0, "diameter_m": 0.04}, "--mass must be a number > 0"),
     ({"mass_kg": 0.05, "diameter_m": float("nan")}, "--diameter must be a number > 0"),
 ])

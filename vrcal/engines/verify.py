@@ -125,6 +125,7 @@ def _load_file(engine, text, ball, options):
     if mass is None:
         raise DataError("the MJCF ball geom has no mass: give BALL (or --mass and --diameter)")
     from vrcal.engines.common import check_epsilon
+    from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
     eps = check_epsilon(options["epsilon"] if options["epsilon"] is not None else target["epsilon"], "epsilon")
     H = target.get("drop_height_m")
@@ -133,7 +134,7 @@ def _load_file(engine, text, ball, options):
     n_b = target.get("n_bounces", N_BOUNCES)
     setup = DropSetup(
         ball=name, mass_kg=float(mass), radius_m=float(radius), drop_height_m=float(H), epsilon=eps,
-        dt_s=float(dt), g_m_per_s2=float(target.get("g_m_per_s2", 9.80665)), ball_epsilon=eps,
+        dt_s=float(dt), g_m_per_s2=float(target.get("g_m_per_s2", STANDARD_GRAVITY_M_PER_S2)), ball_epsilon=eps,
         notes=(f"target epsilon {eps:.4f} from the file",), n_bounces=max(int(n_b), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
