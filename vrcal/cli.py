@@ -620,10 +620,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
     from vrcal.measurements.recording import track_figure
 
     if ball is not None and diameter_m is None:
-        from vrcal.model.body import ball_from_options
-
-        props, _std = ball_from_options(ball, standards_of(ctx), None, None)
-        diameter_m = float(props.diameter_m)
+        diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
                              scale_m_per_px=scale_m_per_px,
                              progress=None if quiet else tracking_progress("track"))

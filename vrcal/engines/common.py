@@ -618,6 +618,7 @@ class VerifyResult(RunsSummary):
     max_penetration_m: float
     settings: dict = field(default_factory=dict)
     notes: tuple = ()
+    g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
 
     @property
     def apex_ratios(self):
@@ -653,8 +654,8 @@ class VerifyResult(RunsSummary):
         r = self.runs
         return {
             "engine": self.engine, "engine_version": self.engine_version, "ball": self.ball,
-            "target_epsilon": self.target, "dt_s": self.dt_s, "tolerance": self.tolerance,
-            "phase_shifts_m": [float(p) for p in r.shifts_m],
+            "target_epsilon": self.target, "dt_s": self.dt_s, "g_m_per_s2": self.g_m_per_s2,
+            "tolerance": self.tolerance, "phase_shifts_m": [float(p) for p in r.shifts_m],
             "apex_ratios": r.apex_ratios.tolist(),
             "velocity_ratios": r.velocity_ratios.tolist(),
             "target_apex_ratios": r.target_apex_ratios.tolist(),

@@ -90,7 +90,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
-        settings=_settings(eng.name, loaded, setup), notes=setup.notes,
+        settings=_settings(eng.name, loaded, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
     )
 
 
@@ -177,7 +177,7 @@ def format_report(result):
     from vrcal.textout import table
 
     r, runs = result, result.runs
-    settings = ", ".join(f"{k} {v}" for k, v in r.settings.items())
+    settings = ", ".join([*(f"{k} {v}" for k, v in r.settings.items()), f"g {r.g_m_per_s2:g} m/s^2"])
     lines = [f"{r.engine} {r.engine_version}: {r.ball}, dt {r.dt_s:g} s, {runs.apex_ratios.shape[0]} contact "
              f"phase(s) x {runs.apex_ratios.shape[1]} bounce(s)"]
     import textwrap
