@@ -107,8 +107,8 @@ def test_messages_use_the_commands_spelling():
     with pytest.raises(UsageError) as exc:
         describe_body(ball_label="--ball", from_label=None)
     assert str(exc.value) == "no body: give --ball (a ball of the standards), or --mass and --diameter"
-    with pytest.raises(UsageError, match=r"^--diameter without --mass: a ball of your own needs both \(or give "
-                                         r"--ball \(a ball of the standards\)\)$"):
+    with pytest.raises(UsageError, match=r"^--diameter without --mass: a ball of your own needs both; or give "
+                                         r"--ball, a ball of the standards$"):
         describe_body(diameter_m=0.04, ball_label="--ball", from_label=None)
 
 

@@ -261,13 +261,13 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
         std = standards.get(_norm(found["name"]))
         return Body(props, std, str(from_json), doc)
     if ball is None:
-        others = f"{ball_label} (a ball of the standards)" + (f" or {from_label} a discover JSON" if from_label else "")
+        others = f"{ball_label}, a ball of the standards" + (f", or {from_label} a discover JSON" if from_label else "")
         if mass_kg is None and diameter_m is None:
             raise UsageError(f"no body: give {ball_label} (a ball of the standards), or --mass and --diameter"
                              + (f", or {from_label} a discover JSON" if from_label else ""))
         if mass_kg is None or diameter_m is None:
             given, missing = ("--mass", "--diameter") if diameter_m is None else ("--diameter", "--mass")
-            raise UsageError(f"{given} without {missing}: a ball of your own needs both (or give {others})")
+            raise UsageError(f"{given} without {missing}: a ball of your own needs both; or give {others}")
         return Body(BallProperties(float(mass_kg), float(diameter_m), "ball"), None, "options")
     props, std = ball_from_options(ball, standards, mass_kg, diameter_m)
     source = "standard" if std is not None and mass_kg is None and diameter_m is None else "options"
