@@ -132,12 +132,18 @@ def _terminate_as_interrupt():
 def main(ctx, standards_file):
     """Calibrate the coefficient of restitution with the virtual-body method.
 
+    From a standard's drop test (fit), or a measured record -- a video track, impact
+    times, rebound heights, or the raw sound or video (track) -- to the effect a constant
+    epsilon misses (discover), and into a physics engine (export, verify).
+
     \b
     Examples:
       vrcal fit basketball
-      vrcal fit tennis --K 4 --x 0.01 --format json -o tennis.json
+      vrcal discover drop.csv --ball tennis --json drop.json
+      vrcal track drop.wav -o impacts.csv
+      vrcal export --from drop.json --engine mujoco -o drop.xml
+      vrcal verify basketball --engine mujoco
       vrcal pair basketball volleyball
-      vrcal plot curves -o figures
       vrcal table2 --compare-paper
     """
     ctx.obj = {"standards_file": standards_file}
