@@ -94,7 +94,7 @@ BAD_INPUTS = [
     (["fit", "basketball", "--x", "-0.1"], 2, "--x must be"),
     (["fit", "basketball", "--x", "0.1", "--v", "1"], 2, "not both"),
     (["fit", "basketball", "--n", "0"], 2, "--n must be"),
-    (["fit"], 2, "Missing argument"),
+    (["fit"], 2, "no body: give BALL (a ball of the standards), or --mass and --diameter, or --from"),
     (["pair", "basketball", "x=1"], 2, "x=DEPTH"),
 ]
 

@@ -205,12 +205,48 @@ FORMAT_OPTION = click.option(
 K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",
                         help="Rate constant K of Eq. 7 [1/s].")
 
+# the one body description (vrcal.model.body.describe_body, docs/body.md): BALL, --mass/--diameter, --from
+MASS_OPTION = click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
+                           help="Ball mass [kg] (with --diameter: a ball of your own; overrides a standard's).")
+DIAMETER_OPTION = click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
+                               help="Ball diameter [m] (with --mass: a ball of your own; overrides a standard's).")
+
+
+def from_option(what):
+    """``--from DISCOVER.json``: a ``vrcal discover --json`` result, of which the command takes ``what``."""
+    return click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
+                        metavar="DISCOVER.json", help=f"A 'vrcal discover --json' result: {what}.")
+
+
+def g_option(from_json=True):
+    """``--g``: gravity [m/s^2]; 9.80665 unless given (or, with ``from_json``, a ``--from`` result's).
+
+    The default is resolved in one place, :meth:`vrcal.model.body.Body.gravity_m_per_s2`.
+    """
+    return click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=None,
+                        show_default="the --from result's, else 9.80665" if from_json else "9.80665",
+                        help="Gravity [m/s^2].")
+
+
+def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **labels):
+    """The command's body from what the user typed (:func:`vrcal.model.body.describe_body`)."""
+    from vrcal.model.body import describe_body
+
+    return describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json,
+                         standards=standards_of(ctx), **labels)
+
 
 # --------------------------------------------------------------------------- core (standards, inverse)
 
 
-@main.command(short_help="Parameter file of a ball: epsilon, T and its (x, v) family.")
-@click.argument("ball")
+@main.command(short_help="Parameter file of a body: epsilon, T and its (x, v) family.")
+@click.argument("ball", required=False)
+@MASS_OPTION
+@DIAMETER_OPTION
+@from_option("its ball and its epsilon")
+@click.option("--epsilon", type=opt.EPSILON, default=None,
+              help="The body's epsilon against a rigid floor (instead of a standard's window or the --from "
+                   "result's); needed for a ball of your own.")
 @K_OPTION
 @click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Fix the virtual body's depth x [m]; gives v.")
 @click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None,
@@ -221,11 +257,14 @@ K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
-    """Parameter file of BALL: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
+def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, K, x_m, v_m_per_s, n, as_paper, fmt, output):
+    """Parameter file of a body: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
-    Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the full-
-    precision parameter file with schema_version and a unit in every key.
+    The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
+    --diameter with --epsilon (a ball of your own: one epsilon), or --from a discover result
+    (its ball and measured epsilon). Prints a table for people; --format yaml|json (or -o
+    FILE.yaml|.json) gives the full-precision parameter file with schema_version and a unit in
+    every key.
 
     \b
     Examples:
@@ -233,12 +272,14 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
       vrcal fit basketball --as-paper
       vrcal fit basketball --format yaml
       vrcal fit football --K 4 --x 0.02 -o football.json
+      vrcal fit --mass 0.0459 --diameter 0.0427 --epsilon 0.78
+      vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
-    from vrcal.model.standards import get_ball
 
-    b = get_ball(ball, standards_of(ctx))
-    result = fit_ball(b, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper)
+    body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
+    result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
+                      epsilon=epsilon)
     emit_result(result, fit_text, fmt, output)
 
 
@@ -254,13 +295,16 @@ def fit(ctx, ball, K, x_m, v_m_per_s, n, as_paper, fmt, output):
 def pair(ctx, body_a, body_b, K, as_paper, fmt, output):
     """epsilon of two colliding bodies from their virtual bodies (Eqs. 6 and 7).
 
-    A body is a ball of the standards, 'floor' (rigid, x = 0), or 'x=DEPTH,v=SPEED'.
+    A body is a ball of the standards, 'floor' (rigid, x = 0), 'x=DEPTH,v=SPEED', or
+    'from=DISCOVER.json' (the ball of a 'vrcal discover --json' result and its epsilon); a
+    ball's virtual body sits at x = R/2.
 
     \b
     Examples:
       vrcal pair basketball basketball
       vrcal pair tennis floor
       vrcal pair x=0.01,v=0.1 x=0.02,v=0.5 --K 4
+      vrcal pair from=result.json basketball
       vrcal pair basketball volleyball --format json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, pair_text
@@ -378,11 +422,15 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 
 
 @main.command(short_help="Simulate a drop test (exact impacts, optional effects) and write CSV data.")
-@click.argument("ball")
+@click.argument("ball", required=False)
+@MASS_OPTION
+@DIAMETER_OPTION
+@from_option("simulate the discovered model (its ball, epsilon, drop height, release time, effects and g)")
 @click.option("--drop", "drop_m", type=opt.HEIGHT_M, default=None,
-              help="Drop height of the ball's bottom [m] (default: the standard's).")
+              help="Drop height of the ball's bottom [m] (default: the standard's, or the --from result's).")
 @click.option("--bounces", type=opt.BOUNCES, default=10, show_default=True, help="Number of floor impacts.")
-@click.option("--epsilon", type=opt.EPSILON, default=None, help="Restitution (default: the standard's nominal, Eq. 9).")
+@click.option("--epsilon", type=opt.EPSILON, default=None,
+              help="Restitution (default: the standard's nominal, Eq. 9, or the --from result's).")
 @K_OPTION
 @click.option("--x", "x_m", type=opt.DEPTH_M, default=None,
               help="Virtual body depth x [m] (with --v: epsilon by Eq. 7/10).")
@@ -390,6 +438,7 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:PARAM=VALUE,...]",
               help="Add an effect (repeatable): air_drag, velocity_dependent_restitution, contact_duration, "
                    "height_offset, buoyancy.")
+@g_option()
 @click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
               help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
 @click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
@@ -397,11 +446,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
               help="Gaussian noise on impact times [s].")
 @click.option("--seed", type=opt.SEED, default=0, show_default=True, help="Seed of the noise.")
-@click.option("--still", "still_s", type=opt.STILL_S, default=0.2, show_default=True,
+@click.option("--still", "still_s", type=opt.STILL_S, default=None, show_default="0.2, or the --from record's release",
               help="Still segment before release [s].")
-@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
-              help="Ball mass [kg] (a ball outside the standards).")
-@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m].")
 @click.option("--format", "fmt", type=click.Choice(["trajectory", "impacts", "apexes", "wav", "video"]),
               default="trajectory", show_default=True,
               help="CSV data, or a recording to try 'vrcal track' on: wav (the impacts' sound in a room with "
@@ -409,45 +455,48 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs_hz, noise_m, jitter_s, seed,
-             still_s, mass_kg, diameter_m, fmt, output):
-    """Simulate a drop test of BALL (event-driven, exact impacts) and write CSV data.
+def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects,
+             g_m_per_s2, fs_hz, noise_m, jitter_s, seed, still_s, fmt, output):
+    """Simulate a drop test (event-driven, exact impacts) and write CSV data.
+
+    The body is BALL (a ball of the standards), or --mass and --diameter (a ball of your own,
+    with --epsilon and --drop), or --from a discover result: then the discovered model is
+    simulated -- measurement, model, synthetic record.
 
     \b
     Examples:
       vrcal simulate table_tennis --bounces 5 --format apexes
       vrcal simulate table_tennis --effect air_drag --noise 0.001 -o tt.csv
       vrcal simulate basketball --effect contact_duration:contact_time_s=0.008 --format impacts
-      vrcal simulate marble --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
+      vrcal simulate --mass 0.005 --diameter 0.016 --drop 0.5 --epsilon 0.6
+      vrcal simulate --from result.json --noise 0.001 -o again.csv
       vrcal simulate tennis --format wav -o drop.wav
     """
     from vrcal.drop.simulate import simulate_csv
 
+    body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
+    drop = dict(drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m, v_m_per_s=v_m_per_s,
+                effects=list(effects), still_s=still_s, g_m_per_s2=g_m_per_s2)
     if fmt in ("wav", "video"):
         from vrcal.drop.render import simulate_recording
         from vrcal.errors import UsageError
 
         if output in (None, "-"):
             raise UsageError(f"--format {fmt} writes a binary file: give -o FILE")
-        click.echo(simulate_recording(output, ball, fmt, fs_hz=fs_hz, seed=seed, standards=standards_of(ctx),
-                                      drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m,
-                                      v_m_per_s=v_m_per_s, effects=list(effects), still_s=still_s, mass_kg=mass_kg,
-                                      diameter_m=diameter_m), err=True)
+        click.echo(simulate_recording(output, body, fmt, fs_hz=fs_hz, seed=seed, **drop), err=True)
         return
-    text = simulate_csv(ball, kind=fmt, drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K,
-                        x_m=x_m, v_m_per_s=v_m_per_s, effects=list(effects), fs_hz=240.0 if fs_hz is None else fs_hz,
-                        noise_m=noise_m,
-                        jitter_s=jitter_s, seed=seed, still_s=still_s, mass_kg=mass_kg, diameter_m=diameter_m,
-                        standards=standards_of(ctx))
+    text = simulate_csv(body, kind=fmt, fs_hz=240.0 if fs_hz is None else fs_hz, noise_m=noise_m, jitter_s=jitter_s,
+                        seed=seed, **drop)
     emit(text, output)
 
 
 @main.command()
 @click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--ball", required=True, help="A ball of the standards, or any name with --mass and --diameter.")
-@click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None, help="Ball mass [kg] (overrides the standard's).")
-@click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
-              help="Ball diameter [m] (overrides the standard's).")
+@click.option("--ball", default=None,
+              help="A ball of the standards (or any name with --mass and --diameter); without it give --mass and "
+                   "--diameter.")
+@MASS_OPTION
+@DIAMETER_OPTION
 @click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
 @click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook (default: 'All', else the first table).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
@@ -460,8 +509,7 @@ def simulate(ctx, ball, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects, fs
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
-@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=9.80665, show_default=True,
-              help="Gravity [m/s^2].")
+@g_option(from_json=False)
 @click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
               help="Also write the result as JSON (sorted keys, full precision) here ('-' for stdout).")
@@ -485,7 +533,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
       vrcal simulate tennis --effect air_drag --noise 0.002 -o drop.csv
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --details --json result.json --report out
-      vrcal discover heights.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover heights.csv --mass 0.0459 --diameter 0.0427
       vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
       vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
       vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
@@ -578,10 +626,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
     from vrcal.measurements.recording import track_figure
 
     if ball is not None and diameter_m is None:
-        from vrcal.model.body import ball_from_options
-
-        props, _std = ball_from_options(ball, standards_of(ctx), None, None)
-        diameter_m = float(props.diameter_m)
+        diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
                              scale_m_per_px=scale_m_per_px,
                              progress=None if quiet else tracking_progress("track"))
@@ -615,19 +660,16 @@ _ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "phy
 def _engine_options(f):
     """The options export and verify share: the body, the speeds, the step and the limits."""
     options = [
-        click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
-                     help="Ball mass [kg] (with --diameter: a ball of your own; overrides a standard's)."),
-        click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None, help="Ball diameter [m]."),
-        click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
-                     help="A 'vrcal discover --json' result: its ball, release state, drag and epsilon."),
+        MASS_OPTION,
+        DIAMETER_OPTION,
+        from_option("its ball, release state, drag and epsilon"),
         click.option("--epsilon", type=opt.EPSILON, default=None,
                      help="Target epsilon (0-1] (default: the standard's, or the --from result's)."),
         click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
                      help="Drop height of the ball's bottom [m] (default: the standard's)."),
         click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
                      help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
-        click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=None, show_default="9.80665",
-                     help="Gravity [m/s^2]."),
+        g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
                      help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
         click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],

@@ -19,7 +19,7 @@ import numpy as np
 
 from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
-from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
+from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
 from vrcal.textout import number, table, wrap
 
@@ -60,120 +60,215 @@ class VirtualBody:
         return eq.contact_time_single_s(self.x_m, self.v_m_per_s)
 
 
-def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False):
-    """The parameter set of a ball: epsilon window, T window, and its (x, v) family.
+def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None):
+    """The parameter set of a body: epsilon (a window, or one value), T, and its (x, v) family.
 
     Parameters
     ----------
-    ball : Ball or str
-        a ball of the standards, or its key
+    ball : Body, Ball or str
+        the body (:func:`vrcal.model.body.describe_body`: a ball of the standards, a user's
+        own or a discover result's), a :class:`vrcal.model.standards.Ball`, or a ball's key
     K_per_s : float
         rate constant K of Eq. (7) [1/s], > 0
     x_m : float, optional
-        fix the virtual body's depth [m]; the result gives v for epsilon min..max
+        fix the virtual body's depth [m]; the result gives v for each epsilon
     v_m_per_s : float, optional
-        fix the virtual body's speed [m/s]; the result gives x for epsilon min..max
+        fix the virtual body's speed [m/s]; the result gives x for each epsilon
     n : int
         number of family members (x evenly spaced in (0, R])
     as_paper : bool
         use the paper's Table 1 heights as printed (see :func:`vrcal.model.standards.ball_epsilon`)
+    epsilon : float, optional
+        the body's epsilon against a rigid floor (``--epsilon``), instead of a standard's window
+        or a discover result's value
 
     Returns
     -------
     dict
-        JSON-ready; every key carries its unit.
+        JSON-ready; every key carries its unit. A ball of the standards (without ``epsilon``)
+        gives its drop test's window: ``epsilon``, ``T_s`` (and ``fixed``) with min, nominal
+        and max, the drop and rebound heights, the association. Any other body has one
+        epsilon: the same keys with ``nominal`` only, and ``epsilon_source`` saying where it
+        came from (``--epsilon``, or the discover result with its ``drop_height_m``).
+
+    Notes
+    -----
+    A ball of one's own has no rebound window to give min and max; a discover result's
+    epsilon has an uncertainty (``epsilon_uncertainty``), not a window.
     """
-    if isinstance(ball, str):
-        ball = get_ball(ball)
+    body = _as_body(ball)
     K = check_K(K_per_s)
     if x_m is not None and v_m_per_s is not None:
         raise UsageError("give --x or --v, not both")
-    window = ball_epsilon(ball, as_paper=as_paper)
-    eps = window.as_dict()
-    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in _LEVELS}  # keyed by the epsilon level
-    R = ball.radius_m
-    out = {
-        "ball": ball.key,
-        "ball_name": ball.name,
-        "association": ball.association,
-        "official_rule": ball.official,
-        "convention": window.convention,
-        "K_per_s": K,
-        "epsilon": eps,
-        "T_s": _bounds(T),
-        "bounds": "min and max are the smallest and largest value of each quantity over epsilon min..max; "
-                  "the shortest T, the fastest v (at fixed x) and the shallowest x (at fixed v) give epsilon max",
-        "drop_height_m": window.drop_height_m,
-        "rebound_height_m": window.rebound_m.as_dict(),
-        "mass_kg": ball.mass_kg.nominal,
-        "diameter_m": ball.diameter_m.nominal,
-        "equations": "epsilon = exp(-K*T) (Eq. 7), T = x/(2*v) (Eq. 10), epsilon = sqrt(h/H) (Eq. 9)",
-        "notes": list(ball.departures),
-    }
+    if x_m is not None and not (math.isfinite(x_m) and x_m > 0):
+        raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
+    if v_m_per_s is not None and not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
+        raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
+    if epsilon is None and body.discovered is None and body.standard is not None:
+        out = _window_fit(body, K, as_paper)
+    else:
+        out = _single_fit(body, K, as_paper, epsilon)
+    eps = out["epsilon"]
+    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in eps}  # keyed by the epsilon level
+    out["T_s"] = _bounds(T)
+    R = body.radius_m
     if T["nominal"] == 0:
         out["family"] = [{"x_m": 0.0, "v_m_per_s": None}]
     else:
         xs, vs = family(T["nominal"], R, n)
         out["family"] = [{"x_m": float(x), "v_m_per_s": float(v)} for x, v in zip(xs, vs)]
     if x_m is not None:
-        if not (math.isfinite(x_m) and x_m > 0):
-            raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
         out["fixed"] = {
             "x_m": float(x_m),
-            "v_m_per_s": _bounds({k: _or_inf(lambda t: eq.virtual_speed_m_per_s(x_m, t), T[k]) for k in _LEVELS}),
+            "v_m_per_s": _bounds({k: _or_inf(lambda t: eq.virtual_speed_m_per_s(x_m, t), T[k]) for k in T}),
         }
         if x_m > R:
             out["fixed"]["warning"] = f"x = {x_m:g} m is deeper than the ball's radius {R:g} m"
     if v_m_per_s is not None:
-        if not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
-            raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
         out["fixed"] = {
             "v_m_per_s": float(v_m_per_s),
-            "x_m": _bounds({k: eq.virtual_depth_m(v_m_per_s, T[k]) for k in _LEVELS}),
+            "x_m": _bounds({k: eq.virtual_depth_m(v_m_per_s, T[k]) for k in T}),
         }
+    return out
+
+
+def _as_body(ball):
+    """A :class:`vrcal.model.body.Body` from a Body, a standards Ball or a ball's key."""
+    from vrcal.model.body import BallProperties, Body, describe_body
+
+    if isinstance(ball, Body):
+        return ball
+    if isinstance(ball, str):
+        return describe_body(ball)
+    return Body(BallProperties.from_ball(ball), ball, "standard")
+
+
+def _window_fit(body, K, as_paper):
+    """The keys of a ball of the standards: its drop test's window (Eq. 9) and its association."""
+    ball = body.standard
+    window = ball_epsilon(ball, as_paper=as_paper)
+    return {
+        "ball": ball.key,
+        "ball_name": ball.name,
+        "association": ball.association,
+        "official_rule": ball.official,
+        "convention": window.convention,
+        "K_per_s": K,
+        "epsilon": window.as_dict(),
+        "bounds": "min and max are the smallest and largest value of each quantity over epsilon min..max; "
+                  "the shortest T, the fastest v (at fixed x) and the shallowest x (at fixed v) give epsilon max",
+        "drop_height_m": window.drop_height_m,
+        "rebound_height_m": window.rebound_m.as_dict(),
+        "mass_kg": body.mass_kg,
+        "diameter_m": body.diameter_m,
+        "equations": "epsilon = exp(-K*T) (Eq. 7), T = x/(2*v) (Eq. 10), epsilon = sqrt(h/H) (Eq. 9)",
+        "notes": list(ball.departures),
+    }
+
+
+def _single_fit(body, K, as_paper, epsilon):
+    """The keys of a body with one epsilon: ``--epsilon``, or a discover result's."""
+    if as_paper:
+        raise UsageError("--as-paper reads a standard's drop test as the paper prints it: give a ball of the "
+                         "standards without --epsilon or --from")
+    notes = []
+    if epsilon is not None:
+        eps, source = check_epsilon(epsilon, "--epsilon"), "given with --epsilon"
+    elif body.discovered is not None:
+        eps, source = body.epsilon(), body.epsilon_source()
+    else:
+        raise UsageError(f"'{body.name}' is not a ball of the standards and has no drop-test window: give --epsilon "
+                         "(or --from a discover JSON)")
+    out = {
+        "ball": body.name,
+        "ball_name": body.standard.name if body.standard is not None else body.name,
+        "source": body.source,
+        "K_per_s": K,
+        "epsilon": {"nominal": float(eps)},
+        "epsilon_source": source,
+        "mass_kg": body.mass_kg,
+        "diameter_m": body.diameter_m,
+        "equations": "epsilon = exp(-K*T) (Eq. 7), T = x/(2*v) (Eq. 10)",
+        "notes": notes,
+    }
+    doc = body.discovered
+    if doc is not None:
+        out["drop_height_m"] = body.drop_height_m
+        if epsilon is None and isinstance(doc.get("epsilon_uncertainty"), (int, float)):
+            out["epsilon_uncertainty"] = float(doc["epsilon_uncertainty"])
+        effects = list(body.effects)
+        notes.append(f"{body.source}: {', '.join(effects) or 'no effect'} named by vrcal discover"
+                     + ("; epsilon is the contact's own, the flights' effects apart" if effects else ""))
+        if "velocity_dependent_restitution" in effects and body.reference_speed_m_per_s:
+            notes.append(f"epsilon depends on the impact speed: this is its value at "
+                         f"{body.reference_speed_m_per_s:.3g} m/s")
     return out
 
 
 def fit_text(result):
     """:func:`fit_ball`'s result for people: epsilon first, then T, the drop test, the family, notes.
 
-    Columns are the drop test's epsilon levels (min, nominal, max), so each column is one
-    consistent set: T at epsilon min is the longest contact time. At most 100 columns;
-    about 20 lines for a ball of the standards.
+    A ball of the standards: the columns are the drop test's epsilon levels (min, nominal, max),
+    so each column is one consistent set: T at epsilon min is the longest contact time. Any
+    other body: one column. At most 100 columns; about 20 lines for a ball of the standards.
     """
     r = result
     K = r["K_per_s"]
     eps = r["epsilon"]
-    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in _LEVELS}
-    H, h = r["drop_height_m"], r["rebound_height_m"]
-    rule = "official rule" if r["official_rule"] else "not an official rule"
-    rows = [
-        ["ε", *(number(eps[k], 4) for k in _LEVELS), "drop test, ε = √(h/H) (Eq. 9)"],
-        ["T [ms]", *(_ms_or_inf(T[k]) for k in _LEVELS), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
-        ["H [m]", *(number(H, 4) for _ in _LEVELS), "drop height"],
-        ["h [m]", *(number(h[k], 4) for k in _LEVELS), "rebound height"],
-    ]
+    levels = tuple(k for k in _LEVELS if k in eps)
+    T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in levels}
+    window = levels == _LEVELS
+    if window:
+        H, h = r["drop_height_m"], r["rebound_height_m"]
+        rows = [
+            ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9)"],
+            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["H [m]", *(number(H, 4) for _ in levels), "drop height"],
+            ["h [m]", *(number(h[k], 4) for k in levels), "rebound height"],
+        ]
+    else:
+        u = r.get("epsilon_uncertainty")
+        places = max(4, 1 - math.floor(math.log10(u))) if u and math.isfinite(u) and u > 0 else 4
+        shown = f"{eps['nominal']:.{places}f}" + (f" ± {u:.{places}f}" if u else "")
+        rows = [
+            ["ε", shown, r["epsilon_source"]],
+            ["T [ms]", _ms_or_inf(T["nominal"]), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+        ]
+        if r.get("drop_height_m") is not None:
+            rows.append(["H [m]", number(r["drop_height_m"], 4), "drop height of the discover result"])
     fixed = r.get("fixed")
     if fixed and isinstance(fixed.get("v_m_per_s"), dict):
         x = fixed["x_m"]
         rows.append([f"v at x = {x * 1e3:.4g} mm [m/s]",
-                     *(number(_or_inf(lambda t: eq.virtual_speed_m_per_s(x, t), T[k]), 4) for k in _LEVELS),
+                     *(number(_or_inf(lambda t: eq.virtual_speed_m_per_s(x, t), T[k]), 4) for k in levels),
                      "v = x/(2T) (Eq. 10)"])
     elif fixed:
         v = fixed["v_m_per_s"]
         rows.append([f"x at v = {v:.4g} m/s [mm]",
-                     *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in _LEVELS), "x = 2vT (Eq. 10)"])
-    answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. {number(eps['max'], 3)}), "
-              f"T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
-    text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}") + "\n"
-    text += table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
+                     *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in levels), "x = 2vT (Eq. 10)"])
+    R = r["diameter_m"] / 2.0
+    if window:
+        rule = "official rule" if r["official_rule"] else "not an official rule"
+        answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. "
+                  f"{number(eps['max'], 3)}), T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
+        text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}")
+        text += "\n" + table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
+    else:
+        answer = f"{r['ball']}: ε = {number(eps['nominal'], 3)}, T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s"
+        if r["source"] not in ("standard", "options"):
+            who, what = f"{r['ball_name']} from {r['source']}", "one measured ε"
+        elif r["ball_name"] != r["ball"] or r["source"] == "standard":
+            who, what = r["ball_name"], "one ε (--epsilon), not the drop-test window"
+        else:
+            who, what = f"{r['ball']}, a ball of your own", "one ε, no drop-test window"
+        text = wrap(answer) + wrap(f"{who}: m = {number(r['mass_kg'] * 1e3, 3)} g, "
+                                   f"D = {number(r['diameter_m'] * 1e3, 3)} mm; {what}")
+        text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     if fixed and fixed.get("warning"):
         text += wrap(f"warning: {fixed['warning']}")
-    members = r["family"]
-    R = r["diameter_m"] / 2.0
-    text += "\n" + wrap(f"virtual bodies (x, v) of ε nominal: x/(2v) = T (Eq. 10), x up to the radius "
-                         f"R = {number(R * 1e3, 4)} mm")
-    text += _family_rows(members)
+    text += "\n" + wrap(f"virtual bodies (x, v) of ε{' nominal' if window else ''}: x/(2v) = T (Eq. 10), "
+                         f"x up to the radius R = {number(R * 1e3, 4)} mm")
+    text += _family_rows(r["family"])
     if r["notes"]:
         text += "\nnotes:\n" + "".join(wrap(n, first="  - ") for n in r["notes"])
     return text
@@ -198,7 +293,10 @@ def _family_rows(members, width=100):
 
 
 def _bounds(by_level):
-    """{min, nominal, max} of a quantity given per epsilon level: min and max by value."""
+    """{min, nominal, max} of a quantity given per epsilon level: min and max by value
+    ({nominal} alone for a body with one epsilon)."""
+    if "min" not in by_level:
+        return {"nominal": by_level["nominal"]}
     lo, hi = sorted((by_level["min"], by_level["max"]))
     return {"min": lo, "nominal": by_level["nominal"], "max": hi}
 
@@ -208,30 +306,71 @@ def _or_inf(fn, T):
 
 
 def parse_body(spec, K_per_s, standards=None, as_paper=False):
-    """A body for :func:`pair`: a ball key, 'floor' (rigid, x = 0), or 'x=..,v=..'.
+    """A body for :func:`pair`: a ball key, 'floor' (rigid, x = 0), 'x=..,v=..' or 'from=FILE'.
 
-    A ball is given the virtual body of its nominal epsilon at depth x = R/2 (any member
-    of its family gives the same pair epsilon).
+    A ball of the standards, or the ball of a ``vrcal discover --json`` result ('from=FILE'),
+    is given the virtual body of its epsilon at depth x = R/2 (:func:`ball_virtual_body`; any
+    member of its family gives the same pair epsilon).
+
+    Returns
+    -------
+    (str, VirtualBody, float)
+        the body's name, its virtual body and its epsilon against a rigid floor
     """
+    from vrcal.model.body import describe_body
+
     text = str(spec).strip()
     if text.lower() in ("floor", "steel", "rigid"):
         return text.lower(), VirtualBody(0.0, 0.0), 1.0
+    if text.lower().startswith("from="):
+        path = text[len("from="):].strip()
+        if not path:
+            raise UsageError(f"body '{spec}': give the discover JSON after 'from='")
+        body = describe_body(from_json=path, standards=standards)
+        vb, eps = ball_virtual_body(body, K_per_s)
+        return f"{body.name} from {path}", vb, eps
     if "=" in text:
         try:
             parts = dict(p.split("=", 1) for p in text.replace(" ", "").split(","))
             x, v = float(parts.pop("x")), float(parts.pop("v"))
         except (KeyError, ValueError):
-            raise UsageError(f"body '{spec}': give a ball name, 'floor', or 'x=DEPTH_M,v=SPEED_M_PER_S'") from None
+            raise UsageError(f"body '{spec}': give a ball name, 'floor', 'x=DEPTH_M,v=SPEED_M_PER_S' "
+                             "or 'from=DISCOVER.json'") from None
         if parts:
             raise UsageError(f"body '{spec}': unknown field(s) {sorted(parts)}; use x= and v=")
         body = VirtualBody(x, v)
         return text, body, eq.epsilon_single(x, v, K_per_s)
-    ball = get_ball(text, standards)
-    eps = ball_epsilon(ball, as_paper=as_paper).nominal
+    body = describe_body(get_ball(text, standards).key, standards=standards)
+    vb, eps = ball_virtual_body(body, K_per_s, as_paper)
+    return body.name, vb, eps
+
+
+def ball_virtual_body(body, K_per_s, as_paper=False):
+    """The virtual body a ball is given in a pair or a scene: depth x = R/2, v = x/(2T) (Eq. 10).
+
+    Parameters
+    ----------
+    body : vrcal.model.body.Body
+        a ball of the standards (its nominal drop-test epsilon) or a discover result's ball
+        (its contact epsilon), see :meth:`vrcal.model.body.Body.epsilon`
+    K_per_s : float
+        rate constant K [1/s] of Eq. (7), > 0
+    as_paper : bool
+        a standard's epsilon from the paper's Table 1 heights as printed
+
+    Returns
+    -------
+    (VirtualBody, float)
+        the virtual body and the body's epsilon against a rigid floor
+    """
+    eps = body.epsilon(as_paper=as_paper)
+    if eps is None:
+        raise UsageError(f"'{body.name}' has no epsilon of its own: give a ball of the standards, a discover "
+                         "result, or its virtual body x and v")
     T = eq.contact_time_from_epsilon_s(eps, K_per_s)
-    x = ball.radius_m / 2.0
+    x = body.radius_m / 2.0
     v = eq.virtual_speed_m_per_s(x, T) if T > 0 else 0.0
-    return ball.key, VirtualBody(x, v), eps
+    return VirtualBody(x, v), eps
 
 
 def pair(spec_a, spec_b, K_per_s=DEFAULT_K_PER_S, standards=None, as_paper=False):

@@ -27,7 +27,7 @@ def test_a_users_own_ball():
 
 @pytest.mark.parametrize("kwargs, message", [
     ({}, "no body"),
-    ({"mass_kg": 0.05}, "no body"),
+    ({"mass_kg": 0.05}, "--mass without --diameter"),
     ({"mass_kg": 0.0, "diameter_m": 0.04}, "--mass must be a number > 0"),
     ({"mass_kg": 0.05, "diameter_m": float("nan")}, "--diameter must be a number > 0"),
 ])
@@ -80,3 +80,38 @@ def test_not_a_discover_result(tmp_path):
             read_discover_json(path)
     with pytest.raises(DataError, match="not a file"):
         read_discover_json(tmp_path)
+
+
+def test_what_a_body_supplies_a_command(tmp_path):
+    """epsilon, drop height, effects and g: a discover result's, else a standard's, else none."""
+    from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+    from vrcal.model.standards import ball_epsilon
+
+    std = describe_body("tennis")
+    window = ball_epsilon(std.standard)
+    assert (std.epsilon(), std.drop_height_m) == (window.nominal, window.drop_height_m)
+    assert std.epsilon(as_paper=True) == ball_epsilon(std.standard, as_paper=True).nominal
+    assert std.effects == {} and std.reference_speed_m_per_s is None
+    assert std.gravity_m_per_s2() == STANDARD_GRAVITY_M_PER_S2 and std.gravity_m_per_s2(1.62) == 1.62
+    own = describe_body(mass_kg=0.0459, diameter_m=0.0427)
+    assert (own.epsilon(), own.drop_height_m, own.epsilon_source()) == (None, None, None)
+    found = describe_body(from_json=_write(tmp_path, dict(GOOD, g_m_per_s2=9.81, epsilon_reference_speed_m_per_s=7.0)))
+    assert (found.epsilon(), found.drop_height_m, found.gravity_m_per_s2()) == (0.86, 2.65, 9.81)
+    assert found.effects == {"air_drag": {"drag_coefficient": 0.38}} and found.reference_speed_m_per_s == 7.0
+    assert "discover result" in found.epsilon_source()
+    with pytest.raises(UsageError, match=r"--g must be a number > 0 \[m/s\^2\]"):
+        found.gravity_m_per_s2(-1.0)
+
+
+def test_messages_use_the_commands_spelling():
+    with pytest.raises(UsageError) as exc:
+        describe_body(ball_label="--ball", from_label=None)
+    assert str(exc.value) == "no body: give --ball (a ball of the standards), or --mass and --diameter"
+    with pytest.raises(UsageError, match=r"^--diameter without --mass: a ball of your own needs both; or give "
+                                         r"--ball, a ball of the standards$"):
+        describe_body(diameter_m=0.04, ball_label="--ball", from_label=None)
+
+
+def test_a_bad_reference_speed_in_a_discover_result(tmp_path):
+    with pytest.raises(DataError, match="epsilon_reference_speed_m_per_s"):
+        read_discover_json(_write(tmp_path, dict(GOOD, epsilon_reference_speed_m_per_s=-2.0)))

@@ -709,14 +709,15 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     path : str or sequence of str
         measurement file(s) (see :func:`vrcal.measurements.read_measurement`); several files of
         one ball are fitted jointly
-    ball : str
-        a ball of the standards, or any name with ``mass_kg`` and ``diameter_m``
+    ball : str or None
+        a ball of the standards, or any name with ``mass_kg`` and ``diameter_m``; None with
+        ``mass_kg`` and ``diameter_m`` (see :func:`vrcal.model.body.describe_body`)
     fmt : str or None
         the file's format (None: auto-detect)
     mass_kg, diameter_m : float or None
         ball mass [kg] and diameter [m]; override the standard's nominal values
-    g_m_per_s2 : float
-        gravitational acceleration [m/s²]
+    g_m_per_s2 : float or None
+        gravitational acceleration [m/s²] (None: 9.80665)
     standards : dict or None
         :func:`vrcal.model.standards.load_standards` output (the shipped file when None)
     scale_m_per_px, y_down, fs_hz, sheet :
@@ -736,12 +737,12 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     Discovery
     """
     from vrcal.measurements import read_measurements
-    from vrcal.model.body import ball_from_options
+    from vrcal.model.body import describe_body
 
-    if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
-        raise UsageError(f"--g must be a number > 0 [m/s^2], got {g_m_per_s2:g}")
+    body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, standards=standards, ball_label="--ball",
+                         from_label=None)
+    props, g_m_per_s2 = body.properties, body.gravity_m_per_s2(g_m_per_s2)
     paths = [path] if isinstance(path, (str, bytes)) or not hasattr(path, "__iter__") else list(path)
-    props, _std = ball_from_options(ball, standards, mass_kg, diameter_m)
     options = {"scale_m_per_px": scale_m_per_px, "y_down": bool(y_down), "fs_hz": fs_hz, "sheet": sheet}
     recording = {"diameter_m": float(np.mean(props.diameter_m)), **(read_options or {})}
     data = read_measurements(paths, fmt, **options, **recording)

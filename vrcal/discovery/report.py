@@ -269,7 +269,8 @@ def fit_report(discovery, details=False):
     runs = len(d.runs)
     what = {"trajectory": "samples", "impacts": "impact times", "apexes": "heights"}[d.kind]
     joint = f" in {runs} runs fitted jointly" if runs > 1 else ""
-    head = (f"vrcal discover: {d.data.source} ({d.kind}, {n_data} {what}{joint}); ball {getattr(ball, 'name', 'ball')} "
+    name = getattr(ball, "name", "ball")
+    head = (f"vrcal discover: {d.data.source} ({d.kind}, {n_data} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
     lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]

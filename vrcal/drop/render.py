@@ -361,15 +361,16 @@ ROOM = SoundScene(noise_rms=0.001, hum_amplitude=0.01, echoes=((0.005, 0.4),), l
 CAMERA = VideoScene(noise_sd=2.0, blur=True)
 
 
-def simulate_recording(path, ball_name, kind, *, fs_hz=None, seed=0, standards=None, **drop):
+def simulate_recording(path, ball, kind, *, fs_hz=None, seed=0, standards=None, **drop):
     """Simulate one drop (:func:`vrcal.drop.simulate.simulate_drop`) and write its sound or video.
 
     Parameters
     ----------
     path : str
         output file (``.wav``; ``.avi`` for a video)
-    ball_name : str
-        a ball of the standards, or a free name with ``mass_kg`` and ``diameter_m`` in ``drop``
+    ball : str or Body or None
+        the body, as :func:`vrcal.drop.simulate.simulate_csv` takes it (``mass_kg``,
+        ``diameter_m``, ``from_json`` in ``drop``)
     kind : {"wav", "video"}
     fs_hz : float or None
         sample rate [Hz] (default 48000) or frame rate (default 30) of the recording
@@ -378,7 +379,7 @@ def simulate_recording(path, ball_name, kind, *, fs_hz=None, seed=0, standards=N
     standards : dict or None
     **drop :
         the drop's parameters (``drop_height_m``, ``n_bounces``, ``epsilon``, ``effects``,
-        ``still_s``, ``mass_kg``, ``diameter_m``, ...)
+        ``still_s``, ``mass_kg``, ``diameter_m``, ``from_json``, ``g_m_per_s2``, ...)
 
     Returns
     -------
@@ -387,7 +388,7 @@ def simulate_recording(path, ball_name, kind, *, fs_hz=None, seed=0, standards=N
     """
     from vrcal.drop.simulate import simulate_drop
 
-    drops, props = simulate_drop(ball_name, standards=standards, **drop)
+    drops, props = simulate_drop(ball, standards=standards, **drop)
     t = drops.impact_times_s[0]
     if kind == "wav":
         fs = int(fs_hz or 48000)

@@ -43,7 +43,7 @@ from vrcal.drop.effects import (
     sphere_volume_m3,
 )
 from vrcal.errors import UsageError
-from vrcal.model.body import ball_from_options, ball_properties
+from vrcal.model.body import ball_properties
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: Output formats of :func:`sample_measurement` and ``vrcal simulate --format``.
@@ -581,58 +581,77 @@ def columns_csv(columns, kind):
     return "\n".join(lines) + "\n"
 
 
-def simulate_csv(ball_name, *, kind="trajectory", drop_height_m=None, n_bounces=10, epsilon=None,
+def simulate_csv(ball=None, *, kind="trajectory", drop_height_m=None, n_bounces=10, epsilon=None,
                  K_per_s=None, x_m=None, v_m_per_s=None, effects=None, fs_hz=240.0, noise_m=0.0,
-                 jitter_s=0.0, seed=0, still_s=0.2, mass_kg=None, diameter_m=None, standards=None):
+                 jitter_s=0.0, seed=0, still_s=None, mass_kg=None, diameter_m=None, from_json=None,
+                 g_m_per_s2=None, standards=None):
     """Simulate one drop as ``vrcal simulate`` does and return the CSV text.
 
     Parameters
     ----------
-    ball_name : str
-        a ball of the standards, or a free name with ``mass_kg`` and ``diameter_m``
+    ball : str or Body or None
+        a ball of the standards, a free name with ``mass_kg`` and ``diameter_m``, None for
+        ``mass_kg`` and ``diameter_m`` alone or ``from_json``, or a ready
+        :class:`vrcal.model.body.Body` (see :func:`vrcal.model.body.describe_body`)
     kind : {"trajectory", "impacts", "apexes"}
     drop_height_m : float or None
-        height of the ball's bottom at release [m]; default the standard's drop height
-        (to the bottom of the ball)
+        height of the ball's bottom at release [m]; default the discover result's release
+        height, else the standard's drop height (to the bottom of the ball)
     n_bounces : int
     epsilon : float or None
         restitution; default from ``x_m``, ``v_m_per_s`` and ``K_per_s`` (Eqs. (7), (10) of
-        [1]) when given, else the standard's nominal epsilon (Eq. (9), both heights to the
-        bottom, :func:`vrcal.model.standards.ball_epsilon`)
+        [1]) when given, else the discover result's contact epsilon, else the standard's
+        nominal epsilon (Eq. (9), both heights to the bottom,
+        :func:`vrcal.model.standards.ball_epsilon`)
     K_per_s, x_m, v_m_per_s : float or None
         virtual body (depth [m], speed [m/s]) and rate constant [1/s]; K defaults to
         :data:`vrcal.inverse.DEFAULT_K_PER_S`
     effects : iterable of str or dict or None
-        ``NAME[:PARAM=VALUE,...]`` specs or ``{name: {param: value}}``
+        ``NAME[:PARAM=VALUE,...]`` specs or ``{name: {param: value}}``, added to (or
+        replacing, by name) the discover result's effects
     fs_hz, noise_m, jitter_s, seed : see :func:`sample_measurement` (seed feeds default_rng)
-    still_s : float
-        still segment before release [s], >= 0; the release happens at t = still_s
-    mass_kg, diameter_m, standards : see :func:`ball_from_options`
+    still_s : float or None
+        still segment before release [s], >= 0; the release happens at t = still_s (default
+        the discover result's release time, at least 0, else 0.2 s)
+    mass_kg, diameter_m, from_json, standards : see :func:`vrcal.model.body.describe_body`
+    g_m_per_s2 : float or None
+        gravity [m/s^2]; default the discover result's, else 9.80665
 
     Returns
     -------
     str
         CSV text with the header of ``kind``
     """
-    drops, _props = simulate_drop(ball_name, drop_height_m=drop_height_m, n_bounces=n_bounces, epsilon=epsilon,
+    drops, _props = simulate_drop(ball, drop_height_m=drop_height_m, n_bounces=n_bounces, epsilon=epsilon,
                                   K_per_s=K_per_s, x_m=x_m, v_m_per_s=v_m_per_s, effects=effects, still_s=still_s,
-                                  mass_kg=mass_kg, diameter_m=diameter_m, standards=standards)
+                                  mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, g_m_per_s2=g_m_per_s2,
+                                  standards=standards)
     columns = sample_measurement(drops, kind, fs_hz=fs_hz, noise_m=noise_m, jitter_s=jitter_s, rng=seed)
     return columns_csv(columns, kind)
 
 
-def simulate_drop(ball_name, *, drop_height_m=None, n_bounces=10, epsilon=None, K_per_s=None, x_m=None,
-                  v_m_per_s=None, effects=None, still_s=0.2, mass_kg=None, diameter_m=None, standards=None):
-    """One drop of a named ball as ``vrcal simulate`` makes it (parameters as :func:`simulate_csv`).
+#: Still segment before release [s] of ``vrcal simulate`` (without a discover result's release time).
+DEFAULT_STILL_S = 0.2
+
+
+def simulate_drop(ball=None, *, drop_height_m=None, n_bounces=10, epsilon=None, K_per_s=None, x_m=None,
+                  v_m_per_s=None, effects=None, still_s=None, mass_kg=None, diameter_m=None, from_json=None,
+                  g_m_per_s2=None, standards=None):
+    """One drop of a body as ``vrcal simulate`` makes it (parameters as :func:`simulate_csv`).
+
+    With a discover result (``from_json``) this is the discovered model: its ball, contact
+    epsilon, release height and time, named effects (air drag, a speed-dependent epsilon at
+    its reference speed, ...) and g -- a synthetic record of what was measured.
 
     Returns
     -------
     (Drops, BallProperties)
     """
     from vrcal.model import restitution as eq
-    from vrcal.model.standards import ball_epsilon
+    from vrcal.model.body import Body, describe_body
 
-    props, std = ball_from_options(ball_name, standards, mass_kg, diameter_m)
+    body = ball if isinstance(ball, Body) else describe_body(
+        ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
     if x_m is not None or v_m_per_s is not None:
         if epsilon is not None:
             raise UsageError("give either --epsilon or the virtual body --x/--v, not both")
@@ -644,13 +663,16 @@ def simulate_drop(ball_name, *, drop_height_m=None, n_bounces=10, epsilon=None, 
     elif K_per_s is not None:
         raise UsageError("--K needs the virtual body --x and --v (or give --epsilon)")
     if epsilon is None:
-        if std is None:
-            raise UsageError(f"'{ball_name}' is not a ball of the standards: give --epsilon (or --x and --v)")
-        epsilon = ball_epsilon(std).nominal
+        epsilon = body.epsilon()
+        if epsilon is None:
+            raise UsageError(f"'{body.name}' is not a ball of the standards: give --epsilon (or --x and --v)")
     if drop_height_m is None:
-        if std is None:
-            raise UsageError(f"'{ball_name}' is not a ball of the standards: give --drop")
-        drop_height_m = ball_epsilon(std).drop_height_m
+        drop_height_m = body.drop_height_m
+        if drop_height_m is None:
+            raise UsageError(f"'{body.name}' is not a ball of the standards: give --drop")
+    if still_s is None:
+        still_s = (max(0.0, float(body.discovered["model"]["release_time_s"])) if body.discovered is not None
+                   else DEFAULT_STILL_S)
     if not (math.isfinite(drop_height_m) and drop_height_m > 0):
         raise UsageError(f"--drop must be a height > 0 [m], got {drop_height_m:g}")
     if isinstance(n_bounces, bool) or int(n_bounces) != n_bounces or n_bounces < 1:
@@ -659,4 +681,9 @@ def simulate_drop(ball_name, *, drop_height_m=None, n_bounces=10, epsilon=None, 
         raise UsageError(f"--still must be >= 0 [s], got {still_s:g}")
     if not (0 < epsilon <= 1):
         raise UsageError(f"epsilon must lie in (0, 1], got {epsilon:g}")
-    return simulate_drops(drop_height_m, epsilon, n_bounces, props, effects=effects, release_time_s=still_s), props
+    g = body.gravity_m_per_s2(g_m_per_s2)
+    planted = dict(body.effects)
+    planted.update(resolve_effects(effects) or {})
+    return simulate_drops(drop_height_m, epsilon, n_bounces, body.properties, effects=planted or None,
+                          g_m_per_s2=g, release_time_s=still_s,
+                          reference_speed_m_per_s=body.reference_speed_m_per_s), body.properties

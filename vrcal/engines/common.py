@@ -39,7 +39,7 @@ from functools import cached_property
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2, check_epsilon  # noqa: F401 (engines use it)
 
 #: Gravity of every exported engine file unless ``--g`` [m/s^2] (the same in every command).
 GRAVITY_M_PER_S2 = STANDARD_GRAVITY_M_PER_S2
@@ -236,17 +236,6 @@ def restitution_table(setup, n=8):
     speeds = np.linspace(0.5 * lo, 1.2 * hi, n)
     eps = restitution_at_speed(setup.epsilon, speeds, setup.impact_speed_m_per_s, setup.restitution_exponent)
     return speeds, np.asarray(eps, dtype=float)
-
-
-def check_epsilon(epsilon, what="epsilon"):
-    """Return epsilon as a float in (0, 1]; :class:`UsageError` otherwise."""
-    try:
-        e = float(epsilon)
-    except (TypeError, ValueError):
-        raise UsageError(f"{what} must be a number in (0, 1], got {epsilon!r}") from None
-    if not (math.isfinite(e) and 0.0 < e <= 1.0):
-        raise UsageError(f"{what} must lie in (0, 1], got {e:g}")
-    return e
 
 
 def check_dt(dt_s):
@@ -629,6 +618,7 @@ class VerifyResult(RunsSummary):
     max_penetration_m: float
     settings: dict = field(default_factory=dict)
     notes: tuple = ()
+    g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
 
     @property
     def apex_ratios(self):
@@ -664,8 +654,8 @@ class VerifyResult(RunsSummary):
         r = self.runs
         return {
             "engine": self.engine, "engine_version": self.engine_version, "ball": self.ball,
-            "target_epsilon": self.target, "dt_s": self.dt_s, "tolerance": self.tolerance,
-            "phase_shifts_m": [float(p) for p in r.shifts_m],
+            "target_epsilon": self.target, "dt_s": self.dt_s, "g_m_per_s2": self.g_m_per_s2,
+            "tolerance": self.tolerance, "phase_shifts_m": [float(p) for p in r.shifts_m],
             "apex_ratios": r.apex_ratios.tolist(),
             "velocity_ratios": r.velocity_ratios.tolist(),
             "target_apex_ratios": r.target_apex_ratios.tolist(),

@@ -155,12 +155,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
             raise UsageError(f"--drop-height must be at most 1000 m, got {drop_height_m:g}")
     doc = body.discovered
     notes = []
-    if g_m_per_s2 is None:
-        g = float(doc["g_m_per_s2"]) if doc else eq.STANDARD_GRAVITY_M_PER_S2
-    else:
-        g = check_positive(g_m_per_s2, "--g")
+    g = body.gravity_m_per_s2(g_m_per_s2)
     drag = exponent = release = offset = 0.0
-    std = body.standard
     if doc:
         params = doc["parameters"]
         effects = list(doc["effects"])
@@ -182,14 +178,10 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if epsilon is not None:
         eps_ball = check_epsilon(epsilon, "--epsilon")
         notes.insert(0, f"epsilon {eps_ball:.4f} given with --epsilon")
-    elif doc:
-        eps_ball = check_epsilon(doc["epsilon"], f"epsilon of {from_json}")
-        notes.insert(0, f"epsilon {eps_ball:.4f}: the contact epsilon of the discover result"
+    elif body.epsilon() is not None:
+        eps_ball = check_epsilon(body.epsilon(), f"epsilon of {body.source}")
+        notes.insert(0, f"epsilon {eps_ball:.4f}: {body.epsilon_source()}"
                         + (" at the first impact speed" if exponent else ""))
-    elif std is not None:
-        window = ball_epsilon(std)
-        eps_ball = window.nominal
-        notes.insert(0, f"epsilon {eps_ball:.4f}: nominal of the {std.association} window ({window.convention})")
     else:
         raise UsageError(f"'{body.name}' is not a ball of the standards: give --epsilon")
     n = N_BOUNCES if n_bounces is None else int(n_bounces)
@@ -210,10 +202,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         notes.append(f"impact speeds {lo:g}..{hi:g} m/s: drop from {H:.4g} m, {n} bounce(s)")
     elif drop_height_m is not None:
         H = drop_height_m
-    elif doc:
-        H = float(doc["model"]["drop_height_m"])
-    elif std is not None:
-        H = ball_epsilon(std).drop_height_m
+    elif body.drop_height_m is not None:
+        H = body.drop_height_m
     else:
         raise UsageError("give the speeds to calibrate for: --drop-height M or --impact-speed LO[:HI] (m/s)")
     eps_floor, floor_name = 1.0, "rigid floor"

@@ -90,7 +90,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
-        settings=_settings(eng.name, loaded, setup), notes=setup.notes,
+        settings=_settings(eng.name, loaded, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
     )
 
 
@@ -125,6 +125,7 @@ def _load_file(engine, text, ball, options):
     if mass is None:
         raise DataError("the MJCF ball geom has no mass: give BALL (or --mass and --diameter)")
     from vrcal.engines.common import check_epsilon
+    from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
     eps = check_epsilon(options["epsilon"] if options["epsilon"] is not None else target["epsilon"], "epsilon")
     H = target.get("drop_height_m")
@@ -133,7 +134,7 @@ def _load_file(engine, text, ball, options):
     n_b = target.get("n_bounces", N_BOUNCES)
     setup = DropSetup(
         ball=name, mass_kg=float(mass), radius_m=float(radius), drop_height_m=float(H), epsilon=eps,
-        dt_s=float(dt), g_m_per_s2=float(target.get("g_m_per_s2", 9.80665)), ball_epsilon=eps,
+        dt_s=float(dt), g_m_per_s2=float(target.get("g_m_per_s2", STANDARD_GRAVITY_M_PER_S2)), ball_epsilon=eps,
         notes=(f"target epsilon {eps:.4f} from the file",), n_bounces=max(int(n_b), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
@@ -176,7 +177,7 @@ def format_report(result):
     from vrcal.textout import table
 
     r, runs = result, result.runs
-    settings = ", ".join(f"{k} {v}" for k, v in r.settings.items())
+    settings = ", ".join([*(f"{k} {v}" for k, v in r.settings.items()), f"g {r.g_m_per_s2:g} m/s^2"])
     lines = [f"{r.engine} {r.engine_version}: {r.ball}, dt {r.dt_s:g} s, {runs.apex_ratios.shape[0]} contact "
              f"phase(s) x {runs.apex_ratios.shape[1]} bounce(s)"]
     import textwrap

@@ -81,6 +81,7 @@ import numpy as np
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import detect_release_index
 from vrcal.measurements.trajectory import finish_trajectory
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: One-line hint when OpenCV is missing.
 VIDEO_HINT = "reading video needs OpenCV: pip install 'vrcal[video]'"
@@ -90,7 +91,7 @@ VIDEO_EXTENSIONS = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm", ".3gp", ".m
                     ".mpeg", ".ogv")
 
 MIN_QUALITY = 0.6          #: frames with a lower quality are left out
-STANDARD_GRAVITY = 9.80665
+STANDARD_GRAVITY = STANDARD_GRAVITY_M_PER_S2  #: g of the scale from the flights [m/s^2]
 LOW_RES_WIDTH = 320        #: width of the pass-1 copies [px] (at least)
 BACKGROUND_FRAMES = 24     #: frames in the background median
 

@@ -1,8 +1,12 @@
-"""One description of a body for every command: a ball of the standards, or any mass and diameter.
+"""One description of a body for every command: a ball of the standards, any mass and diameter,
+or the ball of a ``vrcal discover --json`` result.
 
 :class:`BallProperties` is what the simulator and the fitter need of a ball (mass [kg] and
-diameter [m], floats or arrays over drops); :func:`ball_from_options` builds it from what a
-user types (``BALL``, ``--mass``, ``--diameter``).
+diameter [m], floats or arrays over drops). :func:`describe_body` is the one function that turns
+what a user typed (``BALL``, ``--mass``, ``--diameter``, ``--from``) into a :class:`Body`: its
+properties, the standard it is based on (drop height, rebound window) and the discover result
+it came from (the measured ε, drop height, effects and g). ``fit``, ``discover``, ``simulate``,
+``export``, ``verify``, ``pair`` and ``scene`` all resolve their body here (docs/body.md).
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 from vrcal.errors import UsageError
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.model.standards import get_ball, load_standards
 
 
@@ -65,9 +70,8 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
         the standard's Ball when ``name`` is one, else None
     """
     standards = load_standards() if standards is None else standards
-    for label, value in (("--mass", mass_kg), ("--diameter", diameter_m)):
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise UsageError(f"{label} must be a number > 0, got {value:g}")
+    _check_size("--mass", mass_kg, "[kg]")
+    _check_size("--diameter", diameter_m, "[m]")
     norm = str(name).strip().lower().replace("-", "_").replace(" ", "_")
     if norm in standards:
         std = standards[norm]
@@ -133,8 +137,75 @@ class Body:
     def radius_m(self):
         return 0.5 * float(self.properties.diameter_m)
 
+    def epsilon(self, as_paper=False):
+        """The body's own ε against a rigid floor, or None for a ball of the user's own.
 
-def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, standards=None):
+        The discover result's contact ε (``epsilon``: with a speed-dependent ε its value at
+        ``epsilon_reference_speed_m_per_s``; with air drag the contact's own, drag apart), else
+        the standard's nominal drop-test ε (Eq. 9, :func:`vrcal.model.standards.ball_epsilon`;
+        ``as_paper`` reads the paper's Table 1 heights as printed).
+        """
+        if self.discovered is not None:
+            return float(self.discovered["epsilon"])
+        if self.standard is not None:
+            from vrcal.model.standards import ball_epsilon
+
+            return float(ball_epsilon(self.standard, as_paper=as_paper).nominal)
+        return None
+
+    def epsilon_source(self, as_paper=False):
+        """Where :meth:`epsilon` comes from, in words (for notes and reports); None without one."""
+        if self.discovered is not None:
+            return f"the contact epsilon of the discover result {self.source}"
+        if self.standard is not None:
+            from vrcal.model.standards import ball_epsilon
+
+            window = ball_epsilon(self.standard, as_paper=as_paper)
+            return f"nominal of the {self.standard.association} window ({window.convention})"
+        return None
+
+    @property
+    def drop_height_m(self):
+        """Drop height of the ball's bottom [m]: the discover result's release height, else the
+        standard's drop-test height, else None."""
+        if self.discovered is not None:
+            return float(self.discovered["model"]["drop_height_m"])
+        if self.standard is not None:
+            from vrcal.model.standards import ball_epsilon
+
+            return float(ball_epsilon(self.standard).drop_height_m)
+        return None
+
+    @property
+    def effects(self):
+        """The discover result's named effects ``{name: {param: value}}`` (empty otherwise)."""
+        if self.discovered is None:
+            return {}
+        return {e: dict(self.discovered["parameters"].get(e, {})) for e in self.discovered["effects"]}
+
+    @property
+    def reference_speed_m_per_s(self):
+        """The impact speed [m/s] at which a discovered speed-dependent ε equals :meth:`epsilon`
+        (None: none recorded, the drop's first impact speed is used)."""
+        if self.discovered is None:
+            return None
+        return self.discovered.get("epsilon_reference_speed_m_per_s")
+
+    def gravity_m_per_s2(self, g_m_per_s2=None):
+        """g [m/s^2] of a command: the user's ``--g``, else the discover result's, else standard gravity.
+
+        Raises UsageError for a ``g_m_per_s2`` that is not a number > 0.
+        """
+        if g_m_per_s2 is not None:
+            _check_size("--g", g_m_per_s2, "[m/s^2]")
+            return float(g_m_per_s2)
+        if self.discovered is not None:
+            return float(self.discovered["g_m_per_s2"])
+        return STANDARD_GRAVITY_M_PER_S2
+
+
+def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, standards=None,
+                  ball_label="BALL", from_label="--from"):
     """The one body description of every command: a standard ball, a user's own, or a discover JSON's.
 
     Parameters
@@ -151,6 +222,9 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
         ball is the body (``ball`` must then be None or the same name)
     standards : dict or None
         :func:`vrcal.model.standards.load_standards` output (the shipped file when None)
+    ball_label, from_label : str or None
+        how the command spells the ball and the discover file in its messages (``BALL`` or
+        ``--ball``; ``--from``, or None for a command without it)
 
     Returns
     -------
@@ -160,7 +234,8 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
     ------
     UsageError
         no body given (no BALL, no ``--from``, and not both ``--mass`` and ``--diameter``),
-        a mass or diameter that is not a number > 0, an unknown ball without mass and diameter
+        a mass or diameter that is not a number > 0, an unknown ball without mass and diameter,
+        a BALL that is not the ball of the ``--from`` file
     DataError
         a ``from_json`` file that is not a discover result (see :func:`read_discover_json`)
 
@@ -171,14 +246,14 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
     >>> describe_body(mass_kg=0.0459, diameter_m=0.0427).name
     'ball'
     """
+    _check_size("--mass", mass_kg, "[kg]")
+    _check_size("--diameter", diameter_m, "[m]")
     if from_json is not None:
         doc = read_discover_json(from_json)
         found = doc["ball"]
-        if ball is not None and str(ball).strip().lower() != str(found["name"]).strip().lower():
-            raise UsageError(f"BALL '{ball}' differs from the ball of {from_json} ('{found['name']}'): "
+        if ball is not None and _norm(ball) != _norm(found["name"]):
+            raise UsageError(f"{ball_label} '{ball}' differs from the ball of {from_json} ('{found['name']}'): "
                              "give one of them")
-        _check_size("--mass", mass_kg)
-        _check_size("--diameter", diameter_m)
         props = BallProperties(float(found["mass_kg"]) if mass_kg is None else float(mass_kg),
                                float(found["diameter_m"]) if diameter_m is None else float(diameter_m),
                                str(found["name"]))
@@ -186,11 +261,13 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
         std = standards.get(_norm(found["name"]))
         return Body(props, std, str(from_json), doc)
     if ball is None:
-        _check_size("--mass", mass_kg)
-        _check_size("--diameter", diameter_m)
+        others = f"{ball_label}, a ball of the standards" + (f", or {from_label} a discover JSON" if from_label else "")
+        if mass_kg is None and diameter_m is None:
+            raise UsageError(f"no body: give {ball_label} (a ball of the standards), or --mass and --diameter"
+                             + (f", or {from_label} a discover JSON" if from_label else ""))
         if mass_kg is None or diameter_m is None:
-            raise UsageError("no body: give BALL (a ball of the standards), or --mass and --diameter, "
-                             "or --from a discover JSON")
+            given, missing = ("--mass", "--diameter") if diameter_m is None else ("--diameter", "--mass")
+            raise UsageError(f"{given} without {missing}: a ball of your own needs both; or give {others}")
         return Body(BallProperties(float(mass_kg), float(diameter_m), "ball"), None, "options")
     props, std = ball_from_options(ball, standards, mass_kg, diameter_m)
     source = "standard" if std is not None and mass_kg is None and diameter_m is None else "options"
@@ -254,6 +331,8 @@ def read_discover_json(path):
     model = _obj(doc, "model", where)
     _num(model, "drop_height_m", f"{where}: model.drop_height_m", lo=0.0)
     _num(model, "release_time_s", f"{where}: model.release_time_s", lo=-math.inf)
+    if doc.get("epsilon_reference_speed_m_per_s") is not None:
+        _num(doc, "epsilon_reference_speed_m_per_s", f"{where}: epsilon_reference_speed_m_per_s", lo=0.0)
     effects = doc["effects"]
     if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
         raise DataError(f"{where}: effects must be a list of effect names")
@@ -291,9 +370,10 @@ def _norm(name):
     return str(name).strip().lower().replace("-", "_").replace(" ", "_")
 
 
-def _check_size(label, value):
-    if value is not None and not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise UsageError(f"{label} must be a number > 0, got {value}")
+def _check_size(label, value, unit=""):
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                              or not math.isfinite(value) or value <= 0):
+        raise UsageError(f"{label} must be a number > 0{' ' + unit if unit else ''}, got {value}")
 
 
 def _obj(doc, key, where):

@@ -47,6 +47,17 @@ def check_K(K_per_s):
     return float(K_per_s)
 
 
+def check_epsilon(epsilon, what="epsilon"):
+    """Return epsilon as a float in (0, 1]; :class:`UsageError` naming ``what`` otherwise."""
+    try:
+        e = float(epsilon)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what} must be a number in (0, 1], got {epsilon!r}") from None
+    if not (math.isfinite(e) and 0.0 < e <= 1.0):
+        raise UsageError(f"{what} must lie in (0, 1], got {e:g}")
+    return e
+
+
 def _out(value):
     """Return a Python float for 0-d results, the array otherwise."""
     arr = np.asarray(value, dtype=float)

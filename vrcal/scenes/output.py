@@ -282,7 +282,7 @@ def summary_text(result, contacts_file="contacts.csv", max_contacts=10):
                         number(c.epsilon, 4), c.note] for c in shown],
                       ["t [s]", "contact", "speed [m/s]", "ε", "note"], align="rlrrl")
     text += "\n" + _motion_text(result)
-    for note in result.notes:
+    for note in (*s.notes, *result.notes):
         text += wrap(f"note: {note}")
     return text
 

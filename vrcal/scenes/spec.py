@@ -25,6 +25,9 @@ Schema (validated on load; a bad field is reported by its path, e.g.
         ball: basketball          a ball of the standards: nominal mass and radius, virtual body of its
                                   nominal epsilon at K with x = R/2 (as `vrcal pair`), hollow shell;
         as_paper: false           optional; the ball's epsilon from the paper's Table 1 as printed
+        from: result.json         or a `vrcal discover --json` result (path relative to the scene file):
+                                  its ball's mass and radius, virtual body of its measured contact
+                                  epsilon at K with x = R/2 (effects such as air drag are not simulated)
         mass_kg: 0.6              required without `ball` (overrides the ball's when given)
         radius_m: 0.12            required without `ball` (overrides the ball's when given)
         virtual_body: {x_m: 0.06, v_m_per_s: 0.18}   required without `ball`
@@ -83,8 +86,8 @@ _TOP_FIELDS = {
     "rest_speed_m_per_s", "floor", "bodies",
 }
 _BODY_FIELDS = {
-    "name", "ball", "as_paper", "mass_kg", "radius_m", "virtual_body", "inertia", "position_m", "position_of",
-    "velocity_m_per_s", "spin_rad_per_s",
+    "name", "ball", "as_paper", "from", "mass_kg", "radius_m", "virtual_body", "inertia", "position_m",
+    "position_of", "velocity_m_per_s", "spin_rad_per_s",
 }
 
 
@@ -130,6 +133,7 @@ class Scene:
     rest_speed_m_per_s: float = DEFAULT_REST_SPEED_M_PER_S
     description: str = ""
     source: str = "scene"
+    notes: tuple = ()
 
     @property
     def names(self):
@@ -230,7 +234,7 @@ def load_scene(path, standards=None):
     """
     path = Path(path)
     doc = read_yaml(path, "scene")
-    return validate_scene(doc, str(path), default_name=path.stem, standards=standards)
+    return validate_scene(doc, str(path), default_name=path.stem, standards=standards, base_dir=path.parent)
 
 
 def _err(where, path, msg):
@@ -284,7 +288,7 @@ def _unknown(fields, allowed, where, path):
                    f"unknown field(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
 
 
-def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
+def validate_scene(doc, where="scene", *, default_name="scene", standards=None, base_dir=None):
     """Validate a parsed scene document and build the :class:`Scene`.
 
     Parameters
@@ -297,6 +301,9 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
         the scene's name when the document gives none
     standards : dict or None
         ball standards; the shipped ones when None
+    base_dir : str or Path or None
+        the folder a body's relative ``from`` path is read from (the scene file's; None: the
+        working directory)
 
     Returns
     -------
@@ -333,9 +340,9 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
         raise _err(where, "sample_dt_s", f"duration_s / sample_dt_s = {n_samples - 1:.3g} samples of "
                                          f"{len(raw_bodies)} bodies, more than the limit of {MAX_SAMPLE_ROWS:.0e} "
                                          "rows: raise sample_dt_s or shorten duration_s")
-    bodies = []
+    bodies, notes = [], []
     for i, fields in enumerate(raw_bodies):
-        bodies.append(_body(fields, i, where, K, standards))
+        bodies.append(_body(fields, i, where, K, standards, base_dir, notes))
     names = [b.name for b in bodies]
     for i, n in enumerate(names):
         if names.index(n) != i:
@@ -344,7 +351,7 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None):
     return Scene(
         name=name.strip(), K_per_s=K, duration_s=duration, bodies=tuple(bodies), floor_x_m=floor_x,
         floor_v_m_per_s=floor_v, sample_dt_s=sample_dt, g_m_per_s2=g, friction_mu=mu, rest_speed_m_per_s=rest,
-        description=description.strip(), source=where,
+        description=description.strip(), source=where, notes=tuple(notes),
     )
 
 
@@ -370,10 +377,10 @@ def _floor(fields, where):
     return x, v
 
 
-def _body(fields, i, where, K, standards):
+def _body(fields, i, where, K, standards, base_dir=None, notes=None):
     label = f"bodies[{i}]"
     if not isinstance(fields, dict):
-        raise _err(where, label, "must be a mapping with name, position_m and ball (or mass_kg, radius_m, "
+        raise _err(where, label, "must be a mapping with name, position_m and ball (or from, or mass_kg, radius_m, "
                                  "virtual_body)")
     name = fields.get("name")
     if (not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor"
@@ -384,8 +391,22 @@ def _body(fields, i, where, K, standards):
     path = f"{label} (name {name!r})."
     _unknown(fields, _BODY_FIELDS, where, path)
     ball_key = fields.get("ball")
+    from_json = fields.get("from")
     mass = radius = x = v = None
-    if ball_key is not None:
+    if from_json is not None:
+        if not isinstance(from_json, str) or not from_json.strip():
+            raise _err(where, f"{path}from", f"must be the path of a 'vrcal discover --json' result, got "
+                                             f"{_brief(from_json)}")
+        if "as_paper" in fields:
+            raise _err(where, f"{path}as_paper", "only applies to a body with a 'ball' of the standards, not 'from'")
+        body, vb, eps = _discovered_body(from_json.strip(), ball_key, K, standards, base_dir, where, path)
+        ball_key = body.name
+        mass, radius, x, v = body.mass_kg, body.radius_m, vb.x_m, vb.v_m_per_s
+        if notes is not None:
+            left = ", ".join(body.effects)
+            notes.append(f"{name}: epsilon {eps:.4f} measured by vrcal discover ({from_json.strip()})"
+                         + (f"; {left} not simulated in a scene" if left else ""))
+    elif ball_key is not None:
         from vrcal.inverse import parse_body
         from vrcal.model.standards import get_ball
 
@@ -408,7 +429,7 @@ def _body(fields, i, where, K, standards):
         vpath = f"{path}virtual_body"
         if not isinstance(vb, dict):
             raise _err(where, vpath, "missing or not a mapping {x_m: DEPTH, v_m_per_s: SPEED} "
-                                     "(or give a ball of the standards)")
+                                     "(or give a ball of the standards, or from: a discover result)")
         _unknown(vb, {"x_m", "v_m_per_s"}, where, vpath)
         x = _number(vb, "x_m", where, vpath + ".", minimum=0, strict=False)
         if x == 0:
@@ -435,6 +456,26 @@ def _body(fields, i, where, K, standards):
     return SceneBody(name=name, mass_kg=mass, radius_m=radius, inertia_factor=INERTIA_FACTORS[inertia], x_m=x,
                      v_m_per_s=v, position_m=position, velocity_m_per_s=velocity, spin_rad_per_s=spin,
                      ball=ball_key)
+
+
+def _discovered_body(from_json, ball_key, K, standards, base_dir, where, path):
+    """The body of a scene's ``from: FILE`` (relative to ``base_dir``): (Body, VirtualBody, epsilon).
+
+    Every error is a DataError naming the scene file and the field's path.
+    """
+    from vrcal.inverse import ball_virtual_body
+    from vrcal.model.body import describe_body
+
+    file = Path(from_json)
+    if base_dir is not None and not file.is_absolute():
+        file = Path(base_dir) / file
+    try:
+        body = describe_body(None if ball_key is None else str(ball_key), from_json=file, standards=standards,
+                             ball_label="ball")
+        vb, eps = ball_virtual_body(body, K)
+    except (UsageError, DataError) as exc:
+        raise _err(where, f"{path}from", str(exc)) from None
+    return body, vb, eps
 
 
 def _check_overlaps(bodies, where):
