@@ -168,15 +168,14 @@ def information_limit(d, data, truth, planted):
     models that far apart are told apart by a likelihood-ratio test in about Phi(sqrt(dchi2) / 2)
     of the noise draws (Phi(0.5) = 69 % at dchi2 = 1, 84 % at 4, 93 % at 9)."""
     clean = noise_free_measurement(data, truth)
-    problem = res.make_problem(clean, d.ball, d.g_m_per_s2, noise=d.noise_floor)
     first = {c.name: c for c in d.rounds[0]} if d.rounds else {}
     best = (None, float("inf"))
     for rival in res.applicable_effects(data.kind):
         if rival == planted:
             continue
         fitted = first[rival].fit if rival in first else None
-        starts = [None] + ([] if fitted is None else [{p.key: float(v) for p, v in zip(fitted.layout, fitted.values)}])
-        chi2 = min(res.fit_model(problem, (rival,), start=s).rss for s in starts) / d.noise_floor ** 2
+        starts = [] if fitted is None else [{p.key: float(v) for p, v in zip(fitted.layout, fitted.values)}]
+        chi2 = res.separation_chi2(clean, d.ball, (rival,), d.noise_floor, d.g_m_per_s2, starts)
         if chi2 < best[1]:
             best = (rival, float(chi2))
     return best
