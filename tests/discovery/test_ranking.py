@@ -15,10 +15,10 @@ from click.testing import CliRunner
 from helpers import shared_file
 
 from vrcal.cli import main
+from vrcal.discovery import residuals as res
 from vrcal.discovery.ranking import CONFUSABLE, discover, floor_referenced
 from vrcal.drop.effects import EFFECTS
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
-from vrcal.discovery import residuals as res
 from vrcal.drop.synthetic import hidden_effect_case, measurement_csv, noise_free_measurement
 from vrcal.errors import UsageError
 from vrcal.measurements import Trajectory
