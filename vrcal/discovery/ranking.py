@@ -182,6 +182,8 @@ class Discovery:
     scatter: float | None = None      # relative bounce-to-bounce scatter of impact-interval ratios
     scatter_gap: float | None = None  # the gap that scatter alone leaves [data unit]
     reader: dict = field(default_factory=dict)      # how the file was read (for a replay)
+    decimation: int = 1               # every k-th sample of a long trajectory was fitted (1: all)
+    n_read: int | None = None         # data read before decimation (None: as fitted)
 
     @property
     def unit(self):
@@ -346,7 +348,8 @@ class Discovery:
                                 else c.fit.effect_values.get(c.name, {}))}
                 for c in self.candidates
             ],
-            "data": {"kind": self.kind, "source": str(data.source), "n": int(self.baseline.n), "runs": len(runs)},
+            "data": {"kind": self.kind, "source": str(data.source), "n": int(self.baseline.n), "runs": len(runs),
+                     "decimation": int(self.decimation), "n_read": int(self.n_read or self.baseline.n)},
             "reader": dict(self.reader),
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
                      "diameter_m": float(self.ball.diameter_m)},
@@ -497,7 +500,7 @@ def _judge(cand, current, sigma_floor, th):
 
 
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
-             progress=None, max_effects=3, floor_m=None, noise=None, y_down=False, reader=None):
+             progress=None, max_effects=3, floor_m=None, noise=None, y_down=False, reader=None, stages=None):
     """Name the effects that the constant-ε baseline misses in ``data``.
 
     Parameters
@@ -527,6 +530,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         the reader turned the file's y axis over (for the hint when the record looks upside down)
     reader : dict or None
         how the file was read (format and options), kept in the result for a replay
+    stages : callable, optional
+        ``stages(fraction, message)`` called as the record is prepared (noise, decimation, bounces)
+        and before the fits (``vrcal discover`` shows them on a terminal from the first second on)
 
     Returns
     -------
@@ -549,7 +555,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
     given_kind = res._runs_of(data)[0].kind
     prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,
-                       sigma_m=noise if given_kind == "trajectory" else None)
+                       sigma_m=noise if given_kind == "trajectory" else None, progress=stages)
     fitted = prepared.data
     kind = res._runs_of(fitted)[0].kind
     usable = res.applicable_effects(kind)
@@ -567,6 +573,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             pool.append(name)
     if noise is not None:
         sigma_floor, noise_source = float(noise), "given"
+    elif prepared.noise_m is not None:   # a decimated record: the noise of every sample as read
+        sigma_floor = prepared.noise_m
+        noise_source = f"third differences of all samples (every {prepared.decimation}th fitted)"
     else:
         sigma_floor = res.noise_floor(fitted)
         noise_source = "third differences of the samples"
@@ -576,6 +585,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                 noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
     spread = res.drop_height_spread(problem)
+    if stages is not None:
+        stages(1.0, f"fitting {problem_size(problem):,} data")
     baseline = res.fit_model(problem, ())
     current, named, rounds, ambiguous = baseline, [], [], {}
     notes = list(prepared.notes)
@@ -639,9 +650,16 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if values:
             scatter = float(np.median(values))
             scatter_gap = res.scatter_gap(current, scatter)
+    n_read = sum(int(res.observed_values(run).size) for run in res._runs_of(data))
     return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
-                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m))
+                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m),
+                     prepared.decimation, n_read)
+
+
+def problem_size(problem):
+    """How many data a problem fits."""
+    return int(res.observed_values(problem.data).size)
 
 
 def _backward(problem, named, added, current, th, rnd, notes):
@@ -744,8 +762,11 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     props, _std = ball_from_options(ball, standards, mass_kg, diameter_m)
     options = {"scale_m_per_px": scale_m_per_px, "y_down": bool(y_down), "fs_hz": fs_hz, "sheet": sheet}
     recording = {"diameter_m": float(np.mean(props.diameter_m)), **(read_options or {})}
+    stages = recording.get("progress")
+    if stages is not None:
+        stages(0.0, f"reading {', '.join(map(str, paths))}")
     data = read_measurements(paths, fmt, **options, **recording)
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
     reader = {"files": [str(p) for p in paths], "format": fmt, **options}
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
-                    y_down=turned, reader=reader)
+                    y_down=turned, reader=reader, stages=stages)

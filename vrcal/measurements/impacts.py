@@ -32,6 +32,7 @@ from vrcal.measurements.table import (
     header_columns,
     numeric_width,
     parse_table,
+    row_lines,
     unit_factor,
 )
 from vrcal.measurements.types import ImpactTimes, Runs
@@ -113,7 +114,7 @@ def _times(path, table, col, allow_empty=False):
     """(times [s], their lines) of one column; empty cells skipped when allowed (a shorter run)."""
     t = column_values(path, table, col, what="impact time", allow_empty=allow_empty)
     t = t * unit_factor(path, table, col, TIME_UNITS, "time")
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     ok = np.isfinite(t)
     t, line_numbers = t[ok], line_numbers[ok]
     check_increasing(path, t, line_numbers, "impact time")

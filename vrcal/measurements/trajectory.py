@@ -27,8 +27,9 @@ from vrcal.measurements.table import (
     header_columns,
     numeric_width,
     parse_table,
-    split_cells,
+    row_lines,
     sniff,
+    split_cells,
     to_float,
     unit_factor,
 )
@@ -103,7 +104,7 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         fail(path, table.header_line, "header but no data rows")
     notes = list(notes)
     y = column_values(path, table, y_col, what="height", allow_empty=skip_empty_y)
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     if skip_empty_y:
         empty = np.isnan(y)
         if np.any(empty):
