@@ -61,3 +61,19 @@ def test_low_last_bounces_are_not_called_odd():
         cols = sample_measurement(drops, "trajectory", fs_hz=fs, noise_m=0.002, rng=seed)
         p = prep.prepare(Trajectory(cols["t"], cols["y"], "low"), TENNIS, 9.80665)
         assert not [n for n in p.notes if "left out" in n], (fs, p.notes)
+
+
+def test_more_runs_than_a_joint_fit_takes_is_one_error(monkeypatch):
+    """Chains of impacts (drops) beyond MAX_RUNS: a one-line error naming the limit, not a fit that
+    grows as the cube of the runs."""
+    from vrcal.errors import DataError
+    from vrcal.measurements.impacts import impact_times_from_events
+
+    v = np.sqrt(2 * 9.80665)
+    one = np.sqrt(2 / 9.80665) + np.concatenate([[0.0], np.cumsum(2 * 0.85 ** np.arange(1, 12) * v / 9.80665)])
+    data = impact_times_from_events("drops.csv", np.concatenate([one + 6.0 * k for k in range(4)]))
+    assert len(data.chains) == 4
+    monkeypatch.setattr(prep, "MAX_RUNS", 3)
+    with pytest.raises(DataError, match=r"drops.csv: 4 chains of consecutive bounces \(drops\) to fit jointly, "
+                                        r"more than 3"):
+        prep.prepare(data, TENNIS, 9.80665)

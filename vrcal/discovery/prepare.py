@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vrcal.errors import UsageError
+from vrcal.errors import DataError, UsageError
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -49,6 +49,11 @@ MAX_FIT_SAMPLES = 20_000
 
 #: Decimation never lowers the sampling rate below this [Hz] (a phone video's rate).
 MIN_FIT_RATE_HZ = 60.0
+
+#: Most runs fitted jointly (drops of a table, files, chains of impacts, pieces of a record): a
+#: joint fit has a release state per run, and its time grows as the cube of the runs (100 runs take
+#: a few seconds, 300 a minute).
+MAX_RUNS = 100
 
 
 class Prepared(NamedTuple):
@@ -371,6 +376,11 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
             out += [(p, f"{label} {lab}".strip()) for p, lab in pieces]
         else:
             out.append((run, label))
+    if len(out) > MAX_RUNS:
+        what = {"impacts": "chains of consecutive bounces (drops)", "apexes": "trials"}.get(out[0][0].kind, "runs")
+        raise DataError(f"{data.source}: {len(out):,} {what} to fit jointly, more than {MAX_RUNS} (a joint fit's "
+                        f"time grows as the cube of its runs): split the record into files of at most {MAX_RUNS} "
+                        f"drops")
     if len(out) == 1:
         fitted = out[0][0]
     else:
