@@ -151,10 +151,11 @@ def _decimated(record, notes, progress=None):
     thinned = [decimate(r, k) for r in runs]
     kept = sum(len(r.t_s) for r in thinned)
     noise_text = f"{noise * 1e3:.3g} mm, measured on all samples" if noise else "not measurable in the samples"
-    notes.append(f"decimated: every {k}th sample is fitted ({kept:,} of {total:,}, {1.0 / (k * dt):.4g} of "
-                 f"{1.0 / dt:.4g} samples/s); the fit does not need more to resolve the flights and contacts. "
-                 f"The noise ({noise_text}) is that of one sample, so chi-square, the evidence and the "
-                 f"uncertainties refer to the {kept:,} samples fitted")
+    notes.append(f"decimated: every {k}th sample is fitted ({kept:,} of {total:,}; {1.0 / (k * dt):,.0f} of "
+                 f"{1.0 / dt:,.0f} samples/s), which keeps the fit to seconds. The noise ({noise_text}) is "
+                 f"that of one sample, so chi-square, the evidence and the uncertainties refer to the "
+                 f"{kept:,} samples fitted (all samples would shrink the uncertainties about "
+                 f"{math.sqrt(k):.2g} times)")
     out = (Runs(runs=tuple(thinned), source=record.source, notes=record.notes, labels=record.labels)
            if isinstance(record, Runs) else thinned[0])
     return out, k, noise
