@@ -547,10 +547,13 @@ def tracking_progress(command):
               help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Video: metres per pixel overriding the scale from the diameter.")
+@click.option("--g", "g_m_per_s2", type=opt.GRAVITY_M_PER_S2, default=None, show_default="9.80665",
+              help="Video: the local gravity [m/s^2] that scales the ball's flights.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
 @STANDARDS_OPTION
 @click.pass_context
-def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, quiet):
+def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, g_m_per_s2,
+          quiet):
     """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
 
     A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
@@ -577,7 +580,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
         props, _std = ball_from_options(ball, standards_of(ctx), None, None)
         diameter_m = float(props.diameter_m)
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
-                             scale_m_per_px=scale_m_per_px,
+                             scale_m_per_px=scale_m_per_px, g_m_per_s2=g_m_per_s2,
                              progress=None if quiet else tracking_progress("track"))
     files = {}
     if plot_file:

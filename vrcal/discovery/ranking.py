@@ -462,7 +462,13 @@ def rank_by_evidence(cands, current, sigma_floor):
     return sigma
 
 
-def _judge(cand, current, sigma_floor, th):
+#: A fitted height offset is named only beyond this many standard uncertainties of the floor level
+#: when the reader estimated the floor (a video's contact row; ``Trajectory.floor_sd_m``): a smaller
+#: offset is the floor's own uncertainty, not a tracked point off the ball's bottom.
+FLOOR_SIGMAS = 3.0
+
+
+def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0):
     fit = cand.fit
     n, k0, k1 = fit.n, current.k, fit.k
     dk = max(k1 - k0, 1)
@@ -494,6 +500,10 @@ def _judge(cand, current, sigma_floor, th):
         reasons.append(f"{param} {value:.3g} outside its physical limits {lo:.3g}-{hi:.3g}")
     if not cand.gap_ok:
         reasons.append("gap barely shrinks")
+    offset = fit.effect_values.get("height_offset", {}).get("offset_m")
+    if offset is not None and floor_sd_m > 0 and abs(offset) <= FLOOR_SIGMAS * floor_sd_m:
+        reasons.append(f"offset {offset * 1e3:+.2g} mm within the floor level's uncertainty "
+                       f"({FLOOR_SIGMAS:g} x {floor_sd_m * 1e3:.2g} mm)")
     cand.material = not reasons
     cand.verdict = "material" if cand.material else "not material: " + "; ".join(reasons)
     return cand
@@ -583,6 +593,15 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             sigma_floor, noise_source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
                 noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
+    # what the reader knows of its own errors (a video tracker: the centres' systematic error, the floor
+    # level it estimated); a given --noise is taken as it is
+    read_runs = res._runs_of(data)
+    systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
+    floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in read_runs)
+    if noise is None and kind == "trajectory" and systematic > 0:
+        sigma_floor = math.hypot(sigma_floor, systematic)
+        noise_source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
+                         "added in quadrature")
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
     spread = res.drop_height_spread(problem)
     if stages is not None:
@@ -609,10 +628,10 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                 progress(rnd, i + 1, len(pool), name)
             fit = _fit_candidate(problem, named, (name,), current)
             cand = Candidate(name, rnd, fit, 0.0, 0.0, 1.0, False, False)
-            cands.append(_judge(cand, current, sigma_floor, th))
+            cands.append(_judge(cand, current, sigma_floor, th, floor_sd))
         material = [c for c in cands if c.material]
         if not material and len(named) + 2 <= max_effects:
-            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress)
+            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd)
             material = [c for c in cands if c.material]
         rank_by_evidence(cands, current, sigma_floor)
         cands.sort(key=lambda c: c.score)
@@ -681,7 +700,7 @@ def _backward(problem, named, added, current, th, rnd, notes):
     return named, current
 
 
-def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress):
+def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress, floor_sd_m=0.0):
     """Pairs of effects, tried when no single effect is material but some improve the fit
     strongly (dBIC >= threshold) with an unphysical parameter: two effects can bend the
     record in opposite ways, so that each alone needs an unphysical value. A pair is
@@ -702,7 +721,7 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
             progress(rnd, j + 1, len(pairs), f"{a}+{b}")
         fit = _fit_candidate(problem, named, (a, b), current)
         cand = _judge(Candidate(f"{a}+{b}", rnd, fit, 0.0, 0.0, 1.0, False, False, members=(a, b)),
-                      current, sigma_floor, th)
+                      current, sigma_floor, th, floor_sd_m)
         needed = min(by_name[a].fit.bic, by_name[b].fit.bic) - fit.bic
         if cand.material and needed < th.delta_bic:
             cand.material = False
@@ -761,7 +780,8 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     paths = [path] if isinstance(path, (str, bytes)) or not hasattr(path, "__iter__") else list(path)
     props, _std = ball_from_options(ball, standards, mass_kg, diameter_m)
     options = {"scale_m_per_px": scale_m_per_px, "y_down": bool(y_down), "fs_hz": fs_hz, "sheet": sheet}
-    recording = {"diameter_m": float(np.mean(props.diameter_m)), **(read_options or {})}
+    recording = {"diameter_m": float(np.mean(props.diameter_m)), "g_m_per_s2": float(g_m_per_s2),
+                 **(read_options or {})}
     stages = recording.get("progress")
     if stages is not None:
         stages(0.0, f"reading {', '.join(map(str, paths))}")

@@ -109,6 +109,8 @@ def _noise_text(d):
         "given" if d.noise_source == "given" else "assumed")
     if d.decimation > 1 and d.noise_source.startswith("third"):
         src = f"measured on all {d.n_read:,} samples"
+    if "systematic error" in d.noise_source:
+        src += " with the tracker's systematic error"
     noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
     if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
         return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "

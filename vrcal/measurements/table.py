@@ -11,7 +11,7 @@ from __future__ import annotations
 import io
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
@@ -46,6 +46,12 @@ class Text:
     path: str
     lines: list  # [(lineno, text)]
     multi: bool = False  # a Tracker '#multi:' export
+    meta: dict = field(default_factory=dict)  # {key: (lineno, text)} of '# vrcal KEY = VALUE' comments
+
+
+#: A comment line carrying what a reader of the file should know (``vrcal track`` writes the tracker's
+#: uncertainties so: ``# vrcal systematic_m = 0.00013``).
+_META = re.compile(r"^#\s*vrcal\s+([a-z_]+)\s*=\s*(\S+)")
 
 
 def fail(path, line, what):
@@ -72,7 +78,7 @@ def load_text(path):
     printable = sum(ch.isprintable() or ch in "\r\n\t" for ch in text[:4096])
     if printable < 0.95 * len(text[:4096]):
         fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
-    lines, multi = [], False
+    lines, multi, meta = [], False, {}
     for i, line in enumerate(text.splitlines(), start=1):
         first = line[:1]
         if first in ("#", "") or first.isspace():   # a comment or blank line, perhaps indented
@@ -81,11 +87,26 @@ def load_text(path):
                 continue
             if stripped.startswith("#"):
                 multi = multi or stripped.lower().startswith("#multi")
+                found = _META.match(stripped)
+                if found:
+                    meta[found.group(1)] = (i, found.group(2))
                 continue
         lines.append((i, line))
     if not lines:
         fail(path_s, 0, "no data (only comments or blank lines)")
-    return Text(path_s, lines, multi)
+    return Text(path_s, lines, multi, meta)
+
+
+def meta_length(text, key, limit_m=1.0):
+    """A length [m] from a ``# vrcal KEY = VALUE`` comment of ``text`` (0 when absent); a value that is
+    not a number in [0, ``limit_m``] is an error naming its line."""
+    if key not in text.meta:
+        return 0.0
+    line, raw = text.meta[key]
+    value = to_float(raw, False)
+    if value is None or not (0.0 <= value <= limit_m):
+        fail(text.path, line, f"'{key} = {raw}': give a length in m between 0 and {limit_m:g}")
+    return float(value)
 
 
 def strip_cell(cell):

@@ -10,6 +10,8 @@ units and scale, the y direction, repeated rows, duplicated frames and the relea
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from vrcal.errors import UsageError
@@ -25,6 +27,7 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
+    meta_length,
     numeric_width,
     parse_table,
     row_lines,
@@ -161,7 +164,12 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append("no header: two columns read as t [s], y [m]")
     else:
         table = parse_table(text)
-    return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
-                                  notes=tuple(notes))
+    traj = trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
+                                 notes=tuple(notes))
+    # what the tool that made the file knows of its errors ('vrcal track' writes them as comments)
+    known = {key: meta_length(text, key) for key in ("systematic_m", "floor_sd_m")}
+    if any(known.values()):
+        traj = dataclasses.replace(traj, **known)
+    return traj
 
 
