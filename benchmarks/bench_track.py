@@ -132,10 +132,12 @@ def bench_videos(tmp):
     print("2. synthetic videos (640x480, ball 27 px), two drops a scene (0.9 m, eps 0.6; 1.1 m, eps 0.8), each "
           "rendered clean and with air drag planted (C_d 0.5):")
     print("   the largest centre error, the epsilon error (clean), the effects discover names per drop -- as it is "
-          "('as is'), with the")
-    print("   centres' systematic error VideoTrack.systematic_m added to its noise ('+sys'), and, for the drag, on "
-          "the true heights at")
-    print("   the same frames with the same white noise ('truth': what discover can find at all)")
+          "('as is': the")
+    print("   trajectory carries the tracker's errors, the centres' systematic error and the floor's uncertainty), "
+          "with that noise")
+    print("   given as --noise ('+sys'), and, for the drag, on the true heights at the same frames with the same "
+          "white noise")
+    print("   ('truth': what discover can find at all)")
     count = {"clean": 0, "clean+sys": 0, "drag": 0, "drag+sys": 0, "drag truth": 0, "other": 0, "other+sys": 0}
     runs = 0
     for name, scene in VIDEO_SCENES.items():

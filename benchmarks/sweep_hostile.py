@@ -80,6 +80,16 @@ def fixture(name):
             _FIXTURES[name] = "\n".join(rows) + "\n"
         elif name == "tracker.txt":
             _FIXTURES[name] = (EXAMPLES / "data" / "tracker-export.txt").read_text(encoding="utf-8")
+        elif name == "big-trajectory.csv":   # 10^6 honest samples: 30 bounces at 174 kHz, 1 mm noise
+            _FIXTURES[name] = subprocess.run(
+                [VRCAL, "simulate", "tennis", "--drop", "1", "--bounces", "30", "--epsilon", "0.85", "--fs", "174000",
+                 "--noise", "0.001"], capture_output=True, text=True, check=True).stdout
+        elif name == "big-impacts-clock.csv":   # a 1 kHz sensor over 17 minutes: 10^6 equally spaced times
+            _FIXTURES[name] = "t\n" + "".join(f"{i / 1000:.3f}\n" for i in range(1_000_000))
+        elif name == "big-impacts-drops.csv":   # 33,333 drops of 30 impacts each, 6 s apart
+            flights = [2 * 0.85 ** k * (2 * 9.80665) ** 0.5 / 9.80665 for k in range(1, 30)]
+            one = [0.4516 + sum(flights[:k]) for k in range(30)]
+            _FIXTURES[name] = "t\n" + "".join(f"{6.0 * d + x:.6f}\n" for d in range(33_333) for x in one)
         elif name == "drop.wav":
             with tempfile.TemporaryDirectory() as d:
                 subprocess.run([VRCAL, "simulate", "tennis", "--bounces", "4", "--format", "wav", "-o",
@@ -552,7 +562,14 @@ def track_cases():
 
 
 def size_cases():
+    big = ["discover", "big.csv", "--ball", "tennis", "-q"]
     return [
+        Case("discover a 10^6-sample trajectory", big, owner="big", expect="ok",
+             files={"big.csv": "fixture:big-trajectory.csv"}),
+        Case("discover 10^6 equally spaced impact times", big, owner="big",
+             files={"big.csv": "fixture:big-impacts-clock.csv"}),
+        Case("discover 10^6 impact times of 33,333 drops", big, owner="big",
+             files={"big.csv": "fixture:big-impacts-drops.csv"}),
         Case("fit --n 10000000", ["fit", "basketball", "--n", "10000000"]),
         Case("fit --n 100000", ["fit", "basketball", "--n", "100000"], expect="any"),
         Case("simulate --bounces 10000000", ["simulate", "tennis", "--bounces", "10000000"]),

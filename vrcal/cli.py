@@ -601,10 +601,12 @@ def tracking_progress(command):
               help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Video: metres per pixel overriding the scale from the diameter.")
+@g_option(from_json=False)
 @click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
 @STANDARDS_OPTION
 @click.pass_context
-def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, quiet):
+def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, g_m_per_s2,
+          quiet):
     """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
 
     A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
@@ -628,7 +630,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
     if ball is not None and diameter_m is None:
         diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
-                             scale_m_per_px=scale_m_per_px,
+                             scale_m_per_px=scale_m_per_px, g_m_per_s2=g_m_per_s2,
                              progress=None if quiet else tracking_progress("track"))
     files = {}
     if plot_file:

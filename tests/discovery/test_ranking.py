@@ -348,3 +348,20 @@ def test_cli_real_record(tmp_path):
     assert result.exit_code == 0, result.output
     assert "air_drag" in result.output.split("Named effects")[1]
     assert max(len(line) for line in result.output.splitlines()) <= 100
+
+
+def test_an_offset_within_the_floor_levels_uncertainty_is_not_named():
+    """A reader that estimated the floor (a video's contact row) says how uncertain it is
+    (Trajectory.floor_sd_m): a 2 mm offset is named on a floor known exactly, not when the floor
+    itself is uncertain by 1 mm (3 sigma = 3 mm), and the candidate's verdict says why."""
+    import dataclasses
+
+    ball = get_ball("tennis")
+    drops = simulate_drops(1.0, 0.75, 6, ball, release_time_s=0.2, effects={"height_offset": {"offset_m": 0.002}})
+    cols = sample_measurement(drops, "trajectory", fs_hz=240.0, noise_m=2e-4, rng=3)
+    data = Trajectory(t_s=cols["t"], y_m=cols["y"], source="offset")
+    assert discover(data, ball).effects == ["height_offset"]
+    uncertain = discover(dataclasses.replace(data, floor_sd_m=0.001), ball)
+    assert "height_offset" not in uncertain.effects
+    judged = [c for c in uncertain.rounds[0] if c.name == "height_offset"]
+    assert judged and "within the floor level's uncertainty" in judged[0].verdict

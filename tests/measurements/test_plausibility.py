@@ -119,6 +119,42 @@ def test_growing_intervals_are_an_error(tmp_path):
     assert result.exit_code == 1 and "intervals between impacts grow" in result.output
 
 
+@pytest.mark.parametrize("times", [np.arange(3.0) - 3.0, np.arange(1000) * 1e-3 + 0.5,
+                                   np.arange(50) * 0.2 + np.random.default_rng(0).normal(0, 1e-4, 50)])
+def test_equally_spaced_impact_times_are_an_error(tmp_path, times):
+    """Intervals that do not shrink mean epsilon = 1: a clock or a sensor's samples, not a ball (the sweep
+    found epsilon 0.999 with exit 0 for 't: -3, -2, -1')."""
+    with pytest.raises(DataError, match=r"intervals between impacts do not shrink .*epsilon would be 1"):
+        check_impact_times(times, "f.csv")
+    path = tmp_path / "clock.csv"
+    path.write_text("t\n" + "\n".join(repr(float(v)) for v in times) + "\n")
+    result = run("discover", path, "--ball", "tennis", "-q")
+    assert result.exit_code == 1 and result.output.count("\n") == 1 and "do not shrink" in result.output
+    # the bounciest plausible series still passes
+    check_impact_times(impacts(eps=0.97), "f.csv")
+
+
+@pytest.mark.parametrize("header", ["x", "x (m)", "position", "z [mm]"])
+def test_a_lone_column_of_positions_is_not_read_as_impact_times(tmp_path, header):
+    path = tmp_path / "x.csv"
+    path.write_text(f"{header}\n1\n2\n3\n")
+    result = run("discover", path, "--ball", "tennis", "-q")
+    assert result.exit_code == 1 and result.output.startswith("vrcal: error: ") and result.output.count("\n") == 1
+    forced = run("discover", path, "--ball", "tennis", "-q", "--format", "impacts")
+    assert forced.exit_code == 1 and "holds positions, not impact times" in forced.output
+
+
+def test_a_million_impact_times_end_in_one_line(tmp_path):
+    """Many drops in one file: more events than any file of drops holds, refused before any work."""
+    from vrcal.measurements.impacts import MAX_IMPACT_EVENTS
+
+    drops = np.concatenate([impacts(n=30) + 6.0 * k for k in range(MAX_IMPACT_EVENTS // 30 + 1)])
+    path = tmp_path / "many.csv"
+    path.write_text("t\n" + "\n".join(f"{v:.6f}" for v in drops) + "\n")
+    result = run("discover", path, "--ball", "tennis", "-q")
+    assert result.exit_code == 1 and f"more than the {MAX_IMPACT_EVENTS:,}" in result.output
+
+
 def test_impact_times_in_ms_under_s_from_the_command_line(tmp_path):
     path = tmp_path / "ms.csv"
     path.write_text("t (s)\n" + "\n".join(repr(float(v) * 1e3) for v in impacts()) + "\n")

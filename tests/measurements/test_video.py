@@ -71,21 +71,40 @@ def test_centre_scale_and_floor(plain, hard, case):
 
 
 def test_clean_videos_give_epsilon_and_name_no_effect(plain, hard):
-    """epsilon within 0.005; and no effect named once discover's noise holds the centres' systematic
-    error (VideoTrack.systematic_m, 0.05 px): the third differences of a noise-free video see none of
-    it, and a floor 0.01 px off is then 'material' (see benchmarks/bench_track.py)."""
+    """epsilon within 0.005, and no effect named: the trajectory carries the tracker's own errors
+    (the centres' systematic error, 0.05 px, and the floor level's uncertainty), which discover adds
+    to the noise it measures -- the third differences of a noise-free video see none of it, and a
+    floor 0.01 px off would otherwise be a 'material' height offset (see benchmarks/bench_track.py)."""
     from vrcal.discovery.ranking import discover
-    from vrcal.discovery.residuals import noise_floor
 
     for path, _ in (plain, hard):
         vt = track_video(path, diameter_m=D)
         data = vt.trajectory
         assert data.release_index > 0
         assert abs(np.min(data.y_m)) < 0.01  # heights are of the ball's bottom above the floor
-        assert abs(discover(data, BALL).epsilon - 0.75) < 0.005
-        result = discover(data, BALL, noise=float(np.hypot(noise_floor(data), vt.systematic_m)))
+        assert data.systematic_m == pytest.approx(vt.systematic_m) and data.systematic_m > 0
+        assert 0 < data.floor_sd_m < 0.01 * D
+        result = discover(data, BALL)
         assert abs(result.epsilon - 0.75) < 0.005
         assert not result.effects
+        assert "systematic error of the centres" in result.noise_source
+
+
+def test_a_tracked_file_keeps_the_trackers_errors(plain, tmp_path):
+    """'vrcal track' writes the systematic error and the floor's uncertainty as '# vrcal KEY = VALUE'
+    comments; reading the file back gives them to discover."""
+    from vrcal.measurements.recording import track
+
+    path, _ = plain
+    tracked = track(str(path), diameter_m=D)
+    out = tmp_path / "drop.csv"
+    out.write_text(tracked.text)
+    back = read_measurement(out)
+    assert back.systematic_m == pytest.approx(tracked.measurement.systematic_m, rel=1e-3)
+    assert back.floor_sd_m == pytest.approx(tracked.measurement.floor_sd_m, rel=1e-3)
+    out.write_text(tracked.text.replace("# vrcal floor_sd_m = ", "# vrcal floor_sd_m = -"))
+    with pytest.raises(DataError, match=r"drop.csv:\d+: 'floor_sd_m = -"):
+        read_measurement(out)
 
 
 def test_a_blurred_frame_spanning_an_impact_is_left_out(hard):
@@ -105,6 +124,10 @@ def test_the_scale_comes_from_g_when_the_diameter_disagrees(plain):
     assert any(n.startswith("scale:") and "from g" in n for n in vt.notes)
     assert any(n.startswith("not used: the ball's apparent diameter") for n in vt.notes)
     assert any("buoyancy" in n and "cannot be told" in n for n in vt.notes)
+    # the flights' scale takes the local g as known (--g)
+    local = track_video(path, diameter_m=1.1 * D, g_m_per_s2=9.78)
+    assert local.scale_m_per_px == pytest.approx(vt.scale_m_per_px * 9.78 / STANDARD_GRAVITY, rel=1e-9)
+    assert any("from g (9.78 m/s^2" in n for n in local.notes)
     vt = track_video(path, diameter_m=D, scale_m_per_px=0.003)  # a given scale is kept
     assert vt.scale_m_per_px == 0.003 and any("(given)" in n for n in vt.notes)
 

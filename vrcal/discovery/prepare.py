@@ -5,6 +5,9 @@ that do not belong.
 state per run). This module decides what the runs are:
 
 * a trajectory's heights are referred to the floor (:func:`floor_referenced`);
+* a long trajectory is decimated (:func:`decimate`): its noise is measured on every sample, then
+  every k-th sample is fitted (at most :data:`MAX_FIT_SAMPLES`), with a note giving k; the fit's
+  statistics (chi-square, the noise's share of the gap, the evidence) refer to the samples fitted;
 * the record is checked against physics (:func:`vrcal.measurements.plausibility.check`: units,
   orientation, g, frame rate, rebounds below drops); what cannot be fitted stops here in one
   line, what only looks off becomes a warning (the verdict "suspect input");
@@ -24,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vrcal.errors import UsageError
+from vrcal.errors import DataError, UsageError
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -32,6 +35,25 @@ FLOOR_BAND_M = (-0.05, 0.3)
 
 #: A contact this many ball diameters above the floor level of the other bounces hit something else.
 ODD_CONTACT_DIAMETERS = 0.5
+
+#: A bounce is judged (odd or not) only while the flights on both sides of it rise this many noise
+#: sigmas above the floor: a lower flight's bounce is found and timed by the noise as much as by the
+#: ball (a low bounce can be missed among the noise, or a noise dip taken for one), so the low last
+#: bounces of a record are fitted as they are, never called odd.
+RESOLVED_SIGMAS = 20.0
+
+#: Most samples of the trajectories fitted together: a longer record is decimated to every k-th
+#: sample (:func:`decimate`). 20,000 samples hold every bounce a drop makes many times over; fitting
+#: them takes seconds, while a 10^6-sample record fitted whole takes minutes.
+MAX_FIT_SAMPLES = 20_000
+
+#: Decimation never lowers the sampling rate below this [Hz] (a phone video's rate).
+MIN_FIT_RATE_HZ = 60.0
+
+#: Most runs fitted jointly (drops of a table, files, chains of impacts, pieces of a record): a
+#: joint fit has a release state per run, and its time grows as the cube of the runs (100 runs take
+#: a few seconds, 300 a minute).
+MAX_RUNS = 100
 
 
 class Prepared(NamedTuple):
@@ -42,6 +64,8 @@ class Prepared(NamedTuple):
     notes: tuple          # what was done (floor shift, cuts)
     warnings: tuple       # what looks off (the verdict "suspect input")
     floor_shifts_m: tuple  # subtracted from the heights of each trajectory as read [m] (0 when none)
+    decimation: int = 1   # every k-th sample of the trajectories is fitted (1: all)
+    noise_m: float | None = None  # noise of one height measured on every sample before decimation [m]
 
 
 def floor_referenced(data, floor_m=None):
@@ -81,6 +105,60 @@ def floor_referenced(data, floor_m=None):
                 f"shifted by {-shift:+.4f} m so that the lowest sample is at 0; height_offset is then the "
                 f"tracked point at contact relative to the lowest sample (give --floor to set the floor)")
     return dataclasses.replace(data, y_m=y - shift), note
+
+
+def decimation_factor(n_samples, dt_s, max_samples=None):
+    """Keep every k-th sample: the k that leaves at most ``max_samples`` (default
+    :data:`MAX_FIT_SAMPLES`) of ``n_samples`` (1 when they fit), but never a sampling interval beyond
+    1 / :data:`MIN_FIT_RATE_HZ` (``dt_s`` [s] the median interval as read)."""
+    max_samples = MAX_FIT_SAMPLES if max_samples is None else max_samples
+    n = int(n_samples)
+    if n <= max_samples or not (dt_s > 0):
+        return 1
+    k = -(-n // int(max_samples))
+    return int(max(1, min(k, math.floor(1.0 / (MIN_FIT_RATE_HZ * dt_s)))))
+
+
+def decimate(data, factor):
+    """Every ``factor``-th sample of a trajectory (from the first); the release index and the file's
+    line numbers follow the samples kept."""
+    k = int(factor)
+    if k <= 1 or data.kind != "trajectory":
+        return data
+    lines = getattr(data, "lines", None)
+    return dataclasses.replace(data, t_s=np.asarray(data.t_s)[::k], y_m=np.asarray(data.y_m)[::k],
+                               release_index=-(-int(getattr(data, "release_index", 0) or 0) // k),
+                               lines=None if lines is None else np.asarray(lines)[::k])
+
+
+def _decimated(record, notes, progress=None):
+    """The record with its trajectories decimated (:func:`decimate`), the factor, and the noise [m]
+    measured on every sample before (None when nothing was decimated)."""
+    from vrcal.discovery.residuals import noise_floor
+    from vrcal.measurements import Runs
+
+    runs = list(record.runs) if isinstance(record, Runs) else [record]
+    if runs[0].kind != "trajectory":
+        return record, 1, None
+    total = sum(len(r.t_s) for r in runs)
+    dt = float(np.median(np.diff(np.asarray(runs[0].t_s, dtype=float)))) if len(runs[0].t_s) > 1 else 0.0
+    k = decimation_factor(total, dt)
+    if k <= 1:
+        return record, 1, None
+    if progress is not None:
+        progress(0.2, f"measuring the noise on {total:,} samples")
+    noise = noise_floor(record)
+    thinned = [decimate(r, k) for r in runs]
+    kept = sum(len(r.t_s) for r in thinned)
+    noise_text = f"{noise * 1e3:.3g} mm, measured on all samples" if noise else "not measurable in the samples"
+    notes.append(f"decimated: every {k}th sample is fitted ({kept:,} of {total:,}; {1.0 / (k * dt):,.0f} of "
+                 f"{1.0 / dt:,.0f} samples/s), which keeps the fit to seconds. The noise ({noise_text}) is "
+                 f"that of one sample, so chi-square, the evidence and the uncertainties refer to the "
+                 f"{kept:,} samples fitted (all samples would shrink the uncertainties about "
+                 f"{math.sqrt(k):.2g} times)")
+    out = (Runs(runs=tuple(thinned), source=record.source, notes=record.notes, labels=record.labels)
+           if isinstance(record, Runs) else thinned[0])
+    return out, k, noise
 
 
 def _line(data, i):
@@ -140,26 +218,39 @@ def odd_bounces(data, diameter_m, g_m_per_s2, sigma_m=0.0):
     * a bounce whose flights are out of line with the others (the chain test of the impact
       times, :func:`vrcal.measurements.cleanup.impact_chains`, on the contact times): a kick,
       a second surface, a sudden loss.
+
+    Only the bounces before the first flight that stays within :data:`RESOLVED_SIGMAS` noise sigmas
+    (``sigma_m``) of the floor level are judged: below that the noise decides where a bounce seems
+    to be.
     """
     from vrcal.discovery.residuals import impacts_in_trajectory
     from vrcal.measurements.cleanup import impact_chains
 
     r = int(getattr(data, "release_index", 0) or 0)
-    minima = impacts_in_trajectory(data.t_s, data.y_m, r, sigma_m or None)
+    y = np.asarray(data.y_m, dtype=float)
+    minima = impacts_in_trajectory(data.t_s, y, r, sigma_m or None)
     if minima.size < 2:
         return [], minima
-    tc, yc = contact_points(data.t_s, data.y_m, minima, r, g_m_per_s2)
-    floor = float(np.median(yc))
-    spread = 1.4826 * float(np.median(np.abs(yc - floor)))
+    tc, yc = contact_points(data.t_s, y, minima, r, g_m_per_s2)
+    # the flight after each bounce rises to apex[k]; a bounce is resolved while both its flights are high
+    ends = [int(m) for m in minima[1:]] + [y.size]
+    apex = np.array([float(np.max(y[int(a):b])) for a, b in zip(minima, ends)])
+    low = np.flatnonzero(apex - float(np.median(yc)) < RESOLVED_SIGMAS * float(sigma_m or 0.0))
+    judged = int(low[0]) if low.size else int(minima.size)   # bounces before the first low flight
+    if judged < 2:
+        return [], minima
+    floor = float(np.median(yc[:judged]))
+    spread = 1.4826 * float(np.median(np.abs(yc[:judged] - floor)))
     limit = max(ODD_CONTACT_DIAMETERS * float(diameter_m), 0.02, 5.0 * spread)
     odd = {}
-    for k, (m, h) in enumerate(zip(minima, yc)):
+    for k, (m, h) in enumerate(zip(minima[:judged], yc[:judged])):
         if h - floor > limit:
             odd[int(m)] = (f"bounce {k + 1} ({_line(data, int(m))}, t = {tc[k]:.3f} s) touches at "
                            f"{h - floor:.3f} m above the floor level of the other bounces: the ball hit something")
-    if minima.size >= 4:
-        labels = [f"bounce {k + 1} ({_line(data, int(m))})" for k, m in enumerate(minima)]
-        found = impact_chains(tc, labels=labels, tolerance=0.15, timing_sigma_s=0.5 * float(np.median(np.diff(data.t_s))))
+    if judged >= 4:
+        labels = [f"bounce {k + 1} ({_line(data, int(m))})" for k, m in enumerate(minima[:judged])]
+        found = impact_chains(tc[:judged], labels=labels, tolerance=0.15,
+                              timing_sigma_s=0.5 * float(np.median(np.diff(data.t_s))))
         for idx, why in found.anomalies:
             odd.setdefault(int(minima[idx]), why)
     return sorted(odd.items()), minima
@@ -213,7 +304,7 @@ def _impact_runs(data, label):
     return out
 
 
-def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None):
+def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None, progress=None):
     """The runs to fit, with notes and warnings (see the module docstring).
 
     Parameters
@@ -227,14 +318,15 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None)
         the reader turned the y axis over (for the hint of an upside-down record)
     sigma_m : float or None
         noise of one height [m] when known
+    progress : callable or None
+        ``progress(fraction, message)`` at each stage of a long record
 
     Returns
     -------
     Prepared
     """
     from vrcal.discovery.residuals import _third_difference_sigma
-    from vrcal.measurements import Runs
-    from vrcal.measurements import plausibility
+    from vrcal.measurements import Runs, plausibility
 
     runs = list(data.runs) if isinstance(data, Runs) else [data]
     labels = list(data.labels) if isinstance(data, Runs) and data.labels else (
@@ -250,9 +342,16 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None)
     record = Runs(runs=tuple(shifted), source=data.source, labels=tuple(labels)) if isinstance(data, Runs) \
         else shifted[0]
     diameter = float(np.mean(ball.diameter_m))
-    sigma = sigma_m
+    if shifted[0].kind == "trajectory":
+        for run in shifted:   # the frame rate as recorded (decimation lowers it)
+            plausibility.check_sampling(run.t_s, run.source)
+    record, factor, full_noise = _decimated(record, notes, progress)
+    sigma = sigma_m if sigma_m is not None else full_noise
     if sigma is None and shifted[0].kind == "trajectory":
-        sigma = _third_difference_sigma(np.asarray(shifted[0].t_s, float), np.asarray(shifted[0].y_m, float))
+        first = record.runs[0] if isinstance(record, Runs) else record
+        sigma = _third_difference_sigma(np.asarray(first.t_s, float), np.asarray(first.y_m, float))
+    if progress is not None:
+        progress(0.5, "checking the record and finding its bounces")
     checked = plausibility.check(record, diameter, g_m_per_s2, y_down=y_down, sigma_m=sigma or 0.0)
     notes += list(checked.notes)
     warnings = list(checked.warnings)
@@ -278,8 +377,14 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None)
             out += [(p, f"{label} {lab}".strip()) for p, lab in pieces]
         else:
             out.append((run, label))
+    if len(out) > MAX_RUNS:
+        what = {"impacts": "chains of consecutive bounces (drops)", "apexes": "trials"}.get(out[0][0].kind, "runs")
+        raise DataError(f"{data.source}: {len(out):,} {what} to fit jointly, more than {MAX_RUNS} (a joint fit's "
+                        f"time grows as the cube of its runs): split the record into files of at most {MAX_RUNS} "
+                        f"drops")
     if len(out) == 1:
         fitted = out[0][0]
     else:
         fitted = Runs(runs=tuple(r for r, _ in out), source=data.source, labels=tuple(lab for _, lab in out))
-    return Prepared(fitted, tuple(lab for _, lab in out), tuple(notes), tuple(warnings), tuple(shifts))
+    return Prepared(fitted, tuple(lab for _, lab in out), tuple(notes), tuple(warnings), tuple(shifts), factor,
+                    full_noise)

@@ -182,6 +182,8 @@ class Discovery:
     scatter: float | None = None      # relative bounce-to-bounce scatter of impact-interval ratios
     scatter_gap: float | None = None  # the gap that scatter alone leaves [data unit]
     reader: dict = field(default_factory=dict)      # how the file was read (for a replay)
+    decimation: int = 1               # every k-th sample of a long trajectory was fitted (1: all)
+    n_read: int | None = None         # data read before decimation (None: as fitted)
 
     @property
     def unit(self):
@@ -346,7 +348,8 @@ class Discovery:
                                 else c.fit.effect_values.get(c.name, {}))}
                 for c in self.candidates
             ],
-            "data": {"kind": self.kind, "source": str(data.source), "n": int(self.baseline.n), "runs": len(runs)},
+            "data": {"kind": self.kind, "source": str(data.source), "n": int(self.baseline.n), "runs": len(runs),
+                     "decimation": int(self.decimation), "n_read": int(self.n_read or self.baseline.n)},
             "reader": dict(self.reader),
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
                      "diameter_m": float(self.ball.diameter_m)},
@@ -459,7 +462,13 @@ def rank_by_evidence(cands, current, sigma_floor):
     return sigma
 
 
-def _judge(cand, current, sigma_floor, th):
+#: A fitted height offset is named only beyond this many standard uncertainties of the floor level
+#: when the reader estimated the floor (a video's contact row; ``Trajectory.floor_sd_m``): a smaller
+#: offset is the floor's own uncertainty, not a tracked point off the ball's bottom.
+FLOOR_SIGMAS = 3.0
+
+
+def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0):
     fit = cand.fit
     n, k0, k1 = fit.n, current.k, fit.k
     dk = max(k1 - k0, 1)
@@ -491,13 +500,17 @@ def _judge(cand, current, sigma_floor, th):
         reasons.append(f"{param} {value:.3g} outside its physical limits {lo:.3g}-{hi:.3g}")
     if not cand.gap_ok:
         reasons.append("gap barely shrinks")
+    offset = fit.effect_values.get("height_offset", {}).get("offset_m")
+    if offset is not None and floor_sd_m > 0 and abs(offset) <= FLOOR_SIGMAS * floor_sd_m:
+        reasons.append(f"offset {offset * 1e3:+.2g} mm within the floor level's uncertainty "
+                       f"({FLOOR_SIGMAS:g} x {floor_sd_m * 1e3:.2g} mm)")
     cand.material = not reasons
     cand.verdict = "material" if cand.material else "not material: " + "; ".join(reasons)
     return cand
 
 
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
-             progress=None, max_effects=3, floor_m=None, noise=None, y_down=False, reader=None):
+             progress=None, max_effects=3, floor_m=None, noise=None, y_down=False, reader=None, stages=None):
     """Name the effects that the constant-ε baseline misses in ``data``.
 
     Parameters
@@ -527,6 +540,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         the reader turned the file's y axis over (for the hint when the record looks upside down)
     reader : dict or None
         how the file was read (format and options), kept in the result for a replay
+    stages : callable, optional
+        ``stages(fraction, message)`` called as the record is prepared (noise, decimation, bounces)
+        and before the fits (``vrcal discover`` shows them on a terminal from the first second on)
 
     Returns
     -------
@@ -549,7 +565,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
     given_kind = res._runs_of(data)[0].kind
     prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,
-                       sigma_m=noise if given_kind == "trajectory" else None)
+                       sigma_m=noise if given_kind == "trajectory" else None, progress=stages)
     fitted = prepared.data
     kind = res._runs_of(fitted)[0].kind
     usable = res.applicable_effects(kind)
@@ -567,6 +583,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             pool.append(name)
     if noise is not None:
         sigma_floor, noise_source = float(noise), "given"
+    elif prepared.noise_m is not None:   # a decimated record: the noise of every sample as read
+        sigma_floor = prepared.noise_m
+        noise_source = f"third differences of all samples (every {prepared.decimation}th fitted)"
     else:
         sigma_floor = res.noise_floor(fitted)
         noise_source = "third differences of the samples"
@@ -574,8 +593,19 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             sigma_floor, noise_source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
                 noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
+    # what the reader knows of its own errors (a video tracker: the centres' systematic error, the floor
+    # level it estimated); a given --noise is taken as it is
+    read_runs = res._runs_of(data)
+    systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
+    floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in read_runs)
+    if noise is None and kind == "trajectory" and systematic > 0:
+        sigma_floor = math.hypot(sigma_floor, systematic)
+        noise_source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
+                         "added in quadrature")
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
     spread = res.drop_height_spread(problem)
+    if stages is not None:
+        stages(1.0, f"fitting {problem_size(problem):,} data")
     baseline = res.fit_model(problem, ())
     current, named, rounds, ambiguous = baseline, [], [], {}
     notes = list(prepared.notes)
@@ -598,10 +628,10 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                 progress(rnd, i + 1, len(pool), name)
             fit = _fit_candidate(problem, named, (name,), current)
             cand = Candidate(name, rnd, fit, 0.0, 0.0, 1.0, False, False)
-            cands.append(_judge(cand, current, sigma_floor, th))
+            cands.append(_judge(cand, current, sigma_floor, th, floor_sd))
         material = [c for c in cands if c.material]
         if not material and len(named) + 2 <= max_effects:
-            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress)
+            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd)
             material = [c for c in cands if c.material]
         rank_by_evidence(cands, current, sigma_floor)
         cands.sort(key=lambda c: c.score)
@@ -639,9 +669,16 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if values:
             scatter = float(np.median(values))
             scatter_gap = res.scatter_gap(current, scatter)
+    n_read = sum(int(res.observed_values(run).size) for run in res._runs_of(data))
     return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
-                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m))
+                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m),
+                     prepared.decimation, n_read)
+
+
+def problem_size(problem):
+    """How many data a problem fits."""
+    return int(res.observed_values(problem.data).size)
 
 
 def _backward(problem, named, added, current, th, rnd, notes):
@@ -663,7 +700,7 @@ def _backward(problem, named, added, current, th, rnd, notes):
     return named, current
 
 
-def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress):
+def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress, floor_sd_m=0.0):
     """Pairs of effects, tried when no single effect is material but some improve the fit
     strongly (dBIC >= threshold) with an unphysical parameter: two effects can bend the
     record in opposite ways, so that each alone needs an unphysical value. A pair is
@@ -684,7 +721,7 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
             progress(rnd, j + 1, len(pairs), f"{a}+{b}")
         fit = _fit_candidate(problem, named, (a, b), current)
         cand = _judge(Candidate(f"{a}+{b}", rnd, fit, 0.0, 0.0, 1.0, False, False, members=(a, b)),
-                      current, sigma_floor, th)
+                      current, sigma_floor, th, floor_sd_m)
         needed = min(by_name[a].fit.bic, by_name[b].fit.bic) - fit.bic
         if cand.material and needed < th.delta_bic:
             cand.material = False
@@ -744,9 +781,13 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     props, g_m_per_s2 = body.properties, body.gravity_m_per_s2(g_m_per_s2)
     paths = [path] if isinstance(path, (str, bytes)) or not hasattr(path, "__iter__") else list(path)
     options = {"scale_m_per_px": scale_m_per_px, "y_down": bool(y_down), "fs_hz": fs_hz, "sheet": sheet}
-    recording = {"diameter_m": float(np.mean(props.diameter_m)), **(read_options or {})}
+    recording = {"diameter_m": float(np.mean(props.diameter_m)), "g_m_per_s2": float(g_m_per_s2),
+                 **(read_options or {})}
+    stages = recording.get("progress")
+    if stages is not None:
+        stages(0.0, f"reading {', '.join(map(str, paths))}")
     data = read_measurements(paths, fmt, **options, **recording)
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
     reader = {"files": [str(p) for p in paths], "format": fmt, **options}
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
-                    y_down=turned, reader=reader)
+                    y_down=turned, reader=reader, stages=stages)

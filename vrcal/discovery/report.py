@@ -107,6 +107,10 @@ def _noise_text(d):
     unit = d.unit
     src = "measured from the samples" if d.noise_source.startswith("third") else (
         "given" if d.noise_source == "given" else "assumed")
+    if d.decimation > 1 and d.noise_source.startswith("third"):
+        src = f"measured on all {d.n_read:,} samples"
+    if "systematic error" in d.noise_source:
+        src += " with the tracker's systematic error"
     noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
     if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
         return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "
@@ -270,6 +274,8 @@ def fit_report(discovery, details=False):
     what = {"trajectory": "samples", "impacts": "impact times", "apexes": "heights"}[d.kind]
     joint = f" in {runs} runs fitted jointly" if runs > 1 else ""
     name = getattr(ball, "name", "ball")
+    if d.decimation > 1:
+        what += f": every {d.decimation}th of {d.n_read:,} read"
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {n_data} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]

@@ -40,6 +40,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from vrcal.errors import DataError, UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 

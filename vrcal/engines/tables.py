@@ -13,7 +13,8 @@ from __future__ import annotations
 
 
 def table(setup, pair=None):
-    """Rows (engine, body, restitution, combine mode, threshold, how) as a list of dicts."""
+    """Rows (engine, body, restitution, combine mode, threshold, how) as a list of dicts; the scene's
+    gravity is ``setup.g_m_per_s2`` [m/s^2] (the restitution itself does not depend on it)."""
     e_ball = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
     rows = [
         {"engine": "PhysX", "body": setup.ball, "restitution": e_ball, "combine": "Multiply",
@@ -57,7 +58,8 @@ def format_table(setup, pair=None):
 
     rows = table(setup, pair)
     head = (f"{setup.ball}: target epsilon {setup.epsilon:.4f} on a rigid floor; Eq. 6: a pair's epsilon is the "
-            "product\nof the bodies' (same K), so Multiply carries the calibration. No runtime was run.\n")
+            "product\nof the bodies' (same K), so Multiply carries the calibration. No runtime was run.\n"
+            f"Set the scene's gravity to (0, -{setup.g_m_per_s2:g}, 0) m/s^2 (Box2D: (0, -{setup.g_m_per_s2:g})).\n")
     cells = [[r["engine"], r["body"], f"{r['restitution']:.4f}", r["combine"], f"{r['threshold_m_per_s']:g}"]
              for r in rows]
     body = text_table(cells, ["engine", "body", "restitution", "combine", "threshold m/s"])

@@ -19,6 +19,7 @@ from vrcal.measurements.table import (
     find_column,
     header_columns,
     parse_table,
+    row_lines,
     unit_factor,
 )
 from vrcal.measurements.types import ApexHeights
@@ -45,7 +46,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         fail(path, table.header_line, "an apex file needs the columns 'bounce,h' (or one column 'h')")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     if b_col is None:
         bounce = np.arange(len(table.rows), dtype=float)
     else:

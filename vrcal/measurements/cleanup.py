@@ -5,6 +5,7 @@ missed impacts and odd bounces in a series of impact times (chains of consecutiv
 
 from __future__ import annotations
 
+import bisect
 from typing import NamedTuple
 
 import numpy as np
@@ -70,7 +71,13 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     count = np.sum(~np.isnan(windows), axis=1)
     level = np.full(n, np.nan)
     ok = count >= min_still
-    level[ok] = np.nanmedian(windows[ok], axis=1)
+    full = min(window, n)    # windows from sample `window` on hold no NaN: the plain median is much faster
+    head = ok[:full]
+    level[:full][head] = np.nanmedian(windows[:full][head], axis=1) if np.any(head) else np.nan
+    if n > full:
+        lo, hi = (window - 1) // 2, window // 2      # the median: the middle one or two of each window
+        part = np.partition(windows[full:], (lo, hi), axis=1)
+        level[full:] = 0.5 * (part[:, lo] + part[:, hi])
     dev = y - level
     beyond = np.where(np.isnan(dev), 0, np.sign(dev) * (np.abs(dev) > threshold))
     persistent = (beyond[:-2] != 0) & (beyond[:-2] == beyond[1:-1]) & (beyond[:-2] == beyond[2:])
@@ -239,6 +246,10 @@ class ImpactChains(NamedTuple):
     anomalies: tuple  # ((index, reason), ...) every anomaly found, at the event it concerns
 
 
+#: Most ratios whose pairs give the Theil-Sen slope of :func:`_trend_ratio` (evenly spread over the record).
+_THEIL_SEN_POINTS = 400
+
+
 def _trend_ratio(q, w):
     """Robust straight line through ln q (Theil-Sen over the plausible ratios): expected q_i."""
     i = np.arange(q.size, dtype=float)
@@ -246,6 +257,9 @@ def _trend_ratio(q, w):
     if ok.sum() < 2:
         return np.full(q.size, float(np.median(q)))
     x, v = i[ok], np.log(q[ok])
+    if x.size > _THEIL_SEN_POINTS:    # the slope from evenly spread ratios: pairs grow as the square
+        pick = np.linspace(0, x.size - 1, _THEIL_SEN_POINTS).round().astype(int)
+        x, v = x[pick], v[pick]
     a, b = np.triu_indices(x.size, 1)
     slope = float(np.median((v[b] - v[a]) / (x[b] - x[a]))) if a.size else 0.0
     slope = 0.0 if ok.sum() < 4 else slope    # too few ratios for a trend
@@ -372,12 +386,13 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
     for a, b in chains:
         in_chain[kept[a:b + 1]] = True
     why = dict(anomalies)
+    marked = sorted(why)
 
     def reason(i):
         if i in why:
             return why[i]
-        before = [j for j in why if j < i]
-        after = f" (after the anomaly at {name(max(before))})" if before else ""
+        k = bisect.bisect_left(marked, i)      # the anomalies before event i: marked[:k]
+        after = f" (after the anomaly at {name(marked[k - 1])})" if k else ""
         return "in no chain of three or more consecutive bounces" + after
 
     rejected = tuple((int(i), float(t[i]), reason(int(i))) for i in range(n) if not in_chain[i])

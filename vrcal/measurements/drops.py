@@ -32,6 +32,7 @@ from vrcal.measurements.table import (
     find_column,
     header_columns,
     parse_table,
+    row_lines,
 )
 from vrcal.measurements.types import ApexHeights, Runs
 
@@ -93,7 +94,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append(f"heights converted from {', '.join(sorted(units - {'m'}))} to m")
     values = {b: column_values(path, table, c, what="height", allow_empty=b >= 2) * factors[b]
               for b, c in heights.items()}
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     runs, labels = [], []
     for k, no in enumerate(line_numbers):
         bounces = [b for b in sorted(values) if np.isfinite(values[b][k])]

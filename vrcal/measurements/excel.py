@@ -11,7 +11,6 @@ the first sheet with a table in it. Needs the optional extra ``pip install vrcal
 from __future__ import annotations
 
 import os
-
 from pathlib import Path
 
 from vrcal.errors import DataError, UsageError

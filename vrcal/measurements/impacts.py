@@ -22,8 +22,10 @@ from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     H_NAMES,
+    LENGTH_UNITS,
     TIME_NAMES,
     TIME_UNITS,
+    X_NAMES,
     Y_NAMES,
     check_increasing,
     column_values,
@@ -32,6 +34,7 @@ from vrcal.measurements.table import (
     header_columns,
     numeric_width,
     parse_table,
+    row_lines,
     unit_factor,
 )
 from vrcal.measurements.types import ImpactTimes, Runs
@@ -41,10 +44,24 @@ _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
 #: Fewest impacts in a chain (and in a file).
 MIN_IMPACTS = 3
 
+#: Most events of an impact file. A drop gives tens of impacts and a joint fit takes at most
+#: :data:`vrcal.discovery.prepare.MAX_RUNS` drops; more events are a sensor's samples or several
+#: sessions in one file (refused at once, before any work).
+MAX_IMPACT_EVENTS = 20_000
+
+
+#: Column names of positions: a lone column named so is no list of impact times.
+POSITION_NAMES = (*X_NAMES, "z", "position", "pos", "distance", "length", "depth", "width")
+
 
 def _other_layout(cols):
     """True when the columns name heights or bounces: another layout's file."""
     return any(find_column(cols, names) is not None for names in (Y_NAMES, BOUNCE_NAMES, H_NAMES))
+
+
+def _position_column(col):
+    """True when a column's name or unit says it holds positions (x, z, a length unit), not times."""
+    return col.name in POSITION_NAMES or (bool(col.unit) and col.unit in LENGTH_UNITS)
 
 
 def detect(text):
@@ -52,6 +69,8 @@ def detect(text):
     if cols is None:
         return numeric_width(text) == 1 or _one_decimal_comma_column(text)
     if _other_layout(cols):
+        return False
+    if len(cols) == 1 and _position_column(cols[0]):
         return False
     return len(cols) == 1 or find_column(cols, TIME_NAMES, contains="time") is not None
 
@@ -81,6 +100,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         table = parse_table(text)
     col = find_column(table.cols, TIME_NAMES, contains="time")
     if col is None:
+        if len(table.cols) == 1 and _position_column(table.cols[0]):
+            c = table.cols[0]
+            fail(path, table.header_line, f"column '{c.raw}'{f' ({c.unit})' if c.unit else ''} holds positions, "
+                                          f"not impact times; name a column of impact times 't' or 'time'")
         if len(table.cols) == 1:
             col = table.cols[0]
         else:
@@ -113,7 +136,7 @@ def _times(path, table, col, allow_empty=False):
     """(times [s], their lines) of one column; empty cells skipped when allowed (a shorter run)."""
     t = column_values(path, table, col, what="impact time", allow_empty=allow_empty)
     t = t * unit_factor(path, table, col, TIME_UNITS, "time")
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     ok = np.isfinite(t)
     t, line_numbers = t[ok], line_numbers[ok]
     check_increasing(path, t, line_numbers, "impact time")
@@ -150,12 +173,19 @@ def impact_times_from_events(path, t_s, lines=None, notes=()):
     if t.size < MIN_IMPACTS:
         fail(path, where, f"only {t.size} impact(s); at least {MIN_IMPACTS} are needed")
     check_impact_times(t, path)   # units and shrinking intervals first: a list in ms or backwards stops here
+    if t.size > MAX_IMPACT_EVENTS:
+        fail(path, where, f"{t.size:,} impact times, more than the {MAX_IMPACT_EVENTS:,} a file of drops can hold "
+                          f"(a drop gives tens of impacts): are these a sensor's samples? Split the file into "
+                          f"files of one or a few drops each")
     found = impact_chains(t, labels=[label(i) for i in range(t.size)])
     for _, why in found.anomalies:
         notes.append(why)
     if not found.chains:
         fail(path, where, f"no {MIN_IMPACTS} consecutive bounces: " + "; ".join(w for _, w in found.anomalies[:2]))
-    keep = [int(i) for i in found.kept if any(a <= i <= b for a, b in found.chains)]
+    in_chain = np.zeros(t.size, dtype=bool)
+    for a, b in found.chains:
+        in_chain[a:b + 1] = True
+    keep = [int(i) for i in found.kept if in_chain[i]]
     pos = {i: k for k, i in enumerate(keep)}
     chains = tuple((pos[a], pos[b] + 1) for a, b in found.chains)
     if len(chains) > 1:

@@ -53,6 +53,11 @@ FLIGHT_S = (0.01, 6.0)
 G_OK = (0.85, 1.2)
 G_WARN = (0.6, 1.6)
 
+#: Impact intervals whose median ratio (one flight over the one before) is at least this do not
+#: shrink: epsilon would be 1 (equally spaced times are a clock's ticks or a sensor's samples, not a
+#: ball bouncing; the bounciest balls on a floor shrink their flights by several per cent a bounce).
+EQUAL_INTERVALS_RATIO = 0.995
+
 #: Unit mix-ups tried when a scale is far off: (factor by which the record is too large, what it means).
 LENGTH_MIXUPS = ((1e3, "mm", 1e-3), (1e2, "cm", 1e-2), (1e-2, "m under a header in cm", 1e2),
                  (1e-3, "m under a header in mm", 1e3))
@@ -222,13 +227,20 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
 
 
 def check_impact_times(t_s, source="data"):
-    """Impact times of one drop must be those of a bouncing ball: the longest of the first three
-    flights between 10 ms and 6 s, intervals that shrink. Raises DataError otherwise (naming the
-    likely unit mix-up)."""
+    """Impact times of one drop must be those of a bouncing ball: intervals that shrink (not equally
+    spaced: :data:`EQUAL_INTERVALS_RATIO`; not growing), the longest of the first three flights between
+    10 ms and 6 s. Raises DataError otherwise (naming the likely unit mix-up)."""
     t = np.asarray(t_s, dtype=float)
     if t.size < 2:
         return
     dt = np.diff(t)
+    if dt.size >= 2 and np.all(dt > 0):
+        ratio = float(np.median(dt[1:] / dt[:-1]))
+        if EQUAL_INTERVALS_RATIO <= ratio <= 1.0:
+            _fail(source, f"the intervals between impacts do not shrink ({dt.size:,} intervals of about "
+                          f"{float(np.median(dt)):.4g} s, median ratio {ratio:.4f}): epsilon would be 1, and no "
+                          f"ball bounces like that; these look like a clock's ticks or a sensor's samples, not "
+                          f"impact times")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S
     height = STANDARD_GRAVITY_M_PER_S2 * first**2 / 8.0

@@ -59,7 +59,7 @@ FORMATS = {
 #: file again the same way (``vrcal discover`` writes them into its JSON).
 READER_OPTIONS = ("scale_m_per_px", "y_down", "fs_hz", "sheet")
 #: Options only the recording readers (sound, video) take.
-RECORDING_OPTIONS = ("diameter_m", "roi", "color", "progress")
+RECORDING_OPTIONS = ("diameter_m", "roi", "color", "progress", "g_m_per_s2")
 
 
 def format_help():
@@ -123,7 +123,7 @@ def read_measurement(path, fmt=None, **options):
         stamps: a slow-motion video); ``sheet`` (str or None): the sheet of a workbook (default: phyphox's
         ``All``, else the first with a table)
         Recordings (sound, video) also take ``diameter_m`` (video: the ball's diameter [m], which
-        gives the scale), ``roi``, ``color`` (:func:`vrcal.measurements.video.track_video`) and
+        gives the scale), ``roi``, ``color``, ``g_m_per_s2`` (the g that scales a video from its flights; :func:`vrcal.measurements.video.track_video`) and
         ``progress`` (a callable ``progress(fraction, message)``); the text layouts ignore them.
 
     Returns

@@ -38,7 +38,8 @@ class Tracked:
         return "\n".join([head] + [f"  {n}" for n in m.notes]) + "\n"
 
 
-def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None):
+def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
+          g_m_per_s2=None):
     """Track a recording (see :func:`vrcal.measurements.sound.track_sound` and
     :func:`vrcal.measurements.video.track_video`) and lay the result out as a measurement file.
 
@@ -54,6 +55,8 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
         video options (region ``x,y,w,h``, ball colour, frame rate [Hz], scale [m/px])
     progress : callable, optional
         ``progress(fraction, message)``
+    g_m_per_s2 : float or None
+        video: the local g [m/s^2] that scales the flights (None: standard gravity)
 
     Returns
     -------
@@ -74,7 +77,7 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
         st = sound.track_sound(path, progress=progress)
         return Tracked("sound", st.impacts, impacts_text(st), st)
     vt = video.track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fps, scale_m_per_px=scale_m_per_px,
-                           progress=progress)
+                           progress=progress, **({} if g_m_per_s2 is None else {"g_m_per_s2": g_m_per_s2}))
     return Tracked("video", vt.trajectory, trajectory_text(vt), vt)
 
 
@@ -101,6 +104,9 @@ def trajectory_text(vt):
     rows = [f"{t:.6f},{y:.6f},{xx:.6f},{qq:.3f}" for t, y, xx, qq in zip(m.t_s, m.y_m, x, q)]
     head = _comments(f"vrcal track: the ball's centre in {m.source}; y = height of the ball's bottom above the floor",
                      m.notes)
+    # the tracker's own uncertainties, for the reader of this file (vrcal.measurements.table.meta_length)
+    head += (f"# vrcal systematic_m = {getattr(m, 'systematic_m', 0.0):.4g}\n"
+             f"# vrcal floor_sd_m = {getattr(m, 'floor_sd_m', 0.0):.4g}\n")
     return head + "t (s),y (m),x (m),quality\n" + "\n".join(rows) + "\n"
 
 

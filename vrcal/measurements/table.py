@@ -8,8 +8,10 @@ a malformed file gives the same one-line message ``FILE:LINE: what is wrong``
 
 from __future__ import annotations
 
+import io
 import re
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
@@ -44,6 +46,12 @@ class Text:
     path: str
     lines: list  # [(lineno, text)]
     multi: bool = False  # a Tracker '#multi:' export
+    meta: dict = field(default_factory=dict)  # {key: (lineno, text)} of '# vrcal KEY = VALUE' comments
+
+
+#: A comment line carrying what a reader of the file should know (``vrcal track`` writes the tracker's
+#: uncertainties so: ``# vrcal systematic_m = 0.00013``).
+_META = re.compile(r"^#\s*vrcal\s+([a-z_]+)\s*=\s*(\S+)")
 
 
 def fail(path, line, what):
@@ -70,18 +78,35 @@ def load_text(path):
     printable = sum(ch.isprintable() or ch in "\r\n\t" for ch in text[:4096])
     if printable < 0.95 * len(text[:4096]):
         fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
-    lines, multi = [], False
+    lines, multi, meta = [], False, {}
     for i, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if not stripped:
-            continue
-        if stripped.startswith("#"):
-            multi = multi or stripped.lower().startswith("#multi")
-            continue
-        lines.append((i, line.rstrip("\r\n")))
+        first = line[:1]
+        if first in ("#", "") or first.isspace():   # a comment or blank line, perhaps indented
+            stripped = line.strip()
+            if not stripped:
+                continue
+            if stripped.startswith("#"):
+                multi = multi or stripped.lower().startswith("#multi")
+                found = _META.match(stripped)
+                if found:
+                    meta[found.group(1)] = (i, found.group(2))
+                continue
+        lines.append((i, line))
     if not lines:
         fail(path_s, 0, "no data (only comments or blank lines)")
-    return Text(path_s, lines, multi)
+    return Text(path_s, lines, multi, meta)
+
+
+def meta_length(text, key, limit_m=1.0):
+    """A length [m] from a ``# vrcal KEY = VALUE`` comment of ``text`` (0 when absent); a value that is
+    not a number in [0, ``limit_m``] is an error naming its line."""
+    if key not in text.meta:
+        return 0.0
+    line, raw = text.meta[key]
+    value = to_float(raw, False)
+    if value is None or not (0.0 <= value <= limit_m):
+        fail(text.path, line, f"'{key} = {raw}': give a length in m between 0 and {limit_m:g}")
+    return float(value)
 
 
 def strip_cell(cell):
@@ -165,13 +190,75 @@ def find_column(cols, names, *, contains=None):
     return None
 
 
+class Rows(Sequence):
+    """A table's data rows ``[(lineno, cells)]``, split into cells only when first asked for (a
+    numeric table is read by numpy at once, :func:`parse_table`; its cells are split only for an error
+    message naming a line)."""
+
+    def __init__(self, lines, sep):
+        self._lines, self._sep, self._cells = lines, sep, None
+
+    def _split(self):
+        if self._cells is None:
+            self._cells = [(no, split_cells(s, self._sep)) for no, s in self._lines]
+        return self._cells
+
+    def __len__(self):
+        return len(self._lines)
+
+    def __getitem__(self, i):
+        return self._split()[i]
+
+    def __iter__(self):
+        return iter(self._split())
+
+    @property
+    def numbers(self):
+        """The file's line number of each row (ndarray of int)."""
+        return np.fromiter((no for no, _ in self._lines), dtype=np.int64, count=len(self._lines))
+
+
 class Table(NamedTuple):
     header_line: int
     cols: list
-    rows: list  # [(lineno, cells)]
+    rows: Sequence  # [(lineno, cells)]
     sep: object
     decimal_comma: bool
     preamble: list  # [(lineno, text)] before the header
+    numeric: object = None  # (n_rows, n_cols) floats when every cell is a plain number (read at once), else None
+
+
+def row_lines(table):
+    """The file's line number of each data row of ``table`` (ndarray of int)."""
+    rows = table.rows
+    if isinstance(rows, Rows):
+        return rows.numbers
+    return np.array([no for no, _ in rows], dtype=np.int64)
+
+
+def _numeric_block(body, sep, decimal_comma, width):
+    """Every cell of ``body`` (``[(lineno, text)]``) as floats, shape (rows, width), when each line holds
+    ``width`` plain numbers (no quotes, no ``_``) -- read by numpy in one go -- else None (the caller
+    then splits the lines one by one and names the line of any problem)."""
+    if not body or width < 1 or sep not in (None, " ", "\t", ",", ";"):
+        return None
+    joined = "\n".join(s for _, s in body)
+    if any(ch in joined for ch in "\"'_#"):
+        return None
+    if decimal_comma:
+        if sep == ",":
+            return None
+        joined = joined.replace(",", ".")
+    if sep is None and (" " in joined.strip() or "\t" in joined):
+        return None
+    try:
+        values = np.loadtxt(io.StringIO(joined), delimiter=None if sep in (None, " ") else sep, comments=None,
+                            ndmin=2, dtype=float)
+    except ValueError:
+        return None
+    if values.shape != (len(body), width):
+        return None
+    return values
 
 
 def parse_table(text, header_at=0, headerless=None):
@@ -189,6 +276,10 @@ def parse_table(text, header_at=0, headerless=None):
     head_cells = split_cells(header, sep)
     if is_numeric_row(head_cells, decimal_comma):
         if headerless is not None and len(head_cells) == len(headerless):
+            numeric = _numeric_block(lines[header_at:], sep, decimal_comma, len(headerless))
+            if numeric is not None:
+                return Table(0, columns(list(headerless)), Rows(lines[header_at:], sep), sep, decimal_comma,
+                             lines[:header_at], numeric)
             rows = [(no, split_cells(s, sep)) for no, s in lines[header_at:]]
             for no, cells in rows:
                 if len(cells) > len(headerless):
@@ -196,6 +287,9 @@ def parse_table(text, header_at=0, headerless=None):
             return Table(0, columns(list(headerless)), rows, sep, decimal_comma, lines[:header_at])
         fail(text.path, header_no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
+    numeric = _numeric_block(body, sep, decimal_comma, len(head_cells))
+    if numeric is not None:
+        return Table(header_no, columns(head_cells), Rows(body, sep), sep, decimal_comma, lines[:header_at], numeric)
     rows = [(no, split_cells(s, sep)) for no, s in body]
     for no, cells in rows:
         if len(cells) > len(head_cells):
@@ -207,6 +301,10 @@ def parse_table(text, header_at=0, headerless=None):
 def column_values(path, table, col, *, what, allow_empty=False):
     """Float values of one column with line-accurate errors; NaN where empty and allowed."""
     i = col.index
+    if table.numeric is not None:   # every cell a plain number, read at once (parse_table)
+        fast = table.numeric[:, i]
+        if np.all(np.isfinite(fast)):
+            return fast.copy()
     try:   # the common case, all cells numbers: one conversion by numpy
         cells = [cells[i] for _, cells in table.rows]
         if table.decimal_comma:

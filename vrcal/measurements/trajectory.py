@@ -10,6 +10,8 @@ units and scale, the y direction, repeated rows, duplicated frames and the relea
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from vrcal.errors import UsageError
@@ -25,10 +27,12 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
+    meta_length,
     numeric_width,
     parse_table,
-    split_cells,
+    row_lines,
     sniff,
+    split_cells,
     to_float,
     unit_factor,
 )
@@ -103,7 +107,7 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         fail(path, table.header_line, "header but no data rows")
     notes = list(notes)
     y = column_values(path, table, y_col, what="height", allow_empty=skip_empty_y)
-    line_numbers = np.array([no for no, _ in table.rows])
+    line_numbers = row_lines(table)
     if skip_empty_y:
         empty = np.isnan(y)
         if np.any(empty):
@@ -160,7 +164,12 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append("no header: two columns read as t [s], y [m]")
     else:
         table = parse_table(text)
-    return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
-                                  notes=tuple(notes))
+    traj = trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
+                                 notes=tuple(notes))
+    # what the tool that made the file knows of its errors ('vrcal track' writes them as comments)
+    known = {key: meta_length(text, key) for key in ("systematic_m", "floor_sd_m")}
+    if any(known.values()):
+        traj = dataclasses.replace(traj, **known)
+    return traj
 
 

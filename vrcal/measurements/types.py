@@ -34,6 +34,14 @@ class Trajectory:
         was detected. The still samples are kept: the fitter models the hold.
     lines : ndarray of int or None
         the file's line of each sample (None when unknown), for notes that name them
+    systematic_m : float
+        systematic uncertainty of each height beyond its noise from sample to sample [m], as the
+        reader knows it (a video tracker's centre error from blur, compression and shading); 0 when
+        the reader knows none. ``vrcal discover`` adds it to the noise it measures, in quadrature
+    floor_sd_m : float
+        standard uncertainty of the floor level [m] when the reader estimated it (a video's contact
+        row from its bounces); 0 when the floor is the file's own zero. A ``height_offset`` within
+        what it allows is not named
     """
 
     t_s: np.ndarray
@@ -43,6 +51,8 @@ class Trajectory:
     release_index: int = 0
     kind: str = "trajectory"
     lines: np.ndarray = None
+    systematic_m: float = 0.0
+    floor_sd_m: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -73,7 +73,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -91,7 +91,7 @@ VIDEO_EXTENSIONS = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm", ".3gp", ".m
                     ".mpeg", ".ogv")
 
 MIN_QUALITY = 0.6          #: frames with a lower quality are left out
-STANDARD_GRAVITY = STANDARD_GRAVITY_M_PER_S2  #: g of the scale from the flights [m/s^2]
+STANDARD_GRAVITY = STANDARD_GRAVITY_M_PER_S2  #: the default g [m/s^2] (one g for every command)
 LOW_RES_WIDTH = 320        #: width of the pass-1 copies [px] (at least)
 BACKGROUND_FRAMES = 24     #: frames in the background median
 
@@ -583,7 +583,8 @@ def _fall_misfit_px(t, row, fall, curvature):
     return float(np.sqrt(np.mean(sol.fun ** 2)))
 
 
-def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None):
+def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
+                g_m_per_s2=STANDARD_GRAVITY):
     """Track the ball in a video of a drop (see the module docstring).
 
     Parameters
@@ -602,6 +603,9 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         metres per pixel overriding the scale from the diameter
     progress : callable, optional
         ``progress(fraction, message)``
+    g_m_per_s2 : float
+        the local gravitational acceleration [m/s^2] (default standard gravity): the flights'
+        curvature with it gives a scale (:func:`choose_scale`)
 
     Returns
     -------
@@ -685,7 +689,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
                      f"frame-rate conversion; frames {_list(np.flatnonzero(repeated))})")
     lost = ~good & ~repeated
     result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
-                     diameter_m, scale_m_per_px)
+                     diameter_m, scale_m_per_px, g_m_per_s2)
     result.background = bg
     result.scale_down = factor
     prog(1.0, "done", force=True)
@@ -734,7 +738,7 @@ def _frame_times(stamps, container_fps, fps, repeated):
 
 
 def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps, diameter_m,
-            scale_m_per_px):
+            scale_m_per_px, g_m_per_s2=STANDARD_GRAVITY):
     idx = np.flatnonzero(good)
     tt, rr = t[idx], row[idx]
     # a frame-rate conversion: stamps of the frames left, or the frames evenly spaced over the same span
@@ -766,7 +770,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
     fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
     scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
-                                 fps if fps is not None else container_fps, fps is not None, notes, fall_g_px)
+                                 fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
+                                 g_m_per_s2)
     if fit is not None and fit.n_flights >= 2:
         contact_row = fit.contact_row_px
         notes.append(f"floor: the ball's centre at contact is at row {contact_row:.2f} +/- "
@@ -835,6 +840,11 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
+    # what the tracker knows of its own errors: the centres' systematic error, and the floor (the contact
+    # row of the bounce fit) uncertain by its standard error and that systematic error
+    floor_sd_px = (math.hypot(fit.contact_row_sd_px, CENTRE_SYSTEMATIC_PX) if fit is not None and fit.n_flights >= 2
+                   else 0.0)
+    traj = replace(traj, systematic_m=CENTRE_SYSTEMATIC_PX * scale, floor_sd_m=floor_sd_px * scale)
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
@@ -971,7 +981,7 @@ def fit_bounces(t, row, flights):
 
 
 def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes,
-                 fall_g_px=float("nan")):
+                 fall_g_px=float("nan"), g_m_per_s2=STANDARD_GRAVITY):
     """The length scale [m/px] of a video, and g [m/s^2] from the flights with the diameter's scale.
 
     Two measurements give the scale: the ball's apparent diameter (``diameter_m`` over
@@ -1006,6 +1016,8 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         appended to
     fall_g_px : float
         twice the curvature of the fall [px/s^2], NaN when none
+    g_m_per_s2 : float
+        the local g [m/s^2] the flights' scale takes as known (default standard gravity)
 
     Returns
     -------
@@ -1031,13 +1043,14 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     scale_d = diameter_m / diameter_px
     seen += f" for its {diameter_m * 1e3:.4g} mm"
     g_meas = g_px * scale_d
-    ratio = g_meas / STANDARD_GRAVITY
+    ratio = g_meas / g_m_per_s2
     who = "flights give" if fit is not None else "fall gives"
     if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
         notes.append(f"WARNING: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
-                     f"{abs(ratio - 1) * 100:.0f} % off 9.81 -- no apparent size is that wrong: the frame rate is "
+                     f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
+                     "rate is "
                      f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
                      "give --fps, or check --diameter")
         return scale_d, g_meas
@@ -1049,8 +1062,8 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
             notes.append(f"check: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}")
         return scale_d, g_meas
     sigma = math.hypot(g_rel, d_rel)
-    scale_g = STANDARD_GRAVITY / g_px
-    from_g = f"g ({STANDARD_GRAVITY} m/s^2 with {clock}) and {curved}"
+    scale_g = g_m_per_s2 / g_px
+    from_g = f"g ({g_m_per_s2:g} m/s^2 with {clock}) and {curved}"
     if abs(ratio - 1) > 3 * sigma:
         notes.append(f"scale: {scale_g * 1e3:.4g} mm/px from {from_g}")
         notes.append(f"not used: {seen}, which gives {scale_d * 1e3:.4g} mm/px and with it g = {g_meas:.2f} m/s^2 "
@@ -1107,7 +1120,7 @@ def _flight_residual(t, row):
 
 
 def parse(path, *, diameter_m=None, roi=None, color=None, fs_hz=None, scale_m_per_px=None, progress=None,
-          **_ignored):
+          g_m_per_s2=STANDARD_GRAVITY, **_ignored):
     """The ``video`` reader: the ball's trajectory (see :func:`track_video`); ``fs_hz`` is ``--fps``."""
     return track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fs_hz, scale_m_per_px=scale_m_per_px,
-                       progress=progress).trajectory
+                       progress=progress, g_m_per_s2=g_m_per_s2).trajectory
