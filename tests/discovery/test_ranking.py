@@ -130,10 +130,10 @@ def speed_law_in_apexes(seed):
 def test_a_speed_law_in_apex_heights_is_missed_only_where_the_data_cannot_decide():
     """Issue 9's weak case (a speed-dependent epsilon in one drop's apex heights, named exactly in
     83 % of the benchmark's seeds, air drag in most of the rest) is the information limit, not a
-    fitting fault: wherever drag could fit the noise-free apexes no better than dchi2 = 20 apart,
-    the speed law is named exactly; where even noise-free drag fits within dchi2 < 1 (seeds 2, 11,
-    27, 29: footballs and a table-tennis ball) either may be named, and the other is then listed as
-    its ambiguous rival, never silently dropped."""
+    fitting fault: wherever the best air-drag fit to the noise-free apexes stays more than
+    dchi2 = 20 from them, the speed law is named exactly; where even noise-free drag fits within
+    dchi2 < 1 (seeds 2, 11, 27, 29: footballs and a table-tennis ball) either may be named, and the
+    other is then listed as its ambiguous rival, never silently dropped (docs/discover.md)."""
     separated = []
     for seed in range(30):
         d, chi2 = speed_law_in_apexes(seed)
