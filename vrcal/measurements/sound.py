@@ -62,7 +62,8 @@ REFRACTORY_S = 4e-3      #: candidates closer than this are one event [s]
 RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's predicted one
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
-WINDOW_FALSE_ALARM = 1e-6  #: chance that noise alone crosses the threshold of one predicted-impact window
+WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
+AUDIO_BAND_HZ = 20000.0  #: highest frequency a microphone records (the noise band's top) [Hz]
 
 
 @dataclass(frozen=True)
@@ -494,13 +495,15 @@ def _after_chain_reason(t_chain, t_i, tolerance):
     return f"after the last impact, off the bounce sequence ({gap_ms:.1f} ms later)"
 
 
-def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM):
+def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM, highpass_hz=HIGHPASS_HZ):
     """Level over the noise that Gaussian noise alone exceeds in a window of ``n_samples`` with
     probability ``false_alarm``.
 
-    The envelope of noise is an RMS over ``m`` = :data:`ENVELOPE_S` x fs samples, so its square
-    over the noise variance is chi-squared with ``m`` degrees of freedom over ``m``; the window
-    holds ``n_samples / m`` independent looks, and the noise level is the envelope's median.
+    The envelope is an RMS over :data:`ENVELOPE_S` of noise in the band from the high-pass
+    corner to :data:`AUDIO_BAND_HZ` (or half the sample rate): its square over the noise
+    variance is chi-squared with ``m = 2 B T`` degrees of freedom over ``m`` (``B`` the band
+    width, ``T`` = :data:`ENVELOPE_S`); the window holds ``n_samples / (T fs)`` independent
+    looks, and the noise level is the envelope's median.
 
     Parameters
     ----------
@@ -510,6 +513,8 @@ def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM):
         sample rate [Hz]
     false_alarm : float
         chance of a false alarm in the window
+    highpass_hz : float
+        high-pass corner of the onset band [Hz]
 
     Returns
     -------
@@ -518,8 +523,9 @@ def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM):
     """
     from scipy.stats import chi2
 
-    m = max(1, int(round(ENVELOPE_S * fs_hz)))
-    looks = max(1.0, n_samples / m)
+    band_hz = min(0.5 * fs_hz, AUDIO_BAND_HZ) - min(highpass_hz, 0.2 * fs_hz)
+    m = max(1.0, 2.0 * band_hz * ENVELOPE_S)
+    looks = max(1.0, n_samples / max(1.0, ENVELOPE_S * fs_hz))
     return float(math.sqrt(chi2.isf(false_alarm / looks, m) / chi2.median(m)))
 
 
@@ -529,7 +535,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     The next impact lies near ``t_last + r dt_last`` (``r`` the median of the last three
     interval ratios, as in :func:`bounce_sequence`). Only the window of ``tolerance r dt``
     around that time is searched, so the threshold can be the level noise alone exceeds there
-    once in 1/:data:`WINDOW_FALSE_ALARM` windows (:func:`window_threshold`, about 2.3 times the
+    once in 1/:data:`WINDOW_FALSE_ALARM` windows (:func:`window_threshold`, about 2.8 times the
     noise, against :data:`SNR` over the whole file, where claps and voices must not pass).
     The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
     ringing of the impact before decays and never rises); its largest peak in the window is
