@@ -26,9 +26,13 @@ How an impact is found
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
    ratio tracking slow changes) and whose loudness does not jump up; claps, words, echoes
    and other noises that do not fit are rejected, each with a reason.
-5. **The quiet end.** The chain stops where no candidate is heard at the next predicted
-   impact: the bounces after it are below the noise and are left out (a note gives the
-   time the next one was expected), not guessed.
+5. **The quiet end.** After the chain's last impact, the next one is searched for only in a
+   window around its predicted time (:func:`extend_chain`): there noise alone crosses a much
+   lower threshold (about 2.7 times the noise, :func:`window_threshold`) only once in
+   1/:data:`WINDOW_FALSE_ALARM` windows, so quiet impacts under the whole file's threshold
+   are found, timed like the others. The chain stops at the first window with nothing over
+   that threshold: the bounces after it are below the noise and are left out (a note gives
+   the time the next one was expected), not guessed.
 
 The impact times kept are then screened like any impact-times file
 (:func:`vrcal.measurements.cleanup.detect_impact_anomalies`).
@@ -535,7 +539,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     The next impact lies near ``t_last + r dt_last`` (``r`` the median of the last three
     interval ratios, as in :func:`bounce_sequence`). Only the window of ``tolerance r dt``
     around that time is searched, so the threshold can be the level noise alone exceeds there
-    once in 1/:data:`WINDOW_FALSE_ALARM` windows (:func:`window_threshold`, about 2.8 times the
+    once in 1/:data:`WINDOW_FALSE_ALARM` windows (:func:`window_threshold`, about 2.7 times the
     noise, against :data:`SNR` over the whole file, where claps and voices must not pass).
     The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
     ringing of the impact before decays and never rises); its largest peak in the window is
@@ -568,7 +572,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     while True:
         r = float(np.median(ratios[-3:]))
         dt = t[-1] - t[-2]
-        if not 0.0 < r < max_ratio:
+        if not 0.0 < r < max_ratio or r * dt < REFRACTORY_S:  # impacts closer than that are one sound
             break
         target, width = t[-1] + r * dt, max(tolerance * r * dt, 5e-4)
         lo, hi = int(math.ceil((target - width) * fs)), int(math.floor((target + width) * fs)) + 1
