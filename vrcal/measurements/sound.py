@@ -348,12 +348,9 @@ def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR, sign
 
     Parameters
     ----------
-    x : ndarray (n,) or (n, channels)
-        samples, full scale = 1
-    fs_hz : float
-        sample rate [Hz]
-    highpass_hz : float
-        corner of the onset band [Hz]
+    x, fs_hz, highpass_hz
+        the samples (full scale = 1), sample rate [Hz] and onset band's corner [Hz], as in
+        :func:`onset_signals`
     rise, snr : float
         a candidate's envelope exceeds ``rise`` times the level 1-6 ms before it and ``snr``
         times the noise level
