@@ -662,7 +662,7 @@ def track_sound(path, *, progress=None):
                  f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
                  f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
     if t_new.size:
-        notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard - 1} found in the windows where the "
+        notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard} found in the windows where the "
                      f"bounce sequence predicts them (rising over {threshold:.1f} x the noise there, where noise "
                      f"alone does so once in {1 / WINDOW_FALSE_ALARM:.0e} windows)")
     shown = sorted(reasons)
@@ -676,7 +676,7 @@ def track_sound(path, *, progress=None):
     r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")
     expected = t[-1] + r * dt[-1]
     if expected < n / fs:
-        notes.append(f"the sound ends in the noise after impact {chain.size - 1} at t = {t[-1]:.4f} s "
+        notes.append(f"the sound ends in the noise after impact {chain.size} at t = {t[-1]:.4f} s "
                      f"({onsets.snr_db[chain[-1]]:.0f} dB over the noise): the next bounce, expected near "
                      f"t = {expected:.3f} s, and later ones are not heard and left out")
     else:
@@ -685,7 +685,7 @@ def track_sound(path, *, progress=None):
     n_clean, rejected = detect_impact_anomalies(t)
     if rejected:
         idx, t0, reason = rejected[0]
-        notes.append(f"impact {idx} at t = {t0:.4f} s: {reason}; fitting the {n_clean} impacts before it, "
+        notes.append(f"impact {idx + 1} at t = {t0:.4f} s: {reason}; fitting the {n_clean} impacts before it, "
                      f"{len(rejected)} rejected")
     if n_clean < MIN_IMPACTS:
         raise DataError(f"{path}: only {n_clean} impact(s) before an anomaly ({rejected[0][2]}); "
