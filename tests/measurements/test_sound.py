@@ -11,7 +11,7 @@ from vrcal.drop.render import SoundScene, impact_sound, write_wav
 from vrcal.drop.simulate import simulate_drops
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements import ImpactTimes, read_measurement
-from vrcal.measurements.sound import aic_onset, bounce_sequence, track_sound
+from vrcal.measurements.sound import SNR, aic_onset, bounce_sequence, impact_onsets, track_sound, window_threshold
 from vrcal.model.body import BallProperties
 
 BALL = BallProperties(0.0577, 0.067, "tennis")
@@ -87,6 +87,60 @@ def test_quiet_last_bounces_are_left_out_with_a_note(tmp_path):
     assert 3 <= got.t_s.size < 25
     assert np.max(np.abs(got.t_s - t[:got.t_s.size])) < 2.5e-4
     assert any("not heard and left out" in n for n in got.notes)
+
+
+def _quiet_end(seed=1, clap_times_s=()):
+    """A stereo drop (1 m, eps 0.9) whose last four impacts peak at 12-17 times the noise RMS,
+    then 0.5 s of noise alone."""
+    t, v = drop(H=1.0, eps=0.9, n=14)
+    noise = 0.5 * v[-3] / v[0] / 15.0
+    scene = SoundScene(noise_rms=noise, channels=2, clap_times_s=clap_times_s)
+    return t, v / v[0] * 0.5 / noise, impact_sound(t, v, scene=scene, seed=seed)
+
+
+def test_quiet_last_impacts_below_the_global_threshold_are_found_at_their_predicted_times(tmp_path):
+    t, peak, x = _quiet_end()
+    assert np.all((peak[-4:] > 12.0) & (peak[-4:] < 20.0))
+    # over the whole file, the first pass's chain stops before them (one is below SNR x the noise) ...
+    onsets = impact_onsets(x, 48000)
+    chain, _ = bounce_sequence(onsets.t_s, onsets.snr_db)
+    assert chain.size <= t.size - 3
+    # ... and they are found in the windows where the bounce sequence predicts them, as precisely
+    path = tmp_path / "quiet-end.wav"
+    write_wav(path, x, 48000)
+    st = track_sound(path)
+    assert st.impacts.t_s.size == t.size
+    assert np.max(np.abs(st.impacts.t_s - t)) < 2.5e-4
+    assert any(n.startswith(f"quiet end: {t.size - chain.size} impact(s)") for n in st.impacts.notes)
+    # noise alone follows: the chain stops there, with the note
+    assert any("not heard and left out" in n for n in st.impacts.notes)
+
+
+def test_noise_alone_after_the_last_impact_gives_no_event(tmp_path):
+    for seed in range(2, 7):  # five recordings: the windows after the last impact hold noise alone
+        t, _, x = _quiet_end(seed=seed)
+        path = tmp_path / f"end{seed}.wav"
+        write_wav(path, x, 48000)
+        got = track_sound(path).impacts.t_s
+        assert got.size == t.size
+        assert np.max(np.abs(got - t)) < 2.5e-4
+    # the window threshold is far below the whole file's, and grows with the window's length
+    assert 2.0 < window_threshold(960, 48000) < window_threshold(9600, 48000) < SNR
+
+
+def test_a_clap_off_the_predicted_times_is_not_taken_by_the_window_search(tmp_path):
+    t, _, _ = _quiet_end()
+    clap = 0.5 * (t[-2] + t[-1])  # between the last two (quiet) impacts, far from any prediction
+    _, _, x = _quiet_end(seed=2, clap_times_s=(clap,))
+    path = tmp_path / "clap-end.wav"
+    write_wav(path, x, 48000)
+    st = track_sound(path)
+    got = st.impacts.t_s
+    assert any(n.startswith("quiet end: 1 impact(s) after impact 13") for n in st.impacts.notes)  # searched
+    assert np.min(np.abs(got - clap)) > 2e-3
+    assert np.min(np.abs(st.onsets.t_s[sorted(st.reasons)] - clap)) < 1e-3  # heard, and rejected
+    assert got.size == t.size
+    assert np.max(np.abs(got - t)) < 2.5e-4
 
 
 def test_aic_onset_finds_a_variance_change_between_samples():

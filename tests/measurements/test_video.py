@@ -128,6 +128,8 @@ def test_the_scale_comes_from_g_when_the_diameter_disagrees(plain):
     local = track_video(path, diameter_m=1.1 * D, g_m_per_s2=9.78)
     assert local.scale_m_per_px == pytest.approx(vt.scale_m_per_px * 9.78 / STANDARD_GRAVITY, rel=1e-9)
     assert any("from g (9.78 m/s^2" in n for n in local.notes)
+    read = read_measurement(path, diameter_m=1.1 * D, g_m_per_s2=9.78)  # discover's way in
+    assert np.allclose(read.y_m, local.trajectory.y_m)
     vt = track_video(path, diameter_m=D, scale_m_per_px=0.003)  # a given scale is kept
     assert vt.scale_m_per_px == 0.003 and any("(given)" in n for n in vt.notes)
 

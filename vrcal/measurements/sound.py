@@ -26,9 +26,13 @@ How an impact is found
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
    ratio tracking slow changes) and whose loudness does not jump up; claps, words, echoes
    and other noises that do not fit are rejected, each with a reason.
-5. **The quiet end.** The chain stops where no candidate is heard at the next predicted
-   impact: the bounces after it are below the noise and are left out (a note gives the
-   time the next one was expected), not guessed.
+5. **The quiet end.** After the chain's last impact, the next one is searched for only in a
+   window around its predicted time (:func:`extend_chain`): there noise alone crosses a much
+   lower threshold (about 2.7 times the noise, :func:`window_threshold`) only once in
+   1/:data:`WINDOW_FALSE_ALARM` windows, so quiet impacts under the whole file's threshold
+   are found, timed like the others. The chain stops at the first window with nothing over
+   that threshold: the bounces after it are below the noise and are left out (a note gives
+   the time the next one was expected), not guessed.
 
 The impact times kept are then screened like any impact-times file
 (:func:`vrcal.measurements.cleanup.detect_impact_anomalies`).
@@ -62,6 +66,8 @@ REFRACTORY_S = 4e-3      #: candidates closer than this are one event [s]
 RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's predicted one
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
+WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
+AUDIO_BAND_HZ = 20000.0  #: highest frequency a microphone records (the noise band's top) [Hz]
 
 
 @dataclass(frozen=True)
@@ -253,8 +259,38 @@ def aic_onset(energy):
     return float(k[i]) - 0.5 + frac
 
 
-def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR):
-    """Candidate impact onsets of a recording (every transient that rises out of the noise).
+@dataclass(frozen=True)
+class OnsetSignals:
+    """The signals onsets are found in (from :func:`onset_signals`), kept for the search of
+    quiet impacts at predicted times (:func:`extend_chain`).
+
+    Attributes
+    ----------
+    energy : ndarray (n,)
+        squared high-passed signal, summed over channels
+    e : ndarray (n,)
+        its envelope (RMS over :data:`ENVELOPE_S`)
+    rise : ndarray (n,)
+        ``e / max(b, noise)``, ``b`` the mean envelope 1-6 ms earlier
+    quick_rise : ndarray (n,)
+        ``e / max(b', noise)``, ``b'`` the mean envelope 0.25-1.25 ms earlier: a new impact
+        rises out of the previous one's decaying ringing, which never rises
+    noise : float
+        the noise level (median envelope)
+    fs_hz : float
+        sample rate [Hz]
+    """
+
+    energy: np.ndarray
+    e: np.ndarray
+    rise: np.ndarray
+    quick_rise: np.ndarray
+    noise: float
+    fs_hz: float
+
+
+def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
+    """High-pass, envelope, noise level and rise of a recording (steps 1-2 of the module docstring).
 
     Parameters
     ----------
@@ -264,17 +300,12 @@ def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR):
         sample rate [Hz]
     highpass_hz : float
         corner of the onset band [Hz]
-    rise, snr : float
-        a candidate's envelope exceeds ``rise`` times the level 1-6 ms before it and ``snr``
-        times the noise level
 
     Returns
     -------
-    Onsets
-        onset times (AIC change point, sub-sample) and peak level over the noise [dB].
+    OnsetSignals
     """
     from scipy.ndimage import uniform_filter1d
-    from scipy.signal import find_peaks
 
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
@@ -287,30 +318,66 @@ def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR):
     noise = float(np.median(e[skip:])) if e.size > skip else 0.0
     if not noise > 0:
         noise = max(float(np.max(e)) * 1e-6, 1e-12)
-    w_bg = max(1, int(round(5e-3 * fs_hz)))
-    lag = int(round(1e-3 * fs_hz))
-    bg_mean = uniform_filter1d(e, w_bg, mode="nearest", origin=(w_bg - 1) // 2)  # mean of e[i-w_bg+1 .. i]
-    bg = np.concatenate([np.full(lag, bg_mean[0]), bg_mean[:-lag]]) if lag else bg_mean
-    ratio = e / np.maximum(bg, noise)
-    ratio[e < snr * noise] = 0.0
+
+    def rise(window_s, lag_s):
+        w = max(1, int(round(window_s * fs_hz)))
+        lag = int(round(lag_s * fs_hz))
+        mean = uniform_filter1d(e, w, mode="nearest", origin=(w - 1) // 2)  # mean of e[i-w+1 .. i]
+        bg = np.concatenate([np.full(lag, mean[0]), mean[:-lag]]) if lag else mean
+        return e / np.maximum(bg, noise)
+
+    return OnsetSignals(energy=np.sum(y * y, axis=1), e=e, rise=rise(5e-3, 1e-3), quick_rise=rise(1e-3, 2.5e-4),
+                        noise=noise, fs_hz=float(fs_hz))
+
+
+def _onset_at(sig, p, earliest):
+    """Sub-sample onset [s] and peak level over the noise [dB] of the transient whose rise peaks
+    at sample ``p`` (the AIC change point from 6 ms before to 0.5 ms after, not before ``earliest``)."""
+    fs = sig.fs_hz
+    start = max(earliest, p - int(round(6e-3 * fs)))
+    stop = min(sig.e.size, p + int(round(5e-4 * fs)))
+    if stop - start < 8:
+        return None
+    onset = start + aic_onset(sig.energy[start:stop])
+    peak_level = float(np.max(sig.e[p:min(sig.e.size, p + int(2e-3 * fs) + 1)]))
+    return onset / fs, 20.0 * math.log10(peak_level / sig.noise)
+
+
+def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR, signals=None):
+    """Candidate impact onsets of a recording (every transient that rises out of the noise).
+
+    Parameters
+    ----------
+    x, fs_hz, highpass_hz
+        the samples (full scale = 1), sample rate [Hz] and onset band's corner [Hz], as in
+        :func:`onset_signals`
+    rise, snr : float
+        a candidate's envelope exceeds ``rise`` times the level 1-6 ms before it and ``snr``
+        times the noise level
+    signals : OnsetSignals, optional
+        :func:`onset_signals` of ``x`` when already computed
+
+    Returns
+    -------
+    Onsets
+        onset times (AIC change point, sub-sample) and peak level over the noise [dB].
+    """
+    from scipy.signal import find_peaks
+
+    sig = signals if signals is not None else onset_signals(x, fs_hz, highpass_hz=highpass_hz)
+    ratio = np.where(sig.e < snr * sig.noise, 0.0, sig.rise)
     peaks, _ = find_peaks(ratio, height=rise, distance=max(1, int(REFRACTORY_S * fs_hz)))
-    energy = np.sum(y * y, axis=1)
     times, levels = [], []
-    pre = int(round(6e-3 * fs_hz))
-    post = int(round(5e-4 * fs_hz))
     last = 0
     for p in peaks:
         # the start of the rise: back from the peak of the rise to where e leaves the background
-        start = max(last, p - pre)
-        stop = min(e.size, p + post)
-        if stop - start < 8:
+        found = _onset_at(sig, int(p), last)
+        if found is None:
             continue
-        onset = start + aic_onset(energy[start:stop])
-        peak_level = float(np.max(e[p:min(e.size, p + int(2e-3 * fs_hz) + 1)]))
-        times.append(onset / fs_hz)
-        levels.append(20.0 * math.log10(peak_level / noise))
-        last = p
-    return Onsets(t_s=np.asarray(times), snr_db=np.asarray(levels), noise_level=noise)
+        times.append(found[0])
+        levels.append(found[1])
+        last = int(p)
+    return Onsets(t_s=np.asarray(times), snr_db=np.asarray(levels), noise_level=sig.noise)
 
 
 # --------------------------------------------------------------------------- physics: the bouncing sequence
@@ -388,11 +455,18 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
                 if best_key is None or key > best_key:
                     best, best_key = chain, key
     chain = np.asarray(best, dtype=int)
-    reasons = {}
-    if chain.size < 3:
+    if chain.size < MIN_IMPACTS:
         return np.zeros(0, dtype=int), {i: "no bouncing sequence" for i in range(n)}
-    for i in range(n):
-        if i in best:
+    return chain, rejection_reasons(t, chain, tolerance)
+
+
+def rejection_reasons(t_s, chain, tolerance=RATIO_TOLERANCE):
+    """``{index: reason}`` for every candidate time in ``t_s`` not in the bounce ``chain``."""
+    t = np.asarray(t_s, dtype=float)
+    reasons = {}
+    kept = set(int(i) for i in chain)
+    for i in range(t.size):
+        if i in kept:
             continue
         before = chain[t[chain] < t[i]]
         if before.size == 0:
@@ -404,7 +478,7 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
             gap = (t[i] - t[prev]) * 1e3
             kind = "echo or ringing" if gap < 15.0 else "a noise (clap, voice, ...)"
             reasons[i] = f"{kind}: {gap:.1f} ms after an impact, off the bounce sequence"
-    return chain, reasons
+    return reasons
 
 
 def _after_chain_reason(t_chain, t_i, tolerance):
@@ -420,6 +494,100 @@ def _after_chain_reason(t_chain, t_i, tolerance):
         return (f"a later impact ({gap_ms:.1f} ms after the last one kept) after {k} not heard: "
                 "left out (the fit needs consecutive impacts)")
     return f"after the last impact, off the bounce sequence ({gap_ms:.1f} ms later)"
+
+
+def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM, highpass_hz=HIGHPASS_HZ):
+    """Level over the noise that Gaussian noise alone exceeds in a window of ``n_samples`` with
+    probability ``false_alarm``.
+
+    The envelope is an RMS over :data:`ENVELOPE_S` of noise in the band from the high-pass
+    corner to :data:`AUDIO_BAND_HZ` (or half the sample rate): its square over the noise
+    variance is chi-squared with ``m = 2 B T`` degrees of freedom over ``m`` (``B`` the band
+    width, ``T`` = :data:`ENVELOPE_S`); the window holds ``n_samples / (T fs)`` independent
+    looks, and the noise level is the envelope's median.
+
+    Parameters
+    ----------
+    n_samples : int
+        length of the window [samples]
+    fs_hz : float
+        sample rate [Hz]
+    false_alarm : float
+        chance of a false alarm in the window
+    highpass_hz : float
+        high-pass corner of the onset band [Hz]
+
+    Returns
+    -------
+    float
+        threshold on ``e / noise`` (and so on the rise, which is at most ``e / noise``)
+    """
+    from scipy.stats import chi2
+
+    band_hz = min(0.5 * fs_hz, AUDIO_BAND_HZ) - min(highpass_hz, 0.2 * fs_hz)
+    m = max(1.0, 2.0 * band_hz * ENVELOPE_S)
+    looks = max(1.0, n_samples / max(1.0, ENVELOPE_S * fs_hz))
+    return float(math.sqrt(chi2.isf(false_alarm / looks, m) / chi2.median(m)))
+
+
+def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_louder_db=6.0, max_ratio=0.98):
+    """The quiet impacts after a bounce chain, searched for only where the physics predicts them.
+
+    The next impact lies near ``t_last + r dt_last`` (``r`` the median of the last three
+    interval ratios, as in :func:`bounce_sequence`). Only the window of ``tolerance r dt``
+    around that time is searched, so the threshold can be the level noise alone exceeds there
+    once in 1/:data:`WINDOW_FALSE_ALARM` windows (:func:`window_threshold`, about 2.7 times the
+    noise, against :data:`SNR` over the whole file, where claps and voices must not pass).
+    The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
+    ringing of the impact before decays and never rises); its largest peak in the window is
+    timed by the same AIC change point as every onset. The chain stops at the first window with
+    nothing over the threshold, or a peak louder than the impact before by ``max_louder_db``:
+    the bounces after it are left out, not guessed.
+
+    Parameters
+    ----------
+    signals : OnsetSignals
+        from :func:`onset_signals`
+    t_s, level_db : ndarray
+        times [s] and levels [dB] of the chain's impacts, increasing (at least three)
+    tolerance, max_louder_db, max_ratio : float
+        as in :func:`bounce_sequence`
+
+    Returns
+    -------
+    t_new, level_new : ndarray
+        onsets [s] and levels over the noise [dB] of the impacts found after the chain
+    threshold : float
+        the largest window threshold used (over the noise)
+    """
+    fs = signals.fs_hz
+    n = signals.e.size
+    t = list(np.asarray(t_s, dtype=float))
+    lv = list(np.asarray(level_db, dtype=float))
+    ratios = list(np.diff(t)[1:] / np.diff(t)[:-1])
+    added, worst = 0, 0.0
+    while True:
+        r = float(np.median(ratios[-3:]))
+        dt = t[-1] - t[-2]
+        if not 0.0 < r < max_ratio or r * dt < REFRACTORY_S:  # impacts closer than that are one sound
+            break
+        target, width = t[-1] + r * dt, max(tolerance * r * dt, 5e-4)
+        lo, hi = int(math.ceil((target - width) * fs)), int(math.floor((target + width) * fs)) + 1
+        if hi > n or lo <= int(t[-1] * fs):
+            break
+        thr = window_threshold(hi - lo, fs)
+        worst = max(worst, thr)
+        p = lo + int(np.argmax(signals.quick_rise[lo:hi]))
+        if signals.quick_rise[p] < thr:
+            break
+        found = _onset_at(signals, p, int(math.ceil((t[-1] + 1e-3) * fs)))
+        if found is None or found[1] > lv[-1] + max_louder_db or not t[-1] < found[0]:
+            break
+        ratios.append((found[0] - t[-1]) / dt)
+        t.append(found[0])
+        lv.append(found[1])
+        added += 1
+    return np.asarray(t[len(t) - added:]), np.asarray(lv[len(lv) - added:]), worst
 
 
 # --------------------------------------------------------------------------- the reader
@@ -474,7 +642,8 @@ def track_sound(path, *, progress=None):
                      "impact, which clipping does not move)")
     if progress:
         progress(0.3, "finding onsets")
-    onsets = impact_onsets(x, fs)
+    signals = onset_signals(x, fs)
+    onsets = impact_onsets(x, fs, signals=signals)
     if progress:
         progress(0.8, "checking the bounce sequence")
     if onsets.t_s.size == 0:
@@ -484,9 +653,18 @@ def track_sound(path, *, progress=None):
     if chain.size < MIN_IMPACTS:
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
                         "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
+    n_heard = chain.size
+    t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain])
+    if t_new.size:
+        onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
+        reasons = rejection_reasons(onsets.t_s, chain)
     notes.append(f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce sequence "
                  f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
                  f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
+    if t_new.size:
+        notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard} found in the windows where the "
+                     f"bounce sequence predicts them (rising over {threshold:.1f} x the noise there, where noise "
+                     f"alone does so once in {1 / WINDOW_FALSE_ALARM:.0e} windows)")
     shown = sorted(reasons)
     for i in shown[:MAX_LISTED]:
         notes.append(f"event at t = {onsets.t_s[i]:.4f} s ({onsets.snr_db[i]:.0f} dB) rejected: {reasons[i]}")
@@ -498,7 +676,7 @@ def track_sound(path, *, progress=None):
     r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")
     expected = t[-1] + r * dt[-1]
     if expected < n / fs:
-        notes.append(f"the sound ends in the noise after impact {chain.size - 1} at t = {t[-1]:.4f} s "
+        notes.append(f"the sound ends in the noise after impact {chain.size} at t = {t[-1]:.4f} s "
                      f"({onsets.snr_db[chain[-1]]:.0f} dB over the noise): the next bounce, expected near "
                      f"t = {expected:.3f} s, and later ones are not heard and left out")
     else:
@@ -507,7 +685,7 @@ def track_sound(path, *, progress=None):
     n_clean, rejected = detect_impact_anomalies(t)
     if rejected:
         idx, t0, reason = rejected[0]
-        notes.append(f"impact {idx} at t = {t0:.4f} s: {reason}; fitting the {n_clean} impacts before it, "
+        notes.append(f"impact {idx + 1} at t = {t0:.4f} s: {reason}; fitting the {n_clean} impacts before it, "
                      f"{len(rejected)} rejected")
     if n_clean < MIN_IMPACTS:
         raise DataError(f"{path}: only {n_clean} impact(s) before an anomaly ({rejected[0][2]}); "
@@ -516,6 +694,25 @@ def track_sound(path, *, progress=None):
     if progress:
         progress(1.0, "done")
     return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what)
+
+
+def _with_impacts(onsets, chain, t_new, level_new, same_s=1e-3):
+    """``onsets`` with the impacts found by :func:`extend_chain` added (a candidate already
+    within ``same_s`` of one is that impact), and the chain's indices into the new onsets."""
+    t, lv = list(onsets.t_s), list(onsets.snr_db)
+    kept = [float(x) for x in onsets.t_s[chain]]
+    for tn, ln in zip(t_new, level_new):
+        near = np.flatnonzero(np.abs(onsets.t_s - tn) < same_s)
+        if near.size:
+            kept.append(float(onsets.t_s[near[0]]))
+        else:
+            t.append(float(tn))
+            lv.append(float(ln))
+            kept.append(float(tn))
+    order = np.argsort(t, kind="stable")
+    t_all = np.asarray(t)[order]
+    merged = Onsets(t_s=t_all, snr_db=np.asarray(lv)[order], noise_level=onsets.noise_level)
+    return merged, np.searchsorted(t_all, kept)
 
 
 def parse(path, *, progress=None, **_ignored):
