@@ -17,7 +17,10 @@ With ``--misses`` it also says, for every single-effect case named wrongly, how 
 named rival fits compared with the planted effect (chi-square at the data's noise sigma,
 round 1) and whether the rival's parameter is physically plausible (inside the 95 %
 highest-density region of its prior density, :mod:`vrcal.drop.effects`): a miss where the rival
-fits as well with a plausible value is one the data cannot decide.
+fits as well with a plausible value is one the data cannot decide. For impact times and apex
+heights it also prints the information limit of each single-effect case
+(:func:`information_limit`): how close the nearest rival comes to the planted model's noise-free
+data, and how many seeds a likelihood-ratio test between the two could name at this noise.
 
 The drop-table cases (``drops``) plant drag, a speed-dependent epsilon or nothing in a synthetic
 table of drop and rebound heights (5 heights x 3 trials, :func:`vrcal.drop.synthetic.drop_table_case`).
@@ -27,11 +30,13 @@ Usage:
     python benchmarks/bench_discover.py --speed-only    # only the timing lines
     python benchmarks/bench_discover.py --seeds 20 --kinds trajectory
     python benchmarks/bench_discover.py --kinds impacts apexes --misses
+    python benchmarks/bench_discover.py --kinds apexes --cases velocity_dependent_restitution --misses --no-speed
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -41,10 +46,11 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
+from vrcal.discovery import residuals as res  # noqa: E402
 from vrcal.discovery.ranking import discover  # noqa: E402
 from vrcal.drop.effects import EFFECTS  # noqa: E402
 from vrcal.drop.simulate import sample_measurement, simulate_drops  # noqa: E402
-from vrcal.drop.synthetic import drop_table_case, hidden_effect_case  # noqa: E402
+from vrcal.drop.synthetic import drop_table_case, hidden_effect_case, noise_free_measurement  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
 from vrcal.model.standards import get_ball  # noqa: E402
 
@@ -153,9 +159,33 @@ def miss_diagnosis(d, planted, truth=None):
     return rival, float(dchi2), float(value), plausible(p, value, d.ball)
 
 
-def sweep(kind, planted, seeds, misses=None):
+def information_limit(d, data, truth, planted):
+    """(nearest rival, its chi-square on the noise-free data) of a single planted effect in impact
+    times or apex heights: each rival the kind can show is fitted to the planted model's noise-free
+    observations (the same samples, :func:`vrcal.drop.synthetic.noise_free_measurement`) and its
+    RSS divided by the discovery's noise sigma squared. That is the expected chi-square difference
+    between the planted model and the rival on noisy data: the most that any rule can go on. Two
+    models that far apart are told apart by a likelihood-ratio test in about Phi(sqrt(dchi2) / 2)
+    of the noise draws (Phi(0.5) = 69 % at dchi2 = 1, 84 % at 4, 93 % at 9)."""
+    clean = noise_free_measurement(data, truth)
+    first = {c.name: c for c in d.rounds[0]} if d.rounds else {}
+    best = (None, float("inf"))
+    for rival in res.applicable_effects(data.kind):
+        if rival == planted:
+            continue
+        fitted = first[rival].fit if rival in first else None
+        starts = [] if fitted is None else [{p.key: float(v) for p, v in zip(fitted.layout, fitted.values)}]
+        chi2 = res.separation_chi2(clean, d.ball, (rival,), d.noise_floor, d.g_m_per_s2, starts)
+        if chi2 < best[1]:
+            best = (rival, float(chi2))
+    return best
+
+
+def sweep(kind, planted, seeds, misses=None, limits=None):
     """Detection statistics of one planted case over ``seeds`` seeds (``misses``: a list that
-    collects :func:`miss_diagnosis` of each wrongly named single-effect case)."""
+    collects :func:`miss_diagnosis` of each wrongly named single-effect case, with its
+    :func:`information_limit` for impact times and apex heights; ``limits``: a list that collects
+    (seed, named exactly?, information limit) of every seed there)."""
     named = Counter()
     errors = {}
     correct = 0
@@ -180,8 +210,12 @@ def sweep(kind, planted, seeds, misses=None):
                 for p, true in truth["effects"][name].items():
                     got = d.final.effect_values[name][p]
                     errors.setdefault(f"{name}.{p}", []).append(abs(got / true - 1.0))
-        elif misses is not None and len(planted) == 1:
-            misses.append((seed, truth["ball"], *miss_diagnosis(d, planted[0], truth)))
+        limit = (None, float("nan"))
+        if limits is not None and len(planted) == 1 and kind in ("impacts", "apexes"):
+            limit = information_limit(d, data, truth, planted[0])
+            limits.append((seed, sorted(d.effects) == sorted(planted), limit))
+        if sorted(d.effects) != sorted(planted) and misses is not None and len(planted) == 1:
+            misses.append((seed, truth["ball"], *miss_diagnosis(d, planted[0], truth), limit))
     return correct, covered, named, errors, elapsed / max(seeds, 1)
 
 
@@ -192,14 +226,19 @@ def main(argv=None):
     ap.add_argument("--misses", action="store_true",
                     help="diagnose every wrongly named single-effect case (rival's fit and plausibility)")
     ap.add_argument("--speed-only", action="store_true", help="print the timing lines only")
+    ap.add_argument("--no-speed", action="store_true", help="skip the timing lines (rates only)")
+    ap.add_argument("--cases", nargs="*", default=None, metavar="EFFECT",
+                    help="only the planted cases whose effects are all among these (clean: the clean case)")
     args = ap.parse_args(argv)
     diagnoses = []
-    n, wall, result = timing()
-    print(f"discover on a {n}-sample trajectory: {wall * 1000:.0f} ms (median of 5; target < 1000 ms); "
-          f"named {result.effects}")
-    med, lo, hi, ours, plain, n_fits = speed_ratio()
-    print(f"whole process 'vrcal discover' / plain least-squares script ({n_fits} fits each): median ratio "
-          f"{med:.2f} (range {lo:.2f}-{hi:.2f}; target <= 0.6); median wall {ours:.2f} s vs {plain:.2f} s", flush=True)
+    if not args.no_speed:
+        n, wall, result = timing()
+        print(f"discover on a {n}-sample trajectory: {wall * 1000:.0f} ms (median of 5; target < 1000 ms); "
+              f"named {result.effects}")
+        med, lo, hi, ours, plain, n_fits = speed_ratio()
+        print(f"whole process 'vrcal discover' / plain least-squares script ({n_fits} fits each): median ratio "
+              f"{med:.2f} (range {lo:.2f}-{hi:.2f}; target <= 0.6); median wall {ours:.2f} s vs {plain:.2f} s",
+              flush=True)
     if args.speed_only:
         return
     print("rate = the named effects are exactly the planted ones; +amb = or the planted one is named as an "
@@ -208,11 +247,14 @@ def main(argv=None):
     totals = {}  # kind -> [exact, covered, runs]
     for kind in args.kinds:
         for planted in CASES[kind]:
+            if args.cases is not None and not set(planted or ("clean",)) <= set(args.cases):
+                continue
             assert all((kind if kind != "drops" else "apexes") in EFFECTS[p].kinds for p in planted)
             misses = [] if args.misses else None
-            correct, covered, named, errors, per = sweep(kind, planted, args.seeds, misses)
-            if misses:
-                diagnoses.append((kind, planted[0], misses))
+            limits = [] if args.misses else None
+            correct, covered, named, errors, per = sweep(kind, planted, args.seeds, misses, limits)
+            if misses or limits:
+                diagnoses.append((kind, planted[0], misses, limits))
             t = totals.setdefault(kind, [0, 0, 0])
             t[0], t[1], t[2] = t[0] + correct, t[1] + covered, t[2] + args.seeds
             err = ", ".join(f"{k.split('.')[-1]} {100 * max(v):.1f}%" for k, v in sorted(errors.items())) or "-"
@@ -229,15 +271,29 @@ def main(argv=None):
         exact, covered, runs = all_runs
         print(f"all kinds           : {exact}/{runs} exact ({100.0 * exact / runs:.1f}%), "
               f"{covered}/{runs} incl. ambiguous ({100.0 * covered / runs:.1f}%)")
-    for kind, planted, misses in diagnoses:
+    for kind, planted, misses, limits in diagnoses:
+        if limits:
+            nf = np.array([lim[2][1] for lim in limits])
+            ideal = float(np.sum(0.5 * (1.0 + np.vectorize(math.erf)(np.sqrt(nf) / 2.0 / math.sqrt(2.0)))))
+            exact = sum(ok for _, ok, _ in limits)
+            hard = nf < 4
+            print(f"information limit {kind}/{planted}: noise-free, the nearest rival fits within dchi2 < 1 in "
+                  f"{int(np.sum(nf < 1))} of {nf.size} seeds, < 4 in {int(np.sum(hard))}; a likelihood-ratio "
+                  f"test against it would name the planted effect in about {ideal:.0f} of {nf.size}; named "
+                  f"exactly: {exact} (in {sum(ok for (_, ok, _), h in zip(limits, hard) if h)} of the "
+                  f"{int(np.sum(hard))} with dchi2 < 4, {sum(ok for (_, ok, _), h in zip(limits, hard) if not h)} "
+                  f"of the {int(np.sum(~hard))} others)")
+        if not misses:
+            continue
         dchi2 = np.array([m[3] for m in misses])
         n_plausible = sum(bool(m[5]) for m in misses)
         print(f"misses {kind}/{planted}: {len(misses)}; the named rival fits better (dchi2 < 0) in "
               f"{int(np.sum(dchi2 < 0))}, within |dchi2| < 4 in {int(np.sum(np.abs(dchi2) < 4))}; its parameter is "
               f"inside the 95 % highest-density region of its prior in {n_plausible}")
-        for seed, ball, rival, d, value, ok in misses:
+        for seed, ball, rival, d, value, ok, (nearest, nf) in misses:
+            limit = "" if nearest is None else f"; noise-free dchi2 to {nearest} {nf:.2f}"
             print(f"    seed {seed:3d} {ball:<13s} named {rival}: dchi2 {d:+7.2f}, parameter {value:.4g}"
-                  f"{'' if ok else ' (implausible)'}")
+                  f"{'' if ok else ' (implausible)'}{limit}")
 
 
 if __name__ == "__main__":

@@ -15,10 +15,11 @@ from click.testing import CliRunner
 from helpers import shared_file
 
 from vrcal.cli import main
+from vrcal.discovery import residuals as res
 from vrcal.discovery.ranking import CONFUSABLE, discover, floor_referenced
 from vrcal.drop.effects import EFFECTS
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
-from vrcal.drop.synthetic import hidden_effect_case, measurement_csv
+from vrcal.drop.synthetic import hidden_effect_case, measurement_csv, noise_free_measurement
 from vrcal.errors import UsageError
 from vrcal.measurements import Trajectory
 from vrcal.model.body import BallProperties
@@ -111,6 +112,40 @@ def test_impacts_and_apexes_name_the_effect_or_its_confusable_rival(kind, name, 
     for d, _ in results:
         for winner, alts in d.ambiguous.items():
             assert any({winner, *alts} <= g for g in CONFUSABLE[kind]) or len(alts) > 0
+
+
+SPEED_LAW = "velocity_dependent_restitution"
+
+
+def speed_law_in_apexes(seed):
+    """(discovery, noise-free chi-square of the best air-drag fit) of a speed-dependent epsilon
+    planted in the apex heights of one drop: the second is how far apart the two models are for
+    these samples at the discovery's noise (vrcal.discovery.residuals.separation_chi2)."""
+    data, truth = hidden_effect_case(seed, "apexes", (SPEED_LAW,))
+    d = discover(data, ball_of(truth))
+    clean = noise_free_measurement(data, truth)
+    return d, res.separation_chi2(clean, d.ball, ("air_drag",), d.noise_floor, d.g_m_per_s2)
+
+
+def test_a_speed_law_in_apex_heights_is_missed_only_where_the_data_cannot_decide():
+    """Issue 9's weak case (a speed-dependent epsilon in one drop's apex heights, named exactly in
+    83 % of the benchmark's seeds, air drag in most of the rest) is the information limit, not a
+    fitting fault: wherever the best air-drag fit to the noise-free apexes stays more than
+    dchi2 = 20 from them, the speed law is named exactly; where even noise-free drag fits within
+    dchi2 < 1 (seeds 2, 11, 27, 29: footballs and a table-tennis ball) either may be named, and the
+    other is then listed as its ambiguous rival, never silently dropped (docs/discover.md)."""
+    separated = []
+    for seed in range(30):
+        d, chi2 = speed_law_in_apexes(seed)
+        if chi2 > 20:
+            separated.append(seed)
+            assert d.effects == [SPEED_LAW], (seed, chi2, d.effects)
+        if seed in (2, 11, 27, 29):
+            assert chi2 < 1, (seed, chi2)
+            assert len(d.effects) == 1 and d.effects[0] in ("air_drag", SPEED_LAW), (seed, d.effects)
+            rival = "air_drag" if d.effects[0] == SPEED_LAW else SPEED_LAW
+            assert rival in d.ambiguous.get(d.effects[0], ()), (seed, d.effects, d.ambiguous)
+    assert len(separated) >= 5, separated            # the test has cases to judge
 
 
 def test_only_candidates_the_kind_can_show_are_tried():

@@ -8,8 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vrcal.drop.effects import EFFECTS
-from vrcal.drop.simulate import simulate_drops
-from vrcal.drop.synthetic import JITTER_S, hidden_effect_case, measurement_csv
+from vrcal.drop.synthetic import JITTER_S, hidden_effect_case, measurement_csv, noise_free_measurement
 from vrcal.errors import UsageError
 from vrcal.measurements import ApexHeights, ImpactTimes, Trajectory, read_measurement
 from vrcal.model.body import BallProperties
@@ -18,21 +17,16 @@ from vrcal.model.standards import get_ball
 TYPES = {"trajectory": Trajectory, "impacts": ImpactTimes, "apexes": ApexHeights}
 
 
-def _truth_model(truth):
-    """Noise-free observations of the case, simulated again from the truth alone."""
-    ball = get_ball(truth["ball"])
-    d = simulate_drops(truth["drop_height_m"], truth["epsilon"], truth["n_bounces"], BallProperties.from_ball(ball),
-                       effects=truth["effects"], release_time_s=truth["release_time_s"])
-    return d
+VALUES = {"trajectory": "y_m", "impacts": "t_s", "apexes": "h_m"}
 
 
 def _residual(measurement, truth):
-    d = _truth_model(truth)
-    if measurement.kind == "trajectory":
-        return measurement.y_m - d.height_m(measurement.t_s)[0]
-    if measurement.kind == "impacts":
-        return measurement.t_s - d.impact_times_s[0]
-    return measurement.h_m - d.observed_apex_heights_m[0]
+    """Data minus the noise-free observations of the case, simulated again from the truth alone
+    (vrcal.drop.synthetic.noise_free_measurement)."""
+    clean = noise_free_measurement(measurement, truth)
+    assert type(clean) is type(measurement) and clean.source == measurement.source
+    field = VALUES[measurement.kind]
+    return getattr(measurement, field) - getattr(clean, field)
 
 
 CASES = [(kind, effects) for kind in TYPES

@@ -830,6 +830,36 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
                      success=bool(sol.success), message=str(sol.message), extra={"start": x0, "jtj": J.T @ J})
 
 
+def separation_chi2(data, ball, effects, sigma, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, starts=()):
+    """Chi-square of the best fit of the baseline plus ``effects`` to ``data`` at noise ``sigma``.
+
+    On noise-free data of another model (:func:`vrcal.drop.synthetic.noise_free_measurement`) this
+    is how far apart the two models are for this record's samples: the expected chi-square
+    difference between them on noisy data, the most that any rule can go on to tell them apart
+    (below a few units no rule can: the prior densities decide).
+
+    Parameters
+    ----------
+    data : Trajectory or ImpactTimes or ApexHeights or Runs
+    ball : BallProperties
+    effects : sequence of str
+        effect names of the model fitted
+    sigma : float
+        noise of one datum [data unit], > 0
+    g_m_per_s2 : float
+        gravitational acceleration [m/s²]
+    starts : sequence of dict
+        further starting values (:func:`fit_model`'s ``start``); the lowest RSS counts
+
+    Returns
+    -------
+    float
+        RSS / sigma², dimensionless
+    """
+    problem = make_problem(data, ball, g_m_per_s2, noise=sigma)
+    return min(fit_model(problem, tuple(effects), start=s).rss for s in (None, *starts)) / float(sigma) ** 2
+
+
 def problem_start(problem):
     """The baseline's starting values of a problem (cached on it)."""
     cache = problem.__dict__.get("_start")

@@ -300,6 +300,37 @@ def hidden_effect_case(seed, kind="trajectory", effects=("air_drag",), *, ball=N
     return measurement, truth
 
 
+def noise_free_measurement(measurement, truth):
+    """The measurement of :func:`hidden_effect_case` without its noise: the same samples, the values
+    the planted model gives (to ask what the data could tell apart at best, at any noise).
+
+    Parameters
+    ----------
+    measurement : Trajectory or ImpactTimes or ApexHeights
+        the first return value of :func:`hidden_effect_case`
+    truth : dict
+        its second return value
+
+    Returns
+    -------
+    Trajectory or ImpactTimes or ApexHeights
+        a copy whose heights [m] or impact times [s] are noise-free
+    """
+    import dataclasses
+
+    from vrcal.model.standards import get_ball
+
+    props = BallProperties.from_ball(get_ball(truth["ball"]))
+    drops = simulate_drops(truth["drop_height_m"], truth["epsilon"], truth["n_bounces"], props,
+                           effects=truth["effects"] or None, release_time_s=truth["release_time_s"])
+    kind = measurement.kind
+    if kind == "trajectory":
+        return dataclasses.replace(measurement, y_m=_observe(kind, drops, measurement.t_s))
+    if kind == "impacts":
+        return dataclasses.replace(measurement, t_s=_observe(kind, drops)[:measurement.t_s.size])
+    return dataclasses.replace(measurement, h_m=_observe(kind, drops)[np.asarray(measurement.bounce, dtype=int)])
+
+
 def measurement_csv(measurement):
     """CSV text of a synthetic measurement in the layout ``vrcal simulate`` writes (for the readers)."""
     from vrcal.drop.simulate import columns_csv
