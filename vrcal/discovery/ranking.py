@@ -48,9 +48,12 @@ short: a trajectory separates all five effects; impact times alone cannot see th
 tracked point (height_offset) nor buoyancy, and air drag, a speed-dependent ε and a
 finite contact time all bend the interval sequence in similar ways; apex heights
 cannot see contact durations. When the winner has a material rival in its
-:data:`CONFUSABLE` group for the data kind (or within ``Thresholds.indistinguishable_bic``
-of it), the winner is named but the rival is listed in ``Discovery.ambiguous`` and the
-report says so, instead of pretending the data chose.
+:data:`CONFUSABLE` group for the data kind that the data cannot reject (its χ² within
+``Thresholds.indistinguishable_chi2`` of the winner's), or any rival within
+``Thresholds.indistinguishable_bic`` of its evidence, the winner is named but the rival is
+listed in ``Discovery.ambiguous`` and the report says so, instead of pretending the data
+chose. A rival the data reject (a χ² 9 or more above the winner's) is not listed, however
+close the group.
 
 References
 ----------
@@ -121,6 +124,10 @@ class Thresholds:
     gap_factor: float = 0.9
     removed_noise_fraction: float = 0.2
     indistinguishable_bic: float = 6.0   # a rival within this of the winner's -2 ln Z (odds < 20:1) is ambiguous
+    #: a rival of the winner's CONFUSABLE group is ambiguous when its chi-square is within this of the winner's (3
+    #: sigma: the data cannot reject it), however the priors weigh the two; the chi-square is at the noise floor, or
+    #: at the winner's residual variance when that is larger
+    indistinguishable_chi2: float = 9.0
 
 
 @dataclass
@@ -642,8 +649,12 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         win = material[0]
         # drops from several heights (a drop table, several files) separate what one drop cannot
         groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
+        # the noise a rival is judged against: the floor, or what the winner leaves when that is more (a
+        # record's own scatter from bounce to bounce)
+        var = max(sigma_floor**2, win.fit.rss / max(win.fit.n - win.fit.k, 1))
         rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
-            c.score - win.score < th.indistinguishable_bic or any(c.name in g for g in groups))]
+            c.score - win.score < th.indistinguishable_bic
+            or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2))]
         close = [c.name for c in rivals]
         if close:
             ambiguous[win.name] = close
