@@ -24,65 +24,63 @@ def test_a_missing_library_names_the_debian_package(monkeypatch):
         O.load_ode()
 
 
-def test_sphere_on_plane_contact_and_body_state():
+@pytest.fixture
+def ode():
+    """(lib, world, space, contact group) of a fresh ODE world, destroyed after the test."""
     require_engine("ode")
     lib = O.load_ode()
     world = lib.dWorldCreate()
     space = lib.dSimpleSpaceCreate(None)
     group = lib.dJointGroupCreate(0)
     try:
-        lib.dWorldSetGravity(world, 0.0, 0.0, -9.81)
-        lib.dWorldSetERP(world, 0.0)          # else ERP pushes out at 0.2 * 1 mm / 1e-4 s = 2 m/s
-        assert lib.dWorldGetERP(world) == 0.0
-        body = lib.dBodyCreate(world)
-        m = O.sphere_mass(0.6, 0.1)
-        lib.dBodySetMass(body, ctypes.byref(m))
-        got = O.dMass()
-        lib.dBodyGetMass(body, ctypes.byref(got))
-        assert got.mass == pytest.approx(0.6)
-        sphere = lib.dCreateSphere(space, 0.1)
-        lib.dGeomSetBody(sphere, body)
-        lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
-        lib.dBodySetPosition(body, 0.0, 0.0, 0.099)             # 1 mm into the floor
-        lib.dBodySetLinearVel(body, 0.0, 0.0, -2.0)
-        assert O.vec3(lib.dBodyGetLinearVel(body)) == (0.0, 0.0, -2.0)
-        surf = O.surface(O.dContactBounce, 0.0, bounce=0.5, bounce_vel=0.01)
-        counts = []
-        O.collide_pairs(lib, space, lambda a, b: counts.append(O.add_contacts(lib, world, group, a, b, surf, 1)))
-        assert counts == [1]
-        lib.dWorldStep(world, 1e-4)
-        lib.dJointGroupEmpty(group)
-        vz = O.vec3(lib.dBodyGetLinearVel(body))[2]
-        assert vz == pytest.approx(1.0, abs=2e-3)                 # bounce 0.5 of 2 m/s
+        yield lib, world, space, group
     finally:
         lib.dJointGroupDestroy(group)
         lib.dSpaceDestroy(space)
         lib.dWorldDestroy(world)
 
 
-def test_erp_push_out_beats_the_bounce():
+def test_sphere_on_plane_contact_and_body_state(ode):
+    lib, world, space, group = ode
+    lib.dWorldSetGravity(world, 0.0, 0.0, -9.81)
+    lib.dWorldSetERP(world, 0.0)          # else ERP pushes out at 0.2 * 1 mm / 1e-4 s = 2 m/s
+    assert lib.dWorldGetERP(world) == 0.0
+    body = lib.dBodyCreate(world)
+    m = O.sphere_mass(0.6, 0.1)
+    lib.dBodySetMass(body, ctypes.byref(m))
+    got = O.dMass()
+    lib.dBodyGetMass(body, ctypes.byref(got))
+    assert got.mass == pytest.approx(0.6)
+    sphere = lib.dCreateSphere(space, 0.1)
+    lib.dGeomSetBody(sphere, body)
+    lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
+    lib.dBodySetPosition(body, 0.0, 0.0, 0.099)             # 1 mm into the floor
+    lib.dBodySetLinearVel(body, 0.0, 0.0, -2.0)
+    assert O.vec3(lib.dBodyGetLinearVel(body)) == (0.0, 0.0, -2.0)
+    surf = O.surface(O.dContactBounce, 0.0, bounce=0.5, bounce_vel=0.01)
+    counts = []
+    O.collide_pairs(lib, space, lambda a, b: counts.append(O.add_contacts(lib, world, group, a, b, surf, 1)))
+    assert counts == [1]
+    lib.dWorldStep(world, 1e-4)
+    lib.dJointGroupEmpty(group)
+    vz = O.vec3(lib.dBodyGetLinearVel(body))[2]
+    assert vz == pytest.approx(1.0, abs=2e-3)                 # bounce 0.5 of 2 m/s
+
+
+def test_erp_push_out_beats_the_bounce(ode):
     """ODE leaves a contact at max(bounce speed, erp*depth/dt): why the export sets erp = 0."""
-    require_engine("ode")
-    lib = O.load_ode()
-    world = lib.dWorldCreate()
-    space = lib.dSimpleSpaceCreate(None)
-    group = lib.dJointGroupCreate(0)
-    try:
-        lib.dWorldSetERP(world, 0.2)
-        body = lib.dBodyCreate(world)
-        lib.dBodySetMass(body, ctypes.byref(O.sphere_mass(0.6, 0.1)))
-        lib.dGeomSetBody(lib.dCreateSphere(space, 0.1), body)
-        lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
-        lib.dBodySetPosition(body, 0.0, 0.0, 0.099)
-        lib.dBodySetLinearVel(body, 0.0, 0.0, -2.0)
-        surf = O.surface(O.dContactBounce, 0.0, bounce=0.5, bounce_vel=0.01)
-        O.collide_pairs(lib, space, lambda a, b: O.add_contacts(lib, world, group, a, b, surf, 1))
-        lib.dWorldStep(world, 1e-4)
-        assert O.vec3(lib.dBodyGetLinearVel(body))[2] == pytest.approx(0.2 * 1e-3 / 1e-4, rel=1e-3)
-    finally:
-        lib.dJointGroupDestroy(group)
-        lib.dSpaceDestroy(space)
-        lib.dWorldDestroy(world)
+    lib, world, space, group = ode
+    lib.dWorldSetERP(world, 0.2)
+    body = lib.dBodyCreate(world)
+    lib.dBodySetMass(body, ctypes.byref(O.sphere_mass(0.6, 0.1)))
+    lib.dGeomSetBody(lib.dCreateSphere(space, 0.1), body)
+    lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
+    lib.dBodySetPosition(body, 0.0, 0.0, 0.099)
+    lib.dBodySetLinearVel(body, 0.0, 0.0, -2.0)
+    surf = O.surface(O.dContactBounce, 0.0, bounce=0.5, bounce_vel=0.01)
+    O.collide_pairs(lib, space, lambda a, b: O.add_contacts(lib, world, group, a, b, surf, 1))
+    lib.dWorldStep(world, 1e-4)
+    assert O.vec3(lib.dBodyGetLinearVel(body))[2] == pytest.approx(0.2 * 1e-3 / 1e-4, rel=1e-3)
 
 
 def test_errors_in_the_near_callback_are_raised():

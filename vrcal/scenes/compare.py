@@ -100,6 +100,16 @@ def compare_results(a, b):
     return cmp
 
 
+def _first_per_key(matches, max_rows):
+    """The first ``max_rows`` of ``matches`` (tuples whose first item is the key) for each key, in order."""
+    shown, out = {}, []
+    for m in matches:
+        shown[m[0]] = shown.get(m[0], 0) + 1
+        if shown[m[0]] <= max_rows:
+            out.append(m)
+    return out
+
+
 def comparison_text(cmp, max_rows=5):
     """The comparison for people (at most 100 columns): the largest differences first, then the
     first ``max_rows`` impacts of each pair and apexes of each body, then why the runs differ."""
@@ -126,18 +136,12 @@ def comparison_text(cmp, max_rows=5):
     if cmp.solver_messages:
         text += wrap(f"WARNING: ODE's solver reported {cmp.solver_messages} messages (see the notes above): "
                      "its run is unreliable there", first="  ")
-    shown, rows = {}, []
-    for key, k, ta, tb, _sa, _sb in cmp.impacts:
-        shown[key] = shown.get(key, 0) + 1
-        if shown[key] <= max_rows:
-            rows.append([key, str(k), f"{ta:.6f}", f"{tb:.6f}", f"{(tb - ta) * 1e3:+.3f}"])
+    rows = [[key, str(k), f"{ta:.6f}", f"{tb:.6f}", f"{(tb - ta) * 1e3:+.3f}"]
+            for key, k, ta, tb, _sa, _sb in _first_per_key(cmp.impacts, max_rows)]
     if rows:
         text += "\n" + table(rows, ["impact", "k", f"t {ea} [s]", f"t {eb} [s]", "Δt [ms]"], align="lrrrr")
-    shown, rows = {}, []
-    for name, k, _ta, ha, _tb, hb in cmp.apexes:
-        shown[name] = shown.get(name, 0) + 1
-        if shown[name] <= max_rows:
-            rows.append([name, str(k), f"{ha:.6f}", f"{hb:.6f}", f"{(hb - ha) * 1e3:+.3f}"])
+    rows = [[name, str(k), f"{ha:.6f}", f"{hb:.6f}", f"{(hb - ha) * 1e3:+.3f}"]
+            for name, k, _ta, ha, _tb, hb in _first_per_key(cmp.apexes, max_rows)]
     if rows:
         text += "\n" + table(rows, ["apex of", "k", f"h {ea} [m]", f"h {eb} [m]", "Δh [mm]"], align="lrrrr")
     for line in cmp.unmatched:
