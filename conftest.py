@@ -6,10 +6,9 @@ See tests/doc_console.py for how a ```console block is run and compared.
 import os
 from doctest import ELLIPSIS, NORMALIZE_WHITESPACE
 
+from doc_console import ConsoleParser, make_sandbox, remove_sandbox
 from sybil import Sybil
 from sybil.parsers.markdown import PythonCodeBlockParser, SkipParser
-
-from doc_console import ConsoleParser, make_sandbox, remove_sandbox
 
 
 def _setup(namespace):

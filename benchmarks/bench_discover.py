@@ -104,7 +104,8 @@ def speed_ratio(repeats=7):
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "traj1500.csv")
         with open(path, "w") as fh:
-            fh.write("t,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(cols["t"][:1500], cols["y"][:1500])))
+            rows = zip(cols["t"][:1500], cols["y"][:1500])
+            fh.write("t,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in rows))
         data = read_measurement(path)
         d = discover(data, ball)
         problem = res.make_problem(data, ball)
@@ -259,7 +260,8 @@ def main(argv=None):
             t[0], t[1], t[2] = t[0] + correct, t[1] + covered, t[2] + args.seeds
             err = ", ".join(f"{k.split('.')[-1]} {100 * max(v):.1f}%" for k, v in sorted(errors.items())) or "-"
             label = " + ".join(planted) or "(clean)"
-            print(f"{kind:<11s} {label:<50s} {100.0 * correct / args.seeds:>6.1f}% {100.0 * covered / args.seeds:>6.1f}%  "
+            print(f"{kind:<11s} {label:<50s} {100.0 * correct / args.seeds:>6.1f}% "
+                  f"{100.0 * covered / args.seeds:>6.1f}%  "
                   f"{err:>11s} {per * 1000:>7.0f}  "
                   f"{dict(named.most_common())}", flush=True)
     all_runs = [0, 0, 0]

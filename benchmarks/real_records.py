@@ -6,7 +6,9 @@ and epsilon from a method that does not use discover's model:
 * **impact times** (phyphox): the ratio of successive flight times over the first three flights
   (the authors' own Method 2: each flight is eps times the one before), each flight's launch
   speed found from its duration with a sphere's drag (C_d 0.47) so that eps = launch speed /
-  landing speed of the flight before;
+  landing speed of the flight before. Its standard error (printed after the method) follows from
+  the record's own bounce-to-bounce scatter of the ratios: a ball whose ratios scatter by 3 % gives
+  an estimate from two ratios good to about 0.02;
 * **the golf ball's first rebound** (the authors' Method 1, a different measurement): sqrt(h/H) with
   drag corrected for a sphere (Eq. (9) of [1] corrected, ``epsilon_from_heights_with_drag``, C_d 0.47),
   compared with discover on the same ball's impact times from the same height;
@@ -15,8 +17,9 @@ and epsilon from a method that does not use discover's model:
   at 60-500 Hz, the speeds where parabolas (free curvature) through the flights before and after a
   bounce meet; below 60 Hz (a phone video), Eq. (9) on the first apexes, each height measured from
   the contact level, corrected for a sphere's drag (C_d 0.47). The median (speeds) or mean (apexes)
-  over the first bounces. ball1_7's first bounce hit something: its estimate comes from the record
-  that starts after it (``*_fromapex.csv``).
+  over the first bounces. ball1_7's first bounce hit something, and the green ball's first fall is
+  no free fall (the data's README; discover finds both): their estimates come from the records that
+  start at the apex after the first bounce (``*_fromapex*``).
 
 None of them fits discover's model: they are the textbook estimates a physicist would make by hand.
 
@@ -72,6 +75,16 @@ def interval_ratio_epsilon(t_s, mass_kg, diameter_m, g=9.80665):
     return float(np.mean([u[i + 1] / land[i] for i in range(len(u) - 1)]))
 
 
+def interval_ratio_se(t_s, eps, n_ratios=2):
+    """Standard error of :func:`interval_ratio_epsilon` from the record's own bounce-to-bounce scatter of
+    the interval ratios (:func:`vrcal.discovery.residuals.ratio_scatter`, robust over the whole record):
+    eps times the relative scatter of one ratio over sqrt(the ratios averaged)."""
+    from vrcal.discovery.residuals import ratio_scatter
+
+    s = ratio_scatter(t_s)
+    return math.nan if s is None else float(eps) * s / math.sqrt(n_ratios)
+
+
 def apex_epsilon(data, mass_kg, diameter_m, g=9.80665):
     """Eq. (9) corrected for a sphere's drag on the first three apexes, heights from the contact level."""
     from vrcal.discovery.prepare import contact_points
@@ -111,7 +124,8 @@ def contact_speed_epsilon(t_s, y_m, release_index=0, n_side=6):
         if b - a < 3 or d - c < 3:
             continue
         p_in, p_out = np.polyfit(t[a:b], y[a:b], 2), np.polyfit(t[c:d], y[c:d], 2)
-        roots = [r.real for r in np.roots(np.polysub(p_in, p_out)) if abs(r.imag) < 1e-12 and t[a] <= r.real <= t[d - 1]]
+        roots = [r.real for r in np.roots(np.polysub(p_in, p_out))
+                 if abs(r.imag) < 1e-12 and t[a] <= r.real <= t[d - 1]]
         tc = min(roots, key=lambda r: abs(r - t[m])) if roots else t[m]
         v_in, v_out = np.polyval(np.polyder(p_in), tc), np.polyval(np.polyder(p_out), tc)
         if v_in < 0 < v_out:
@@ -156,8 +170,12 @@ def independent_epsilon(data, mass_kg, diameter_m):
 
 
 def describe(d):
+    """The named effects with their parameters, and each ambiguous rival with the epsilon it would give."""
     eff = ", ".join(f"{n} " + ", ".join(f"{v:.3g}" for v in d.final.effect_values[n].values()) for n in d.effects)
-    return eff or "-"
+    rivals = [f"{r} eps {alt['epsilon'][0]:.3f}" + (f"-{alt['epsilon'][1]:.3f}" if alt["epsilon"][1] > alt["epsilon"][0]
+                                                     + 5e-4 else "")
+              for per in d.ambiguous_epsilon.values() for r, alt in per.items()]
+    return (eff or "-") + (f" (ambiguous with {', '.join(rivals)})" if rivals else "")
 
 
 def main(argv=None):
@@ -172,8 +190,10 @@ def main(argv=None):
         key = name.split("_")[0]
         ball, m, D = BALLS[key]
         d = discover_file(path, ball, mass_kg=m, diameter_m=D)
-        indep = interval_ratio_epsilon(read_measurement(path).t_s, float(d.ball.mass_kg), float(d.ball.diameter_m))
-        rows.append((name, "impacts", bounce_epsilon(d), indep, "interval ratios, drag-corrected", d))
+        t = read_measurement(path).t_s
+        indep = interval_ratio_epsilon(t, float(d.ball.mass_kg), float(d.ball.diameter_m))
+        se = interval_ratio_se(t, indep)
+        rows.append((name, "impacts", bounce_epsilon(d), indep, f"interval ratios, drag-corrected, +-{se:.3f}", d))
     # the golf ball's first rebound (Method 1) against its impact times from 110 cm (Method 2)
     table = os.path.join(root, "realval", "giiulia_method1", "golf_110cm_first_rebound.csv")
     h = read_measurement(table).h_m
@@ -191,11 +211,12 @@ def main(argv=None):
               (os.path.join(root, "realval", "dde", "dde_ball1_7_fromapex.csv"), "tennis", {}),
               (os.path.join(root, "pingpong-drop-video", "raw.txt"), "pingpong", {"fs_hz": 100.0}),
               (os.path.join(root, "realval", "ameen", "ameen_green_ball_pxref.txt"), "green", {"fs_hz": 29.97}),
-              (os.path.join(root, "realval", "ameen", "ameen_green_ball_fromapex_pxref.txt"), "green", {"fs_hz": 29.97})]
+              (os.path.join(root, "realval", "ameen", "ameen_green_ball_fromapex_pxref.txt"), "green",
+               {"fs_hz": 29.97})]
     for path, key, opts in tracks:
         ball, m, D = BALLS[key]
         d = discover_file(path, ball, mass_kg=m, diameter_m=D, **opts)
-        source = path.replace("ball1_7_clean", "ball1_7_fromapex")
+        source = path.replace("ball1_7_clean", "ball1_7_fromapex").replace("ball_pxref", "ball_fromapex_pxref")
         data, _ = floor_referenced(read_measurement(source, **opts))
         indep, method = independent_epsilon(data, float(d.ball.mass_kg), float(d.ball.diameter_m))
         if source != path:

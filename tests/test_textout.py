@@ -43,4 +43,5 @@ def test_table_aligns_numbers_right_and_text_left():
 
 
 def test_section_aligns_keys():
-    assert section("[ball]", [("epsilon", "0.766"), ("T", "66.6 ms")]) == "[ball]\n  epsilon  0.766\n  T        66.6 ms\n"
+    expected = "[ball]\n  epsilon  0.766\n  T        66.6 ms\n"
+    assert section("[ball]", [("epsilon", "0.766"), ("T", "66.6 ms")]) == expected

@@ -416,9 +416,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
     text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)
 
-# --------------------------------------------------------------------------- simulate and discover (part: simulate/discover)
 
-# (simulate and discover commands go here)
+# --------------------------------------------------------------------------- simulate and discover
 
 
 @main.command(short_help="Simulate a drop test (exact impacts, optional effects) and write CSV data.")

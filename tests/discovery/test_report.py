@@ -12,6 +12,7 @@ from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
 from vrcal.model.standards import get_ball  # noqa: E402
 
+
 def case(kind, effects, seed=7):
     data, truth = hidden_effect_case(seed, kind, effects)
     return discover(data, BallProperties.from_ball(get_ball(truth["ball"]))), truth
@@ -97,6 +98,17 @@ def test_ambiguity_is_reported():
             odds = d.as_dict()["ambiguous_odds"]
             assert set(odds) == set(d.ambiguous)
             assert all(set(v) == set(d.ambiguous[k]) and min(v.values()) >= 1.0 for k, v in odds.items())
+            # and what each rival would make of epsilon: its own fit's epsilon, in the JSON and the advice
+            alt = d.as_dict()["ambiguous_epsilon"]
+            assert {k: set(v) for k, v in alt.items()} == {k: set(v) for k, v in d.ambiguous.items()}
+            advice = text.split("epsilon for an engine")[1].split("Named effects")[0]
+            for name, rivals in alt.items():
+                for rival, numbers in rivals.items():
+                    fit = next(c.fit for c in d.candidates if c.name == rival and c.round == 1)
+                    lo, hi = numbers["epsilon"]
+                    assert lo <= fit.value("epsilon") + 1e-12 and hi >= lo
+                    assert numbers["parameters"] == fit.effect_values[rival]
+                    assert f"{lo:.4f}" in " ".join(advice.split())
             return
     pytest.skip("no ambiguous case in 40 seeds")
 

@@ -84,7 +84,8 @@ def test_headerless_three_columns_ask_for_a_header(tmp_path):
 @pytest.mark.parametrize("unit,factor", [("m", 1.0), ("cm", 1e-2), ("mm", 1e-3)])
 def test_units_in_the_header_are_converted(tmp_path, unit, factor):
     t, y = fall()
-    p = write(tmp_path, "u.csv", f"t (ms),y ({unit})\n" + "\n".join(f"{float(a) * 1e3!r},{float(b) / factor!r}" for a, b in zip(t, y)))
+    body = "\n".join(f"{float(a) * 1e3!r},{float(b) / factor!r}" for a, b in zip(t, y))
+    p = write(tmp_path, "u.csv", f"t (ms),y ({unit})\n" + body)
     data = read_measurement(p)
     np.testing.assert_allclose(data.t_s, t, atol=1e-12)
     np.testing.assert_allclose(data.y_m, y, atol=1e-12)
@@ -98,7 +99,8 @@ def test_units_in_the_header_are_converted(tmp_path, unit, factor):
 def test_a_drop_table_is_read_as_one_run_per_trial(tmp_path, header, scale):
     rows = [(0.5, 0.41), (1.0, 0.80), (1.5, 1.17), (2.0, 1.52)]
     sep = ";" if ";" in header else ","
-    lines = [header] + [sep.join(([str(i)] if header.startswith("trial") else []) + [f"{H * scale:g}", f"{h * scale:g}"])
+    trial = header.startswith("trial")
+    lines = [header] + [sep.join(([str(i)] if trial else []) + [f"{H * scale:g}", f"{h * scale:g}"])
                         for i, (H, h) in enumerate(rows)]
     p = write(tmp_path, "table.csv", "\n".join(lines) + "\n")
     assert detect_format(p) == "drops"

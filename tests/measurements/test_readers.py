@@ -476,7 +476,8 @@ def test_no_three_consecutive_bounces_is_an_error_naming_the_anomaly(tmp_path):
 
 def test_apexes(tmp_path):
     h = 0.8 * 0.7 ** (2 * np.arange(5))
-    p = write(tmp_path, "ap.csv", "bounce,h (cm)\n" + "\n".join(f"{i},{float(v) * 100!r}" for i, v in enumerate(h)) + "\n")
+    body = "\n".join(f"{i},{float(v) * 100!r}" for i, v in enumerate(h))
+    p = write(tmp_path, "ap.csv", "bounce,h (cm)\n" + body + "\n")
     data = read_measurement(p)
     assert isinstance(data, ApexHeights)
     np.testing.assert_array_equal(data.bounce, np.arange(5))

@@ -13,10 +13,10 @@ state per run). This module decides what the runs are:
   line, what only looks off becomes a warning (the verdict "suspect input");
 * a bounce that does not belong is cut out, and the pieces around it become runs: in a
   trajectory, a bounce whose contact lies far above the floor level of the others (it hit
-  something) or whose flight lost or gained energy out of line with the rest
-  (:func:`odd_bounces`); in impact times, the reader's chains of consecutive bounces
-  (:func:`vrcal.measurements.cleanup.impact_chains`). Every cut is a note naming the file's
-  line.
+  something), whose flight lost or gained energy out of line with the rest, or whose flight is
+  no free flight (:func:`odd_bounces`, :func:`unfree_flights`); in impact times, the reader's
+  chains of consecutive bounces (:func:`vrcal.measurements.cleanup.impact_chains`). Every cut
+  is a note naming the file's lines.
 """
 
 from __future__ import annotations
@@ -41,6 +41,14 @@ ODD_CONTACT_DIAMETERS = 0.5
 #: ball (a low bounce can be missed among the noise, or a noise dip taken for one), so the low last
 #: bounces of a record are fitted as they are, never called odd.
 RESOLVED_SIGMAS = 20.0
+
+#: A flight is no free flight when its acceleration changes (its jerk) beyond what air drag can do
+#: (the registry's physical limits of ``air_drag`` and ``buoyancy``) by this many standard errors,
+#: and out of line with the other flights of the record by as many (:func:`unfree_flights`).
+FREE_FLIGHT_SIGMAS = 5.0
+
+#: Fewest samples of a flight (clear of its contacts) whose jerk is judged.
+FREE_FLIGHT_MIN_SAMPLES = 7
 
 #: Most samples of the trajectories fitted together: a longer record is decimated to every k-th
 #: sample (:func:`decimate`). 20,000 samples hold every bounce a drop makes many times over; fitting
@@ -210,17 +218,120 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
     return np.asarray(tc), np.asarray(yc)
 
 
-def odd_bounces(data, diameter_m, g_m_per_s2, sigma_m=0.0):
-    """Bounces of a trajectory that do not belong: [(minimum's sample index, reason)].
+def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
+    """The jerk (rate of change of the acceleration) of each flight of a trajectory, from a cubic
+    through its samples clear of the contacts.
+
+    Flight 0 runs from the release to the first contact, flight k from contact k to contact k+1.
+    Flight 0 keeps only the samples clearly below its top (by 10 noise sigmas and 1 % of the
+    drop): a still segment the release detection missed is no part of the fall.
+    A ball in free flight with quadratic drag has a = -g - k v|v|, so its jerk is -2 k |v| a,
+    about 2 k g |v| >= 0: a flight's jerk over 2 g times its mean speed is the drag constant k
+    it shows.
+
+    Parameters
+    ----------
+    t_s, y_m : ndarray
+        sample times [s] and heights above the floor [m]
+    release_index : int
+        first sample after the still segment
+    contact_t_s : ndarray
+        time of each contact [s] (:func:`contact_points`)
+    floor_m : float
+        contact height [m]; samples at or below it (a soft contact's dip) are left out
+    sigma_m : float
+        noise of one height [m]; the standard error uses the larger of it and the cubic's scatter
+
+    Returns
+    -------
+    list of (jerk [m/s^3], standard error [m/s^3], mean speed [m/s], first sample, last sample) or
+    None for a flight with fewer than :data:`FREE_FLIGHT_MIN_SAMPLES` samples clear of its
+    contacts (the sample next to each contact is left out)
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(y_m, dtype=float)
+    r = int(release_index)
+    dt = float(np.median(np.diff(t)))
+    index = np.arange(t.size)
+    starts = [None] + [float(c) for c in contact_t_s[:-1]]
+    out = []
+    for start, end in zip(starts, contact_t_s):
+        inside = (t < end - 0.99 * dt) & (y > floor_m + 2.0 * sigma_m)
+        if start is None:
+            top = float(np.max(y[r:][t[r:] < end], initial=floor_m))
+            inside &= (index >= r) & (top - y > max(10.0 * sigma_m, 0.01 * (top - floor_m)))
+        else:
+            inside &= t > start + 1.01 * dt
+        idx = np.flatnonzero(inside)
+        if idx.size < FREE_FLIGHT_MIN_SAMPLES:
+            out.append(None)
+            continue
+        mid, half = 0.5 * (t[idx[0]] + t[idx[-1]]), 0.5 * (t[idx[-1]] - t[idx[0]])
+        u = (t[idx] - mid) / half
+        basis = np.vander(u, 4)
+        coef, rss, *_ = np.linalg.lstsq(basis, y[idx], rcond=None)
+        scatter = math.sqrt(float(rss[0]) / (idx.size - 4)) if rss.size else 0.0
+        sd = max(scatter, float(sigma_m), 1e-9)
+        var = np.linalg.inv(basis.T @ basis)[0, 0] * sd * sd
+        speed = np.abs(np.polyval(np.polyder(coef), u)) / half
+        out.append((6.0 * float(coef[0]) / half ** 3, 6.0 * math.sqrt(float(var)) / half ** 3, float(np.mean(speed)),
+                    int(idx[0]), int(idx[-1])))
+    return out
+
+
+def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
+    """Flights that are no free flight: [(flight index, reason)].
+
+    A flight's jerk (:func:`flight_jerks`) must lie between 0 and what the strongest physical
+    drag gives (``air_drag``'s largest C_d in the densest air of ``buoyancy``'s limits) within
+    :data:`FREE_FLIGHT_SIGMAS` standard errors, or match the drag constant the other flights show
+    within as many: a length scale that drifts across the picture bends every flight alike, a
+    hand at release or a touch in flight bends one. Judged only with another flight to compare.
+    """
+    from vrcal.drop.effects import drag_constant_per_m, get_effect
+
+    cd_max = get_effect("air_drag").parameters[0].physical_limits()[1]
+    rho_max = get_effect("buoyancy").parameters[0].physical_limits()[1]
+    k_max = float(drag_constant_per_m(cd_max, diameter_m, mass_kg, rho_max))
+    g = float(g_m_per_s2)
+    known = [(i, j) for i, j in enumerate(jerks) if j is not None and j[2] > 0]
+    if len(known) < 2:
+        return []
+    k = {i: j[0] / (2.0 * g * j[2]) for i, j in known}
+    se = {i: j[1] / (2.0 * g * j[2]) for i, j in known}
+    z = FREE_FLIGHT_SIGMAS
+    out = []
+    for i, (jerk, err, speed, lo, hi) in known:
+        w = np.array([1.0 / se[o] ** 2 for o, _ in known if o != i])
+        k_others = float(np.sum(w * np.array([k[o] for o, _ in known if o != i])) / np.sum(w))
+        apart = (k[i] - k_others) / math.hypot(se[i], 1.0 / math.sqrt(float(np.sum(w))))
+        j_max = 2.0 * k_max * g * speed
+        if not ((jerk - j_max > z * err and apart > z) or (jerk < -z * err and apart < -z)):
+            continue
+        what = "the first fall" if i == 0 else f"the flight after bounce {i}"
+        cause = ("the ball was pushed, spun or still held at release" if i == 0 else
+                 "it touched something, or the tracker followed something else")
+        out.append((i, f"{what} ({_line(data, lo)} to {_line(data, hi)}) is no free flight: its acceleration "
+                       f"changes at {jerk:.3g} ± {err:.2g} m/s^3, where air drag allows 0 to {j_max:.3g} and the "
+                       f"other flights show {2.0 * k_others * g * speed:.3g} at its speed: {cause}"))
+    return out
+
+
+def odd_bounces(data, ball, g_m_per_s2, sigma_m=0.0):
+    """Bounces of a trajectory that do not belong: [(minimum's sample index, reason)], and the
+    minima (sample indices of the bounces).
 
     * a contact more than max(:data:`ODD_CONTACT_DIAMETERS` D, 2 cm, 5 robust sd) above the
       median contact height of the bounces: the ball hit something above the floor;
     * a bounce whose flights are out of line with the others (the chain test of the impact
       times, :func:`vrcal.measurements.cleanup.impact_chains`, on the contact times): a kick,
-      a second surface, a sudden loss.
+      a second surface, a sudden loss;
+    * the bounces at the ends of a flight that is no free flight (:func:`unfree_flights`): the
+      first fall when the ball was pushed or held at release, a flight that touched something.
 
-    Only the bounces before the first flight that stays within :data:`RESOLVED_SIGMAS` noise sigmas
-    (``sigma_m``) of the floor level are judged: below that the noise decides where a bounce seems
+    ``ball`` gives the mass [kg] and diameter [m]. Only the bounces before the first flight that
+    stays within :data:`RESOLVED_SIGMAS` noise sigmas (``sigma_m``) of the floor level are judged
+    (and the flights up to it): below that the noise decides where a bounce seems
     to be.
     """
     from vrcal.discovery.residuals import impacts_in_trajectory
@@ -228,6 +339,7 @@ def odd_bounces(data, diameter_m, g_m_per_s2, sigma_m=0.0):
 
     r = int(getattr(data, "release_index", 0) or 0)
     y = np.asarray(data.y_m, dtype=float)
+    diameter_m = float(np.mean(ball.diameter_m))
     minima = impacts_in_trajectory(data.t_s, y, r, sigma_m or None)
     if minima.size < 2:
         return [], minima
@@ -237,15 +349,22 @@ def odd_bounces(data, diameter_m, g_m_per_s2, sigma_m=0.0):
     apex = np.array([float(np.max(y[int(a):b])) for a, b in zip(minima, ends)])
     low = np.flatnonzero(apex - float(np.median(yc)) < RESOLVED_SIGMAS * float(sigma_m or 0.0))
     judged = int(low[0]) if low.size else int(minima.size)   # bounces before the first low flight
+    odd = {}
+    # flights 0..judged are resolved (flight k > 0 follows bounce k); each ends at a contact
+    flights = tc[:min(judged + 1, tc.size)]
+    jerks = flight_jerks(data.t_s, y, r, flights, float(np.median(yc[:max(judged, 1)])), float(sigma_m or 0.0))
+    for i, why in unfree_flights(data, jerks, float(np.mean(ball.mass_kg)), diameter_m, g_m_per_s2):
+        odd[int(minima[i])] = why
+        if i > 0:
+            odd.setdefault(int(minima[i - 1]), why)
     if judged < 2:
-        return [], minima
+        return sorted(odd.items()), minima
     floor = float(np.median(yc[:judged]))
     spread = 1.4826 * float(np.median(np.abs(yc[:judged] - floor)))
-    limit = max(ODD_CONTACT_DIAMETERS * float(diameter_m), 0.02, 5.0 * spread)
-    odd = {}
+    limit = max(ODD_CONTACT_DIAMETERS * diameter_m, 0.02, 5.0 * spread)
     for k, (m, h) in enumerate(zip(minima[:judged], yc[:judged])):
         if h - floor > limit:
-            odd[int(m)] = (f"bounce {k + 1} ({_line(data, int(m))}, t = {tc[k]:.3f} s) touches at "
+            odd.setdefault(int(m), f"bounce {k + 1} ({_line(data, int(m))}, t = {tc[k]:.3f} s) touches at "
                            f"{h - floor:.3f} m above the floor level of the other bounces: the ball hit something")
     if judged >= 4:
         labels = [f"bounce {k + 1} ({_line(data, int(m))})" for k, m in enumerate(minima[:judged])]
@@ -261,7 +380,8 @@ def split_trajectory(data, odd, minima):
 
     A piece ends at the sample before an odd bounce; the next starts at the apex after it
     (the ball is at rest there, vertically: a release from that height). Pieces without a
-    normal bounce inside say nothing about the contact and are left out.
+    normal bounce inside say nothing about the contact and are left out. One note per run of
+    samples left out, naming the file's lines.
     """
     t = np.asarray(data.t_s, dtype=float)
     y = np.asarray(data.y_m, dtype=float)
@@ -275,18 +395,22 @@ def split_trajectory(data, odd, minima):
         apex = m + int(np.argmax(y[m:nxt])) if nxt > m + 1 else m + 1
         starts.append(apex)
     ends.append(n)
-    pieces, notes = [], []
+    pieces, kept = [], np.zeros(n, dtype=bool)
     for a, b in zip(starts, ends):
         inside = [x for x in minima if a < x < b - 1 and x not in bad]
         if b - a < 10 or not inside:
-            if b > a:
-                notes.append(f"samples {a + 1}-{b} ({_line(data, a)} to {_line(data, b - 1)}) left out: "
-                             f"no whole bounce in them")
             continue
         piece = dataclasses.replace(
             data, t_s=t[a:b], y_m=y[a:b], release_index=int(data.release_index) if a == 0 else 0,
             lines=None if data.lines is None else np.asarray(data.lines)[a:b])
         pieces.append((piece, f"{_line(data, a)} to {_line(data, b - 1)}"))
+        kept[a:b] = True
+    # every sample left out, in runs: the odd bounces, the rise after each (a piece restarts at
+    # the apex) and the pieces without a whole bounce
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], (~kept).astype(np.int8), [0]])))
+    notes = [f"samples {a + 1}-{b} ({_line(data, a)} to {_line(data, b - 1)}) left out"
+             + ("" if b == n or not kept[b:].any() else f"; the fit restarts at the apex ({_line(data, b)})")
+             for a, b in zip(edges[::2], edges[1::2])]
     return pieces, notes
 
 
@@ -363,7 +487,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         if run.kind == "impacts":
             out += _impact_runs(run, label)
         elif run.kind == "trajectory":
-            odd, minima = odd_bounces(run, diameter, g_m_per_s2, sigma or 0.0)
+            odd, minima = odd_bounces(run, ball, g_m_per_s2, sigma or 0.0)
             if not odd:
                 out.append((run, label))
                 continue

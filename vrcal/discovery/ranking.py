@@ -292,20 +292,42 @@ class Discovery:
             return float(v_ref)
         return float(np.asarray(self.final.model().impact_speeds_m_per_s)[0, 0])
 
-    @property
-    def ambiguous_odds(self):
-        """``{named effect: {rival: posterior odds for the named one}}`` of the ambiguous namings:
-        exp of half the difference of the candidates' -2 ln evidence in the round that named it."""
+    def _rivals(self):
+        """``{named effect: (winner, {rival: Candidate})}`` of the ambiguous namings, from the round
+        that named the effect."""
         out = {}
         for name, rivals in self.ambiguous.items():
             for rnd in self.rounds:
                 win = [c for c in rnd if c.verdict.startswith("named") and name in c.members]
-                if not win:
-                    continue
-                by_name = {c.name: c for c in rnd}
-                out[name] = {r: math.exp(min(by_name[r].score - win[0].score, 1400.0) / 2.0)
-                             for r in rivals if r in by_name}
-                break
+                if win:
+                    by_name = {c.name: c for c in rnd}
+                    out[name] = (win[0], {r: by_name[r] for r in rivals if r in by_name})
+                    break
+        return out
+
+    @property
+    def ambiguous_odds(self):
+        """``{named effect: {rival: posterior odds for the named one}}`` of the ambiguous namings:
+        exp of half the difference of the candidates' -2 ln evidence in the round that named it."""
+        return {name: {r: math.exp(min(c.score - win.score, 1400.0) / 2.0) for r, c in rivals.items()}
+                for name, (win, rivals) in self._rivals().items()}
+
+    @property
+    def ambiguous_epsilon(self):
+        """``{named effect: {rival: {"epsilon": [lowest, highest], "parameters": {...}}}}``: the
+        contact's epsilon over the record's bounces had the rival been named instead (one value
+        twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
+        number an engine needs."""
+        out = {}
+        for name, (_, rivals) in self._rivals().items():
+            out[name] = {}
+            for r, c in rivals.items():
+                run = self.runs[0]
+                eps = np.asarray(c.fit.model().epsilons, dtype=float)[0]
+                n = len(run.t_s) if run.kind == "impacts" else eps.size
+                eps = eps[:max(min(n, eps.size), 1)]
+                out[name][r] = {"epsilon": [float(np.min(eps)), float(np.max(eps))],
+                                "parameters": dict(c.fit.effect_values.get(r, {}))}
         return out
 
     def as_dict(self):
@@ -324,6 +346,7 @@ class Discovery:
             "effects": list(self.effects),
             "ambiguous": {k: list(v) for k, v in self.ambiguous.items()},
             "ambiguous_odds": self.ambiguous_odds,
+            "ambiguous_epsilon": self.ambiguous_epsilon,
             "unphysical": self.unphysical,
             "parameters": self.final.effect_values,
             "uncertainties": self.final.effect_uncertainties,
@@ -338,7 +361,8 @@ class Discovery:
             "impact_speed_range_m_per_s": [lo, hi],
             "baseline": self.baseline.baseline_values,
             "model": self.final.baseline_values,
-            "runs": [{"source": str(run.source), "label": label, "kind": run.kind, "n": int(res.observed_values(run).size),
+            "runs": [{"source": str(run.source), "label": label, "kind": run.kind,
+                      "n": int(res.observed_values(run).size),
                       "release": {k: v for k, v in self.final.run_values(r).items() if k != "epsilon"}}
                      for r, (run, label) in enumerate(zip(runs, self.labels or [""] * len(runs)))],
             "noise_floor": self.noise_floor,

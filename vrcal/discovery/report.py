@@ -137,9 +137,10 @@ def answer(discovery):
         if any(name in d.ambiguous for name in d.effects):
             rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
             what = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
+            drops = "drops over a wider range of heights" if len(d.runs) > 1 else "drops from several heights"
             parts.append(f"But {_effects_phrase(rivals)} would explain {what[d.kind]} about as well "
-                         f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}drops from several "
-                         f"heights tell them apart).")
+                         f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}{drops} tell them "
+                         f"apart).")
     elif not d.rounds:
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
@@ -184,6 +185,8 @@ def _epsilon_with_typical_drag(d):
 
 def engine_advice(discovery):
     """Lines saying which ε to put in a physics engine, and why (they follow the verdict)."""
+    from vrcal.drop.effects import EFFECTS
+
     d = discovery
     f = d.final
     eps = d.epsilon
@@ -209,6 +212,14 @@ def engine_advice(discovery):
         out.append("choose the value at the impact speeds of your simulation.")
     else:
         out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution)")
+    for name, rivals in d.ambiguous_epsilon.items():
+        for rival, alt in rivals.items():
+            lo, hi = alt["epsilon"]
+            span = f"= {lo:.4f}" if abs(hi - lo) < 5e-5 else f"{lo:.4f} to {hi:.4f} over the bounces"
+            params = ", ".join(f"{PHRASES[rival][1]} = {pm(alt['parameters'][p.name], None, p.unit)}"
+                               for p in EFFECTS[rival].parameters)
+            out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the data "
+                       f"cannot tell them apart): epsilon {span}.")
     if "air_drag" in d.effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
         out.append(f"an engine without drag reproduces the bounce heights better with the baseline's effective "

@@ -352,7 +352,7 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
             "source_index": src, "impact_times_s": impacts, "straddles_impact": straddles}
 
 
-# --------------------------------------------------------------------------- what `vrcal simulate --format wav|video` writes
+# --------------------------------------------------------------------------- `vrcal simulate --format wav|video`
 
 #: The room of ``vrcal simulate --format wav``: a little noise and hum, one wall echo 5 ms later.
 ROOM = SoundScene(noise_rms=0.001, hum_amplitude=0.01, echoes=((0.005, 0.4),), level=0.5)

@@ -123,8 +123,9 @@ def read_measurement(path, fmt=None, **options):
         stamps: a slow-motion video); ``sheet`` (str or None): the sheet of a workbook (default: phyphox's
         ``All``, else the first with a table)
         Recordings (sound, video) also take ``diameter_m`` (video: the ball's diameter [m], which
-        gives the scale), ``roi``, ``color``, ``g_m_per_s2`` (the g that scales a video from its flights; :func:`vrcal.measurements.video.track_video`) and
-        ``progress`` (a callable ``progress(fraction, message)``); the text layouts ignore them.
+        gives the scale), ``roi``, ``color``, ``g_m_per_s2`` (the g that scales a video from its
+        flights; :func:`vrcal.measurements.video.track_video`) and ``progress`` (a callable
+        ``progress(fraction, message)``); the text layouts ignore them.
 
     Returns
     -------
@@ -191,7 +192,7 @@ def read_measurements(paths, fmt=None, **options):
             labels.append(path)
     kinds = sorted({r.kind for r in runs})
     if len(kinds) > 1:
-        by_kind = "; ".join(f"{k}: {', '.join(sorted({lab.split(' ')[0] for r, lab in zip(runs, labels) if r.kind == k}))}"
-                            for k in kinds)
+        names = {k: sorted({lab.split(" ")[0] for r, lab in zip(runs, labels) if r.kind == k}) for k in kinds}
+        by_kind = "; ".join(f"{k}: {', '.join(names[k])}" for k in kinds)
         raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind})")
     return Runs(runs=tuple(runs), source=", ".join(paths), notes=tuple(notes), labels=tuple(labels))

@@ -128,8 +128,8 @@ def track_figure(tracked):
         for k, i in enumerate(st.chain):
             kept = k < tracked.measurement.t_s.size
             ax.axvline(st.onsets.t_s[i], color="tab:green" if kept else "tab:orange", lw=0.8,
-                       label=("impacts kept" if kept else "impacts not fitted") if k in (0, tracked.measurement.t_s.size)
-                       else None)
+                       label=(("impacts kept" if kept else "impacts not fitted")
+                              if k in (0, tracked.measurement.t_s.size) else None))
         for j, i in enumerate(sorted(st.reasons)):
             ax.axvline(st.onsets.t_s[i], color="tab:red", ls=":", lw=0.8, label="rejected events" if j == 0 else None)
         ax.set_xlabel("time [s]")

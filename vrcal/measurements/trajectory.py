@@ -140,7 +140,8 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         if not (np.isfinite(scale_m_per_px) and scale_m_per_px > 0):
             raise UsageError(f"--scale must be a positive number of metres per pixel, got {scale_m_per_px:g}")
         factor = float(scale_m_per_px)
-        extra = f" (header unit '{y_col.unit}' ignored)" if y_col.unit and y_col.unit not in ("px", "pixel", "pixels") else ""
+        ignored = y_col.unit and y_col.unit not in ("px", "pixel", "pixels")
+        extra = f" (header unit '{y_col.unit}' ignored)" if ignored else ""
         notes.append(f"positions scaled by --scale {factor:g} m per file unit{extra}")
     else:
         factor = unit_factor(path, table, y_col, LENGTH_UNITS, "length")
