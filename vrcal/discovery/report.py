@@ -285,9 +285,12 @@ def fit_report(discovery, details=False):
     what = {"trajectory": "samples", "impacts": "impact times", "apexes": "heights"}[d.kind]
     joint = f" in {runs} runs fitted jointly" if runs > 1 else ""
     name = getattr(ball, "name", "ball")
+    count = f"{n_data}"
     if d.decimation > 1:
         what += f": every {d.decimation}th of {d.n_read:,} read"
-    head = (f"vrcal discover: {d.data.source} ({d.kind}, {n_data} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
+    elif d.n_read and d.n_read > n_data:
+        count, what = f"{n_data} of {d.n_read}", f"{what} fitted; see the notes"
+    head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
     lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
