@@ -344,7 +344,8 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5
         q = dt[1:] / dt[:-1]
         u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
         trend = _trend_ratio(q, u)
-        dev = np.log(q / trend)
+        with np.errstate(invalid="ignore", divide="ignore"):   # a zero interval: its ratio is not judged (u = inf)
+            dev = np.log(q / trend)
         bad = (np.abs(dev) > np.log1p(tolerance + 5.0 * u)) | (q > 1.0 + 5.0 * u)
         # a ratio of intervals that the timing noise can halve or double tells nothing: the linear
         # bound above fails there (u ~ 0.4 at 1 ms intervals with 0.2 ms jitter), so such short
