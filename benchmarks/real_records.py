@@ -220,7 +220,7 @@ def main(argv=None):
         data, _ = floor_referenced(read_measurement(source, **opts))
         indep, method = independent_epsilon(data, float(d.ball.mass_kg), float(d.ball.diameter_m))
         if source != path:
-            method += ", from the record after the odd bounce"
+            method += ", from the record after the first bounce"
         rows.append((os.path.basename(path), "trajectory", d.epsilon, indep, method, d))
     print(f"{'record':<38s} {'kind':<10s} {'eps':>6s} {'indep':>6s} {'diff':>6s}  {'verdict':<13s} named (parameters)"
           f"   [independent method]")

@@ -349,17 +349,17 @@ def odd_bounces(data, ball, g_m_per_s2, sigma_m=0.0):
     apex = np.array([float(np.max(y[int(a):b])) for a, b in zip(minima, ends)])
     low = np.flatnonzero(apex - float(np.median(yc)) < RESOLVED_SIGMAS * float(sigma_m or 0.0))
     judged = int(low[0]) if low.size else int(minima.size)   # bounces before the first low flight
+    floor = float(np.median(yc[:max(judged, 1)]))   # the contact level of the judged bounces
     odd = {}
     # flights 0..judged are resolved (flight k > 0 follows bounce k); each ends at a contact
     flights = tc[:min(judged + 1, tc.size)]
-    jerks = flight_jerks(data.t_s, y, r, flights, float(np.median(yc[:max(judged, 1)])), float(sigma_m or 0.0))
+    jerks = flight_jerks(data.t_s, y, r, flights, floor, float(sigma_m or 0.0))
     for i, why in unfree_flights(data, jerks, float(np.mean(ball.mass_kg)), diameter_m, g_m_per_s2):
         odd[int(minima[i])] = why
         if i > 0:
             odd.setdefault(int(minima[i - 1]), why)
     if judged < 2:
         return sorted(odd.items()), minima
-    floor = float(np.median(yc[:judged]))
     spread = 1.4826 * float(np.median(np.abs(yc[:judged] - floor)))
     limit = max(ODD_CONTACT_DIAMETERS * diameter_m, 0.02, 5.0 * spread)
     for k, (m, h) in enumerate(zip(minima[:judged], yc[:judged])):

@@ -269,9 +269,7 @@ class Discovery:
         for r, run in enumerate(self.runs):
             drops = self.final.model(run=r)
             v = np.asarray(drops.impact_speeds_m_per_s)[0]
-            n = len(run.t_s) if run.kind == "impacts" else (int(np.max(run.bounce)) if run.kind == "apexes"
-                                                             else drops.n_bounces)
-            speeds += list(v[:max(n, 1)])
+            speeds += list(v[:max(_record_bounces(run, drops), 1)])
         return float(min(speeds)), float(max(speeds))
 
     def epsilon_at(self, speeds_m_per_s):
@@ -319,13 +317,12 @@ class Discovery:
         twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
         number an engine needs."""
         out = {}
+        run = self.runs[0]
         for name, (_, rivals) in self._rivals().items():
             out[name] = {}
             for r, c in rivals.items():
-                run = self.runs[0]
-                eps = np.asarray(c.fit.model().epsilons, dtype=float)[0]
-                n = len(run.t_s) if run.kind == "impacts" else eps.size
-                eps = eps[:max(min(n, eps.size), 1)]
+                drops = c.fit.model()
+                eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
                 out[name][r] = {"epsilon": [float(np.min(eps)), float(np.max(eps))],
                                 "parameters": dict(c.fit.effect_values.get(r, {}))}
         return out
@@ -387,6 +384,16 @@ class Discovery:
             "g_m_per_s2": self.g_m_per_s2,
             "notes": list(self.notes),
         }
+
+
+def _record_bounces(run, drops):
+    """How many of the model's bounces (``drops``, a simulation of ``run``) the record holds: one per
+    impact time, up to the last apex's bounce, or every simulated bounce of a trajectory."""
+    if run.kind == "impacts":
+        return len(run.t_s)
+    if run.kind == "apexes":
+        return int(np.max(run.bounce))
+    return drops.n_bounces
 
 
 def verdict(d):
