@@ -91,6 +91,90 @@ def test_units_in_the_header_are_converted(tmp_path, unit, factor):
     np.testing.assert_allclose(data.y_m, y, atol=1e-12)
 
 
+@pytest.mark.parametrize("t_head,y_head,t_factor,y_factor", [
+    ("t_s", "y_m", 1.0, 1.0), ("time_ms", "height_cm", 1e-3, 1e-2), ("t/s", "h / mm", 1.0, 1e-3),
+    ("Time in s", "Height in cm", 1.0, 1e-2), ("t", "position", 1.0, 1.0),
+    ('"Latest: Time (s)"', '"Latest: Position (m)"', 1.0, 1.0), ("Run 1: Time (ms)", "Run 1: y (mm)", 1e-3, 1e-3),
+])
+def test_units_after_the_name_and_other_height_names(tmp_path, t_head, y_head, t_factor, y_factor):
+    """``t_s``, ``t/s`` (ISO 80000), ``height in cm``, a motion sensor's ``position`` and a Vernier data
+    set's prefix (``Latest: Time (s)``) are a trajectory like ``t (s),y (m)``, not impact times."""
+    t, y = fall()
+    body = "\n".join(f"{float(a) / t_factor!r},{float(b) / y_factor!r}" for a, b in zip(t, y))
+    p = write(tmp_path, "u.csv", f"{t_head},{y_head}\n" + body + "\n")
+    assert detect_format(p) == "trajectory"
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-12)
+    np.testing.assert_allclose(data.y_m, y, atol=1e-12)
+
+
+def test_a_name_ending_in_no_unit_keeps_its_name(tmp_path):
+    from vrcal.measurements.table import columns
+
+    assert [(c.name, c.unit) for c in columns(["t_impact", "bounce_no", "y_in", "H_cm", "t/ms"])] == [
+        ("t impact", ""), ("bounce no", ""), ("y in", ""), ("h", "cm"), ("t", "ms")]
+
+
+def test_a_frame_column_gives_the_times_with_fs_and_keeps_the_gaps(tmp_path):
+    """Frames a tracker missed leave gaps: times are frame / fs, not the row number / fs."""
+    t, y = fall(n=80, fs=60.0)
+    keep = np.arange(t.size) % 7 != 3
+    frames = np.flatnonzero(keep)
+    px = np.round((1.5 - y[keep]) / 0.002, 1)
+    p = write(tmp_path, "px.csv", "frame,x_px,y_px\n" + "\n".join(f"{f},320,{v}" for f, v in zip(frames, px)) + "\n")
+    assert detect_format(p) == "trajectory"
+    with pytest.raises(UsageError, match="--fs.*column 'frame'"):
+        read_measurement(p, scale_m_per_px=0.002, y_down=True)
+    data = read_measurement(p, scale_m_per_px=0.002, y_down=True, fs_hz=60.0)
+    np.testing.assert_allclose(data.t_s, frames / 60.0)
+    np.testing.assert_allclose(data.y_m, -px * 0.002)
+
+
+def test_times_printed_too_coarsely_for_the_frame_rate_are_put_back_on_their_grid(tmp_path):
+    """A tracker writing 0.017, 0.033, 0.050 at 60 frames/s moves samples by up to 0.33 ms (1.6 mm at 5
+    m/s); the reader restores the grid (frames missed kept as gaps) and says so."""
+    fs, t0 = 60.0, 0.0123
+    k = np.flatnonzero(np.arange(200) % 11 != 5)
+    t_true = t0 + k / fs
+    y = np.linspace(1.0, 0.5, k.size)
+    p = write(tmp_path, "r.csv", "t,y\n" + "\n".join(f"{a:.3f},{float(b)!r}" for a, b in zip(t_true, y)) + "\n")
+    data = read_measurement(p)
+    assert np.max(np.abs(data.t_s - t_true)) < 1e-4 < 3e-4 < np.max(np.abs(np.round(t_true, 3) - t_true))
+    assert any("times printed to 0.001 s" in n for n in data.notes)
+
+
+@settings(max_examples=60, deadline=None)
+@given(fs=st.floats(20.0, 250.0), t0=st.floats(0.0, 5.0), n=st.integers(20, 400), decimals=st.integers(2, 3),
+       gap=st.integers(3, 40))
+def test_regular_grid_recovery_is_never_worse_than_the_rounding(fs, t0, n, decimals, gap):
+    from vrcal.measurements.cleanup import regular_frame_times
+
+    k = np.flatnonzero(np.arange(n + n // gap) % gap != 1)[:n]
+    t_true = t0 + k / fs
+    printed = np.round(t_true, decimals)
+    if np.any(np.diff(printed) <= 0):
+        return   # printed too coarsely to keep the order: not a record anyone can have
+    found = regular_frame_times(printed)
+    if found is None:   # only when the rounding is fine (or too coarse) for this frame rate, the times are a regular
+        res = 10.0 ** -decimals   # grid already (nothing to restore), or they sit on ties of the rounding
+        line = np.polyval(np.polyfit(k, printed, 1), k)
+        ties = np.max(np.abs(np.abs(printed - t_true) - 0.5 * res)) < 1e-9
+        assert not 0.02 / fs <= res <= 0.25 / fs or np.max(np.abs(line - printed)) < 1e-9 or ties
+        return
+    assert np.max(np.abs(found.t_s - printed)) <= 0.8 * 10.0 ** -decimals
+    assert np.sqrt(np.mean((found.t_s - t_true) ** 2)) <= np.sqrt(np.mean((printed - t_true) ** 2)) + 1e-12
+
+
+def test_irregular_or_finely_printed_times_are_left_alone():
+    from vrcal.measurements.cleanup import regular_frame_times
+
+    rng = np.random.default_rng(3)
+    t = np.arange(100) / 30.0
+    assert regular_frame_times(t) is None                                        # full precision
+    assert regular_frame_times(np.round(t + rng.normal(0, 0.004, t.size), 3)) is None   # a variable frame rate
+    assert regular_frame_times(np.arange(100) * 0.01) is None                  # exact on its grid already
+
+
 # --------------------------------------------------------------------------- drop tables
 
 

@@ -106,6 +106,69 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     return release if release >= min_still else 0
 
 
+class RegularTimes(NamedTuple):
+    """Sample times put back on their frame grid by :func:`regular_frame_times`."""
+
+    t_s: np.ndarray      # t0 + k step, in the unit of the input
+    resolution: float    # the step the input was printed to (0.001 for three decimals)
+    step: float          # the frame period
+    largest_change: float
+
+
+def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
+    """Sample times printed with too few digits for their frame rate, put back on their grid.
+
+    A tracker that writes ``0.017, 0.033, 0.050`` for 60 frames/s moves each sample by up to half a
+    millisecond, which at 5 m/s is 2.5 mm: as much as the tracking noise. When every time is a
+    multiple of a printed resolution at least ``coarse_fraction`` of the frame period (and at most a
+    quarter of it, so that the frame numbers follow from the intervals), and a regular
+    grid t0 + k step (k integers increasing, frames not tracked leave gaps) lies within 0.8
+    resolution of every time, the grid's times are returned (t0 and step by least squares);
+    otherwise None (times printed finely enough, or truly irregular: a phone's variable frame rate).
+
+    Parameters
+    ----------
+    t : array_like
+        sample times, increasing, in any unit
+    coarse_fraction : float
+        printed resolution over frame period below which the times are left as they are
+    max_decimals : int
+        most decimals tried for the printed resolution
+
+    Returns
+    -------
+    RegularTimes or None
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 8 or not np.all(np.isfinite(t)):
+        return None
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        return None
+    step = float(np.median(dt[dt < 1.5 * dt.min()]))   # one frame (longer intervals are frames missed)
+    resolution = None
+    for d in range(max_decimals + 1):
+        q = t * 10.0**d
+        if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
+            resolution = 10.0**-d
+            break
+    if resolution is None or resolution < coarse_fraction * step or resolution > 0.25 * step:
+        return None   # printed finely enough, or too coarsely to tell the frames apart
+    for _ in range(3):   # frame numbers from the intervals, then the period from the frame numbers
+        k = np.concatenate([[0.0], np.cumsum(np.maximum(np.round(dt / step), 1.0))])
+        A = np.column_stack([np.ones_like(k), k])
+        (t0, step), *_ = np.linalg.lstsq(A, t, rcond=None)
+        step = float(step)
+        if not step > 0:
+            return None
+    grid = t0 + step * k
+    change = float(np.max(np.abs(grid - t)))
+    if change > 0.8 * resolution or change < 1e-12:   # rounding moves a time by 0.5 at most; the fitted line
+        # is itself a little off at the record's ends
+        return None
+    return RegularTimes(grid, resolution, step, change)
+
+
 def find_duplicated_frames(positions, release_index=0):
     """Indices of duplicated video frames: a repeat of the previous frame while the ball moves.
 

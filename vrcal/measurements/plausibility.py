@@ -219,8 +219,10 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     for factor, unit in ((1e-6, "ms"), (1e6, "s under a header in ms")):
         if G_OK[0] <= ratio / factor <= G_OK[1]:
             _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 ({ratio:.3g} x g)")
+    pixels = (f"; if the heights are pixels, --scale {1.0 / ratio:.3g} (m per pixel) makes the flights fall "
+              f"with g at this frame rate") if ratio > 20.0 else ""
     _fail(data.source, f"{text}: the heights or the times are not in the units read (check --fs, --scale and the "
-                       f"units in the header)")
+                       f"units in the header){pixels}")
 
 
 # --------------------------------------------------------------------------- impacts and apexes
@@ -240,7 +242,8 @@ def check_impact_times(t_s, source="data"):
             _fail(source, f"the intervals between impacts do not shrink ({dt.size:,} intervals of about "
                           f"{float(np.median(dt)):.4g} s, median ratio {ratio:.4f}): epsilon would be 1, and no "
                           f"ball bounces like that; these look like a clock's ticks or a sensor's samples, not "
-                          f"impact times")
+                          f"impact times (a trajectory's height column is named 'y', 'height' or 'position'; "
+                          f"or give --format trajectory)")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S
     height = STANDARD_GRAVITY_M_PER_S2 * first**2 / 8.0

@@ -24,12 +24,25 @@ _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
 
 TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time")
-Y_NAMES = ("y",)
+#: Names of a trajectory's height column (a motion sensor's "Position (m)" and a video tracker's
+#: "height" too; the first of them in the file's column order is taken).
+Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position")
+#: Names of a frame-number column (times = frame / --fs when the file has no time column).
+FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
 BOUNCE_NAMES = ("bounce", "n", "bounce number")
 H_NAMES = ("h", "height", "apex", "apex height")
 TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3}
 LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "px": None, "pixel": None, "pixels": None}
+
+#: A unit written after the name instead of in brackets: ``t_s``, ``y_cm``, ``t/s`` (quantity / unit,
+#: ISO 80000-1), ``height in mm``; only a unit of the tables above counts (``bounce_no`` keeps its name).
+_SUFFIX_UNIT = re.compile(r"^(?P<name>.*?[^\s_/])(?:\s*/\s*|_|\s+in\s+)(?P<unit>[A-Za-z]+)$")
+_SUFFIX_UNITS = {u for u in (*TIME_UNITS, *LENGTH_UNITS) if u}
+
+#: The data set's name before a column's in a Vernier (Logger Pro, Graphical Analysis) export:
+#: ``Run 1: Time (s)``, ``Latest: Position (m)``.
+_DATA_SET = re.compile(r"^[^:()\[\]]{1,40}:\s+(?=\S)")
 
 
 class Column(NamedTuple):
@@ -170,11 +183,18 @@ def is_numeric_row(cells, decimal_comma=True):
 
 
 def columns(cells):
+    """The :class:`Column` of each header cell: its name and its unit, from brackets (``t (s)``,
+    ``y [cm]``) or written after the name (``t_s``, ``t/s``, ``height in mm``, see ``_SUFFIX_UNIT``);
+    a data set's name before it (``Run 1: Time (s)``) is not part of the name."""
     cols = []
     for i, cell in enumerate(cells):
-        m = _NAME_UNIT.match(cell.strip())
-        raw = re.sub(r"[\s_]+", " ", (m.group("name") or "").strip())
+        m = _NAME_UNIT.match(_DATA_SET.sub("", cell.strip()))
+        name = (m.group("name") or "").strip()
         unit = (m.group("unit") or "").strip().lower()
+        suffix = _SUFFIX_UNIT.match(name) if not unit else None
+        if suffix and suffix.group("unit").lower() in _SUFFIX_UNITS:
+            name, unit = suffix.group("name"), suffix.group("unit").lower()
+        raw = re.sub(r"[\s_]+", " ", name).strip()
         cols.append(Column(i, raw.lower(), unit, raw))
     return cols
 

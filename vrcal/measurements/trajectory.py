@@ -1,6 +1,8 @@
-"""Trajectories: a header naming a time column (``t``, ``time``) and a height column ``y``
-(``x`` optional), one row per sample; units in brackets (``t (s)``, ``y [cm]``, ``y (px)``).
-Without a time column the sample times come from the frame rate. A file without a header
+"""Trajectories: a header naming a time column (``t``, ``time``) and a height column (``y``,
+``height``, ``h``, a motion sensor's ``position``; ``x`` optional), one row per sample; units in
+brackets (``t (s)``, ``y [cm]``, ``y (px)``) or after the name (``t_s``, ``y_cm``, ``t/s``,
+``height in mm``). Without a time column the sample times come from the frame rate (``--fs``),
+and from a ``frame`` column when there is one (frames not tracked leave gaps). A file without a header
 whose lines hold two numbers, the first increasing, is read as ``t, y`` in s and m.
 ``vrcal simulate`` writes ``t,y``.
 
@@ -15,8 +17,9 @@ import dataclasses
 import numpy as np
 
 from vrcal.errors import UsageError
-from vrcal.measurements.cleanup import detect_release_index, find_duplicated_frames
+from vrcal.measurements.cleanup import detect_release_index, find_duplicated_frames, regular_frame_times
 from vrcal.measurements.table import (
+    FRAME_NAMES,
     LENGTH_UNITS,
     TIME_NAMES,
     TIME_UNITS,
@@ -117,16 +120,32 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     # time
     if t_col is not None:
         t = column_values(path, table, t_col, what="time", allow_empty=skip_empty_y)
-        t = t * unit_factor(path, table, t_col, TIME_UNITS, "time")
+        factor = unit_factor(path, table, t_col, TIME_UNITS, "time")
+        ok = np.isfinite(t) & ~(np.isnan(y) if skip_empty_y else np.zeros(y.size, dtype=bool))
+        grid = regular_frame_times(t[ok])
+        if grid is not None:
+            t = t.copy()
+            t[ok] = grid.t_s
+            unit = t_col.unit or "s"
+            notes.append(f"times printed to {grid.resolution:g} {unit}, coarse for a frame period of "
+                         f"{grid.step * factor * 1e3:.4g} ms: put back on the regular grid t0 + k x period "
+                         f"(largest change {grid.largest_change * factor * 1e3:.2g} ms)")
+        t = t * factor
         if fs_hz is not None:
             notes.append(f"--fs {fs_hz:g} Hz ignored: the file has a time column")
     else:
+        frame_col = find_column(cols, FRAME_NAMES)
         if fs_hz is None:
-            raise UsageError(f"{path}: no time column: give the frame rate with --fs HZ")
+            what = f" (times = column '{frame_col.raw}' / frame rate)" if frame_col is not None else ""
+            raise UsageError(f"{path}: no time column: give the frame rate with --fs HZ{what}")
         if not (np.isfinite(fs_hz) and fs_hz > 0):
             raise UsageError(f"--fs must be a positive frame rate in Hz, got {fs_hz:g}")
-        t = np.arange(y.size) / float(fs_hz)
-        notes.append(f"times from the frame rate {fs_hz:g} Hz (no time column)")
+        if frame_col is not None:   # frames not tracked leave gaps that the frame numbers keep
+            t = column_values(path, table, frame_col, what="frame number", allow_empty=skip_empty_y) / float(fs_hz)
+            notes.append(f"times = column '{frame_col.raw}' / {fs_hz:g} Hz (no time column)")
+        else:
+            t = np.arange(y.size) / float(fs_hz)
+            notes.append(f"times from the frame rate {fs_hz:g} Hz (no time column)")
     x = column_values(path, table, x_col, what="x", allow_empty=True) if x_col is not None else None
     if skip_empty_y and t_col is not None:
         empty |= np.isnan(t)
