@@ -240,6 +240,64 @@ def test_columns_of_the_same_name_are_runs_side_by_side(tmp_path):
     assert isinstance(data, Runs) and [r.t_s.size for r in data.runs] == [8, 6]
 
 
+# --------------------------------------------------------------------------- phyphox (In)elastic collision
+
+
+def collision_row(t):
+    """One row of phyphox's (In)elastic collision export for impact times t (its own heights and
+    energies computed as the experiment does: h = g dt^2 / 8, E = (dt_k / dt_1)^2)."""
+    cells, dt = [], np.diff(t)
+    for k in range(6):
+        time = t[k] if k < len(t) else 0.0
+        h = G * dt[k - 1] ** 2 / 8 if 0 < k < len(t) else 0.0
+        cells += [time, h] + ([(dt[k - 1] / dt[0]) ** 2 if 0 < k < len(t) else 0.0] if k else [])
+    return ",".join(f"{float(v):.6E}" for v in cells)
+
+
+COLLISION_HEADER = ",".join(f'"Bounce {k} (s)","Height {k} (m)"' + (f',"Energy {k}"' if k else "") for k in range(6))
+
+
+def test_phyphox_collision_export_gives_its_impact_times(tmp_path):
+    t = impact_times(H=0.5, eps=0.9, n=6) + 0.31
+    p = write(tmp_path, "collision.csv", COLLISION_HEADER + "\n" + collision_row(t) + "\n")
+    assert detect_format(p) == "phyphox-collision"
+    data = read_measurement(p)
+    assert isinstance(data, ImpactTimes)
+    np.testing.assert_allclose(data.t_s, t, rtol=1e-6)
+    assert any("not read" in n for n in data.notes)
+
+
+def test_phyphox_collision_bounces_not_heard_are_skipped_and_rows_are_runs(tmp_path):
+    t1 = impact_times(H=0.5, eps=0.9, n=4) + 0.2
+    t2 = impact_times(H=0.8, eps=0.9, n=6) + 0.4
+    p = write(tmp_path, "two.csv", COLLISION_HEADER + "\n" + collision_row(t1) + "\n" + collision_row(t2) + "\n")
+    data = read_measurement(p)
+    assert isinstance(data, Runs) and [r.t_s.size for r in data.runs] == [4, 6]
+    np.testing.assert_allclose(data.runs[0].t_s, t1, rtol=1e-6)
+    assert any("'Bounce 4', 'Bounce 5' empty or 0 (not heard)" in n for n in data.runs[0].notes)
+
+
+def test_phyphox_collision_names_its_bounce_in_the_notes(tmp_path):
+    t = impact_times(H=0.5, eps=0.9, n=6) + 0.3
+    t[4:] += 0.05      # bounce 4 late: the flight before it is 1.2 x too long
+    data = read_measurement(write(tmp_path, "late.csv", COLLISION_HEADER + "\n" + collision_row(t) + "\n"))
+    assert any("'Bounce 3' (line 2)" in n or "'Bounce 4' (line 2)" in n for n in data.notes), data.notes
+
+
+def test_phyphox_collision_export_from_a_workbook(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    t = impact_times(H=0.5, eps=0.9, n=6) + 0.31
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.title = "Energy"
+    ws.append([c.strip('"') for c in COLLISION_HEADER.split(",")])
+    ws.append([float(v) for v in collision_row(t).split(",")])
+    wb.create_sheet("Metadata Device").append(["property", "value"])
+    wb.save(tmp_path / "collision.xlsx")
+    data = read_measurement(tmp_path / "collision.xlsx")
+    np.testing.assert_allclose(data.t_s, t, rtol=1e-6)
+
+
 # --------------------------------------------------------------------------- spreadsheets
 
 

@@ -143,7 +143,7 @@ def _times(path, table, col, allow_empty=False):
     return t, line_numbers
 
 
-def impact_times_from_events(path, t_s, lines=None, notes=()):
+def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
     """ImpactTimes from a file's events: chains of consecutive bounces, the rest named and left out.
 
     Parameters
@@ -156,6 +156,8 @@ def impact_times_from_events(path, t_s, lines=None, notes=()):
         the file's line of each event
     notes : sequence of str
         the reader's notes so far
+    labels : sequence of str or None
+        how the file names each event (``"'Bounce 2' (line 2)"``); default ``"event i (line n)"``
 
     Raises
     ------
@@ -167,6 +169,8 @@ def impact_times_from_events(path, t_s, lines=None, notes=()):
     notes = list(notes)
 
     def label(i):
+        if labels is not None:
+            return str(labels[i])
         return f"event {i + 1}" + (f" (line {int(lines[i])})" if lines is not None else "")
 
     where = int(lines[-1]) if lines is not None and lines.size else 0

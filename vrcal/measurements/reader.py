@@ -12,7 +12,18 @@ import re
 from typing import Callable, NamedTuple
 
 from vrcal.errors import UsageError
-from vrcal.measurements import apexes, drops, excel, impacts, pixels_ref, sound, tracker, trajectory, video
+from vrcal.measurements import (
+    apexes,
+    drops,
+    excel,
+    impacts,
+    phyphox_collision,
+    pixels_ref,
+    sound,
+    tracker,
+    trajectory,
+    video,
+)
 from vrcal.measurements.table import fail, is_numeric_row, load_text
 from vrcal.measurements.types import Runs
 
@@ -40,6 +51,9 @@ FORMATS = {
     "tracker": Format(tracker.detect, tracker.parse,
                       "Tracker data export: line 1 the track name (mass_A), then columns t, x, y "
                       "(tab, space, comma or semicolon)"),
+    "phyphox-collision": Format(phyphox_collision.detect, phyphox_collision.parse,
+                                "phyphox (In)elastic collision export: one row, columns 'Bounce 0 (s)', "
+                                "'Height 0 (m)', ..., 'Bounce 5 (s)' (the impact times are read)"),
     "drops": Format(drops.detect, drops.parse,
                     "drop table: one trial per row, drop and rebound heights ('H,h', 'drop,rebound'; m, cm, mm)"),
     "apexes": Format(apexes.detect, apexes.parse, "apex heights: header 'bounce,h' (bounce 0 = drop height, m)"),

@@ -1,0 +1,89 @@
+"""phyphox's *(In)elastic collision* export: the impact times of one drop in one row.
+
+The experiment listens for up to six impacts of a bouncing ball and exports them (CSV, or a sheet
+``Energy`` of an Excel workbook) as one row with the columns ``Bounce 0 (s)``, ``Height 0 (m)``,
+``Bounce 1 (s)``, ``Height 1 (m)``, ``Energy 1``, ... ``Bounce 5 (s)``, ``Height 5 (m)``,
+``Energy 5`` [1]. Only the ``Bounce k`` times are measurements: the heights (g dt^2 / 8) and
+energies ((dt_k / dt_1)^2) are phyphox's own drag-free estimates from the same intervals, so they
+are not read (a note says so). A bounce phyphox did not hear is exported as 0 (or left empty) and is
+skipped. Several rows (trials pasted below each other) are runs of one ball, fitted jointly.
+
+References
+----------
+[1] phyphox experiment "(In)elastic collision", ``inelastic_collision.phyphox`` of
+    github.com/phyphox/phyphox-experiments (its ``<export>`` set "Energy").
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from vrcal.measurements.impacts import impact_times_from_events
+from vrcal.measurements.table import (
+    TIME_UNITS,
+    column_values,
+    fail,
+    header_columns,
+    parse_table,
+    row_lines,
+    unit_factor,
+)
+from vrcal.measurements.types import Runs
+
+_BOUNCE = re.compile(r"^bounce (\d+)$")
+
+#: Fewest ``Bounce k`` columns that make the layout (phyphox writes six).
+MIN_BOUNCE_COLUMNS = 3
+
+
+def _bounce_columns(cols):
+    """{k: Column} of the ``Bounce k`` time columns, or None when the header is not this layout."""
+    out = {}
+    for c in cols:
+        m = _BOUNCE.match(c.name)
+        if m and c.unit in TIME_UNITS and c.unit:
+            out.setdefault(int(m.group(1)), c)
+    return out if len(out) >= MIN_BOUNCE_COLUMNS else None
+
+
+def detect(text):
+    cols = header_columns(text)
+    return bool(cols) and _bounce_columns(cols) is not None
+
+
+def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
+    path = text.path
+    table = parse_table(text)
+    cols = _bounce_columns(table.cols)
+    if cols is None:
+        fail(path, table.header_line, "a phyphox collision export needs the columns 'Bounce 0 (s)', 'Bounce 1 (s)', ...")
+    if not table.rows:
+        fail(path, table.header_line, "header but no data rows")
+    order = sorted(cols)
+    names = f"'{cols[order[0]].raw}' to '{cols[order[-1]].raw}'"
+    notes = [f"format: phyphox (In)elastic collision export (impact times from columns {names})"]
+    derived = [c.raw for c in table.cols if c.index not in {cols[k].index for k in order}]
+    if derived:
+        notes.append("its heights and energies are phyphox's own drag-free estimates from the same intervals "
+                     "(h = g dt^2 / 8): not read")
+    values = np.column_stack([column_values(path, table, cols[k], what="impact time", allow_empty=True)
+                              * unit_factor(path, table, cols[k], TIME_UNITS, "time") for k in order])
+    lines = row_lines(table)
+    runs, labels = [], []
+    for r, (row, line) in enumerate(zip(values, lines)):
+        heard = np.isfinite(row) & (row > 0)   # phyphox writes 0 for a bounce it did not hear
+        run_notes = list(notes)
+        missing = [f"'{cols[k].raw}'" for k, ok in zip(order, heard) if not ok]
+        if missing:
+            run_notes.append(f"line {int(line)}: {', '.join(missing)} empty or 0 (not heard): skipped")
+        source = path if len(values) == 1 else f"{path} (line {int(line)})"
+        named = [f"'{cols[k].raw}' (line {int(line)})" for k, ok in zip(order, heard) if ok]
+        runs.append(impact_times_from_events(source, row[heard], np.full(int(heard.sum()), int(line)), run_notes,
+                                             labels=named))
+        labels.append(f"line {int(line)}")
+    if len(runs) == 1:
+        return runs[0]
+    return Runs(runs=tuple(runs), source=path, labels=tuple(labels),
+                notes=(f"{len(runs)} rows: one drop each, fitted jointly",))
