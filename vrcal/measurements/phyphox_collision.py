@@ -58,7 +58,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     table = parse_table(text)
     cols = _bounce_columns(table.cols)
     if cols is None:
-        fail(path, table.header_line, "a phyphox collision export needs the columns 'Bounce 0 (s)', 'Bounce 1 (s)', ...")
+        fail(path, table.header_line,
+             "a phyphox collision export needs the columns 'Bounce 0 (s)', 'Bounce 1 (s)', ...")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     order = sorted(cols)
