@@ -149,6 +149,7 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     resolution = None
     for d in range(max_decimals + 1):
         q = t * 10.0**d
+        # whole numbers up to 1e-6, or up to float rounding (|q| 1e-15) for times beyond 1e9 units
         if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
             resolution = 10.0**-d
             break

@@ -65,15 +65,14 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     order = sorted(cols)
     names = f"'{cols[order[0]].raw}' to '{cols[order[-1]].raw}'"
     notes = [f"format: phyphox (In)elastic collision export (impact times from columns {names})"]
-    derived = [c.raw for c in table.cols if c.index not in {cols[k].index for k in order}]
-    if derived:
+    if len(table.cols) > len(cols):   # the heights and energies beside the times
         notes.append("its heights and energies are phyphox's own drag-free estimates from the same intervals "
                      "(h = g dt^2 / 8): not read")
     values = np.column_stack([column_values(path, table, cols[k], what="impact time", allow_empty=True)
                               * unit_factor(path, table, cols[k], TIME_UNITS, "time") for k in order])
     lines = row_lines(table)
     runs, labels = [], []
-    for r, (row, line) in enumerate(zip(values, lines)):
+    for row, line in zip(values, lines):
         heard = np.isfinite(row) & (row > 0)   # phyphox writes 0 for a bounce it did not hear
         run_notes = list(notes)
         missing = [f"'{cols[k].raw}'" for k, ok in zip(order, heard) if not ok]

@@ -121,7 +121,7 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     if t_col is not None:
         t = column_values(path, table, t_col, what="time", allow_empty=skip_empty_y)
         factor = unit_factor(path, table, t_col, TIME_UNITS, "time")
-        ok = np.isfinite(t) & ~(np.isnan(y) if skip_empty_y else np.zeros(y.size, dtype=bool))
+        ok = np.isfinite(t) & ~empty
         grid = regular_frame_times(t[ok])
         if grid is not None:
             t = t.copy()
