@@ -173,6 +173,11 @@ def test_irregular_or_finely_printed_times_are_left_alone():
     assert regular_frame_times(t) is None                                        # full precision
     assert regular_frame_times(np.round(t + rng.normal(0, 0.004, t.size), 3)) is None   # a variable frame rate
     assert regular_frame_times(np.arange(100) * 0.01) is None                  # exact on its grid already
+    # irregular times printed exactly, with gaps of thousands of "frames" (found by the round-trip property
+    # test): a grid would move them by up to 0.8 of the last digit
+    t = np.concatenate([[1.0, 1.96875, 2.03125, 2.09375, 2.15625], 2.15625 + 1e-4 * np.arange(1, 14),
+                        [2.28255, 2.34505]])
+    assert regular_frame_times(t) is None
 
 
 # --------------------------------------------------------------------------- drop tables

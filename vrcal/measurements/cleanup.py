@@ -122,8 +122,9 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     millisecond, which at 5 m/s is 2.5 mm: as much as the tracking noise. When every time is a
     multiple of a printed resolution at least ``coarse_fraction`` of the frame period (and at most a
     quarter of it, so that the frame numbers follow from the intervals), and a regular
-    grid t0 + k step (k integers increasing, frames not tracked leave gaps) lies within 0.8
-    resolution of every time, the grid's times are returned (t0 and step by least squares);
+    grid t0 + k step (k integers increasing, frames not tracked leave gaps, at least half the frames
+    tracked) lies within 0.8 resolution of every time, the grid's times are returned (t0 and step by
+    least squares);
     otherwise None (times printed finely enough, or truly irregular: a phone's variable frame rate).
 
     Parameters
@@ -162,6 +163,8 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
         step = float(step)
         if not step > 0:
             return None
+    if k[-1] > 2.0 * (t.size - 1):
+        return None   # more frames missing than tracked: the intervals do not pin the frame numbers down
     grid = t0 + step * k
     change = float(np.max(np.abs(grid - t)))
     if change > 0.8 * resolution or change < 1e-12:   # rounding moves a time by 0.5 at most; the fitted line
