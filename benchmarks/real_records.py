@@ -149,11 +149,18 @@ def finite_difference_epsilon(data, window_s=0.03):
     return float(np.median(out)), len(out)
 
 
+def recommended(d):
+    """The model whose epsilon discover's report recommends: the named effects and their ambiguous
+    rivals shared by the priors (``d.split``) when the data cannot tell them apart, else the final one."""
+    return d.split if d.split is not None else d.final
+
+
 def bounce_epsilon(d, bounces=(1, 2)):
-    """discover's epsilon at the bounces an interval-ratio estimate uses (the 2nd and 3rd impacts):
-    ``d.epsilon`` unless a speed-dependent epsilon is named."""
-    eps = np.asarray(d.final.model().epsilons)[0]
-    return float(np.mean(eps[list(bounces)])) if eps.size > max(bounces) else d.epsilon
+    """discover's recommended epsilon at the bounces an interval-ratio estimate uses (the 2nd and 3rd
+    impacts): constant unless a speed-dependent epsilon is in the model."""
+    fit = recommended(d)
+    eps = np.asarray(fit.model().epsilons)[0]
+    return float(np.mean(eps[list(bounces)])) if eps.size > max(bounces) else fit.value("epsilon")
 
 
 def independent_epsilon(data, mass_kg, diameter_m):
@@ -201,7 +208,8 @@ def main(argv=None):
     method1 = float(epsilon_from_heights_with_drag(h[1], h[0], k))
     for path in sorted(glob.glob(os.path.join(root, "realval", "giiulia", "golf_110cm_r*.csv"))):
         d = discover_file(path, "golf", mass_kg=0.0415, diameter_m=0.042)
-        rows.append((os.path.basename(path), "impacts", d.epsilon, method1, "first rebound, Method 1, drag-corrected",
+        rows.append((os.path.basename(path), "impacts", recommended(d).value("epsilon"), method1,
+                     "first rebound, Method 1, drag-corrected",
                      d))
     # trajectories
     tracks = [(os.path.join(root, "realval", "engcomp", "fallingtennisball02.csv"), "tennis", {}),
@@ -221,7 +229,7 @@ def main(argv=None):
         indep, method = independent_epsilon(data, float(d.ball.mass_kg), float(d.ball.diameter_m))
         if source != path:
             method += ", from the record after the first bounce"
-        rows.append((os.path.basename(path), "trajectory", d.epsilon, indep, method, d))
+        rows.append((os.path.basename(path), "trajectory", recommended(d).value("epsilon"), indep, method, d))
     print(f"{'record':<38s} {'kind':<10s} {'eps':>6s} {'indep':>6s} {'diff':>6s}  {'verdict':<13s} named (parameters)"
           f"   [independent method]")
     worst = 0.0

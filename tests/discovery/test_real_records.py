@@ -33,7 +33,8 @@ def test_golf_impacts_agree_with_the_first_rebound_measured_by_hand():
         assert only_physical(d)
 
 
-@pytest.mark.parametrize("name", ["pingpong_30cm_L1", "tennis_65cm_L1", "blue_65cm_L5", "golf_100cm_CR"])
+@pytest.mark.parametrize("name", ["pingpong_30cm_L1", "pingpong_18cm_L3", "tennis_65cm_L1", "blue_65cm_L5",
+                                  "golf_100cm_CR"])
 def test_phone_records_agree_with_drag_corrected_interval_ratios(name):
     ball, m, D = real.BALLS[name.split("_")[0]]
     path = str(shared_file(f"realval/giiulia/{name}.csv"))

@@ -113,6 +113,22 @@ def test_ambiguity_is_reported():
     pytest.skip("no ambiguous case in 40 seeds")
 
 
+def test_the_advice_leads_to_the_prior_split_when_rivals_are_ambiguous():
+    """Seed 2 of impacts with drag and a speed law: a speed law is named, drag is ambiguous; the
+    advice gives each alone and then both shared by their priors, with the drag the engine needs."""
+    d, _ = case("impacts", ("air_drag", "velocity_dependent_restitution"), seed=2)
+    assert d.split is not None
+    advice = " ".join(" ".join(engine_advice(d)).split())
+    lo, hi = d.speed_range()
+    e_lo, e_hi = d.epsilon_at([lo, hi], fit=d.split)
+    assert "Most probable: a speed-dependent epsilon and air drag together" in advice
+    assert f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s" in advice
+    cd = d.split.effect_values["air_drag"]["drag_coefficient"]
+    assert f"C_d = {cd:.3g}" in advice and "also applies this air drag" in advice
+    clean, _ = case("impacts", ())
+    assert clean.split is None and "Most probable" not in " ".join(engine_advice(clean))
+
+
 @pytest.mark.parametrize("kind,effects", [("trajectory", ("air_drag",)), ("impacts", ("contact_duration",)),
                                           ("apexes", ("height_offset",))])
 def test_figure_has_data_models_and_residuals(kind, effects):

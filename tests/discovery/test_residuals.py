@@ -162,6 +162,79 @@ def test_evidence_prefers_the_planted_effect_over_a_stand_in_with_an_implausible
     assert res.minus_two_ln_evidence(tau, sigma) < res.minus_two_ln_evidence(vdr, sigma) - 2
 
 
+# --------------------------------------------------------------------------- posterior mode (prior_sigma)
+
+
+def test_prior_deviates_of_the_registry_densities():
+    from vrcal.drop.effects import EFFECTS
+
+    cd = EFFECTS["air_drag"].parameter("drag_coefficient").density
+    assert cd.deviate(0.47) == pytest.approx(0.0, abs=1e-12)
+    assert cd.deviate(0.47 * math.exp(0.3)) == pytest.approx(1.0)          # one sigma_ln up
+    assert np.allclose(cd.deviate(np.array([0.47, 0.47 / math.exp(0.6)])), [0.0, -2.0])
+    offset = EFFECTS["height_offset"].parameter("offset_m").density
+    D = float(TENNIS.diameter_m)
+    grid = np.linspace(-0.5 * D, 1.5 * D, 2001)
+    top = grid[np.argmax(offset.pdf(grid, TENNIS))]
+    z = offset.deviate(np.array([top, 0.0, 0.25 * D, 0.5 * D, D, 1.4 * D]), TENNIS)
+    assert z[0] == pytest.approx(0.0, abs=1e-6) and np.all(z >= 0.0)
+    assert z[1] < z[2] and z[3] < z[2] and z[4] < z[5]   # the bottom, centre and top are modes
+    # the deviate's square is what -2 ln of the density adds
+    assert z[1] ** 2 - z[4] ** 2 == pytest.approx(
+        2 * math.log(float(offset.pdf(D, TENNIS)) / float(offset.pdf(0.0, TENNIS))), rel=1e-9)
+
+
+def test_a_posterior_mode_pulls_an_unconstrained_parameter_to_its_prior_median():
+    """Drag on a 1 m drop of a tennis ball is invisible in impact times at 0.2 ms jitter: the
+    likelihood is flat in C_d, so the posterior mode is the prior's median, 0.47; with the
+    prior's weight near zero (a tiny sigma) the least-squares fit comes back."""
+    data = drop("impacts", H=1.0, jitter=0.0002, seed=4)
+    problem = res.make_problem(data, TENNIS)
+    lsq = res.fit_model(problem, ("air_drag",))
+    mode = res.fit_model(problem, ("air_drag",), prior_sigma=1.0)
+    assert mode.value("air_drag.drag_coefficient") == pytest.approx(0.47, rel=0.02)
+    assert mode.n == lsq.n and mode.rss >= lsq.rss * (1 - 1e-9)           # the data's residuals only
+    tiny = res.fit_model(problem, ("air_drag",), prior_sigma=1e-9)
+    assert tiny.rss == pytest.approx(lsq.rss, rel=1e-3)
+    assert lsq.extra["prior_chi2"] == 0.0 and mode.extra["prior_chi2"] < 0.01
+
+
+def test_a_posterior_mode_minimises_chi2_plus_the_prior_deviates():
+    """On impacts with drag and a speed law planted (the two trade off), the mode's cost
+    chi2 + sum z^2 is no larger than at the least-squares point or at either end of the trade."""
+    from vrcal.drop.synthetic import hidden_effect_case
+
+    data, truth = hidden_effect_case(3, "impacts", ("air_drag", "velocity_dependent_restitution"))
+    ball = BallProperties.from_ball(get_ball(truth["ball"]))
+    problem = res.make_problem(data, ball)
+    effects = ("velocity_dependent_restitution", "air_drag")
+    sigma = truth["noise"]
+    lsq = res.fit_model(problem, effects)
+    mode = res.fit_model(problem, effects, start={p.key: v for p, v in zip(lsq.layout, lsq.values)},
+                         prior_sigma=sigma)
+    cols, deviate = res.prior_deviates(mode.layout, ball)
+
+    def cost(values):
+        r = res.residuals(np.asarray(values)[None, :], mode.layout, problem)[0]
+        return float(r @ r) / sigma**2 + float(np.sum(deviate(np.asarray(values)) ** 2))
+
+    best = cost(mode.values)
+    assert best == pytest.approx(mode.rss / sigma**2 + mode.extra["prior_chi2"], rel=1e-9)
+    assert mode.rss >= lsq.rss * (1 - 1e-9)
+    rng = np.random.default_rng(0)
+    for _ in range(20):   # a local minimum: no nearby point costs less
+        step = rng.normal(size=mode.values.size) * mode.uncertainties * 0.05
+        assert best <= cost(mode.values + step) * (1 + 1e-6)
+    for name in effects:   # one effect alone (the other at a value near its null)
+        one = res.fit_model(problem, (name,))
+        start = {p.key: v for p, v in zip(one.layout, one.values)}
+        other = [k for k in (f"{e}.{q}" for e, q in (("air_drag", "drag_coefficient"),
+                                                       ("velocity_dependent_restitution", "exponent")))
+                 if not k.startswith(name)][0]
+        values = np.array([start.get(p.key, 1e-3 if p.key == other else 0.0) for p in mode.layout])
+        assert best < cost(values)
+
+
 def test_layout_refuses_effects_the_kind_cannot_show():
     with pytest.raises(UsageError, match="cannot be seen in impacts"):
         res.parameter_layout(drop("impacts"), ("height_offset",))

@@ -191,6 +191,7 @@ class Discovery:
     reader: dict = field(default_factory=dict)      # how the file was read (for a replay)
     decimation: int = 1               # every k-th sample of a long trajectory was fitted (1: all)
     n_read: int | None = None         # data read before decimation (None: as fitted)
+    split: res.FitResult | None = None  # named effects and their ambiguous rivals at the posterior mode
 
     @property
     def unit(self):
@@ -272,15 +273,18 @@ class Discovery:
             speeds += list(v[:max(_record_bounces(run, drops), 1)])
         return float(min(speeds)), float(max(speeds))
 
-    def epsilon_at(self, speeds_m_per_s):
-        """ε of the final model at these impact speeds [m/s] (the constant ε without a speed law)."""
+    def epsilon_at(self, speeds_m_per_s, fit=None):
+        """ε of the final model (or of ``fit``, e.g. ``split``) at these impact speeds [m/s] (the
+        constant ε without a speed law)."""
         from vrcal.drop.effects import restitution_at_speed
 
+        fit = self.final if fit is None else fit
         v = np.asarray(speeds_m_per_s, dtype=float)
-        if "velocity_dependent_restitution" not in self.effects:
-            return np.full(v.shape, self.epsilon)
-        p = self.final.effect_values["velocity_dependent_restitution"]["exponent"]
-        return np.asarray(restitution_at_speed(self.epsilon, v, self.reference_speed, p))
+        eps = fit.value("epsilon")
+        if "velocity_dependent_restitution" not in fit.effects:
+            return np.full(v.shape, eps)
+        p = fit.effect_values["velocity_dependent_restitution"]["exponent"]
+        return np.asarray(restitution_at_speed(eps, v, self.reference_speed, p))
 
     @property
     def reference_speed(self):
@@ -289,6 +293,24 @@ class Discovery:
         if v_ref is not None:
             return float(v_ref)
         return float(np.asarray(self.final.model().impact_speeds_m_per_s)[0, 0])
+
+    @property
+    def prior_split(self):
+        """The named effects and their ambiguous rivals fitted together at the posterior mode with the
+        registry's prior densities (:func:`split_by_priors`), or None when nothing is ambiguous:
+        ``{"effects", "parameters", "uncertainties", "epsilon" (at the reference speed),
+        "epsilon_range" ([lowest, highest] over the record's bounces), "gap", "prior_chi2"}``.
+        The data fix what the rivals do together, the priors how it is shared: the most probable ε
+        while the data cannot tell them apart."""
+        f = self.split
+        if f is None:
+            return None
+        run = self.runs[0]
+        drops = f.model()
+        eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
+        return {"effects": list(f.effects), "parameters": f.effect_values, "uncertainties": f.effect_uncertainties,
+                "epsilon": f.value("epsilon"), "epsilon_range": [float(np.min(eps)), float(np.max(eps))],
+                "gap": f.gap, "prior_chi2": float(f.extra.get("prior_chi2", 0.0))}
 
     def _rivals(self):
         """``{named effect: (winner, {rival: Candidate})}`` of the ambiguous namings, from the round
@@ -344,6 +366,7 @@ class Discovery:
             "ambiguous": {k: list(v) for k, v in self.ambiguous.items()},
             "ambiguous_odds": self.ambiguous_odds,
             "ambiguous_epsilon": self.ambiguous_epsilon,
+            "prior_split": self.prior_split,
             "unphysical": self.unphysical,
             "parameters": self.final.effect_values,
             "uncertainties": self.final.effect_uncertainties,
@@ -453,6 +476,31 @@ def gap_per_bounce(before, after):
 
 def _start_from(fit):
     return {p.key: float(v) for p, v in zip(fit.layout, fit.values)}
+
+
+def split_by_priors(problem, current, named, ambiguous, sigma):
+    """The named effects and every ambiguous rival fitted together at the posterior mode
+    (:func:`vrcal.discovery.residuals.fit_model` with ``prior_sigma``), or None when no rival is
+    ambiguous or the data are too few.
+
+    Rivals are ambiguous when each alone fits about as well as the named effect: the data fix what
+    they do together (a line of equally good fits, e.g. air drag C_d against a speed exponent p), not
+    how it is shared. The registry's prior densities -- a sphere's C_d near 0.47, p near 1/5 -- pick
+    the most probable point on that line: what a physicist would report, who knows that a ball in
+    air has drag, instead of either end. ``sigma``: the noise of one datum (the noise floor, or what
+    the named model leaves when that is more). None too when the mode lies beyond a physical limit.
+    """
+    rivals = [r for names in ambiguous.values() for r in names if r not in named]
+    rivals = list(dict.fromkeys(rivals))
+    if not rivals:
+        return None
+    from vrcal.drop.effects import EFFECTS
+
+    effects = (*named, *rivals)
+    if current.n - current.k - sum(len(EFFECTS[r].parameters) for r in rivals) < 1:
+        return None
+    fit = res.fit_model(problem, effects, start=_start_from(current), prior_sigma=sigma)
+    return None if any(fit.outside_limits(e) for e in effects) else fit
 
 
 def _fit_candidate(problem, named, names, current):
@@ -704,6 +752,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
     ambiguous = {k: v for k, v in ambiguous.items() if k in named}
+    split = split_by_priors(problem, current, named, ambiguous,
+                            math.sqrt(max(sigma_floor**2, current.rss / max(current.n - current.k, 1))))
     scatter = scatter_gap = None
     if kind == "impacts":
         values = [res.ratio_scatter(run.t_s) for run in problem.runs]
@@ -715,7 +765,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                      dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m),
-                     prepared.decimation, n_read)
+                     prepared.decimation, n_read, split)
 
 
 def problem_size(problem):

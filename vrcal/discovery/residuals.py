@@ -739,19 +739,24 @@ def _scales(layout, x0):
 class _Objective:
     """Residual and forward-difference Jacobian sharing ONE vectorised simulation per point."""
 
-    def __init__(self, layout, problem, scales):
+    def __init__(self, layout, problem, scales, lo=None, hi=None, prior=None):
         self.layout, self.problem = layout, problem
         self.steps = 1e-4 * np.asarray(scales)
-        self.lo = np.array([p.bounds[0] for p in layout])
-        self.hi = np.array([p.bounds[1] for p in layout])
+        self.lo = np.array([p.bounds[0] for p in layout]) if lo is None else lo
+        self.hi = np.array([p.bounds[1] for p in layout]) if hi is None else hi
         self.cache_x, self.cache_r = None, None
         self.nsim = 0
         self.y = observed_values(problem.data)
+        self.prior = prior   # (deviate function, noise sigma) for a posterior mode, or None
 
     def _batch(self, thetas):
         self.nsim += thetas.shape[0]
         r = self.y[None, :] - predict(thetas, self.layout, self.problem)
-        return np.where(np.isfinite(r), r, 1e3)
+        r = np.where(np.isfinite(r), r, 1e3)
+        if self.prior is None:
+            return r
+        deviate, sigma = self.prior
+        return np.concatenate([r, sigma * deviate(thetas)], axis=1)
 
     def fun(self, x):
         if self.cache_x is not None and np.array_equal(x, self.cache_x):
@@ -772,7 +777,31 @@ class _Objective:
         return ((r[1:] - r[0][None, :]) / h[:, None]).T
 
 
-def fit_model(problem, effects=(), start=None, *, max_nfev=60):
+def prior_deviates(layout, ball):
+    """``(columns, deviate)`` for a posterior mode: the effect parameters of ``layout`` with a prior
+    density in the registry, and ``deviate(values) -> (m, len(columns))``, each parameter's deviate
+    under its density (``LogNormalPrior.deviate``: ln(x / median) / sigma_ln; ``TrackedPointPrior``:
+    sqrt(2 ln(pdf_max / pdf))). Parameters with a uniform density have none (their bounds become the
+    density's support in :func:`fit_model`)."""
+    from vrcal.drop.effects import EFFECTS
+
+    cols, densities = [], []
+    for j, p in enumerate(layout):
+        if p.effect is not None:
+            density = EFFECTS[p.effect].parameter(p.name).density
+            if density is not None:
+                cols.append(j)
+                densities.append(density)
+
+    def deviate(values):
+        values = np.atleast_2d(values)
+        return np.stack([np.asarray(dens.deviate(values[:, j], ball), dtype=float)
+                         for j, dens in zip(cols, densities)], axis=1) if cols else values[:, :0]
+
+    return np.asarray(cols, dtype=int), deviate
+
+
+def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None):
     """Fit the baseline plus ``effects`` to ``problem.data`` by bounded least squares.
 
     Parameters
@@ -786,11 +815,19 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
         missing keys start at :func:`initial_values` and at each effect's default.
     max_nfev : int
         most Jacobian evaluations (each one vectorised simulation of k + 1 sets)
+    prior_sigma : float or None
+        None: least squares. A number (the noise σ of one datum, in the data's unit): the
+        posterior mode (maximum a posteriori) with the registry's prior densities of the effect
+        parameters: each adds the residual σ z, z its deviate under the density
+        (:func:`prior_deviates`; for a log-normal ln(x / median) / σ_ln, the prior on ln x), so that
+        the cost is χ² + Σ z² at noise σ; a parameter with a uniform density is held inside its
+        support. The returned residuals and RSS are the data's alone; ``extra["prior_chi2"]`` holds Σ z².
 
     Returns
     -------
     FitResult
-        uncertainties are 1-σ from the Jacobian, (JᵀJ)⁻¹ σ² with σ² = RSS/(n - k).
+        uncertainties are 1-σ from the Jacobian, (JᵀJ)⁻¹ σ² with σ² = RSS/(n - k) (for a posterior
+        mode: J with the prior's rows, σ = ``prior_sigma``).
     """
     from vrcal.discovery.lsq import least_squares_box
     from vrcal.drop.effects import EFFECTS
@@ -815,19 +852,37 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60):
     n = observed_values(data).size
     if n < len(layout):
         raise DataError(f"{data.source}: {n} data cannot fit {len(layout)} parameters")
-    scales = _scales(layout, x0)
-    obj = _Objective(layout, problem, scales)
     lo = np.array([p.bounds[0] for p in layout])
     hi = np.array([p.bounds[1] for p in layout])
+    prior = None
+    if prior_sigma is not None:
+        from vrcal.drop.effects import EFFECTS, LogNormalPrior
+
+        for j, p in enumerate(layout):
+            if p.effect is None:
+                continue
+            q = EFFECTS[p.effect].parameter(p.name)
+            if q.density is None:        # uniform: its support
+                lo[j], hi[j] = max(lo[j], q.prior[0]), min(hi[j], q.prior[1])
+            elif isinstance(q.density, LogNormalPrior):   # it vanishes at 0
+                lo[j] = max(lo[j], 1e-3 * q.density.center(problem.ball))
+        x0 = np.clip(x0, lo, hi)
+        prior = (prior_deviates(layout, problem.ball)[1], float(prior_sigma))
+    scales = _scales(layout, x0)
+    obj = _Objective(layout, problem, scales, lo, hi, prior)
     sol = least_squares_box(obj.fun, obj.jac, x0, lo, hi, scales, max_iter=max_nfev, xtol=1e-10, ftol=1e-8)
-    r, J = sol.fun, sol.jac
+    r, J = sol.fun[:n], sol.jac
+    prior_chi2 = float(np.sum((sol.fun[n:] / prior_sigma) ** 2)) if prior is not None else 0.0
     # sigma^2 from the residuals; with no degree of freedom left (as many data as parameters: two
     # apexes give epsilon exactly) from the noise the problem assumes
     s2 = float(r @ r) / (n - len(layout)) if n > len(layout) else float(problem.noise or 0.0) ** 2
+    if prior is not None:
+        s2 = float(prior_sigma) ** 2   # the posterior's covariance: data and prior rows at the same sigma
     cov = np.linalg.pinv(J.T @ J) * s2
     unc = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return FitResult(tuple(effects), layout, sol.x.copy(), unc, r.copy(), problem, nfev=obj.nsim,
-                     success=bool(sol.success), message=str(sol.message), extra={"start": x0, "jtj": J.T @ J})
+                     success=bool(sol.success), message=str(sol.message),
+                     extra={"start": x0, "jtj": J[:n].T @ J[:n], "prior_chi2": prior_chi2})
 
 
 def separation_chi2(data, ball, effects, sigma, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, starts=()):

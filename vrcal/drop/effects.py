@@ -119,6 +119,11 @@ class LogNormalPrior:
         z = np.log(xs / med) / s
         return np.where(pos, np.exp(-0.5 * z * z - np.log(xs) - math.log(s * math.sqrt(2.0 * math.pi))), 0.0)
 
+    def deviate(self, x, ball=None):
+        """The standard normal deviate ``ln(x / median) / sigma_ln`` of ``x`` (> 0) [1]: the prior is
+        normal in ln x, so that a posterior mode adds it to the residuals."""
+        return np.log(np.asarray(x, dtype=float) / self.center(ball)) / float(self.sigma_ln)
+
     def describe(self, ball=None, unit=""):
         unit = "" if unit in ("", "1") else f" {unit}"
         try:
@@ -151,6 +156,14 @@ class TrackedPointPrior:
             return np.exp(-0.5 * z * z) / (s * math.sqrt(2.0 * math.pi))
 
         return (normal(0.0, self.floor_sd_m) + normal(0.5 * D, sd) + normal(D, sd)) / 3.0
+
+    def deviate(self, x, ball=None):
+        """``sqrt(2 ln(pdf_max / pdf(x)))`` [1]: 0 at the density's highest mode, growing as a normal
+        deviate away from every mode; its square is what -2 ln of the density adds."""
+        D = float(np.mean(ball.diameter_m)) if ball is not None else 0.0
+        peak = float(np.max(self.pdf(np.linspace(-0.5 * D, 1.5 * D, 2001), ball)))
+        pdf = np.maximum(self.pdf(x, ball), 1e-300)
+        return np.sqrt(np.maximum(2.0 * np.log(peak / pdf), 0.0))
 
     def describe(self, ball=None, unit=""):
         return "bottom, centre or top of the ball (mixture of normals at 0, D/2, D)"
