@@ -7,7 +7,14 @@ matplotlib.use("Agg")
 import pytest  # noqa: E402
 
 from vrcal.discovery.ranking import discover  # noqa: E402
-from vrcal.discovery.report import discovery_figure, engine_advice, fit_report, plot_fit, plot_residuals  # noqa: E402
+from vrcal.discovery.report import (  # noqa: E402
+    answer,
+    discovery_figure,
+    engine_advice,
+    fit_report,
+    plot_fit,
+    plot_residuals,
+)
 from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
 from vrcal.model.standards import get_ball  # noqa: E402
@@ -125,8 +132,9 @@ def test_the_advice_leads_to_the_prior_split_when_rivals_are_ambiguous():
     assert f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s" in advice
     cd = d.split.effect_values["air_drag"]["drag_coefficient"]
     assert f"C_d = {cd:.3g}" in advice and "also applies this air drag" in advice
+    assert "Most probable is a speed-dependent epsilon and air drag together" in " ".join(answer(d).split())
     clean, _ = case("impacts", ())
-    assert clean.split is None and "Most probable" not in " ".join(engine_advice(clean))
+    assert clean.split is None and "Most probable" not in " ".join(engine_advice(clean)) + answer(clean)
 
 
 @pytest.mark.parametrize("kind,effects", [("trajectory", ("air_drag",)), ("impacts", ("contact_duration",)),

@@ -141,6 +141,9 @@ def answer(discovery):
             parts.append(f"But {_effects_phrase(rivals)} would explain {what[d.kind]} about as well "
                          f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}{drops} tell them "
                          f"apart).")
+            if d.split is not None:
+                parts.append(f"Most probable is {_effects_phrase(list(d.split.effects))} together, shared as "
+                             f"their prior densities say (its epsilon is in the advice for an engine below).")
     elif not d.rounds:
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
