@@ -14,6 +14,7 @@ from vrcal.discovery.report import (  # noqa: E402
     fit_report,
     plot_fit,
     plot_residuals,
+    pm,
 )
 from vrcal.drop.synthetic import hidden_effect_case  # noqa: E402
 from vrcal.model.body import BallProperties  # noqa: E402
@@ -131,7 +132,7 @@ def test_the_advice_leads_to_the_prior_split_when_rivals_are_ambiguous():
     assert "Most probable: a speed-dependent epsilon and air drag together" in advice
     assert f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s" in advice
     cd = d.split.effect_values["air_drag"]["drag_coefficient"]
-    assert f"C_d = {cd:.3g}" in advice and "also applies this air drag" in advice
+    assert f"C_d = {pm(cd, None)}" in advice and "also applies the air drag found here" in advice
     assert "Most probable is a speed-dependent epsilon and air drag together" in " ".join(answer(d).split())
     clean, _ = case("impacts", ())
     assert clean.split is None and "Most probable" not in " ".join(engine_advice(clean)) + answer(clean)

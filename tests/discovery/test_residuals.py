@@ -212,7 +212,7 @@ def test_a_posterior_mode_minimises_chi2_plus_the_prior_deviates():
     lsq = res.fit_model(problem, effects)
     mode = res.fit_model(problem, effects, start={p.key: v for p, v in zip(lsq.layout, lsq.values)},
                          prior_sigma=sigma)
-    cols, deviate = res.prior_deviates(mode.layout, ball)
+    deviate = res.prior_deviates(mode.layout, ball)
 
     def cost(values):
         r = res.residuals(np.asarray(values)[None, :], mode.layout, problem)[0]

@@ -305,11 +305,8 @@ class Discovery:
         f = self.split
         if f is None:
             return None
-        run = self.runs[0]
-        drops = f.model()
-        eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
         return {"effects": list(f.effects), "parameters": f.effect_values, "uncertainties": f.effect_uncertainties,
-                "epsilon": f.value("epsilon"), "epsilon_range": [float(np.min(eps)), float(np.max(eps))],
+                "epsilon": f.value("epsilon"), "epsilon_range": _epsilon_range(f, self.runs[0]),
                 "gap": f.gap, "prior_chi2": float(f.extra.get("prior_chi2", 0.0))}
 
     def _rivals(self):
@@ -338,16 +335,9 @@ class Discovery:
         contact's epsilon over the record's bounces had the rival been named instead (one value
         twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
         number an engine needs."""
-        out = {}
-        run = self.runs[0]
-        for name, (_, rivals) in self._rivals().items():
-            out[name] = {}
-            for r, c in rivals.items():
-                drops = c.fit.model()
-                eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
-                out[name][r] = {"epsilon": [float(np.min(eps)), float(np.max(eps))],
-                                "parameters": dict(c.fit.effect_values.get(r, {}))}
-        return out
+        return {name: {r: {"epsilon": _epsilon_range(c.fit, self.runs[0]),
+                           "parameters": dict(c.fit.effect_values.get(r, {}))} for r, c in rivals.items()}
+                for name, (_, rivals) in self._rivals().items()}
 
     def as_dict(self):
         """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader."""
@@ -417,6 +407,13 @@ def _record_bounces(run, drops):
     if run.kind == "apexes":
         return int(np.max(run.bounce))
     return drops.n_bounces
+
+
+def _epsilon_range(fit, run):
+    """[lowest, highest] ε of ``fit``'s model of ``run`` over the bounces the record holds."""
+    drops = fit.model()
+    eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
+    return [float(np.min(eps)), float(np.max(eps))]
 
 
 def verdict(d):
@@ -490,8 +487,7 @@ def split_by_priors(problem, current, named, ambiguous, sigma):
     air has drag, instead of either end. ``sigma``: the noise of one datum (the noise floor, or what
     the named model leaves when that is more). None too when the mode lies beyond a physical limit.
     """
-    rivals = [r for names in ambiguous.values() for r in names if r not in named]
-    rivals = list(dict.fromkeys(rivals))
+    rivals = list(dict.fromkeys(r for names in ambiguous.values() for r in names if r not in named))
     if not rivals:
         return None
     from vrcal.drop.effects import EFFECTS
@@ -538,9 +534,7 @@ def rank_by_evidence(cands, current, sigma_floor):
     """
     if not cands:
         return sigma_floor
-    best = min(cands, key=lambda c: c.fit.rss / max(c.fit.n - c.fit.k, 1))
-    var = best.fit.rss / max(best.fit.n - best.fit.k, 1)
-    sigma = math.sqrt(max(float(sigma_floor or 0.0) ** 2, var, 1e-300))
+    sigma = min(cands, key=lambda c: c.fit.residual_variance).fit.noise_sigma(sigma_floor)
     ref = res.minus_two_ln_evidence(current, sigma)
     for c in cands:
         c.evidence = res.minus_two_ln_evidence(c.fit, sigma)
@@ -730,7 +724,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
         # the noise a rival is judged against: the floor, or what the winner leaves when that is more (a
         # record's own scatter from bounce to bounce)
-        var = max(sigma_floor**2, win.fit.rss / max(win.fit.n - win.fit.k, 1))
+        var = win.fit.noise_sigma(sigma_floor) ** 2
         rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
             c.score - win.score < th.indistinguishable_bic
             or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2))]
@@ -752,8 +746,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
     ambiguous = {k: v for k, v in ambiguous.items() if k in named}
-    split = split_by_priors(problem, current, named, ambiguous,
-                            math.sqrt(max(sigma_floor**2, current.rss / max(current.n - current.k, 1))))
+    split = split_by_priors(problem, current, named, ambiguous, current.noise_sigma(sigma_floor))
     scatter = scatter_gap = None
     if kind == "impacts":
         values = [res.ratio_scatter(run.t_s) for run in problem.runs]

@@ -81,8 +81,7 @@ def reference_sigma(discovery):
     residual standard deviation sqrt(RSS/(n - k))."""
     if discovery.noise_floor:
         return float(discovery.noise_floor)
-    f = discovery.final
-    return math.sqrt(f.rss / max(f.n - f.k, 1))
+    return math.sqrt(discovery.final.residual_variance)
 
 
 def _effects_phrase(names):
@@ -224,26 +223,23 @@ def engine_advice(discovery):
             out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the data "
                        f"cannot tell them apart): epsilon {span}.")
     if d.split is not None:
-        out += _split_advice(d)
-        return out
-    if "air_drag" in d.effects:
+        out.append(_split_advice(d))
+    if "air_drag" in (d.split if d.split is not None else f).effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
         out.append(f"an engine without drag reproduces the bounce heights better with the baseline's effective "
                    f"epsilon = {d.epsilon_baseline:.4f}.")
-    elif "height_offset" in d.effects or "contact_duration" in d.effects:
+    elif d.split is None and ("height_offset" in d.effects or "contact_duration" in d.effects):
         out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
                    f"{eps:.4f}.")
     return out
 
 
 def _split_advice(d):
-    """Lines on the most probable ε while named effects and rivals cannot be told apart (``d.split``)."""
+    """The line on the most probable ε while named effects and rivals cannot be told apart (``d.split``)."""
     from vrcal.drop.effects import EFFECTS
 
     f = d.split
-    values = f.effect_values
-    params = ", ".join(f"{PHRASES[e][1]} = {number(values[e][p.name] * (1e3 if p.unit in ('s', 'm') else 1), 3)}"
-                       f"{' m' + p.unit if p.unit in ('s', 'm') else ''}"
+    params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
                        for e in f.effects for p in EFFECTS[e].parameters)
     if "velocity_dependent_restitution" in f.effects:
         lo, hi = d.speed_range()
@@ -251,14 +247,9 @@ def _split_advice(d):
         eps = f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s"
     else:
         eps = f"epsilon = {f.value('epsilon'):.4f}"
-    out = [f"Most probable: {_effects_phrase(list(f.effects))} together, shared as their prior densities say "
-           f"(the data fix only what they do together; {params}): {eps}. Use this; each value above is one "
-           f"explanation alone."]
-    if "air_drag" in f.effects:
-        out.append("Use it in an engine that also applies this air drag (a force -k v|v|); an engine without drag "
-                   f"reproduces the bounce heights better with the baseline's effective epsilon = "
-                   f"{d.epsilon_baseline:.4f}.")
-    return out
+    return (f"Most probable: {_effects_phrase(list(f.effects))} together, shared as their prior densities say "
+            f"(the data fix only what they do together; {params}): {eps}. Use this; each value above is one "
+            f"explanation alone.")
 
 
 def _named_table(d):

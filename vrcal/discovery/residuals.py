@@ -636,6 +636,16 @@ class FitResult:
         return float(rms(self.residuals))
 
     @property
+    def residual_variance(self):
+        """RSS / (n - k) [data unit²] (RSS / 1 with no degree of freedom left)."""
+        return self.rss / max(self.n - self.k, 1)
+
+    def noise_sigma(self, sigma_floor):
+        """The noise σ of one datum [data unit] that this fit is judged at: the noise floor, or its own
+        residual standard deviation when that is larger (the data are not fitted down to the floor)."""
+        return math.sqrt(max(float(sigma_floor or 0.0) ** 2, self.residual_variance, 1e-300))
+
+    @property
     def aic(self):
         return float(aic(max(self.rss, 1e-300), self.n, self.k))
 
@@ -778,11 +788,11 @@ class _Objective:
 
 
 def prior_deviates(layout, ball):
-    """``(columns, deviate)`` for a posterior mode: the effect parameters of ``layout`` with a prior
-    density in the registry, and ``deviate(values) -> (m, len(columns))``, each parameter's deviate
-    under its density (``LogNormalPrior.deviate``: ln(x / median) / sigma_ln; ``TrackedPointPrior``:
-    sqrt(2 ln(pdf_max / pdf))). Parameters with a uniform density have none (their bounds become the
-    density's support in :func:`fit_model`)."""
+    """``deviate(values) -> (m, j)`` for a posterior mode: the deviate of each of the j effect parameters
+    of ``layout`` that have a prior density in the registry, under that density
+    (``LogNormalPrior.deviate``: ln(x / median) / sigma_ln; ``TrackedPointPrior``: sqrt(2 ln(pdf_max /
+    pdf))), for m parameter sets (rows of ``values``). Parameters with a uniform density have none
+    (their bounds become the density's support in :func:`fit_model`)."""
     from vrcal.drop.effects import EFFECTS
 
     cols, densities = [], []
@@ -798,7 +808,7 @@ def prior_deviates(layout, ball):
         return np.stack([np.asarray(dens.deviate(values[:, j], ball), dtype=float)
                          for j, dens in zip(cols, densities)], axis=1) if cols else values[:, :0]
 
-    return np.asarray(cols, dtype=int), deviate
+    return deviate
 
 
 def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None):
@@ -856,7 +866,7 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None)
     hi = np.array([p.bounds[1] for p in layout])
     prior = None
     if prior_sigma is not None:
-        from vrcal.drop.effects import EFFECTS, LogNormalPrior
+        from vrcal.drop.effects import LogNormalPrior
 
         for j, p in enumerate(layout):
             if p.effect is None:
@@ -867,7 +877,7 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None)
             elif isinstance(q.density, LogNormalPrior):   # it vanishes at 0
                 lo[j] = max(lo[j], 1e-3 * q.density.center(problem.ball))
         x0 = np.clip(x0, lo, hi)
-        prior = (prior_deviates(layout, problem.ball)[1], float(prior_sigma))
+        prior = (prior_deviates(layout, problem.ball), float(prior_sigma))
     scales = _scales(layout, x0)
     obj = _Objective(layout, problem, scales, lo, hi, prior)
     sol = least_squares_box(obj.fun, obj.jac, x0, lo, hi, scales, max_iter=max_nfev, xtol=1e-10, ftol=1e-8)
