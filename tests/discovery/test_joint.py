@@ -89,6 +89,32 @@ def test_several_drops_from_different_heights_share_the_contact(tmp_path):
     assert doc["reader"]["files"] == [str(p) for p in paths]
 
 
+def test_runs_side_by_side_in_one_vernier_file_share_the_contact(tmp_path):
+    """A Logger Pro export of two runs under a motion detector ('Run 1: Time (s)', 'Run 1: Position (m)',
+    'Run 2: ...'; the second run shorter, its cells empty below): two runs, one C_d, one epsilon."""
+    tracks = []
+    for i, H in enumerate((0.8, 1.6)):
+        drops = simulate_drops(H, 0.88, 5, TT, effects={"air_drag": {"drag_coefficient": 0.45}}, release_time_s=0.2)
+        cols = sample_measurement(drops, "trajectory", fs_hz=120.0, noise_m=0.001, rng=i)
+        tracks.append((np.asarray(cols["t"]), np.asarray(cols["y"])))
+    n = max(t.size for t, _ in tracks)
+    lines = ['"Run 1: Time (s)","Run 1: Position (m)","Run 2: Time (s)","Run 2: Position (m)"']
+    for k in range(n):
+        lines.append(",".join(f"{t[k]:.4f},{y[k]:.5f}" if k < t.size else "," for t, y in tracks))
+    path = tmp_path / "vernier.csv"
+    path.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "r.json"
+    result = run("discover", path, "--ball", "table_tennis", "-q", "--json", out)
+    assert result.exit_code == 0, result.output
+    assert "2 runs side by side (Run 1 (columns 1, 2), Run 2 (columns 3, 4))" in result.output
+    doc = json.loads(out.read_text())
+    assert len(doc["runs"]) == 2 and doc["effects"] == ["air_drag"]
+    assert doc["parameters"]["air_drag"]["drag_coefficient"] == pytest.approx(0.45, rel=0.1)
+    assert doc["epsilon"] == pytest.approx(0.88, abs=0.005)
+    heights = [r["release"]["drop_height_m"] for r in doc["runs"]]
+    np.testing.assert_allclose(heights, [0.8, 1.6], rtol=0.02)
+
+
 # --------------------------------------------------------------------------- bounces that do not belong
 
 

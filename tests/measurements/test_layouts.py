@@ -183,6 +183,49 @@ def test_irregular_or_finely_printed_times_are_left_alone():
 # --------------------------------------------------------------------------- drop tables
 
 
+def _labels(times, *, region_s=0.0, text=lambda k: "", spectral=False, comma=False):
+    out = []
+    for k, t in enumerate(times):
+        cells = [f"{t:.6f}", f"{t + region_s:.6f}", text(k)]
+        out.append("\t".join(c.replace(".", ",") if comma and i < 2 else c for i, c in enumerate(cells)))
+        if spectral:
+            out.append("\\\t120.000000\t4000.000000")
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("kw", [{}, {"region_s": 0.012, "text": lambda k: f"bounce {k + 1}"},
+                                {"spectral": True, "text": lambda k: "S"}, {"comma": True}])
+def test_an_audacity_label_export_gives_the_label_starts_as_impact_times(tmp_path, kw):
+    t = impact_times(H=0.8, eps=0.8, n=8)
+    p = write(tmp_path, "labels.txt", _labels(t, **kw))
+    assert detect_format(p) == "audacity-labels"
+    d = read_measurement(p)
+    assert isinstance(d, ImpactTimes)
+    np.testing.assert_allclose(d.t_s, t, atol=1e-6)
+    assert "Audacity label export" in d.notes[0]
+
+
+def test_an_echo_in_a_label_file_is_named_by_its_label_and_line(tmp_path):
+    t = impact_times(H=0.8, eps=0.8, n=8)
+    events = np.sort(np.append(t, t[3] + 0.004))   # an echo 4 ms after the 4th impact
+    p = write(tmp_path, "labels.txt", _labels(events, text=lambda k: f"b{k + 1}"))
+    d = read_measurement(p)
+    np.testing.assert_allclose(d.t_s, t, atol=1e-6)
+    assert any("label 5 'b5' (line 5)" in n for n in d.notes)
+
+
+def test_a_headerless_trajectory_is_not_a_label_file(tmp_path):
+    t, y = fall()
+    p = write(tmp_path, "fall.txt", "".join(f"{a:.4f}\t{b:.4f}\n" for a, b in zip(t, y)))
+    assert detect_format(p) == "trajectory"
+
+
+def test_unsorted_labels_are_an_error_naming_the_line(tmp_path):
+    p = write(tmp_path, "labels.txt", "0.5\t0.5\t\n1.2\t1.2\t\n0.9\t0.9\t\n")
+    with pytest.raises(DataError, match=r"labels.txt:3: label start not increasing"):
+        read_measurement(p, "audacity-labels")
+
+
 @pytest.mark.parametrize("header,scale", [("H,h", 1.0), ("drop (cm),rebound (cm)", 100.0),
                                           ("trial;H [mm];h1 [mm]", 1000.0), ("Drop height,Rebound height", 1.0)])
 def test_a_drop_table_is_read_as_one_run_per_trial(tmp_path, header, scale):
@@ -245,6 +288,19 @@ def test_columns_of_the_same_name_are_runs_side_by_side(tmp_path):
     assert isinstance(data, Runs) and [r.t_s.size for r in data.runs] == [8, 6]
 
 
+def test_trajectories_side_by_side_are_runs_and_unpaired_columns_an_error(tmp_path):
+    t, y = fall()
+    rows = [f"{a:.3f},{b:.4f},{a:.3f},{0.5 * b:.4f}" for a, b in zip(t, y)]
+    data = read_measurement(write(tmp_path, "two.csv", "Run 1: Time (s),Run 1: Position (cm),Run 2: Time (s),"
+                                                       "Run 2: Position (cm)\n" + "\n".join(rows) + "\n"))
+    assert isinstance(data, Runs) and data.kind == "trajectory"
+    assert data.labels == ("Run 1 (columns 1, 2)", "Run 2 (columns 3, 4)")
+    np.testing.assert_allclose(data.runs[1].y_m, 0.01 * np.round(0.5 * y, 4), atol=1e-9)
+    bad = write(tmp_path, "bad.csv", "t,y,y\n" + "\n".join(f"{a},{b},{b}" for a, b in zip(t, y)) + "\n")
+    with pytest.raises(DataError, match="bad.csv:1: 2 columns 'y' but 1 columns 't'"):
+        read_measurement(bad)
+
+
 # --------------------------------------------------------------------------- phyphox (In)elastic collision
 
 
@@ -301,6 +357,26 @@ def test_phyphox_collision_export_from_a_workbook(tmp_path):
     wb.save(tmp_path / "collision.xlsx")
     data = read_measurement(tmp_path / "collision.xlsx")
     np.testing.assert_allclose(data.t_s, t, rtol=1e-6)
+
+
+def test_the_acoustic_stopwatch_multiple_set_gives_its_six_events(tmp_path):
+    t = impact_times(H=0.5, eps=0.9, n=6) + 0.31
+    header = '"Start (s)",' + ",".join(f'"Stop {k} (s)"' for k in range(1, 6))
+    p = write(tmp_path, "multiple.csv", header + "\n" + ",".join(f"{v:.6f}" for v in t) + "\n")
+    assert detect_format(p) == "phyphox-collision"
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-6)
+    assert "Acoustic Stopwatch" in data.notes[0]
+
+
+def test_the_real_stopwatch_workbook_gives_the_same_events_from_its_multiple_sheet_and_refuses_simple():
+    pytest.importorskip("xlrd")
+    path = shared_file("realval/giiulia_phyphox_excel/tennis_ball/Lancio 1, tennis, 65.xls")
+    every = read_measurement(path)                      # the sheet 'All'
+    six = read_measurement(path, sheet="Multiple")
+    np.testing.assert_allclose(six.t_s, every.t_s[:six.t_s.size], atol=1e-9)
+    with pytest.raises(DataError, match="set 'Simple' holds two events.*export the set 'All'"):
+        read_measurement(path, sheet="Simple")
 
 
 # --------------------------------------------------------------------------- spreadsheets

@@ -14,6 +14,7 @@ from typing import Callable, NamedTuple
 from vrcal.errors import UsageError
 from vrcal.measurements import (
     apexes,
+    audacity_labels,
     drops,
     excel,
     impacts,
@@ -48,12 +49,16 @@ FORMATS = {
     "pixels-ref": Format(pixels_ref.detect, pixels_ref.parse,
                          "reference-length pixel file: line 1 'LENGTH_M;LENGTH_PX', then 'y_img;x_img;' per frame "
                          "(image y down; needs --fs)"),
+    "audacity-labels": Format(audacity_labels.detect, audacity_labels.parse,
+                              "Audacity label export (no header; 'start<TAB>end<TAB>text' per label): the labels' "
+                              "starts are the impact times"),
     "tracker": Format(tracker.detect, tracker.parse,
                       "Tracker data export: line 1 the track name (mass_A), then columns t, x, y "
                       "(tab, space, comma or semicolon)"),
     "phyphox-collision": Format(phyphox_collision.detect, phyphox_collision.parse,
-                                "phyphox (In)elastic collision export: one row, columns 'Bounce 0 (s)', "
-                                "'Height 0 (m)', ..., 'Bounce 5 (s)' (the impact times are read)"),
+                                "phyphox one-row export: (In)elastic collision ('Bounce 0 (s)', 'Height 0 (m)', "
+                                "..., 'Bounce 5 (s)'; the impact times are read) or Acoustic Stopwatch "
+                                "('Start (s)', 'Stop 1 (s)', ..., 'Stop 5 (s)')"),
     "drops": Format(drops.detect, drops.parse,
                     "drop table: one trial per row, drop and rebound heights ('H,h', 'drop,rebound'; m, cm, mm)"),
     "apexes": Format(apexes.detect, apexes.parse, "apex heights: header 'bounce,h' (bounce 0 = drop height, m)"),

@@ -3,7 +3,10 @@
 brackets (``t (s)``, ``y [cm]``, ``y (px)``) or after the name (``t_s``, ``y_cm``, ``t/s``,
 ``height in mm``). Without a time column the sample times come from the frame rate (``--fs``),
 and from a ``frame`` column when there is one (frames not tracked leave gaps). A file without a header
-whose lines hold two numbers, the first increasing, is read as ``t, y`` in s and m.
+whose lines hold two numbers, the first increasing, is read as ``t, y`` in s and m. A header that
+repeats its time and height columns (a Vernier export of several runs, ``Run 1: Time (s)``,
+``Run 1: Position (m)``, ``Run 2: Time (s)``, ...) holds runs side by side: one run per pair, in
+order, fitted jointly (:class:`~vrcal.measurements.types.Runs`).
 ``vrcal simulate`` writes ``t,y``.
 
 Also the shared last step of every video-track reader (:func:`trajectory_from_table`):
@@ -39,7 +42,7 @@ from vrcal.measurements.table import (
     to_float,
     unit_factor,
 )
-from vrcal.measurements.types import Trajectory
+from vrcal.measurements.types import Runs, Trajectory
 
 #: Fewest samples a trajectory must have (whether bounces are present is the fitter's business).
 MIN_TRAJECTORY_SAMPLES = 20
@@ -99,7 +102,7 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
 
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
-                           force_scale=None):
+                           force_scale=None, empty_rows="frames not marked"):
     cols = table.cols
     t_col = find_column(cols, TIME_NAMES)
     y_col = find_column(cols, Y_NAMES)
@@ -114,7 +117,7 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     if skip_empty_y:
         empty = np.isnan(y)
         if np.any(empty):
-            notes.append(f"skipped {int(empty.sum())} row(s) without a position (frames not marked)")
+            notes.append(f"skipped {int(empty.sum())} row(s) without a position ({empty_rows})")
     else:
         empty = np.zeros(y.size, dtype=bool)
     # time
@@ -177,6 +180,42 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     return finish_trajectory(path, t, y_m, line_numbers, notes, positions)
 
 
+def side_by_side_runs(path, table):
+    """[(time column or None, height column, x column or None)] of each run when the header repeats its
+    height column (runs side by side), else None. The k-th time (and x) column goes with the k-th height
+    column; a header whose time columns do not pair with its height columns is an error."""
+    cols = table.cols
+    y0, t0, x0 = find_column(cols, Y_NAMES), find_column(cols, TIME_NAMES), find_column(cols, X_NAMES)
+    if y0 is None:
+        return None
+
+    def same(col):
+        return [] if col is None else [c for c in cols if c.name == col.name and c.unit == col.unit]
+
+    ys, ts, xs = same(y0), same(t0), same(x0)
+    if len(ys) < 2:
+        return None
+    if ts and len(ts) != len(ys):
+        fail(path, table.header_line, f"{len(ys)} columns '{y0.raw}' but {len(ts)} columns '{t0.raw}': runs side "
+                                      f"by side need one time column per height column")
+    if len(xs) != len(ys):
+        xs = []
+    return [(ts[k] if ts else None, ys[k], xs[k] if xs else None) for k in range(len(ys))]
+
+
+def _data_set_names(text, table, pairs):
+    """A label per run: the data set's name before its height column (``Run 2``), else its columns."""
+    header = dict(text.lines).get(table.header_line, "")
+    cells = split_cells(header, table.sep) if header else []
+    labels = []
+    for t_col, y_col, _ in pairs:
+        cell = cells[y_col.index] if y_col.index < len(cells) else ""
+        name = cell.split(":", 1)[0].strip() if ":" in cell else ""
+        where = f"columns {t_col.index + 1}, {y_col.index + 1}" if t_col is not None else f"column {y_col.index + 1}"
+        labels.append(f"{name} ({where})" if name else where)
+    return labels
+
+
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     notes = ["format: trajectory (t, y columns)"]
     if header_columns(text) is None:
@@ -184,6 +223,17 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append("no header: two columns read as t [s], y [m]")
     else:
         table = parse_table(text)
+    pairs = side_by_side_runs(text.path, table)
+    if pairs is not None:
+        labels = _data_set_names(text, table, pairs)
+        runs = []
+        for label, pair in zip(labels, pairs):
+            sub = table._replace(cols=[c for c in pair if c is not None])
+            runs.append(trajectory_from_table(f"{text.path} ({label})", sub, scale_m_per_px=scale_m_per_px,
+                                              y_down=y_down, fs_hz=fs_hz, notes=tuple(notes), skip_empty_y=True,
+                                              empty_rows=f"after the end of {label}"))
+        return Runs(runs=tuple(runs), source=text.path, labels=tuple(labels),
+                    notes=(f"{len(runs)} runs side by side ({', '.join(labels)}): fitted jointly",))
     traj = trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
                                  notes=tuple(notes))
     # what the tool that made the file knows of its errors ('vrcal track' writes them as comments)
