@@ -12,7 +12,7 @@ from vrcal.cli import main
 from vrcal.discovery.ranking import discover
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
 from vrcal.drop.synthetic import drop_table_case, drop_table_csv
-from vrcal.measurements import ImpactTimes, Runs, Trajectory
+from vrcal.measurements import ImpactTimes, Runs, Trajectory, read_measurement
 from vrcal.model.body import BallProperties
 from vrcal.model.standards import get_ball
 
@@ -47,6 +47,46 @@ def test_planted_drop_tables_name_the_effect(planted, n_heights):
             assert d.epsilon == pytest.approx(truth["epsilon"], abs=0.01)
         else:
             assert d.epsilon == pytest.approx(truth["epsilon"], abs=0.01)
+
+
+def _classroom_table(rng, effects=None, eps=0.8, rel_noise=0.01, ball=TENNIS, heights=(0.5, 1.0, 1.5, 2.0),
+                     trials=3):
+    """A table as a class writes it: the nominal drop height, then the rebound of each trial read to
+    about rel_noise of its height (a ruler and an eye; the ball's own scatter)."""
+    H = np.repeat(np.asarray(heights, float), trials)
+    drops = simulate_drops(H, eps, 1, ball, effects=effects)
+    h = drops.observed_apex_heights_m[:, 1] * (1.0 + rel_noise * rng.normal(size=H.size))
+    return "H (m),h (m)\n" + "".join(f"{a:.2f},{b:.4f}\n" for a, b in zip(H, h))
+
+
+def test_repeated_trials_measure_the_noise_and_name_no_effect_that_is_not_there(tmp_path):
+    """Rebounds read to 1 % with three trials per height: the noise is the trials' scatter (not the
+    2 mm assumed for a single reading), and no effect is named on a ball without one."""
+    from vrcal.discovery.ranking import REPLICATE_SOURCE
+    from vrcal.discovery.residuals import replicate_sigma
+
+    named = 0
+    for seed in range(6):
+        path = tmp_path / f"t{seed}.csv"
+        path.write_text(_classroom_table(np.random.default_rng(seed)))
+        data = read_measurement(path)
+        sigma, dof = replicate_sigma(data.runs)
+        assert dof == 8 and 0.003 < sigma < 0.02
+        d = discover(data, TENNIS)
+        assert d.noise_source == REPLICATE_SOURCE and d.noise_floor == pytest.approx(sigma)
+        assert d.epsilon == pytest.approx(0.8, abs=0.01)
+        named += bool(d.effects)
+    assert named <= 1
+
+
+def test_repeated_trials_still_show_a_strong_drag(tmp_path):
+    """A ping-pong ball from 0.3-2 m read to 0.5 %: drag is far beyond the trials' scatter."""
+    path = tmp_path / "tt.csv"
+    path.write_text(_classroom_table(np.random.default_rng(1), {"air_drag": {"drag_coefficient": 0.47}}, eps=0.9,
+                                     rel_noise=0.005, ball=TT, heights=(0.3, 0.8, 1.4, 2.0)))
+    d = discover(read_measurement(path), TT)
+    assert d.effects == ["air_drag"]
+    assert d.final.effect_values["air_drag"]["drag_coefficient"] == pytest.approx(0.47, rel=0.25)
 
 
 def test_a_drop_table_from_the_command_line(tmp_path):

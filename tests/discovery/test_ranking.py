@@ -391,3 +391,22 @@ def test_an_offset_within_the_floor_levels_uncertainty_is_not_named():
     assert "height_offset" not in uncertain.effects
     judged = [c for c in uncertain.rounds[0] if c.name == "height_offset"]
     assert judged and "within the floor level's uncertainty" in judged[0].verdict
+
+
+def test_impact_times_from_a_30_fps_video_are_judged_at_their_frame_grid(tmp_path):
+    """A tennis ball's impacts read off a 30 fps video (every time on a frame): the noise is the grid's
+    33.3 ms / sqrt(12), not a stopwatch's 0.2 ms, the quantisation is not called the ball's own
+    bounce-to-bounce scatter, and epsilon comes out within its uncertainty."""
+    from vrcal.discovery.ranking import GRID_SOURCE
+    from vrcal.measurements import read_measurement
+
+    tennis = BallProperties.from_ball(get_ball("tennis"))
+    drops = simulate_drops(1.2, 0.75, 9, tennis, release_time_s=0.3)
+    t = np.round(np.asarray(drops.impact_times_s)[0] * 30.0) / 30.0
+    path = tmp_path / "video_impacts.csv"
+    path.write_text("t (s)\n" + "".join(f"{v:.4f}\n" for v in t))
+    d = discover(read_measurement(path), tennis)
+    assert d.noise_source == GRID_SOURCE and d.noise_floor == pytest.approx(1 / 30 / np.sqrt(12), rel=0.01)
+    assert d.effects == [] and d.verdict == "explained"
+    assert d.scatter < 0.01
+    assert abs(d.epsilon - 0.75) < max(3 * d.final.uncertainty("epsilon"), 0.005)

@@ -143,6 +143,27 @@ def test_times_printed_too_coarsely_for_the_frame_rate_are_put_back_on_their_gri
     assert any("times printed to 0.001 s" in n for n in data.notes)
 
 
+@pytest.mark.parametrize("fps", [24.0, 25.0, 30000 / 1001, 30.0, 60.0, 120.0, 240.0])
+@pytest.mark.parametrize("decimals", [3, 4, 6])
+def test_impact_times_read_off_video_frames_carry_the_grid_as_their_timing_noise(tmp_path, fps, decimals):
+    t = np.round(np.round(impact_times(H=1.0, eps=0.8, n=8) * fps) / fps, decimals)
+    data = read_measurement(write(tmp_path, "v.csv", "t\n" + "\n".join(f"{v:.{decimals}f}" for v in t) + "\n"))
+    if decimals == 3 and fps >= 120:   # 1 ms printing is the coarser grid... or the frames cannot be told
+        assert data.timing_sd_s == pytest.approx(1e-3 / np.sqrt(12)) or data.timing_sd_s > 1e-3 / np.sqrt(12)
+        return
+    assert data.timing_sd_s == pytest.approx(1.0 / fps / np.sqrt(12), rel=0.01)
+    assert any(f"{1e3 / fps:.4g} ms grid" in n and "fps video" in n for n in data.notes), data.notes
+
+
+def test_finely_timed_impacts_have_no_grid():
+    from vrcal.measurements.cleanup import time_grid
+
+    rng = np.random.default_rng(7)
+    found = [time_grid(np.round(np.cumsum(rng.uniform(0.1, 0.6, 8)), 6)) for _ in range(2000)]
+    assert sum(g is not None for g in found) <= 2
+    assert read_measurement(shared_file("realval/giiulia/golf_100cm_r1.csv")).timing_sd_s == 0.0
+
+
 @settings(max_examples=60, deadline=None)
 @given(fs=st.floats(20.0, 250.0), t0=st.floats(0.0, 5.0), n=st.integers(20, 400), decimals=st.integers(2, 3),
        gap=st.integers(3, 40))
@@ -224,6 +245,41 @@ def test_unsorted_labels_are_an_error_naming_the_line(tmp_path):
     p = write(tmp_path, "labels.txt", "0.5\t0.5\t\n1.2\t1.2\t\n0.9\t0.9\t\n")
     with pytest.raises(DataError, match=r"labels.txt:3: label start not increasing"):
         read_measurement(p, "audacity-labels")
+
+
+@pytest.mark.parametrize("header", ["Drop height (cm),Rebound height (cm)", "Height dropped (cm),Height bounced (cm)",
+                                    "drop_cm,bounce_cm", "Dropped from (cm);Bounced to (cm)",
+                                    "Release height [cm],Bounce height [cm]", "Initial height (cm),Return height (cm)"])
+def test_drop_tables_as_students_name_their_columns(tmp_path, header):
+    H, h = [50.0, 100.0, 150.0], [32.1, 63.5, 94.2]
+    sep = ";" if ";" in header else ","
+    p = write(tmp_path, "t.csv", header + "\n" + "".join(f"{a}{sep}{b}\n" for a, b in zip(H, h)))
+    assert detect_format(p) == "drops"
+    data = read_measurement(p)
+    assert [tuple(r.h_m) for r in data.runs] == [pytest.approx((a / 100, b / 100)) for a, b in zip(H, h)]
+
+
+def test_trials_side_by_side_are_one_run_each_and_the_average_is_not_read(tmp_path):
+    text = ("Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)\n"
+            "50,32.0,33.1,,32.6\n100,64.2,63.0,65.1,64.1\n")
+    data = read_measurement(write(tmp_path, "trials.csv", text))
+    assert len(data.runs) == 5   # the empty cell is a trial not made
+    assert [r.h_m[1] for r in data.runs] == pytest.approx([0.320, 0.331, 0.642, 0.630, 0.651])
+    assert data.labels[1] == "row 1 (line 2), 'Trial 2'"
+    assert any("'Average' not read" in n for n in data.notes)
+
+
+@pytest.mark.parametrize("rows,trials", [(("100,64,63,65", "50,32,33,31"), True),
+                                         (("100,64,41,26", "50,32,20.5,13"), False)])
+def test_numbered_rebound_columns_are_trials_or_successive_bounces_by_their_values(tmp_path, rows, trials):
+    data = read_measurement(write(tmp_path, "n.csv", "H (cm),Bounce 1 (cm),Bounce 2 (cm),Bounce 3 (cm)\n"
+                                  + "\n".join(rows) + "\n"))
+    if trials:
+        assert len(data.runs) == 6 and all(list(r.bounce) == [0, 1] for r in data.runs)
+        assert any("trials of the row's drop height" in n for n in data.notes)
+    else:
+        assert len(data.runs) == 2 and list(data.runs[0].bounce) == [0, 1, 2, 3]
+        assert any("successive rebounds of one drop" in n for n in data.notes)
 
 
 @pytest.mark.parametrize("header,scale", [("H,h", 1.0), ("drop (cm),rebound (cm)", 100.0),

@@ -85,6 +85,13 @@ from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 #: standard deviation replaces it when the residuals are larger; ``noise=`` overrides it.
 ASSUMED_NOISE = {"impacts": 2e-4, "apexes": 2e-3, "trajectory": 1e-3}
 
+#: ``Discovery.noise_source`` when the noise of a drop table is the scatter of its repeated trials
+#: (:func:`vrcal.discovery.residuals.replicate_sigma`).
+REPLICATE_SOURCE = "scatter of the rebounds of trials repeated at one drop height"
+#: ... when it is the grid that impact times were read on (a video's frames, times printed to 0.01 s:
+#: ``ImpactTimes.timing_sd_s``).
+GRID_SOURCE = "grid of the impact times (step/sqrt(12))"
+
 #: The verdict "explained": the final gap is at most this many times the noise floor (or the
 #: record's bounce-to-bounce scatter, when larger).
 EXPLAINED_FACTOR = 3.0
@@ -668,7 +675,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         noise_source = f"third differences of all samples (every {prepared.decimation}th fitted)"
     else:
         sigma_floor = res.noise_floor(fitted)
-        noise_source = "third differences of the samples"
+        noise_source = REPLICATE_SOURCE if kind == "apexes" else "third differences of the samples"
         if sigma_floor is None:
             sigma_floor, noise_source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
@@ -678,6 +685,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     read_runs = res._runs_of(data)
     systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
     floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in read_runs)
+    timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
+    if noise is None and kind == "impacts" and timing > sigma_floor:
+        sigma_floor, noise_source = timing, GRID_SOURCE
     if noise is None and kind == "trajectory" and systematic > 0:
         sigma_floor = math.hypot(sigma_floor, systematic)
         noise_source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
@@ -749,7 +759,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     split = split_by_priors(problem, current, named, ambiguous, current.noise_sigma(sigma_floor))
     scatter = scatter_gap = None
     if kind == "impacts":
-        values = [res.ratio_scatter(run.t_s) for run in problem.runs]
+        # a coarse grid of the times (a video's frames) scatters the ratios too: its share is not the ball's
+        grid = sigma_floor if noise_source == GRID_SOURCE else 0.0
+        values = [res.ratio_scatter(run.t_s, grid) for run in problem.runs]
         values = [v for v in values if v is not None]
         if values:
             scatter = float(np.median(values))

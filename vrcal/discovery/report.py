@@ -61,7 +61,10 @@ def pm(value, unc, unit=""):
     if unc is None or not math.isfinite(unc) or unc <= 0:
         return f"{number(v, 4)}{tail}"
     u = float(unc) * factor
-    digits = min(max(0, 1 - int(math.floor(math.log10(u)))), 9)
+    digits = 1 - int(math.floor(math.log10(u)))
+    if digits > 9:   # a noise-free record: the value is exact to far more digits than anyone needs
+        return f"{number(v, 6)} ± {u:.1g}{tail}"
+    digits = max(0, digits)
     return f"{v:.{digits}f} ± {u:.{digits}f}{tail}"
 
 
@@ -103,13 +106,19 @@ def _param_values(d, name):
 
 def _noise_text(d):
     """What the gap is compared with, as a phrase: 'noise is 0.513 mm (measured from the samples)'."""
+    from vrcal.discovery.ranking import GRID_SOURCE, REPLICATE_SOURCE
+
     unit = d.unit
     src = "measured from the samples" if d.noise_source.startswith("third") else (
-        "given" if d.noise_source == "given" else "assumed")
+        "given" if d.noise_source == "given" else
+        "measured: the scatter of repeated trials" if d.noise_source == REPLICATE_SOURCE else
+        "the grid the times were read on" if d.noise_source == GRID_SOURCE else "assumed")
     if d.decimation > 1 and d.noise_source.startswith("third"):
         src = f"measured on all {d.n_read:,} samples"
     if "systematic error" in d.noise_source:
         src += " with the tracker's systematic error"
+    if src == "assumed" and d.kind == "apexes" and len(d.runs) > 1:
+        src = "assumed; repeat trials at each drop height to measure it, or give --noise"
     noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
     if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
         return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "

@@ -200,10 +200,14 @@ def noise_floor(data):
     with variance 20 σ² (coefficients 1, -3, 3, -1). The median absolute deviation
     makes the estimate robust to the few differences that straddle an impact or the
     release. Several runs: the root mean square of the runs' estimates (weighted by their
-    samples). Impact times and apex heights are too few for a model-free estimate:
-    None (the discover workflow then assumes an instrument noise).
+    samples). Apex heights: the pooled scatter of the rebounds of trials repeated at one drop
+    height (:func:`replicate_sigma`), when the table repeats trials. Impact times, and apex
+    heights without repeated trials, are too few for a model-free estimate: None (the discover
+    workflow then assumes an instrument noise).
     """
     runs = _runs_of(data)
+    if runs[0].kind == "apexes":
+        return replicate_sigma(runs)[0]
     if runs[0].kind != "trajectory":
         return None
     values, weights = [], []
@@ -215,6 +219,36 @@ def noise_floor(data):
     if not values:
         return None
     return float(math.sqrt(np.average(values, weights=weights)))
+
+
+#: Fewest degrees of freedom of repeated trials that give a measured noise (:func:`replicate_sigma`).
+MIN_REPLICATE_DOF = 3
+
+
+def replicate_sigma(runs):
+    """(σ [m] or None, degrees of freedom): the pooled standard deviation of the rebound heights of
+    trials repeated at one drop height (the same drop height as written, the same bounce number).
+
+    It is the "pure error" of a lack-of-fit test: what no model of the contact can follow (the
+    reading of each rebound, and the ball's own bounce-to-bounce scatter), measured without a model.
+    None with fewer than :data:`MIN_REPLICATE_DOF` degrees of freedom.
+    """
+    groups = {}
+    for run in runs:
+        b, h = np.asarray(run.bounce, dtype=int), np.asarray(run.h_m, dtype=float)
+        if b.size < 2 or b[0] != 0:
+            continue
+        for bounce, height in zip(b[1:], h[1:]):
+            groups.setdefault((round(float(h[0]), 9), int(bounce)), []).append(float(height))
+    ss, dof = 0.0, 0
+    for values in groups.values():
+        if len(values) >= 2:
+            v = np.asarray(values)
+            ss += float(np.sum((v - v.mean()) ** 2))
+            dof += v.size - 1
+    if dof < MIN_REPLICATE_DOF:
+        return None, dof
+    return math.sqrt(ss / dof), dof
 
 
 def _third_difference_sigma(t, y):
@@ -236,7 +270,7 @@ def _third_difference_sigma(t, y):
     return float(sigma) if sigma > 1e-6 * float(np.ptp(y)) else None
 
 
-def ratio_scatter(t_s):
+def ratio_scatter(t_s, timing_sigma_s=0.0):
     """Bounce-to-bounce scatter of a series of impact times: the robust standard deviation of
     the change of ln(dt_{i+1} / dt_i) from one ratio to the next, divided by sqrt(2)
     (dimensionless; 0.006 = the interval ratios scatter by 0.6 %), or None with fewer than
@@ -246,6 +280,11 @@ def ratio_scatter(t_s):
     changes successive ratios; a ball that hits the floor at slightly different spots, with
     some spin or drifting sideways, changes each one at random. This is the scatter a
     constant law cannot follow, whatever its effects.
+
+    ``timing_sigma_s`` [s]: the timing noise of each time. Its share is taken out (in quadrature):
+    the change of successive ratios is d = M e for timing errors e (M from the intervals), so
+    timing alone scatters d by ``timing_sigma_s`` times the median row norm of M. It matters for
+    times on a coarse grid (a 30 fps video: 9.6 ms on intervals of a few tenths of a second).
     """
     t = np.asarray(t_s, dtype=float)
     if t.size < 6:
@@ -253,7 +292,16 @@ def ratio_scatter(t_s):
     dt = np.diff(t)
     d = np.diff(np.log(dt[1:] / dt[:-1]))
     mad = float(np.median(np.abs(d - np.median(d))))
-    return 1.4826 * mad / math.sqrt(2.0)
+    scatter = 1.4826 * mad / math.sqrt(2.0)
+    if timing_sigma_s > 0:
+        n = t.size
+        D = np.zeros((n - 1, n))   # d ln(dt_j) = (e_{j+1} - e_j) / dt_j
+        D[np.arange(n - 1), np.arange(n - 1)] = -1.0 / dt
+        D[np.arange(n - 1), np.arange(1, n)] = 1.0 / dt
+        M = np.diff(D, n=2, axis=0)
+        timing = float(timing_sigma_s) * math.sqrt(float(np.median(np.sum(M * M, axis=1)))) / math.sqrt(2.0)
+        scatter = math.sqrt(max(scatter**2 - timing**2, 0.0))
+    return scatter
 
 
 def scatter_gap(fit, scatter):

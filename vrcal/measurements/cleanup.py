@@ -173,6 +173,68 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     return RegularTimes(grid, resolution, step, change)
 
 
+#: Frame rates of cameras and phones [Hz], slowest first: impact times read off a video lie on a grid
+#: of one of them.
+VIDEO_FRAME_RATES_HZ = (24.0, 25.0, 30000 / 1001, 30.0, 50.0, 60000 / 1001, 60.0, 100.0, 120.0, 240.0, 480.0,
+                        960.0)
+
+
+class TimeGrid(NamedTuple):
+    """The grid a list of event times lies on (:func:`time_grid`)."""
+
+    period_s: float   # the grid's step [s]
+    what: str         # "a 29.97 fps video's frames", "times printed to 0.01 s"
+
+    @property
+    def sigma_s(self):
+        """Standard deviation [s] of a time rounded to the grid: period / sqrt(12)."""
+        return self.period_s / 12**0.5
+
+
+def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
+    """The coarsest grid that impact times lie on, or None: the frames of a video (times read off
+    a camera at one of :data:`VIDEO_FRAME_RATES_HZ` with a period of at least ``min_period_s``:
+    t = t0 + k / fps, k whole, every time within ``tolerance`` of a frame period of the grid, or
+    within the printed rounding when that is at most a tenth of the period) or the printed
+    resolution (``0.45, 1.22, 1.88``: 0.01 s, from 1 ms up). Grids finer than ``min_period_s``
+    (0.43 ms standard deviation) are below an acoustic stopwatch's own timing noise.
+
+    A list of times with such a grid is only as good as the grid: each time is off by up to half a
+    step, a standard deviation of step/sqrt(12) (9.6 ms at 30 fps), however well the sound or the
+    tracker timed the event. Times at random fall within the slack of a grid with a chance of about
+    (2 slack / period) per time: below 1e-5 for ``min_times`` times.
+    """
+    t = np.asarray(t_s, dtype=float)
+    if t.size < min_times or not np.all(np.isfinite(t)):
+        return None
+    printed = 0.0
+    for d in range(7):
+        q = t * 10.0**d
+        if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
+            printed = 10.0**-d
+            break
+    found = []
+    for fps in VIDEO_FRAME_RATES_HZ:
+        period = 1.0 / fps
+        if period < min_period_s:
+            continue
+        k = np.round((t - t[0]) / period)
+        if np.any(np.diff(k) < 1):
+            continue
+        t0 = float(np.mean(t - k * period))
+        dev = float(np.max(np.abs(t - t0 - k * period)))
+        if dev <= tolerance * period or (dev <= 0.6 * printed and 0.6 * printed <= 0.1 * period):
+            found.append((period, dev, fps))
+    if found:
+        coarsest = max(p for p, _, _ in found)
+        period, _, fps = min((f for f in found if f[0] > 0.99 * coarsest), key=lambda f: f[1])
+        if abs(period - printed) > 0.01 * period:   # else the grid is the printing's (0.01 s: 100 fps)
+            return TimeGrid(period, f"the frames of a {fps:.4g} fps video")
+    if printed >= 1e-3:
+        return TimeGrid(printed, f"times printed to {printed:g} s")
+    return None
+
+
 def find_duplicated_frames(positions, release_index=0):
     """Indices of duplicated video frames: a repeat of the previous frame while the ball moves.
 

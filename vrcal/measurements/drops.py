@@ -3,10 +3,19 @@
 The header names which column is which (case matters only for ``H`` and ``h``):
 
 * the drop height: ``H``, ``H0``, ``h0``, ``drop``, ``drop height``, ``release height``,
-  ``initial height``;
+  ``initial height``, or any name with a word starting ``drop``, ``releas``, ``initial`` or
+  ``fall`` (``Height dropped (m)``, ``Dropped from (cm)``, ``drop_cm``);
 * the first rebound: ``h``, ``h1``, ``rebound``, ``rebound height``, ``bounce height``,
-  ``first rebound``; further rebounds of the same trial may follow as ``h2``, ``h3``, ...;
-* other columns (``trial``, ``n``, a comment) are ignored.
+  ``first rebound``, or any name with a word starting ``rebound``, ``bounc``, ``return`` or
+  ``reach`` (``Height bounced (m)``, ``Bounced to (cm)``; a ``bounce`` column with a length unit
+  is a height, not a bounce number); further rebounds of the same trial may follow as ``h2``,
+  ``h3``, ...;
+* **trials side by side**: a drop height and several rebound columns numbered by trial
+  (``Trial 1 (cm)``, ``Trial 2 (cm)``, ``Run 3``, ``Try 2``), the classroom table with one row per
+  drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... are trials when their values
+  agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
+  when each is clearly below the one before; the notes say which;
+* other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are ignored.
 
 Units in brackets (``H (cm)``, ``h [mm]``; m when none). A height column without a unit takes
 the unit of the other height columns when they agree on one (with a note). Every row is a
@@ -20,6 +29,7 @@ epsilon apart.
 from __future__ import annotations
 
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -41,72 +51,149 @@ DROP_NAMES = ("h0", "h 0", "drop", "drop height", "release height", "initial hei
 REBOUND_NAMES = ("h1", "h 1", "rebound", "rebound height", "bounce height", "first rebound", "hrebound",
                  "h rebound", "return height", "rebound h")
 _MORE = re.compile(r"^h\s*(\d+)$")
+#: Word beginnings that mark a drop-height or a rebound column (``Height dropped``, ``Bounced to``).
+_DROP_WORDS = ("drop", "releas", "initial", "fall")
+_REBOUND_WORDS = ("rebound", "bounc", "return", "reach")
+#: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
+#: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
+_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|drop)\s*#?\s*(\d+)$")
+_NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
+
+
+def _length_unit(c):
+    return c.unit == "" or c.unit in LENGTH_UNITS
+
+
+def _has_word(name, starts):
+    return any(word.startswith(starts) for word in re.split(r"[\s/_-]+", name))
+
+
+class DropColumns(NamedTuple):
+    """The height columns of a drop table: the drop height, one ``{bounce: Column}`` per trial of a row
+    (bounce 1 the first rebound, 2 the next, ...), and whether several trials share a row."""
+
+    drop: object
+    trials: list
+    numbered: list   # trial-or-rebound columns the values must decide between (``Rebound 1``, ``Rebound 2``)
 
 
 def _height_columns(cols):
-    """{bounce number: Column} of a drop table, or None when the columns are not one."""
-    drop = next((c for c in cols if c.raw in ("H", "H0", "H 0")), None) or find_column(cols, DROP_NAMES)
+    """:class:`DropColumns` of a drop table, or None when the columns are not one."""
+    heights = [c for c in cols if _length_unit(c)]
+    drop = next((c for c in heights if c.raw in ("H", "H0", "H 0")), None) or find_column(heights, DROP_NAMES) \
+        or next((c for c in heights if _has_word(c.name, _DROP_WORDS) and not _has_word(c.name, _REBOUND_WORDS)),
+                None)
     if drop is None:
         return None
-    rebound = find_column(cols, REBOUND_NAMES) or next((c for c in cols if c.raw == "h"), None)
-    if rebound is None or rebound.index == drop.index:
+    rest = [c for c in heights if c.index != drop.index]
+    trials = [c for c in rest if _TRIAL.match(c.name)]
+    if len(trials) >= 2:
+        return DropColumns(drop, [{1: c} for c in trials], [])
+    numbered = [c for c in rest if _NUMBERED.match(c.name)]
+    if len(numbered) >= 2:
+        numbered.sort(key=lambda c: int(_NUMBERED.match(c.name).group(1)))
+        return DropColumns(drop, [], numbered)
+    rebound = find_column(rest, REBOUND_NAMES) or next((c for c in rest if c.raw == "h"), None) \
+        or next((c for c in rest if _has_word(c.name, _REBOUND_WORDS) and c.unit), None) \
+        or next((c for c in rest if _has_word(c.name, _REBOUND_WORDS) and c.name not in BOUNCE_NAMES), None)
+    if rebound is None:
         return None
-    out = {0: drop, 1: rebound}
-    for c in cols:
+    out = {1: rebound}
+    for c in rest:
         m = _MORE.match(c.name)
-        if m and int(m.group(1)) >= 2 and c.index not in (drop.index, rebound.index):
+        if m and int(m.group(1)) >= 2 and c.index != rebound.index:
             out.setdefault(int(m.group(1)), c)
-    return out
+    return DropColumns(drop, [out], [])
+
+
+def _trials_or_rebounds(values, columns):
+    """Numbered rebound columns as trials ([{1: c}, ...]) when their values agree row by row (each
+    within 25 % of the first), as successive rebounds of one drop ([{1: c1, 2: c2, ...}]) when every
+    one is below the one before; a note says which. ``values``: (rows, columns) heights."""
+    first = values[:, :1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        agree = np.abs(values / first - 1.0) <= 0.25
+        falling = np.diff(values, axis=1) < 0
+    agree, falling = agree[np.isfinite(values)].all(), falling[np.isfinite(values[:, 1:])].all()
+    names = ", ".join(f"'{c.raw}'" for c in columns)
+    if agree and not falling:
+        return [{1: c} for c in columns], f"columns {names}: trials of the row's drop height (their values agree)"
+    return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
 
 
 def detect(text):
     cols = header_columns(text)
-    if not cols or find_column(cols, BOUNCE_NAMES) is not None or find_column(cols, TIME_NAMES) is not None:
+    if not cols or find_column(cols, TIME_NAMES) is not None:
         return False
+    number = find_column(cols, BOUNCE_NAMES)
+    if number is not None and not (number.unit and number.unit in LENGTH_UNITS):
+        return False   # a bounce-number column: an apex file
     return _height_columns(cols) is not None
 
 
-def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
-    path = text.path
-    table = parse_table(text)
-    heights = _height_columns(table.cols)
-    if heights is None:
-        fail(path, table.header_line, "a drop table needs a drop-height column ('H', 'drop') and a rebound "
-              "column ('h', 'rebound')")
-    if not table.rows:
-        fail(path, table.header_line, "header but no data rows")
-    names = ", ".join(f"'{c.raw}'" for _, c in sorted(heights.items()))
-    notes = [f"format: drop table (one trial per row; drop and rebound heights from columns {names})"]
-    units = {c.unit for c in heights.values() if c.unit}
+def _unit_factors(path, table, columns, scale_m_per_px, notes):
+    """{column index: factor to m} of the height columns (a column without a unit takes the others')."""
+    units = {c.unit for c in columns if c.unit}
     factors = {}
-    for b, c in heights.items():
+    for c in columns:
         unit = c.unit
         if not unit and len(units) == 1:
             unit = next(iter(units))
             notes.append(f"column '{c.raw}' has no unit: taken as {unit} like the other heights")
         if unit not in LENGTH_UNITS or LENGTH_UNITS[unit] is None:
             fail(path, table.header_line, f"unknown length unit '{unit}' of column '{c.raw}' (known: m, cm, mm)")
-        factors[b] = LENGTH_UNITS[unit]
+        factors[c.index] = LENGTH_UNITS[unit]
     if scale_m_per_px is not None:
-        factors = {b: float(scale_m_per_px) for b in factors}
         notes.append(f"heights scaled by --scale {scale_m_per_px:g} m per file unit")
-    elif units - {"m"}:
+        return {i: float(scale_m_per_px) for i in factors}
+    if units - {"m"}:
         notes.append(f"heights converted from {', '.join(sorted(units - {'m'}))} to m")
-    values = {b: column_values(path, table, c, what="height", allow_empty=b >= 2) * factors[b]
-              for b, c in heights.items()}
+    return factors
+
+
+def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
+    path = text.path
+    table = parse_table(text)
+    found = _height_columns(table.cols)
+    if found is None:
+        fail(path, table.header_line, "a drop table needs a drop-height column ('H', 'drop') and a rebound "
+              "column ('h', 'rebound')")
+    if not table.rows:
+        fail(path, table.header_line, "header but no data rows")
+    columns = [found.drop] + found.numbered + [c for trial in found.trials for c in trial.values()]
+    notes = []
+    factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
+    values = {c.index: column_values(path, table, c, what="height", allow_empty=c.index != found.drop.index)
+              * factors[c.index] for c in columns}
+    trials = found.trials
+    if found.numbered:
+        trials, how = _trials_or_rebounds(np.column_stack([values[c.index] for c in found.numbered]), found.numbered)
+        notes.append(how)
+    per_row = len(trials)
+    names = ", ".join(f"'{c.raw}'" for c in [found.drop] + [c for t in trials for c in t.values()])
+    what = "one trial per row" if per_row == 1 else f"{per_row} trials per row, side by side"
+    notes.insert(0, f"format: drop table ({what}; drop and rebound heights from columns {names})")
+    ignored = [c.raw for c in table.cols if c.index not in values and _has_word(c.name, ("average", "mean", "avg"))]
+    if ignored:
+        notes.append(f"column(s) {', '.join(repr(n) for n in ignored)} not read (derived from the trials)")
     line_numbers = row_lines(table)
+    H = values[found.drop.index]
     runs, labels = [], []
     for k, no in enumerate(line_numbers):
-        bounces = [b for b in sorted(values) if np.isfinite(values[b][k])]
-        if bounces[:2] != [0, 1]:
-            fail(path, int(no), "a trial needs its drop height and its first rebound")
-        h = np.array([values[b][k] for b in bounces])
-        bad = np.flatnonzero(h <= 0)
-        if bad.size:
-            fail(path, int(no), f"height {h[bad[0]]:g} m is not positive")
-        runs.append(ApexHeights(bounce=np.array(bounces), h_m=h, source=f"{path}:{int(no)}",
-                                notes=(), lines=np.full(len(bounces), int(no))))
-        labels.append(f"row {k + 1} (line {int(no)})")
-    H = values[0]
+        for j, trial in enumerate(trials):
+            bounces = [b for b in sorted(trial) if np.isfinite(values[trial[b].index][k])]
+            if not bounces or bounces[0] != 1:
+                if per_row > 1:
+                    continue   # a trial not made at this height (an empty cell)
+                fail(path, int(no), "a trial needs its drop height and its first rebound")
+            h = np.array([H[k]] + [values[trial[b].index][k] for b in bounces])
+            bad = np.flatnonzero(h <= 0)
+            if bad.size:
+                fail(path, int(no), f"height {h[bad[0]]:g} m is not positive")
+            runs.append(ApexHeights(bounce=np.array([0] + bounces), h_m=h, source=f"{path}:{int(no)}",
+                                    notes=(), lines=np.full(len(bounces) + 1, int(no))))
+            labels.append(f"row {k + 1} (line {int(no)})" + (f", '{trial[1].raw}'" if per_row > 1 else ""))
+    if not runs:
+        fail(path, int(line_numbers[-1]), "no trial with a drop height and a rebound")
     notes.append(f"{len(runs)} trial(s), drop heights {np.min(H):.3g}-{np.max(H):.3g} m")
     return Runs(runs=tuple(runs), source=path, notes=tuple(notes), labels=tuple(labels))

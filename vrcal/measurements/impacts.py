@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-from vrcal.measurements.cleanup import impact_chains
+from vrcal.measurements.cleanup import impact_chains, time_grid
 from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
@@ -40,6 +40,10 @@ from vrcal.measurements.table import (
 from vrcal.measurements.types import ImpactTimes, Runs
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
+
+#: Timing noise of an acoustic stopwatch's impact times [s] (phyphox-like; a coarser grid of the
+#: times, :func:`vrcal.measurements.cleanup.time_grid`, replaces it).
+TIMING_SIGMA_S = 2e-4
 
 #: Fewest impacts in a chain (and in a file).
 MIN_IMPACTS = 3
@@ -181,7 +185,12 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
         fail(path, where, f"{t.size:,} impact times, more than the {MAX_IMPACT_EVENTS:,} a file of drops can hold "
                           f"(a drop gives tens of impacts): are these a sensor's samples? Split the file into "
                           f"files of one or a few drops each")
-    found = impact_chains(t, labels=[label(i) for i in range(t.size)])
+    grid = time_grid(t)
+    timing = grid.sigma_s if grid is not None and grid.sigma_s > TIMING_SIGMA_S else 0.0
+    if timing:
+        notes.append(f"impact times on a {grid.period_s * 1e3:.4g} ms grid ({grid.what}): each is uncertain by "
+                     f"{timing * 1e3:.2g} ms (step/sqrt(12)), more than a stopwatch's {TIMING_SIGMA_S * 1e3:g} ms")
+    found = impact_chains(t, labels=[label(i) for i in range(t.size)], timing_sigma_s=max(timing, TIMING_SIGMA_S))
     for _, why in found.anomalies:
         notes.append(why)
     if not found.chains:
@@ -202,4 +211,4 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
                      + (", ..." if len(left_out) > 8 else ""))
     return ImpactTimes(t_s=t[keep], source=path, notes=tuple(notes), rejected=found.rejected,
                        chains=chains if len(chains) > 1 else (), events=np.asarray(keep) + 1,
-                       lines=None if lines is None else lines[keep])
+                       lines=None if lines is None else lines[keep], timing_sd_s=timing)

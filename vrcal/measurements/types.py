@@ -79,6 +79,10 @@ class ImpactTimes:
         the file's event number (1-based) of each kept impact; None: 1, 2, ...
     lines : ndarray of int or None
         the file's line of each kept impact (None when unknown)
+    timing_sd_s : float
+        standard deviation of each time that the file's own grid sets [s] (times read off a
+        video's frames, or printed to 0.01 s: step / sqrt(12),
+        :func:`vrcal.measurements.cleanup.time_grid`); 0 when the times have no coarse grid
     """
 
     t_s: np.ndarray
@@ -89,6 +93,7 @@ class ImpactTimes:
     chains: tuple = ()
     events: np.ndarray = None
     lines: np.ndarray = None
+    timing_sd_s: float = 0.0
 
 
 @dataclass(frozen=True)
