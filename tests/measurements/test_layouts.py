@@ -282,6 +282,12 @@ def test_numbered_rebound_columns_are_trials_or_successive_bounces_by_their_valu
         assert any("successive rebounds of one drop" in n for n in data.notes)
 
 
+def test_numbered_rebound_columns_that_neither_agree_nor_fall_are_an_error(tmp_path):
+    p = write(tmp_path, "n.csv", "H (cm),Bounce 1 (cm),Bounce 2 (cm)\n100,64,30\n50,20,32\n")
+    with pytest.raises(DataError, match="n.csv:1: columns 'Bounce 1', 'Bounce 2' neither agree"):
+        read_measurement(p)
+
+
 @pytest.mark.parametrize("header,scale", [("H,h", 1.0), ("drop (cm),rebound (cm)", 100.0),
                                           ("trial;H [mm];h1 [mm]", 1000.0), ("Drop height,Rebound height", 1.0)])
 def test_a_drop_table_is_read_as_one_run_per_trial(tmp_path, header, scale):

@@ -76,6 +76,7 @@ from vrcal.discovery import residuals as res
 from vrcal.discovery.lsq import chi2_sf, f_sf
 from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced  # noqa: F401 (re-exported)
 from vrcal.errors import UsageError
+from vrcal.measurements.cleanup import TIMING_SIGMA_S
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: Assumed noise of one datum where the data alone cannot tell it (no model-free
@@ -83,7 +84,7 @@ from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 #: 0.2 ms (phyphox-like), apex heights read to 2 mm; 1 mm for a trajectory whose third
 #: differences show no noise at all (noise-free or heavily smoothed data). The residual
 #: standard deviation replaces it when the residuals are larger; ``noise=`` overrides it.
-ASSUMED_NOISE = {"impacts": 2e-4, "apexes": 2e-3, "trajectory": 1e-3}
+ASSUMED_NOISE = {"impacts": TIMING_SIGMA_S, "apexes": 2e-3, "trajectory": 1e-3}
 
 #: ``Discovery.noise_source`` when the noise of a drop table is the scatter of its repeated trials
 #: (:func:`vrcal.discovery.residuals.replicate_sigma`).

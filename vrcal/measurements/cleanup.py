@@ -396,7 +396,12 @@ def _trend_ratio(q, w):
     return np.exp(level + slope * i)
 
 
-def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=2e-4, echo_fraction=0.5, max_missed=3, labels=None):
+#: Timing noise of an acoustic stopwatch's impact times [s] (phyphox-like): what the readers assume
+#: unless the times' own grid is coarser (:func:`time_grid`), and what ``vrcal discover`` judges at.
+TIMING_SIGMA_S = 2e-4
+
+
+def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fraction=0.5, max_missed=3, labels=None):
     """Split a series of impact times into chains of consecutive bounces.
 
     Between impacts the flight times dt_i = t_{i+1} - t_i shrink geometrically,

@@ -56,7 +56,7 @@ _DROP_WORDS = ("drop", "releas", "initial", "fall")
 _REBOUND_WORDS = ("rebound", "bounc", "return", "reach")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
-_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|drop)\s*#?\s*(\d+)$")
+_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement)\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
 
 
@@ -70,7 +70,8 @@ def _has_word(name, starts):
 
 class DropColumns(NamedTuple):
     """The height columns of a drop table: the drop height, one ``{bounce: Column}`` per trial of a row
-    (bounce 1 the first rebound, 2 the next, ...), and whether several trials share a row."""
+    (bounce 1 the first rebound, 2 the next, ...), and numbered rebound columns whose values must say
+    whether they are trials or successive rebounds (then ``trials`` is empty)."""
 
     drop: object
     trials: list
@@ -106,10 +107,11 @@ def _height_columns(cols):
     return DropColumns(drop, [out], [])
 
 
-def _trials_or_rebounds(values, columns):
+def _trials_or_rebounds(path, line, values, columns):
     """Numbered rebound columns as trials ([{1: c}, ...]) when their values agree row by row (each
     within 25 % of the first), as successive rebounds of one drop ([{1: c1, 2: c2, ...}]) when every
-    one is below the one before; a note says which. ``values``: (rows, columns) heights."""
+    one is below the one before; a note says which, and neither is an error naming the header's
+    ``line``. ``values``: (rows, columns) heights."""
     first = values[:, :1]
     with np.errstate(invalid="ignore", divide="ignore"):
         agree = np.abs(values / first - 1.0) <= 0.25
@@ -118,7 +120,10 @@ def _trials_or_rebounds(values, columns):
     names = ", ".join(f"'{c.raw}'" for c in columns)
     if agree and not falling:
         return [{1: c} for c in columns], f"columns {names}: trials of the row's drop height (their values agree)"
-    return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
+    if falling:
+        return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
+    fail(path, line, f"columns {names} neither agree (trials of one drop height) nor fall one after another "
+                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... or 'h1', 'h2', ...")
 
 
 def detect(text):
@@ -167,7 +172,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
               * factors[c.index] for c in columns}
     trials = found.trials
     if found.numbered:
-        trials, how = _trials_or_rebounds(np.column_stack([values[c.index] for c in found.numbered]), found.numbered)
+        trials, how = _trials_or_rebounds(path, table.header_line,
+                                          np.column_stack([values[c.index] for c in found.numbered]), found.numbered)
         notes.append(how)
     per_row = len(trials)
     names = ", ".join(f"'{c.raw}'" for c in [found.drop] + [c for t in trials for c in t.values()])

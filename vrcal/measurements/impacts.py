@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-from vrcal.measurements.cleanup import impact_chains, time_grid
+from vrcal.measurements.cleanup import TIMING_SIGMA_S, impact_chains, time_grid
 from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
@@ -40,10 +40,6 @@ from vrcal.measurements.table import (
 from vrcal.measurements.types import ImpactTimes, Runs
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
-
-#: Timing noise of an acoustic stopwatch's impact times [s] (phyphox-like; a coarser grid of the
-#: times, :func:`vrcal.measurements.cleanup.time_grid`, replaces it).
-TIMING_SIGMA_S = 2e-4
 
 #: Fewest impacts in a chain (and in a file).
 MIN_IMPACTS = 3
