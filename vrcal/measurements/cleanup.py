@@ -154,7 +154,9 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
         if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
             resolution = 10.0**-d
             break
-    if resolution is None or resolution < coarse_fraction * step or resolution > 0.25 * step:
+    # (the first step is a median of printed intervals, itself off by up to a resolution: a loose bound
+    # here, the strict one on the fitted period below)
+    if resolution is None or resolution < coarse_fraction * step or resolution > 0.4 * step:
         return None   # printed finely enough, or too coarsely to tell the frames apart
     for _ in range(3):   # frame numbers from the intervals, then the period from the frame numbers
         k = np.concatenate([[0.0], np.cumsum(np.maximum(np.round(dt / step), 1.0))])
@@ -163,8 +165,9 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
         step = float(step)
         if not step > 0:
             return None
-    if k[-1] > 2.0 * (t.size - 1):
-        return None   # more frames missing than tracked: the intervals do not pin the frame numbers down
+    if k[-1] > 2.0 * (t.size - 1) or resolution > 0.25 * step or resolution < coarse_fraction * step:
+        return None   # more frames missing than tracked (the intervals do not pin the frame numbers down),
+        # or the fitted period says the printing is too coarse, or fine enough
     grid = t0 + step * k
     change = float(np.max(np.abs(grid - t)))
     if change > 0.8 * resolution or change < 1e-12:   # rounding moves a time by 0.5 at most; the fitted line
