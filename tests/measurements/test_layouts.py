@@ -21,6 +21,7 @@ from vrcal.measurements import (
     read_measurement,
     read_measurements,
 )
+from vrcal.measurements.table import columns as tb_columns
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
 
 
@@ -246,6 +247,9 @@ def test_unsorted_labels_are_an_error_naming_the_line(tmp_path):
     p = write(tmp_path, "labels.txt", "0.5\t0.5\t\n1.2\t1.2\t\n0.9\t0.9\t\n")
     with pytest.raises(DataError, match=r"labels.txt:3: label start not increasing"):
         read_measurement(p, "audacity-labels")
+    p = write(tmp_path, "bad.txt", "0.5\t0.5\t\n1.2\tx\t\n1.6\t1.6\t\n")
+    with pytest.raises(DataError, match=r"bad.txt:2: not an Audacity label line"):
+        read_measurement(p, "audacity-labels")
 
 
 @pytest.mark.parametrize("header", ["Drop height (cm),Rebound height (cm)", "Height dropped (cm),Height bounced (cm)",
@@ -358,6 +362,8 @@ def test_trajectories_side_by_side_are_runs_and_unpaired_columns_an_error(tmp_pa
                                                        "Run 2: Position (cm)\n" + "\n".join(rows) + "\n"))
     assert isinstance(data, Runs) and data.kind == "trajectory"
     assert data.labels == ("Run 1 (columns 1, 2)", "Run 2 (columns 3, 4)")
+    assert [c.data_set for c in tb_columns(["Run 1: Time (s)", "Latest: Position (m)", "t (s)"])] == [
+        "Run 1", "Latest", ""]
     np.testing.assert_allclose(data.runs[1].y_m, 0.01 * np.round(0.5 * y, 4), atol=1e-9)
     bad = write(tmp_path, "bad.csv", "t,y,y\n" + "\n".join(f"{a},{b},{b}" for a, b in zip(t, y)) + "\n")
     with pytest.raises(DataError, match="bad.csv:1: 2 columns 'y' but 1 columns 't'"):

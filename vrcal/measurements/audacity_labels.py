@@ -25,7 +25,8 @@ _MAX_LINES_CHECKED = 200
 
 
 def _label_rows(text, limit=None):
-    """[(line, start, end, label)] of a label file, or None when a line is not one.
+    """([(line, start, end, label)], None) of a label file, or (rows so far, the first line that is no
+    label line).
 
     Every line but the spectral ones (first cell ``\\``) must be ``start<TAB>end[<TAB>text]`` with two
     numbers, ``end >= start``; the label text may hold anything but a tab.
@@ -35,23 +36,23 @@ def _label_rows(text, limit=None):
         cells = line.rstrip("\r\n").split("\t")
         if cells[0].strip() == "\\":
             if len(cells) != 3 or any(to_float(c.strip(), True) is None for c in cells[1:]):
-                return None
+                return rows, no
             continue
         if len(cells) not in (2, 3):
-            return None
+            return rows, no
         start, end = (to_float(c.strip(), "," in c and "." not in c) for c in cells[:2])
         if start is None or end is None or not (np.isfinite(start) and np.isfinite(end)) or end < start:
-            return None
+            return rows, no
         rows.append((no, start, end, cells[2].strip() if len(cells) == 3 else ""))
-    return rows
+    return rows, None
 
 
 def detect(text):
     """A label export: tab-separated ``start, end[, text]`` lines, no header, the labels one after another
     (each starts at or after the end of the one before; both columns never decrease). A headerless ``t, y``
     trajectory is none: its heights fall and rise."""
-    rows = _label_rows(text, _MAX_LINES_CHECKED)
-    if not rows or len(rows) < 2:
+    rows, bad = _label_rows(text, _MAX_LINES_CHECKED)
+    if bad is not None or len(rows) < 2:
         return False
     start = np.array([r[1] for r in rows])
     end = np.array([r[2] for r in rows])
@@ -60,9 +61,8 @@ def detect(text):
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
-    rows = _label_rows(text)
-    if rows is None:
-        bad = next(no for no, line in text.lines if _label_rows(type(text)(path, [(no, line)])) is None)
+    rows, bad = _label_rows(text)
+    if bad is not None:
         fail(path, bad, "not an Audacity label line ('start<TAB>end<TAB>text', times in s, end >= start)")
     if not rows:
         fail(path, 0, "no labels (only spectral-selection lines)")

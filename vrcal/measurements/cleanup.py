@@ -106,6 +106,18 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     return release if release >= min_still else 0
 
 
+def printed_resolution(t, max_decimals=9):
+    """The step numbers were printed to (0.001 for three decimals), or None when they hold more than
+    ``max_decimals`` decimals: whole multiples of 10^-d up to 1e-6 of a step, or up to float rounding
+    (1e-15 relative) for values beyond 1e9 steps."""
+    t = np.asarray(t, dtype=float)
+    for d in range(max_decimals + 1):
+        q = t * 10.0**d
+        if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
+            return 10.0**-d
+    return None
+
+
 class RegularTimes(NamedTuple):
     """Sample times put back on their frame grid by :func:`regular_frame_times`."""
 
@@ -147,13 +159,7 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     if np.any(dt <= 0):
         return None
     step = float(np.median(dt[dt < 1.5 * dt.min()]))   # one frame (longer intervals are frames missed)
-    resolution = None
-    for d in range(max_decimals + 1):
-        q = t * 10.0**d
-        # whole numbers up to 1e-6, or up to float rounding (|q| 1e-15) for times beyond 1e9 units
-        if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
-            resolution = 10.0**-d
-            break
+    resolution = printed_resolution(t, max_decimals)
     # (the first step is a median of printed intervals, itself off by up to a resolution: a loose bound
     # here, the strict one on the fitted period below)
     if resolution is None or resolution < coarse_fraction * step or resolution > 0.4 * step:
@@ -210,12 +216,7 @@ def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
     t = np.asarray(t_s, dtype=float)
     if t.size < min_times or not np.all(np.isfinite(t)):
         return None
-    printed = 0.0
-    for d in range(7):
-        q = t * 10.0**d
-        if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):
-            printed = 10.0**-d
-            break
+    printed = printed_resolution(t, 6) or 0.0
     found = []
     for fps in VIDEO_FRAME_RATES_HZ:
         period = 1.0 / fps

@@ -34,6 +34,7 @@ from vrcal.measurements.table import (
     header_columns,
     numeric_width,
     parse_table,
+    repeated_columns,
     row_lines,
     unit_factor,
 )
@@ -113,7 +114,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         fail(path, table.header_line, "header but no data rows")
     if table.decimal_comma:
         notes.append("decimal comma")
-    same = [c for c in table.cols if c.name == col.name and c.unit == col.unit]
+    same = repeated_columns(table.cols, col)
     if len(same) > 1:   # runs side by side (a spreadsheet with one column per trial)
         runs, labels = [], []
         for k, c in enumerate(same, start=1):

@@ -42,7 +42,7 @@ _SUFFIX_UNITS = {u for u in (*TIME_UNITS, *LENGTH_UNITS) if u}
 
 #: The data set's name before a column's in a Vernier (Logger Pro, Graphical Analysis) export:
 #: ``Run 1: Time (s)``, ``Latest: Position (m)``.
-_DATA_SET = re.compile(r"^[^:()\[\]]{1,40}:\s+(?=\S)")
+_DATA_SET = re.compile(r"^(?P<set>[^:()\[\]]{1,40}):\s+(?=\S)")
 
 
 class Column(NamedTuple):
@@ -50,6 +50,7 @@ class Column(NamedTuple):
     name: str      # lower case, runs of blanks and '_' as one blank
     unit: str      # lower case, from brackets: 't (ms)', 'y [cm]'
     raw: str = ""  # the name as written (case kept: 'H' and 'h' differ in a drop table)
+    data_set: str = ""  # the data set's name before it, as written ('Run 2' of 'Run 2: Time (s)')
 
 
 @dataclass
@@ -188,15 +189,22 @@ def columns(cells):
     a data set's name before it (``Run 1: Time (s)``) is not part of the name."""
     cols = []
     for i, cell in enumerate(cells):
-        m = _NAME_UNIT.match(_DATA_SET.sub("", cell.strip()))
+        data_set = _DATA_SET.match(cell.strip())
+        m = _NAME_UNIT.match(cell.strip()[data_set.end() if data_set else 0:])
         name = (m.group("name") or "").strip()
         unit = (m.group("unit") or "").strip().lower()
         suffix = _SUFFIX_UNIT.match(name) if not unit else None
         if suffix and suffix.group("unit").lower() in _SUFFIX_UNITS:
             name, unit = suffix.group("name"), suffix.group("unit").lower()
         raw = re.sub(r"[\s_]+", " ", name).strip()
-        cols.append(Column(i, raw.lower(), unit, raw))
+        cols.append(Column(i, raw.lower(), unit, raw, data_set.group("set").strip() if data_set else ""))
     return cols
+
+
+def repeated_columns(cols, col):
+    """Every column of ``cols`` with the name and unit of ``col`` (itself included), in file order: runs
+    side by side repeat their columns (``Event time (s)`` twice, ``Run 1: Time (s)``, ``Run 2: Time (s)``)."""
+    return [] if col is None else [c for c in cols if c.name == col.name and c.unit == col.unit]
 
 
 def find_column(cols, names, *, contains=None):

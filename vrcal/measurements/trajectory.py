@@ -36,6 +36,7 @@ from vrcal.measurements.table import (
     meta_length,
     numeric_width,
     parse_table,
+    repeated_columns,
     row_lines,
     sniff,
     split_cells,
@@ -189,10 +190,7 @@ def side_by_side_runs(path, table):
     if y0 is None:
         return None
 
-    def same(col):
-        return [] if col is None else [c for c in cols if c.name == col.name and c.unit == col.unit]
-
-    ys, ts, xs = same(y0), same(t0), same(x0)
+    ys, ts, xs = repeated_columns(cols, y0), repeated_columns(cols, t0), repeated_columns(cols, x0)
     if len(ys) < 2:
         return None
     if ts and len(ts) != len(ys):
@@ -203,16 +201,12 @@ def side_by_side_runs(path, table):
     return [(ts[k] if ts else None, ys[k], xs[k] if xs else None) for k in range(len(ys))]
 
 
-def _data_set_names(text, table, pairs):
-    """A label per run: the data set's name before its height column (``Run 2``), else its columns."""
-    header = dict(text.lines).get(table.header_line, "")
-    cells = split_cells(header, table.sep) if header else []
+def _run_labels(pairs):
+    """A label per run: the data set's name before its height column (``Run 2``) and its columns."""
     labels = []
     for t_col, y_col, _ in pairs:
-        cell = cells[y_col.index] if y_col.index < len(cells) else ""
-        name = cell.split(":", 1)[0].strip() if ":" in cell else ""
         where = f"columns {t_col.index + 1}, {y_col.index + 1}" if t_col is not None else f"column {y_col.index + 1}"
-        labels.append(f"{name} ({where})" if name else where)
+        labels.append(f"{y_col.data_set} ({where})" if y_col.data_set else where)
     return labels
 
 
@@ -225,7 +219,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         table = parse_table(text)
     pairs = side_by_side_runs(text.path, table)
     if pairs is not None:
-        labels = _data_set_names(text, table, pairs)
+        labels = _run_labels(pairs)
         runs = []
         for label, pair in zip(labels, pairs):
             sub = table._replace(cols=[c for c in pair if c is not None])
