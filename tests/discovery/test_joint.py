@@ -182,6 +182,17 @@ def test_a_first_bounce_off_something_above_the_floor_is_cut_out():
     assert cut and "bounce 1 (line " in cut[0] and "left out" in cut[0]
 
 
+
+def test_an_odd_bounce_of_a_joint_fit_is_said_of_its_run():
+    """Two tracks fitted jointly, the second hitting something on its first bounce: the note that
+    leaves it out names the run it belongs to, not only the line (the lines of two runs overlap)."""
+    good, _ = obstacle_track(step_m=0.0, seed=1)
+    odd, eps = obstacle_track(seed=2)
+    d = discover(Runs(runs=(good, odd), source="two", labels=("drop A", "drop B")), TENNIS)
+    cut = [n for n in d.notes if "hit something" in n]
+    assert len(cut) == 1 and cut[0].startswith("drop B: ") and "bounce 1 (line " in cut[0]
+    assert d.epsilon == pytest.approx(eps, abs=0.01)
+
 def held_release_track(eps=0.72, H=0.75, fs=30.0, noise=2e-4, seed=0, push=(1.15, 0.45)):
     """A phone video of a ball whose first fall is no free fall (as the real green-ball track): its
     acceleration runs from push[0] g down by push[1] g over the fall (a hand that pushes, then a

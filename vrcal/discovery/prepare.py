@@ -428,6 +428,11 @@ def _impact_runs(data, label):
     return out
 
 
+def _of_run(label, note):
+    """``note`` said of the run ``label`` of a joint fit ("Run 2: ..."); as it is for a lone run."""
+    return f"{label}: {note}" if label else note
+
+
 def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None, progress=None):
     """The runs to fit, with notes and warnings (see the module docstring).
 
@@ -457,11 +462,11 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         [f"run {i + 1}" for i in range(len(runs))] if len(runs) > 1 else [""])
     notes, shifted = list(getattr(data, "notes", ()) if isinstance(data, Runs) else ()), []
     shifts = []
-    for run in runs:
+    for run, label in zip(runs, labels):
         new, note = floor_referenced(run, floor_m)
         shifts.append(float(np.asarray(run.y_m)[0] - np.asarray(new.y_m)[0]) if note else 0.0)
         if note:
-            notes.append(note)
+            notes.append(_of_run(label, note))
         shifted.append(new)
     record = Runs(runs=tuple(shifted), source=data.source, labels=tuple(labels)) if isinstance(data, Runs) \
         else shifted[0]
@@ -492,9 +497,9 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
                 out.append((run, label))
                 continue
             for _, why in odd:
-                notes.append(why + "; left out")
+                notes.append(_of_run(label, why + "; left out"))
             pieces, cut_notes = split_trajectory(run, odd, minima)
-            notes += cut_notes
+            notes += [_of_run(label, n) for n in cut_notes]
             if not pieces:
                 warnings.append(f"{run.source}: every bounce is odd; fitting the record as it is")
                 out.append((run, label))

@@ -669,30 +669,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                 raise UsageError(f"effect '{eff.name}' cannot be seen in {kind} data "
                                  f"(it shows in: {', '.join(eff.kinds)}; usable here: {', '.join(usable)})")
             pool.append(name)
-    if noise is not None:
-        sigma_floor, noise_source = float(noise), "given"
-    elif prepared.noise_m is not None:   # a decimated record: the noise of every sample as read
-        sigma_floor = prepared.noise_m
-        noise_source = f"third differences of all samples (every {prepared.decimation}th fitted)"
-    else:
-        sigma_floor = res.noise_floor(fitted)
-        noise_source = REPLICATE_SOURCE if kind == "apexes" else "third differences of the samples"
-        if sigma_floor is None:
-            sigma_floor, noise_source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
-            if kind == "trajectory":
-                noise_source = "no noise measurable in the samples; assumed, give --noise to change it"
-    # what the reader knows of its own errors (a video tracker: the centres' systematic error, the floor
-    # level it estimated); a given --noise is taken as it is
-    read_runs = res._runs_of(data)
-    systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
-    floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in read_runs)
-    timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
-    if noise is None and kind == "impacts" and timing > sigma_floor:
-        sigma_floor, noise_source = timing, GRID_SOURCE
-    if noise is None and kind == "trajectory" and systematic > 0:
-        sigma_floor = math.hypot(sigma_floor, systematic)
-        noise_source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
-                         "added in quadrature")
+    sigma_floor, noise_source = chosen_noise(data, prepared, noise)
+    floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in res._runs_of(data))
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
     spread = res.drop_height_spread(problem)
     if stages is not None:
@@ -772,6 +750,57 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                      dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m),
                      prepared.decimation, n_read, split)
+
+
+def chosen_noise(data, prepared, noise=None):
+    """The noise of one datum a record is judged at, and where it comes from.
+
+    In order: the user's ``noise`` as given; the noise of every sample of a decimated trajectory
+    (:class:`vrcal.discovery.prepare.Prepared`, measured before decimation); what the data alone
+    tell (:func:`vrcal.discovery.residuals.noise_floor`: third differences of a trajectory, the
+    scatter of repeated trials of a drop table); else :data:`ASSUMED_NOISE` of the kind. What the
+    reader knows of its own errors is then added (a given ``noise`` is taken as it is): impact
+    times read on a coarse grid (a video's frames) are uncertain by step/sqrt(12) when that is
+    more (:data:`GRID_SOURCE`); a video tracker's systematic error of the centres adds in quadrature.
+
+    Parameters
+    ----------
+    data : run or sequence of runs
+        the record as read (the readers' ``timing_sd_s`` and ``systematic_m`` are taken from it)
+    prepared : Prepared
+        the record as fitted (:func:`vrcal.discovery.prepare.prepare`)
+    noise : float or None
+        the user's noise of one datum [m or s]
+
+    Returns
+    -------
+    (float, str)
+        sigma [m or s] and its source, as the report prints it
+    """
+    if noise is not None:
+        return float(noise), "given"
+    fitted = prepared.data
+    kind = res._runs_of(fitted)[0].kind
+    if prepared.noise_m is not None:   # a decimated record: the noise of every sample as read
+        sigma = prepared.noise_m
+        source = f"third differences of all samples (every {prepared.decimation}th fitted)"
+    else:
+        sigma = res.noise_floor(fitted)
+        source = REPLICATE_SOURCE if kind == "apexes" else "third differences of the samples"
+        if sigma is None:
+            sigma, source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
+            if kind == "trajectory":
+                source = "no noise measurable in the samples; assumed, give --noise to change it"
+    read_runs = res._runs_of(data)
+    timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
+    systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
+    if kind == "impacts" and timing > sigma:
+        return timing, GRID_SOURCE
+    if kind == "trajectory" and systematic > 0:
+        sigma = math.hypot(sigma, systematic)
+        source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
+                   "added in quadrature")
+    return sigma, source
 
 
 def problem_size(problem):

@@ -357,7 +357,8 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
 
 def _check_one(data, diameter_m, g, y_down, sigma_m, label):
     if data.kind == "trajectory":
-        return Checked(data, tuple(check_trajectory(data, g, y_down=y_down, sigma_m=sigma_m)))
+        findings = check_trajectory(data, g, y_down=y_down, sigma_m=sigma_m)
+        return Checked(data, tuple(f._replace(text=f"{label}: {f.text}") if label else f for f in findings))
     if data.kind == "impacts":
         chains = getattr(data, "chains", ()) or ((0, len(data.t_s)),)
         for a, b in chains:
