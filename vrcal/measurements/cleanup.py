@@ -405,6 +405,22 @@ def _trend_ratio(q, w):
 TIMING_SIGMA_S = 2e-4
 
 
+def _after_missed(dt, r, tolerance, max_missed):
+    """The interval expected after each interval ``dt[k-1]`` (k >= 2) that held missed impacts.
+
+    A flight f before a span holding j missed impacts: the span is f r (1 + r + ... + r^j), the
+    flight after it f r^(j+2). ``inf`` where ``dt[k-1]`` is no such span (against ``dt[k-2]``).
+    Without it the flight after a missed impact at a record's end (no interval after it to judge
+    from) is short against the long span and was called an echo.
+    """
+    ratio = dt[1:-1] / (r * dt[:-2])
+    spans = np.cumsum(r ** np.arange(max_missed + 1))[1:]           # 1+r, 1+r+r^2, ...
+    miss = np.abs(np.log(ratio[:, None] / spans[None, :]))
+    j = np.argmin(miss, axis=1)
+    fits = (miss[np.arange(j.size), j] < np.log1p(tolerance)) & (ratio > 1.0 + tolerance)
+    return np.where(fits, dt[:-2] * r ** (j + 3.0), np.inf)
+
+
 def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fraction=0.5, max_missed=3, labels=None):
     """Split a series of impact times into chains of consecutive bounces.
 
@@ -461,6 +477,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fr
         # expected from the interval before and from the one after: an echo is short against both
         # (after a missed impact the next interval is short only against the long one before it)
         before = np.concatenate([[np.inf], r * dt[:-1]])
+        before[2:] = np.minimum(before[2:], _after_missed(dt, r, tolerance, max_missed))
         after = np.concatenate([dt[1:] / r, [np.inf]])
         expected = np.minimum(before, after)
         short = np.flatnonzero(dt + 4.0 * np.sqrt(2.0) * timing_sigma_s < echo_fraction * expected)
