@@ -173,3 +173,22 @@ def test_installed_command_end_to_end(tmp_path):
 def test_python_dash_m():
     done = subprocess.run([sys.executable, "-m", "vrcal", "--version"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and __version__ in done.stdout
+
+
+@pytest.mark.parametrize("args", [
+    ("discover", "nothere.csv", "--ball", "tennis"), ("track", "nothere.wav"), ("fit", "--from", "nothere.json"),
+    ("scene", "nothere.yaml"), ("discover", ".", "--ball", "tennis"),
+])
+def test_a_missing_input_file_is_a_usage_error_naming_it(args, tmp_path, monkeypatch):
+    """docs/limits.md: a missing file is exit 2; 'track' said 'not a sound or video recording'."""
+    monkeypatch.chdir(tmp_path)
+    result = run(*args)
+    assert result.exit_code == 2 and ("does not exist" in result.stderr or "is a directory" in result.stderr)
+
+
+@pytest.mark.parametrize("text,what", [('{\n "epsilon": 0.8\n}\n', "JSON"), ('<mujoco model="b">\n</mujoco>\n', "XML")])
+def test_a_document_that_is_no_measurement_is_named(text, what, tmp_path):
+    path = tmp_path / "f.txt"
+    path.write_text(text)
+    result = run("discover", str(path), "--ball", "tennis")
+    assert result.exit_code == 1 and f" {what} " in result.stderr and "not a measurement" in result.stderr

@@ -305,3 +305,21 @@ def test_every_command_that_takes_a_body_takes_g_where_it_uses_it():
         opts = [o for p in group.commands[name].params for o in getattr(p, "opts", [])]
         assert "--mass" in opts and "--diameter" in opts, name
         assert ("--from" in opts) == (name != "discover"), name
+
+
+@pytest.mark.parametrize("args", [
+    ("fit", "--mass", 57, "--diameter", 0.066, "--epsilon", 0.76),          # grams typed as kg
+    ("fit", "--mass", 0.057, "--diameter", 6.6, "--epsilon", 0.76),         # cm typed as m
+    ("fit", "tennis", "--mass", 57),                                         # one override, in grams
+    ("simulate", "--mass", 45.9, "--diameter", 4.27, "--epsilon", 0.78),    # both: lighter than air
+])
+def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip_named(args):
+    result = run(*args)
+    assert result.exit_code == 2, result.output
+    assert "would be" in result.stderr and "--mass is in kg" in result.stderr
+
+
+@pytest.mark.parametrize("mass,diameter", [(0.17, 0.5), (0.0027, 0.04), (0.535, 0.0508)])
+def test_real_balls_pass_the_density_check(mass, diameter):
+    """A beach ball (3 kg/m^3), a table-tennis ball (80), a 2-inch steel ball (7,900)."""
+    assert run("fit", "--mass", mass, "--diameter", diameter, "--epsilon", 0.7).exit_code == 0

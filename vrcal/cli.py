@@ -214,7 +214,7 @@ DIAMETER_OPTION = click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, 
 
 def from_option(what):
     """``--from DISCOVER.json``: a ``vrcal discover --json`` result, of which the command takes ``what``."""
-    return click.option("--from", "from_json", type=click.Path(dir_okay=False), default=None,
+    return click.option("--from", "from_json", type=opt.INPUT_FILE, default=None,
                         metavar="DISCOVER.json", help=f"A 'vrcal discover --json' result: {what}.")
 
 
@@ -490,7 +490,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 
 
 @main.command()
-@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("data", nargs=-1, required=True, type=opt.INPUT_FILE)
 @click.option("--ball", default=None,
               help="A ball of the standards (or any name with --mass and --diameter); without it give --mass and "
                    "--diameter.")
@@ -585,7 +585,7 @@ def tracking_progress(command):
 
 
 @main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
-@click.argument("recording", type=click.Path(dir_okay=False))
+@click.argument("recording", type=opt.INPUT_FILE)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
@@ -855,7 +855,7 @@ def engines_cmd():
 # --------------------------------------------------------------------------- scenes (part: scene)
 
 @main.command()
-@click.argument("scene_file", type=click.Path(dir_okay=False))
+@click.argument("scene_file", type=opt.INPUT_FILE)
 @click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Directory for the outputs [default: ./NAME, NAME = the scene file's name without suffix].")
 @click.option("--engine", type=click.Choice(["vrcal", "ode"]), default="vrcal", show_default=True,

@@ -195,3 +195,7 @@ STIFFNESS = Real(0, 1e12, unit="1/s^2")
 PENETRATION_M = Real(1e-9, 10, unit="m")
 #: A count of at least one (each command may bound it further).
 POSITIVE_COUNT = Count(1, None)
+
+#: An input file: a missing file or a directory is a usage error (exit 2), said while the command
+#: line is parsed ("Path 'x.csv' does not exist"), before any work.
+INPUT_FILE = click.Path(exists=True, dir_okay=False)

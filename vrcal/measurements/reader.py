@@ -111,11 +111,20 @@ def _detect_recording(path):
     return None
 
 
+#: What the first character of a file that is no table shows it to be.
+_DOCUMENTS = {"{": "a JSON document (a 'vrcal discover --json' result, an export?)",
+              "[": "a JSON document", "<": "an XML or HTML document (a MuJoCo or Gazebo export, a web page?)"}
+
+
 def _detect(text):
+    no, line = text.lines[0]
+    what = _DOCUMENTS.get(line.lstrip()[:1])
+    if what is not None:
+        fail(text.path, no, f"{what}, not a measurement: give the measured file (a table of times, "
+                            f"heights or positions, a sound or a video; docs/measurements.md)")
     for name, fmt in FORMATS.items():
         if not fmt.recording and fmt.detector(text):
             return name
-    no, line = text.lines[0]
     cells = [c for c in re.split(r"[,;\t]", line) if c.strip()]
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "

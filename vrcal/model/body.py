@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from vrcal.errors import UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.model.standards import get_ball, load_standards
@@ -259,7 +261,7 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
                                str(found["name"]))
         standards = load_standards() if standards is None else standards
         std = standards.get(_norm(found["name"]))
-        return Body(props, std, str(from_json), doc)
+        return Body(_plausible(props, mass_kg, diameter_m), std, str(from_json), doc)
     if ball is None:
         others = f"{ball_label}, a ball of the standards" + (f", or {from_label} a discover JSON" if from_label else "")
         if mass_kg is None and diameter_m is None:
@@ -268,10 +270,11 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
         if mass_kg is None or diameter_m is None:
             given, missing = ("--mass", "--diameter") if diameter_m is None else ("--diameter", "--mass")
             raise UsageError(f"{given} without {missing}: a ball of your own needs both; or give {others}")
-        return Body(BallProperties(float(mass_kg), float(diameter_m), "ball"), None, "options")
+        return Body(_plausible(BallProperties(float(mass_kg), float(diameter_m), "ball"), mass_kg, diameter_m),
+                    None, "options")
     props, std = ball_from_options(ball, standards, mass_kg, diameter_m)
     source = "standard" if std is not None and mass_kg is None and diameter_m is None else "options"
-    return Body(props, std, source)
+    return Body(_plausible(props, mass_kg, diameter_m), std, source)
 
 
 def read_discover_json(path):
@@ -368,6 +371,39 @@ def read_limited(path, max_bytes, what):
 
 def _norm(name):
     return str(name).strip().lower().replace("-", "_").replace(" ", "_")
+
+
+#: Mean densities a ball can have [kg/m^3]: above the air's (a lighter one floats away), below
+#: osmium's (22,590, the densest element). A beach ball is about 3, a table-tennis ball 80, a
+#: tennis ball 370, a golf ball 1,130, a steel ball 7,850.
+BALL_DENSITY_KG_PER_M3 = (1.2, 23_000.0)
+
+
+def ball_density_kg_per_m3(mass_kg, diameter_m):
+    """Mean density of a ball [kg/m^3].
+
+    Parameters
+    ----------
+    mass_kg : float or ndarray
+        mass of the ball [kg]
+    diameter_m : float or ndarray
+        diameter of the ball [m]
+    """
+    return np.asarray(mass_kg, dtype=float) / (np.pi / 6.0 * np.asarray(diameter_m, dtype=float) ** 3)
+
+
+def _plausible(props, mass_kg, diameter_m):
+    """``props`` when the --mass/--diameter given make a ball that can exist, else a UsageError
+    naming the likely slip (grams for kilograms, centimetres for metres)."""
+    if mass_kg is None and diameter_m is None:
+        return props
+    rho = float(ball_density_kg_per_m3(props.mass_kg, props.diameter_m))
+    lo, hi = BALL_DENSITY_KG_PER_M3
+    if lo <= rho <= hi:
+        return props
+    what = "lighter than air" if rho < lo else "denser than any material"
+    raise UsageError(f"a ball of {props.mass_kg:g} kg and {props.diameter_m:g} m would be {what} "
+                     f"({rho:.3g} kg/m^3): --mass is in kg (57 g = 0.057) and --diameter in m (6.6 cm = 0.066)")
 
 
 def _check_size(label, value, unit=""):
