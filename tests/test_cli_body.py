@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
-from helpers import ROOT, require_engine
+from helpers import EXAMPLES, ROOT, require_engine
 
 from vrcal.cli import main
 from vrcal.model import restitution as eq
@@ -276,8 +276,7 @@ def test_bad_bodies_are_one_line_usage_errors(discovered, args, message):
 def test_a_from_file_that_is_not_a_discover_result_is_a_data_error(tmp_path):
     bad = tmp_path / "x.json"
     bad.write_text('{"a": 1}')
-    for args in (["fit", "--from", bad], ["simulate", "--from", bad], ["pair", f"from={bad}", "floor"],
-                 ["fit", "--from", tmp_path / "missing.json"]):
+    for args in (["fit", "--from", bad], ["simulate", "--from", bad], ["pair", f"from={bad}", "floor"]):
         result = run(*args)
         assert result.exit_code == 1 and result.stderr.startswith("vrcal: error: "), result.output
         assert len(result.stderr.strip().splitlines()) == 1
@@ -323,3 +322,17 @@ def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip_named(args):
 def test_real_balls_pass_the_density_check(mass, diameter):
     """A beach ball (3 kg/m^3), a table-tennis ball (80), a 2-inch steel ball (7,900)."""
     assert run("fit", "--mass", mass, "--diameter", diameter, "--epsilon", 0.7).exit_code == 0
+
+
+@pytest.mark.parametrize("record", ["drop-table.csv", "apexes.csv"])
+def test_a_result_without_a_clock_is_a_body_too(record, tmp_path):
+    """A discover result of a drop table or of apex heights has no release time (its model's
+    release_time_s is null): fit, simulate and export take it all the same (they refused it:
+    'model.release_time_s must be a finite number, got None')."""
+    doc = tmp_path / "r.json"
+    ok("discover", EXAMPLES / "data" / record, "--ball", "table_tennis", "-q", "--json", doc)
+    assert json.loads(doc.read_text())["model"].get("release_time_s") is None
+    eps = json.loads(doc.read_text())["epsilon"]
+    assert machine("fit", "--from", doc)["epsilon"]["nominal"] == pytest.approx(eps)
+    ok("simulate", "--from", doc, "--bounces", "2")
+    assert machine("export", "--from", doc, "--engine", "tables")["rows"]

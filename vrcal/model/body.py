@@ -290,7 +290,8 @@ def read_discover_json(path):
     dict
         the document, with at least ``ball`` {name, mass_kg, diameter_m}, ``g_m_per_s2``,
         ``effects`` (list of effect names), ``parameters`` {effect: {param: value}},
-        ``epsilon`` and ``model`` {drop_height_m, release_time_s, epsilon}, all checked
+        ``epsilon`` and ``model`` {drop_height_m, release_time_s (0 when absent or null: a result of
+        apex heights or a drop table has no clock), epsilon}, all checked
 
     Raises
     ------
@@ -333,6 +334,8 @@ def read_discover_json(path):
     _num(doc, "epsilon", f"{where}: epsilon", lo=0.0, hi=1.0)
     model = _obj(doc, "model", where)
     _num(model, "drop_height_m", f"{where}: model.drop_height_m", lo=0.0)
+    if model.get("release_time_s") is None:
+        model["release_time_s"] = 0.0   # apex heights, a drop table: no clock; the drop starts at t = 0
     _num(model, "release_time_s", f"{where}: model.release_time_s", lo=-math.inf)
     if doc.get("epsilon_reference_speed_m_per_s") is not None:
         _num(doc, "epsilon_reference_speed_m_per_s", f"{where}: epsilon_reference_speed_m_per_s", lo=0.0)
