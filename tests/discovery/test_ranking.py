@@ -21,7 +21,7 @@ from vrcal.drop.effects import EFFECTS
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
 from vrcal.drop.synthetic import hidden_effect_case, measurement_csv, noise_free_measurement
 from vrcal.errors import UsageError
-from vrcal.measurements import Trajectory
+from vrcal.measurements import ImpactTimes, Trajectory
 from vrcal.model.body import BallProperties
 from vrcal.model.standards import get_ball
 
@@ -410,3 +410,21 @@ def test_impact_times_from_a_30_fps_video_are_judged_at_their_frame_grid(tmp_pat
     assert d.effects == [] and d.verdict == "explained"
     assert d.scatter < 0.01
     assert abs(d.epsilon - 0.75) < max(3 * d.final.uncertainty("epsilon"), 0.005)
+
+
+def test_a_given_timing_noise_is_not_counted_as_the_balls_own_scatter():
+    """Impact times with a timing noise the user gives (--noise 1 ms): its share of the bounce-to-
+    bounce scatter is taken out, as for a video's grid. It was counted as the ball's (2-8 x the
+    jitter's gap), which loosened the verdict on records that a constant law cannot follow."""
+    from vrcal.discovery.residuals import ratio_scatter
+
+    golf = BallProperties(0.0459, 0.0427, "golf")
+    t0 = np.asarray(simulate_drops(1.0, 0.85, 14, golf, release_time_s=0.45).impact_times_s)[0]
+    found, raw = [], []
+    for seed in range(8):
+        t = t0 + np.random.default_rng(seed).normal(0.0, 1e-3, t0.size)
+        d = discover(ImpactTimes(t, "jitter"), golf, noise=1e-3)
+        assert d.noise_source == "given" and d.effects == []
+        found.append(d.scatter)
+        raw.append(ratio_scatter(t))
+    assert np.median(found) < 0.5 * np.median(raw), (found, raw)

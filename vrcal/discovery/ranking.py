@@ -738,9 +738,11 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     split = split_by_priors(problem, current, named, ambiguous, current.noise_sigma(sigma_floor))
     scatter = scatter_gap = None
     if kind == "impacts":
-        # a coarse grid of the times (a video's frames) scatters the ratios too: its share is not the ball's
-        grid = sigma_floor if noise_source == GRID_SOURCE else 0.0
-        values = [res.ratio_scatter(run.t_s, grid) for run in problem.runs]
+        # a known timing noise scatters the ratios too: its share is not the ball's. Known: the user's
+        # --noise, or a coarse grid of the times (a video's frames). Not the assumed stopwatch noise: a
+        # phone's is often far below it, and taking out more than the timing's share hides the ball's
+        timing = sigma_floor if noise_source in (GRID_SOURCE, "given") else 0.0
+        values = [res.ratio_scatter(run.t_s, timing) for run in problem.runs]
         values = [v for v in values if v is not None]
         if values:
             scatter = float(np.median(values))
