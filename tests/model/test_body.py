@@ -62,7 +62,7 @@ def test_a_discover_result(tmp_path):
     ({"ball": "table_tennis"}, "ball must be an object"),
     ({"epsilon": "high"}, "epsilon must be a finite number"),
     ({"epsilon": 1.5}, "out of range"),
-    ({"model": {"drop_height_m": 1.0}}, "model.release_time_s"),
+    ({"model": {"drop_height_m": 1.0, "release_time_s": "soon"}}, "model.release_time_s"),
     ({"effects": "air_drag"}, "effects must be a list"),
     ({"parameters": {"air_drag": {"drag_coefficient": None}}}, "parameters.air_drag.drag_coefficient"),
 ])

@@ -76,7 +76,24 @@ class Prepared(NamedTuple):
     noise_m: float | None = None  # noise of one height measured on every sample before decimation [m]
 
 
-def floor_referenced(data, floor_m=None):
+def floor_band(ball=None):
+    """Where the lowest sample after release of a floor-referenced trajectory can lie [m]: (lo, hi).
+
+    With the ball, the physical limits of the tracked point, ``height_offset.offset_m`` of the
+    registry (-D to D + max(0.1 D, 5 mm): a tracked point on the ball); a lowest sample beyond them
+    cannot be explained by the tracked point, so the record is not referenced to the floor (a
+    Tracker origin at the picture's corner, 10 cm below the floor, was taken as the floor).
+    Without it, :data:`FLOOR_BAND_M`.
+    """
+    if ball is None:
+        return FLOOR_BAND_M
+    from vrcal.drop.effects import EFFECTS
+
+    (param,) = EFFECTS["height_offset"].parameters
+    return param.physical_limits(ball)
+
+
+def floor_referenced(data, floor_m=None, ball=None):
     """A trajectory with heights above the floor, and a note saying what was done (or None).
 
     Parameters
@@ -86,9 +103,11 @@ def floor_referenced(data, floor_m=None):
     floor_m : float or None
         height of the floor in the data's frame [m]; subtracted from every height. None:
         keep the heights when the lowest sample after release lies in
-        :data:`FLOOR_BAND_M`, otherwise subtract the lowest sample (the data's origin is
-        then the lowest tracked position, and ``height_offset`` measures the tracked
-        point at contact relative to it).
+        :func:`floor_band` (of ``ball``), otherwise subtract the lowest sample (the data's origin is
+        then the lowest tracked position; :func:`vrcal.discovery.ranking.discover` fits the
+        contact's level from there with the baseline).
+    ball : BallProperties or None
+        the ball, whose size bounds where a tracked point can be (:func:`floor_band`)
 
     Returns
     -------
@@ -106,12 +125,12 @@ def floor_referenced(data, floor_m=None):
         note = f"heights shifted by {-shift:+.4f} m (--floor {shift:g} m)"
     else:
         low = float(np.min(y[int(getattr(data, "release_index", 0) or 0):]))
-        if FLOOR_BAND_M[0] <= low <= FLOOR_BAND_M[1]:
+        lo, hi = floor_band(ball)
+        if lo <= low <= hi:
             return data, None
         shift = low
         note = (f"heights are not referenced to the floor (lowest sample after release at {low:+.4f} m): "
-                f"shifted by {-shift:+.4f} m so that the lowest sample is at 0; height_offset is then the "
-                f"tracked point at contact relative to the lowest sample (give --floor to set the floor)")
+                f"shifted by {-shift:+.4f} m so that the lowest sample is at 0 (give --floor to set the floor)")
     return dataclasses.replace(data, y_m=y - shift), note
 
 
@@ -463,7 +482,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     notes, shifted = list(getattr(data, "notes", ()) if isinstance(data, Runs) else ()), []
     shifts = []
     for run, label in zip(runs, labels):
-        new, note = floor_referenced(run, floor_m)
+        new, note = floor_referenced(run, floor_m, ball)
         shifts.append(float(np.asarray(run.y_m)[0] - np.asarray(new.y_m)[0]) if note else 0.0)
         if note:
             notes.append(_of_run(label, note))

@@ -200,6 +200,8 @@ class Discovery:
     decimation: int = 1               # every k-th sample of a long trajectory was fitted (1: all)
     n_read: int | None = None         # data read before decimation (None: as fitted)
     split: res.FitResult | None = None  # named effects and their ambiguous rivals at the posterior mode
+    nuisance: tuple = ()              # effects in every model that are not named: the floor's level, when
+                                      # the record has no floor (``height_offset``)
 
     @property
     def unit(self):
@@ -245,6 +247,14 @@ class Discovery:
     @property
     def verdict(self):
         return verdict(self)
+
+    @property
+    def floor_level(self):
+        """Where the contact is [m] above the lowest sample of a record without a floor (fitted with
+        every model, :attr:`nuisance`), or None when the record gives the floor."""
+        if "height_offset" not in self.nuisance:
+            return None
+        return float(self.final.effect_values["height_offset"]["offset_m"])
 
     @property
     def unphysical(self):
@@ -366,8 +376,9 @@ class Discovery:
             "ambiguous_epsilon": self.ambiguous_epsilon,
             "prior_split": self.prior_split,
             "unphysical": self.unphysical,
-            "parameters": self.final.effect_values,
-            "uncertainties": self.final.effect_uncertainties,
+            "parameters": {k: v for k, v in self.final.effect_values.items() if k not in self.nuisance},
+            "uncertainties": {k: v for k, v in self.final.effect_uncertainties.items() if k not in self.nuisance},
+            "floor_level_m": self.floor_level,
             "gap_before": self.gap_before,
             "gap_after": self.gap_after,
             "gap_unit": self.unit,
@@ -671,17 +682,28 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             pool.append(name)
     sigma_floor, noise_source = chosen_noise(data, prepared, noise)
     floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in res._runs_of(data))
+    notes = list(prepared.notes)
+    nuisance = ()
+    shifts = prepared.floor_shifts_m
+    if kind == "trajectory" and floor_m is None and shifts and all(s != 0.0 for s in shifts):
+        # no floor in the record: the contact's level is a nuisance of every model, not an effect to name
+        nuisance = ("height_offset",)
+        pool = [n for n in pool if n not in nuisance]
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
     spread = res.drop_height_spread(problem)
     if stages is not None:
         stages(1.0, f"fitting {problem_size(problem):,} data")
-    baseline = res.fit_model(problem, ())
-    current, named, rounds, ambiguous = baseline, [], [], {}
-    notes = list(prepared.notes)
+    baseline = res.fit_model(problem, nuisance)
+    current, named, rounds, ambiguous = baseline, list(nuisance), [], {}
+    if nuisance:
+        level = float(baseline.effect_values["height_offset"]["offset_m"])
+        notes.append(f"the floor is not in the record: the contact's level is fitted with every model (the "
+                     f"baseline's: {level * 1e3:+.2f} mm from the lowest sample); a tracked point off the ball's "
+                     f"bottom cannot be told from it (height_offset not tried; give --floor to test it)")
     skipped = sorted(set(res.applicable_effects(kind)) ^ set(EFFECTS))
     if skipped:
         notes.append(f"not tried ({kind} data cannot show them): {', '.join(skipped)}")
-    while pool and len(named) < max_effects:
+    while pool and len(named) - len(nuisance) < max_effects:
         rnd = len(rounds) + 1
         cands = []
         n_data = current.n
@@ -699,7 +721,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             cand = Candidate(name, rnd, fit, 0.0, 0.0, 1.0, False, False)
             cands.append(_judge(cand, current, sigma_floor, th, floor_sd))
         material = [c for c in cands if c.material]
-        if not material and len(named) + 2 <= max_effects:
+        if not material and len(named) - len(nuisance) + 2 <= max_effects:
             cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd)
             material = [c for c in cands if c.material]
         rank_by_evidence(cands, current, sigma_floor)
@@ -730,7 +752,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         current = win.fit
         pool = [n for n in pool if n not in win.members]
         before = list(named)
-        named, current = _backward(problem, named, win.members, current, th, rnd, notes)
+        named, current = _backward(problem, named, win.members, current, th, rnd, notes, keep=nuisance)
         for c in (c for r in rounds for c in r):
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
@@ -748,10 +770,11 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             scatter = float(np.median(values))
             scatter_gap = res.scatter_gap(current, scatter)
     n_read = sum(int(res.observed_values(run).size) for run in res._runs_of(data))
-    return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current, named, rounds, th, notes,
+    return Discovery(fitted, ball, float(g_m_per_s2), sigma_floor, baseline, current,
+                     [n for n in named if n not in nuisance], rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
-                     dict(reader or {}, floor_shift_m=list(prepared.floor_shifts_m), floor_m=floor_m),
-                     prepared.decimation, n_read, split)
+                     dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
+                     prepared.decimation, n_read, split, nuisance)
 
 
 def chosen_noise(data, prepared, noise=None):
@@ -810,14 +833,15 @@ def problem_size(problem):
     return int(res.observed_values(problem.data).size)
 
 
-def _backward(problem, named, added, current, th, rnd, notes):
+def _backward(problem, named, added, current, th, rnd, notes, keep=()):
     """Stepwise backward check: drop an earlier-named effect that the newly added one has made
     unnecessary (removing it raises the BIC by less than the threshold). Forward selection
-    alone can name a stand-in first (a speed-dependent epsilon mimics drag plus an offset)."""
+    alone can name a stand-in first (a speed-dependent epsilon mimics drag plus an offset).
+    ``keep``: nuisances of every model (the floor's level of a record without one), never dropped."""
     changed = True
     while changed:
         changed = False
-        for name in [n for n in named if n not in added]:
+        for name in [n for n in named if n not in added and n not in keep]:
             rest = [n for n in named if n != name]
             start = {k: v for k, v in _start_from(current).items() if not k.startswith(name + ".")}
             fit = res.fit_model(problem, tuple(rest), start=start)

@@ -248,15 +248,16 @@ def _split_advice(d):
     from vrcal.drop.effects import EFFECTS
 
     f = d.split
+    shown = [e for e in f.effects if e not in d.nuisance]
     params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
-                       for e in f.effects for p in EFFECTS[e].parameters)
+                       for e in shown for p in EFFECTS[e].parameters)
     if "velocity_dependent_restitution" in f.effects:
         lo, hi = d.speed_range()
         e_lo, e_hi = d.epsilon_at([lo, hi], fit=f)
         eps = f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s"
     else:
         eps = f"epsilon = {f.value('epsilon'):.4f}"
-    return (f"Most probable: {_effects_phrase(list(f.effects))} together, shared as their prior densities say "
+    return (f"Most probable: {_effects_phrase(shown)} together, shared as their prior densities say "
             f"(the data fix only what they do together; {params}): {eps}. Use this; each value above is one "
             f"explanation alone.")
 

@@ -166,6 +166,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
             exponent = float(params.get("velocity_dependent_restitution", {}).get("exponent", 0.0))
         if "height_offset" in effects:
             offset = float(params.get("height_offset", {}).get("offset_m", 0.0))
+        elif isinstance(doc.get("floor_level_m"), (int, float)):
+            offset = float(doc["floor_level_m"])   # a record without a floor: its contact level, for a replay
         release = float(doc["model"]["release_time_s"])
         left = [e for e in effects if e not in CARRIED_EFFECTS]
         notes.append(f"from {from_json}: {', '.join(effects) or 'no effect'} named by vrcal discover")

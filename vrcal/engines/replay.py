@@ -94,6 +94,7 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
     """
     from vrcal.discovery.ranking import floor_referenced
     from vrcal.measurements import read_measurement
+    from vrcal.model.body import BallProperties
 
     saved = ((doc or {}).get("data") or {}) if isinstance((doc or {}).get("data"), dict) else {}
     opts = saved.get("read_options") if isinstance(saved.get("read_options"), dict) else {}
@@ -106,7 +107,10 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
     data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
     if data.kind != "trajectory":
         raise UsageError(f"--against replays a trajectory (heights against time); {path} holds {data.kind}")
-    data, note = floor_referenced(data, floor_m)
+    ball = (doc or {}).get("ball")
+    props = BallProperties(float(ball["mass_kg"]), float(ball["diameter_m"]), str(ball.get("name", "ball"))) \
+        if isinstance(ball, dict) else None
+    data, note = floor_referenced(data, floor_m, props)
     return data, [note] if note else []
 
 
@@ -210,7 +214,9 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     if not complete:
         raise DataError(f"{against}: no complete rebound flight in the record to compare apexes with")
     apex_measured = np.array([measured[k][0] for k in complete])
-    curves = {"vrcal": drops.height_m(t)[0]}
+    # a record without a floor: its contact level, fitted with every model of discover (0 with a floor)
+    level = float(doc["floor_level_m"]) if isinstance(doc.get("floor_level_m"), (int, float)) else 0.0
+    curves = {"vrcal": drops.height_m(t)[0] + level}
 
     # the engine: the export of the discover result, and the constant-epsilon export of its baseline
     common = dict(dt_s=dt_s, integrator=integrator, tolerance=tolerance, max_penetration_m=max_penetration_m,
@@ -233,7 +239,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
                      "it is run anyway, for the comparison only")
     module = load(eng.name)
     for name, e, release, offset in (("engine", ex, float(model["release_time_s"]), ex.setup.height_offset_m),
-                                     ("constant", ex0, float(t0), 0.0)):
+                                     ("constant", ex0, float(t0), level)):
         setup = replace(e.setup, n_bounces=n_bounces)
         duration = max(t_end - release, setup.dt_s) + 0.05
         steps = int(math.ceil(duration / setup.dt_s))
