@@ -155,6 +155,23 @@ def test_runs_side_by_side_in_one_vernier_file_share_the_contact(tmp_path):
     np.testing.assert_allclose(heights, [0.8, 1.6], rtol=0.02)
 
 
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_class_table_read_by_eye_to_whole_cm_names_the_drag(seed, tmp_path):
+    """The commonest class table: five drop heights, one trial each, rebounds read by eye (about 1 cm)
+    and written in whole cm. Judged at a flat 2 mm the ping-pong ball's drag was refused (an F test on 3
+    degrees of freedom) and epsilon came out near 0.74 for 0.90; the noise is now the reading's."""
+    drops = simulate_drops(np.array([0.5, 1.0, 1.5, 2.0, 2.5]), 0.90, 1, TT,
+                           effects={"air_drag": {"drag_coefficient": 0.47}})
+    h = drops.observed_apex_heights_m[:, 1] + np.random.default_rng(100 + seed).normal(0.0, 0.01, 5)
+    path = tmp_path / "class.csv"
+    path.write_text("H (cm),h (cm)\n" + "".join(f"{int(round(100 * H))},{int(round(100 * x))}\n"
+                                                 for H, x in zip([0.5, 1.0, 1.5, 2.0, 2.5], h)))
+    d = discover(read_measurement(path), TT)
+    assert d.noise_source.startswith("assumed (written to whole cm") and 0.005 < d.noise_floor < 0.012
+    assert d.effects == ["air_drag"] and d.verdict == "explained"
+    assert d.epsilon == pytest.approx(0.90, abs=0.025)
+
 # --------------------------------------------------------------------------- bounces that do not belong
 
 

@@ -816,6 +816,8 @@ def chosen_noise(data, prepared, noise=None):
             sigma, source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
                 source = "no noise measurable in the samples; assumed, give --noise to change it"
+            elif kind == "apexes":
+                sigma, source = reading_noise(fitted)
     read_runs = res._runs_of(data)
     timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
     systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
@@ -826,6 +828,45 @@ def chosen_noise(data, prepared, noise=None):
         source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
                    "added in quadrature")
     return sigma, source
+
+
+#: Relative standard deviation of a height read by eye against a ruler (a rebound's apex).
+READING_FRACTION = 0.01
+
+
+def reading_noise(data):
+    """Assumed noise of one apex height [m], and its source: the largest of :data:`ASSUMED_NOISE`
+    (2 mm) and the resolution the heights are written to over sqrt(12); heights written to whole
+    centimetres or coarser were read by eye against a ruler, good to about
+    :data:`READING_FRACTION` of the rebound (the median rebound is taken).
+
+    Judged at a flat 2 mm, a class's table of rebounds of 0.4-1.3 m written to whole centimetres
+    (read to about 1 cm) was 'unexplained' with epsilon 0.16 low: the drag it hides was rejected by
+    an F test on 3 degrees of freedom. One sigma for every datum (the fitter takes one); repeated
+    trials of a table measure it instead (:func:`vrcal.discovery.residuals.replicate_sigma`).
+
+    Parameters
+    ----------
+    data : ApexHeights or Runs of them
+
+    Returns
+    -------
+    (float, str)
+    """
+    from vrcal.measurements.cleanup import printed_resolution
+
+    runs = res._runs_of(data)
+    rebounds = np.concatenate([np.asarray(r.h_m, dtype=float)[np.asarray(r.bounce) >= 1] for r in runs])
+    heights = np.concatenate([np.asarray(r.h_m, dtype=float) for r in runs])
+    parts = {"2 mm": ASSUMED_NOISE["apexes"]}
+    step = printed_resolution(heights, max_decimals=6)
+    if step is not None:
+        parts[f"heights written to {step * 100:g} cm, / sqrt(12)"] = step / math.sqrt(12.0)
+        if step >= 0.01 - 1e-12 and rebounds.size:
+            parts[f"written to whole cm: read by eye, {100 * READING_FRACTION:g} % of the median rebound"] = (
+                READING_FRACTION * float(np.median(rebounds)))
+    why, sigma = max(parts.items(), key=lambda kv: kv[1])
+    return float(sigma), f"assumed ({why}); give --noise to change it"
 
 
 def problem_size(problem):

@@ -117,8 +117,11 @@ def _noise_text(d):
         src = f"measured on all {d.n_read:,} samples"
     if "systematic error" in d.noise_source:
         src += " with the tracker's systematic error"
-    if src == "assumed" and d.kind == "apexes" and len(d.runs) > 1:
-        src = "assumed; repeat trials at each drop height to measure it, or give --noise"
+    if src == "assumed" and d.kind == "apexes":
+        why = d.noise_source[len("assumed ("):d.noise_source.index(")")] if d.noise_source.startswith("assumed (") \
+            else ""
+        src = f"assumed{': ' + why if why else ''}; " + (
+            "repeat trials at each drop height to measure it, or give --noise" if len(d.runs) > 1 else "give --noise")
     noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
     if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
         return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "
