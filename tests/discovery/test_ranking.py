@@ -470,3 +470,22 @@ def test_an_origin_below_the_floor_is_not_taken_for_the_floor():
     d = discover(data, tennis)
     assert d.effects == [] and d.nuisance == ("height_offset",)
     assert d.epsilon == pytest.approx(0.75, abs=0.002)
+
+
+def test_a_wrong_mass_is_suspect_input_not_explained():
+    """A tennis ball with drag (C_d 0.55) described as three times heavier: drag would need C_d about
+    1.8, and a speed law with an offset stood in for it near the noise -- 'explained' with the wrong
+    physics. A candidate beyond its limits that fits far better makes the input the suspect, and the
+    verdict says what to check."""
+    tennis = BallProperties.from_ball(get_ball("tennis"))
+    drops = simulate_drops(1.2, 0.75, 5, tennis, effects={"air_drag": {"drag_coefficient": 0.55}}, release_time_s=0.2)
+    cols = sample_measurement(drops, "trajectory", fs_hz=240.0, noise_m=0.001, rng=4)
+    data = Trajectory(np.asarray(cols["t"]), np.asarray(cols["y"]), "heavy")
+    d = discover(data, BallProperties(3 * tennis.mass_kg, tennis.diameter_m, "tennis"))
+    assert d.verdict == "suspect input" and d.warnings == []
+    assert [u["effect"] for u in d.unphysical_better] == ["air_drag"]
+    from vrcal.discovery.ranking import verdict_reason
+
+    assert "check the ball's mass and diameter" in verdict_reason(d)
+    right = discover(data, tennis)
+    assert right.verdict == "explained" and right.effects == ["air_drag"] and right.unphysical_better == []

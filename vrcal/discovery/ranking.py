@@ -260,6 +260,33 @@ class Discovery:
     def unphysical(self):
         """Candidates that would shrink the gap materially but only with a parameter beyond its
         physical limits: [{"effect", "parameter", "value", "limits", "gap", "check"}], best first."""
+        return [entry for _, entry in self._unphysical()]
+
+    @property
+    def unphysical_better(self):
+        """The entries of :attr:`unphysical` whose candidate fits materially better than the final
+        model: as many parameters or fewer and a chi-square lower by more than
+        ``indistinguishable_chi2``, or more and a chi-square drop significant at ``p_value``; and
+        removing at least ``removed_noise_fraction`` of the noise floor from the gap. The
+        named effects are then stand-ins for one that needs an unphysical value, and the input
+        (mass, diameter, length scale, frame rate) is the first suspect."""
+        th = self.thresholds
+        sigma2 = self.final.noise_sigma(self.noise_floor) ** 2
+        out = []
+        for c, entry in self._unphysical():
+            drop = (self.final.rss - c.fit.rss) / sigma2
+            extra = c.fit.k - self.final.k
+            # as for naming an effect: the gap it removes must be a share of the noise, not only many
+            # samples' worth of a sliver of it (a noise-free simulation is fitted far below its noise)
+            removed = math.sqrt(max(self.gap_after**2 - c.fit.gap**2, 0.0))
+            if removed < th.removed_noise_fraction * (self.noise_floor or 0.0):
+                continue
+            if (extra <= 0 and drop > th.indistinguishable_chi2) or (
+                    extra > 0 and drop > 0 and chi2_sf(drop, extra) <= th.p_value):
+                out.append(entry)
+        return out
+
+    def _unphysical(self):
         from vrcal.drop.effects import EFFECTS
 
         out, seen = [], set()
@@ -274,8 +301,8 @@ class Discovery:
                 if (effect, param) in seen:
                     continue
                 seen.add((effect, param))
-                out.append({"effect": effect, "parameter": param, "value": value, "limits": list(limits),
-                            "gap": c.fit.gap, "check": EFFECTS[effect].check})
+                out.append((c, {"effect": effect, "parameter": param, "value": value, "limits": list(limits),
+                                "gap": c.fit.gap, "check": EFFECTS[effect].check}))
         return out
 
     def gap_per_bounce(self):
@@ -438,16 +465,22 @@ def _epsilon_range(fit, run):
 def verdict(d):
     """The one verdict of a discovery (every section of the report follows it):
 
-    * "suspect input": the plausibility checks found something that looks wrong (``d.warnings``);
+    * "suspect input": the plausibility checks found something that looks wrong (``d.warnings``), or
+      the gap is near the noise but a candidate beyond its physical limits fits far better than
+      the named effects (:attr:`Discovery.unphysical_better`: a wrong mass makes drag need C_d 1.8,
+      and a speed law stands in for it);
     * "explained": the final model's gap is at most :data:`EXPLAINED_FACTOR` times the noise floor
-      (or the gap that the record's own bounce-to-bounce scatter leaves, when larger);
+      (or the gap that the record's own bounce-to-bounce scatter leaves, when larger), and no
+      unphysical candidate fits far better;
     * "unexplained": otherwise -- structure that no named effect removes.
     """
     if d.warnings:
         return "suspect input"
     ref = d.reference_gap
     if ref and d.gap_after <= EXPLAINED_FACTOR * ref:
-        return "explained"
+        # near the noise, yet a candidate beyond its physical limits fits far better: the named effects
+        # stand in for it, and the input (mass, diameter, scale, frame rate) is the first suspect
+        return "suspect input" if d.unphysical_better else "explained"
     return "unexplained"
 
 
@@ -455,7 +488,7 @@ def verdict_reason(d):
     """One sentence: why the verdict is what it is."""
     v = verdict(d)
     if v == "suspect input":
-        return "; ".join(d.warnings)
+        return "; ".join(list(d.warnings) + [_stand_in_reason(d, u) for u in d.unphysical_better])
     if not d.rounds:
         return f"{d.final.n} data and {d.final.k} parameters: nothing is left unexplained, and nothing could be tested"
     ref = d.reference_gap
@@ -464,6 +497,17 @@ def verdict_reason(d):
     if v == "explained":
         return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
     return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
+
+
+def _stand_in_reason(d, u):
+    """Why a better-fitting unphysical candidate makes the input suspect, in one clause."""
+    from vrcal.drop.effects import EFFECTS
+
+    (p,) = [p for p in EFFECTS[u["effect"]].parameters if p.name == u["parameter"]]
+    named = " and ".join(d.effects) if d.effects else "the constant-epsilon model"
+    return (f"{u['effect']} fits far better than {named} (gap {u['gap'] * 1e3:.3g} against "
+            f"{d.gap_after * 1e3:.3g} {'mm' if d.unit == 'm' else 'ms'}) but only with {u['parameter']} "
+            f"{u['value']:.3g} (physical: {u['limits'][0]:.3g} to {u['limits'][1]:.3g}): {u['check']}")
 
 
 def gap_per_bounce(before, after):
