@@ -225,3 +225,21 @@ def test_inflated_contact_time():
     assert 0.008 < inflated_contact_time_s(0.6, 0.24) < 0.014
     # a harder ball (higher pressure) has a shorter contact
     assert inflated_contact_time_s(0.6, 0.24, 120e3) < inflated_contact_time_s(0.6, 0.24, 60e3)
+
+
+def test_a_solid_balls_contact_time_is_bounded_by_hertz_not_by_a_membrane():
+    """A golf ball is solid (1,130 kg/m^3): its contact lasts about 0.5 ms; the membrane model of an
+    inflated ball allowed it 15 ms, and a stand-in of 11.5 ms was named. Hertz's time of a soft rubber
+    at 0.5 m/s bounds it instead; hollow balls keep twice the membrane estimate."""
+    from vrcal.drop.effects import EFFECTS, contact_time_limit_s, solid_contact_time_s
+
+    golf, tennis = (0.0459, 0.0427), (0.0577, 0.067)
+    assert 0.003 < contact_time_limit_s(*golf) < 0.005 < 2 * inflated_contact_time_s(*golf)
+    assert contact_time_limit_s(*tennis) == pytest.approx(2 * inflated_contact_time_s(*tennis))
+    # Hertz: tau ~ v^(-1/5), E^(-2/5); scalar and array alike
+    assert solid_contact_time_s(*golf, speed_m_per_s=32.0) == pytest.approx(
+        solid_contact_time_s(*golf) * 64.0 ** -0.2)
+    np.testing.assert_allclose(solid_contact_time_s(np.array([0.0459, 0.0459]), 0.0427),
+                               solid_contact_time_s(0.0459, 0.0427))
+    (param,) = EFFECTS["contact_duration"].parameters
+    assert param.physical_limits(BallProperties(*golf, "golf"))[1] == pytest.approx(contact_time_limit_s(*golf))

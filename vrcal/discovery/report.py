@@ -298,9 +298,10 @@ def _speed_lines(d):
         lines.append("  epsilon(v): " + ", ".join(f"{e:.4f} at {v:.2f} m/s" for v, e in zip(speeds, eps)))
     names = set(d.effects) | {r for v in d.ambiguous.values() for r in v}
     if {"air_drag", "velocity_dependent_restitution"} <= names:
+        more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
+                else "drops from other heights (several files, or a drop table)")
         lines.append(_wrap(f"Air drag and a speed-dependent epsilon both fit: the speeds covered ({lo:.2f}-{hi:.2f} "
-                           f"m/s, a factor {hi / lo:.2g}) are too narrow to tell them apart; add drops from other "
-                           f"heights (several files, or a drop table).", "  "))
+                           f"m/s, a factor {hi / lo:.2g}) are too narrow to tell them apart; add {more}.", "  "))
     return lines
 
 

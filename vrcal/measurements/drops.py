@@ -56,7 +56,7 @@ _DROP_WORDS = ("drop", "releas", "initial", "fall")
 _REBOUND_WORDS = ("rebound", "bounc", "return", "reach")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
-_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement)\s*#?\s*(\d+)$")
+_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
 
 

@@ -7,11 +7,12 @@ parsed like any text table.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from typing import Callable, NamedTuple
 
-from vrcal.errors import UsageError
+from vrcal.errors import DataError, UsageError
 from vrcal.measurements import (
     apexes,
     audacity_labels,
@@ -187,10 +188,37 @@ def read_measurement(path, fmt=None, **options):
         if sheet is not None:
             raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks only")
         text = load_text(path)
-    name = name or _detect(text)
+    title = None
+    if name is None:
+        text, name, title = _detect_below_title(text)
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
-    return FORMATS[name].parser(text, **parsed)
+    data = FORMATS[name].parser(text, **parsed)
+    if title is not None:
+        data = dataclasses.replace(data, notes=(f"line {title[0]} {title[1].strip()!r} is a title: skipped",)
+                                   + tuple(data.notes))
+    return data
+
+
+def _detect_below_title(text):
+    """(text, format, title): the format of ``text``, or of the text below a title line that no format
+    reads (a class's sheet starts with 'Golf ball, 1 m, group 3' above its header); title is
+    (lineno, line) or None."""
+    try:
+        return text, _detect(text), None
+    except DataError:
+        if len(text.lines) < 3:
+            raise
+        first = [c for c in re.split(r"[,;\t]", text.lines[0][1]) if c.strip()]
+        second = [c for c in re.split(r"[,;\t]", text.lines[1][1]) if c.strip()]
+        if is_numeric_row(first) or is_numeric_row(second):
+            raise
+        below = dataclasses.replace(text, lines=text.lines[1:])
+        try:
+            return below, _detect(below), text.lines[0]
+        except DataError:
+            pass
+        raise
 
 
 def read_measurements(paths, fmt=None, **options):

@@ -23,7 +23,9 @@ from vrcal.fileio import MAX_TEXT_BYTES, read_bytes_bounded
 _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
 
-TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time")
+#: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo).
+TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time",
+              "zeit", "aufprallzeit", "temps", "tiempo", "tempo")
 #: Names of a trajectory's height column (a motion sensor's "Position (m)" and a video tracker's
 #: "height" too; the first of them in the file's column order is taken).
 Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position")
