@@ -216,3 +216,22 @@ def test_other_containers_need_pyav_or_read_with_it(tmp_path):
     assert got.t_s.size == 6
     # a lossy codec smears each onset (pre-echo): intervals stay within 1.5 ms, not 0.25 ms
     assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1.5e-3
+
+
+def test_two_drops_in_one_recording_are_two_chains_and_a_room_echo_is_called_one(tmp_path):
+    """A class records two drops in one file: the second drop's impacts form a sequence of their own and
+    are kept as a second chain (fitted jointly, each its own drop height), not lost among 'more events
+    off the bounce sequence'. An echo 30 ms after each impact (a wall 5 m away) is called an echo."""
+    t1, v1 = drop(H=0.8, n=10)
+    t2, v2 = drop(H=0.5, n=9, release=t1[-1] + 1.5)
+    scene = SoundScene(noise_rms=0.002, echoes=((0.030, 0.4),))
+    path = tmp_path / "two.wav"
+    write_wav(path, impact_sound(np.concatenate([t1, t2]), np.concatenate([v1, v2]), scene=scene, seed=2), 48000)
+    got = read_measurement(path)
+    assert len(got.chains) == 2
+    (a, b), (c, d) = got.chains
+    np.testing.assert_allclose(got.t_s[a:b], t1[:b - a], atol=2.5e-4)
+    np.testing.assert_allclose(got.t_s[c:d], t2[:d - c], atol=2.5e-4)
+    assert b - a >= 8 and d - c >= 7
+    assert any("a second drop" in n for n in got.notes)
+    assert any("echo or ringing: 30.0 ms after an impact" in n for n in got.notes)

@@ -125,11 +125,13 @@ def track_figure(tracked):
         step = max(1, x.size // 200000)
         t = np.arange(0, x.size, step) / st.fs_hz
         ax.plot(t, x[::step], lw=0.4, color="0.5", label=f"signal ({st.what})")
-        for k, i in enumerate(st.chain):
-            kept = k < tracked.measurement.t_s.size
+        labelled = set()
+        for i in np.concatenate([st.chain, st.second]).astype(int):
+            kept = bool(np.any(np.abs(tracked.measurement.t_s - st.onsets.t_s[i]) < 1e-9))
+            label = "impacts kept" if kept else "impacts not fitted"
             ax.axvline(st.onsets.t_s[i], color="tab:green" if kept else "tab:orange", lw=0.8,
-                       label=(("impacts kept" if kept else "impacts not fitted")
-                              if k in (0, tracked.measurement.t_s.size) else None))
+                       label=None if label in labelled else label)
+            labelled.add(label)
         for j, i in enumerate(sorted(st.reasons)):
             ax.axvline(st.onsets.t_s[i], color="tab:red", ls=":", lw=0.8, label="rejected events" if j == 0 else None)
         ax.set_xlabel("time [s]")

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -460,6 +460,10 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     return chain, rejection_reasons(t, chain, tolerance)
 
 
+#: An event this soon after an impact [ms] is called its echo or ringing (a wall up to 10 m away).
+ECHO_WITHIN_MS = 60.0
+
+
 def rejection_reasons(t_s, chain, tolerance=RATIO_TOLERANCE):
     """``{index: reason}`` for every candidate time in ``t_s`` not in the bounce ``chain``."""
     t = np.asarray(t_s, dtype=float)
@@ -476,7 +480,8 @@ def rejection_reasons(t_s, chain, tolerance=RATIO_TOLERANCE):
         else:
             prev = int(before[-1])
             gap = (t[i] - t[prev]) * 1e3
-            kind = "echo or ringing" if gap < 15.0 else "a noise (clap, voice, ...)"
+            # sound goes 20 m there and back in 60 ms: a room's walls echo within that
+            kind = "echo or ringing" if gap < ECHO_WITHIN_MS else "a noise (clap, voice, ...)"
             reasons[i] = f"{kind}: {gap:.1f} ms after an impact, off the bounce sequence"
     return reasons
 
@@ -604,11 +609,12 @@ class SoundTrack:
     fs_hz: float
     x: np.ndarray
     what: str
+    second: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # a second drop's onsets
 
     @property
     def snr_db(self):
         """Level of each kept impact over the noise [dB]."""
-        return self.onsets.snr_db[self.chain][: self.impacts.t_s.size]
+        return self.onsets.snr_db[np.searchsorted(self.onsets.t_s, self.impacts.t_s)]
 
 
 def track_sound(path, *, progress=None):
@@ -658,6 +664,9 @@ def track_sound(path, *, progress=None):
     if t_new.size:
         onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
         reasons = rejection_reasons(onsets.t_s, chain)
+    second = _second_drop(onsets, chain)
+    for i in second:
+        reasons.pop(int(i), None)
     notes.append(f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce sequence "
                  f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
                  f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
@@ -690,10 +699,29 @@ def track_sound(path, *, progress=None):
     if n_clean < MIN_IMPACTS:
         raise DataError(f"{path}: only {n_clean} impact(s) before an anomaly ({rejected[0][2]}); "
                         f"at least {MIN_IMPACTS} are needed")
-    impacts = ImpactTimes(t_s=t[:n_clean], source=path, notes=tuple(notes), rejected=rejected)
+    t_all, chains = t[:n_clean], ()
+    if second.size:
+        t2 = onsets.t_s[second]
+        n2, _ = detect_impact_anomalies(t2)
+        if n2 >= MIN_IMPACTS:
+            notes.append(f"a second drop: {n2} impacts from t = {t2[0]:.4f} s form a bounce sequence of their own; "
+                         f"fitted jointly with the first (one epsilon, each drop its own height)")
+            t_all, chains = np.concatenate([t_all, t2[:n2]]), ((0, n_clean), (n_clean, n_clean + n2))
+    impacts = ImpactTimes(t_s=t_all, source=path, notes=tuple(notes), rejected=rejected, chains=chains)
     if progress:
         progress(1.0, "done")
-    return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what)
+    return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what,
+                      second=second)
+
+
+def _second_drop(onsets, chain):
+    """Indices into ``onsets`` of a second bounce sequence heard after the first one's last impact (a
+    recording of two drops), or an empty array."""
+    after = np.flatnonzero(onsets.t_s > onsets.t_s[chain[-1]] + 0.05)
+    if after.size < MIN_IMPACTS:
+        return np.zeros(0, dtype=int)
+    found, _ = bounce_sequence(onsets.t_s[after], onsets.snr_db[after])
+    return after[found] if found.size >= MIN_IMPACTS else np.zeros(0, dtype=int)
 
 
 def _with_impacts(onsets, chain, t_new, level_new, same_s=1e-3):
