@@ -6,7 +6,7 @@ import builtins
 
 import numpy as np
 import pytest
-from helpers import shared_file
+from helpers import EXAMPLES, shared_file
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -531,3 +531,14 @@ def test_no_reader_crashes_on_arbitrary_text(tmp_path_factory, text):
         read_measurement(path)
     except VrcalError:
         pass
+
+
+@pytest.mark.parametrize("example,options,said", [
+    ("apexes.csv", {"fs_hz": 30.0, "y_down": True}, "--fs, --y-down ignored: they apply to trajectories"),
+    ("drop-table.csv", {"scale_m_per_px": 0.01}, "--scale ignored: it applies to trajectories"),
+    ("phyphox-impacts.csv", {"fs_hz": 30.0}, "--fs ignored: it applies to trajectories, and this file holds impacts"),
+])
+def test_trajectory_options_on_other_records_are_said_to_be_ignored(example, options, said):
+    """--fs, --scale and --y-down given for impact times or heights changed nothing, silently."""
+    got = read_measurement(EXAMPLES / "data" / example, **options)
+    assert any(said in n for n in got.notes), got.notes

@@ -58,6 +58,13 @@ def test_basketball_consistent_epsilon_subtracts_the_diameter():
     assert eps.nominal == pytest.approx(0.77, abs=0.005)
     assert ball_epsilon(ball, as_paper=True).nominal == pytest.approx(0.85, abs=0.001)
     assert eps.min < eps.nominal < eps.max
+    assert "rebound to the top" in eps.convention and "both to its bottom" in eps.convention
+
+
+def test_convention_says_what_the_rule_measures():
+    """A rule measuring both heights to the bottom says so; one measuring to the top is not hidden."""
+    assert ball_epsilon(get_ball("tennis")).convention.endswith("as the rule measures them")
+    assert "paper" in ball_epsilon(get_ball("basketball"), as_paper=True).convention
 
 
 def test_nominal_is_the_midpoint_unless_given():

@@ -194,6 +194,13 @@ def read_measurement(path, fmt=None, **options):
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
     data = FORMATS[name].parser(text, **parsed)
+    kind = data.runs[0].kind if isinstance(data, Runs) else data.kind
+    unused = [flag for flag, key in (("--fs", "fs_hz"), ("--scale", "scale_m_per_px"), ("--y-down", "y_down"))
+              if options.get(key) and kind != "trajectory"]
+    if unused:
+        data = dataclasses.replace(data, notes=tuple(data.notes) + (
+            f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
+            f"and this file holds {kind}",))
     if title is not None:
         data = dataclasses.replace(data, notes=(f"line {title[0]} {title[1].strip()!r} is a title: skipped",)
                                    + tuple(data.notes))
@@ -207,7 +214,7 @@ def _detect_below_title(text):
     try:
         return text, _detect(text), None
     except DataError:
-        if len(text.lines) < 3:
+        if len(text.lines) < 3 or text.lines[0][1].lstrip()[:1] in _DOCUMENTS:
             raise
         first = [c for c in re.split(r"[,;\t]", text.lines[0][1]) if c.strip()]
         second = [c for c in re.split(r"[,;\t]", text.lines[1][1]) if c.strip()]

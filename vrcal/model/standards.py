@@ -315,6 +315,9 @@ def get_ball(key, standards=None):
 # --------------------------------------------------------------------------- epsilon
 
 
+PAPER_CONVENTION = "as printed in the paper's Table 1 (no point correction)"
+
+
 def ball_epsilon(ball, as_paper=False):
     """epsilon of a ball's drop-test window, Eq. (9) of [1].
 
@@ -339,13 +342,17 @@ def ball_epsilon(ball, as_paper=False):
         hi = ball.paper.rebound_max_m if ball.paper.rebound_max_m is not None else lo
         H = ball.paper.drop_height_m
         rebound = Range(lo, hi, 0.5 * (lo + hi))
-        convention = "as printed in the paper's Table 1 (no point correction)"
+        convention = PAPER_CONVENTION
     else:
         D = ball.diameter_m.nominal
         H = height_to_bottom_m(ball.drop_height_m, ball.drop_measured_to, D)
         r = ball.rebound_m
         to_bottom = [height_to_bottom_m(h, ball.rebound_measured_to, D) for h in (r.min, r.nominal, r.max)]
         rebound = Range(to_bottom[0], to_bottom[2], to_bottom[1])
-        convention = "drop and rebound both to the bottom of the ball"
+        if ball.drop_measured_to == ball.rebound_measured_to == "bottom":
+            convention = "drop and rebound both to the bottom of the ball, as the rule measures them"
+        else:
+            convention = (f"the rule measures the drop to the {ball.drop_measured_to} and the rebound to the "
+                          f"{ball.rebound_measured_to} of the ball; H and h here are both to its bottom")
     eps = epsilon_from_heights([rebound.min, rebound.nominal, rebound.max], H)
     return EpsilonWindow(float(eps[0]), float(eps[1]), float(eps[2]), H, rebound, convention)

@@ -35,7 +35,7 @@ from vrcal.errors import UsageError
 from vrcal.fileio import dumps
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
-from vrcal.model.standards import ball_epsilon
+from vrcal.model.standards import PAPER_CONVENTION, ball_epsilon
 from vrcal.textout import csv_text as _csv_text
 from vrcal.textout import machine_document, table, wrap
 
@@ -246,10 +246,10 @@ def regenerate(standards, K_per_s=DEFAULT_K_PER_S, as_paper=False):
     """
     K = check_K(K_per_s)
     rows = []
-    convention = None
+    convention = (PAPER_CONVENTION if as_paper else
+                  "drop and rebound both to the bottom of the ball")
     for key, ball in standards.items():
         window = ball_epsilon(ball, as_paper=as_paper)
-        convention = window.convention
         eps = window.as_dict()
         T = {k: eq.contact_time_from_epsilon_s(e, K) for k, e in eps.items()}
         x = ball.radius_m / 2.0
