@@ -237,6 +237,12 @@ def test_export_and_verify_take_the_same_body(discovered):
                                 "--phases", "1").stdout
 
 
+def test_a_ball_named_by_its_alias_is_the_ball_of_a_discover_json(discovered):
+    """The JSON says table_tennis; 'ping-pong' on the command line is the same ball, not a contradiction."""
+    _folder, path, doc = discovered
+    assert machine("fit", "ping-pong", "--from", path)["epsilon"]["nominal"] == pytest.approx(doc["epsilon"])
+
+
 # --------------------------------------------------------------------------- bad combinations
 
 
@@ -246,6 +252,9 @@ BAD = [
     (["fit", "--diameter", "0.04"], "--diameter without --mass: a ball of your own needs both"),
     (["fit", *OWN], "'ball' is not a ball of the standards and has no drop-test window: give --epsilon"),
     (["fit", "golf"], "unknown ball 'golf'"),
+    (["fit", "{data}"], "'{data}' is a file, not a ball (a measurement goes to 'vrcal discover FILE'"),
+    (["verify", "{doc}", "--engine", "ode"], "is a file, not a ball (a measurement goes to 'vrcal discover FILE', "
+                                             "an export to 'vrcal verify --file FILE')"),
     (["fit", "tennis", "--from", "{doc}"], "BALL 'tennis' differs from the ball of {doc} ('table_tennis')"),
     (["fit", "--from", "{doc}", "--as-paper"], "--as-paper reads a standard's drop test"),
     (["fit", *OWN, "--epsilon", "0.7", "--as-paper"], "--as-paper reads a standard's drop test"),

@@ -121,3 +121,9 @@ def test_docs_limits_lists_every_numeric_option_with_its_range():
     missing = [f"{max(p.opts, key=len)} {p.type.range_text()}" for _path, _cmd, p in NUMERIC
                if f"| `{max(p.opts, key=len)}` | {p.type.range_text()} |" not in text]
     assert missing == [], f"docs/limits.md does not list: {missing}"
+
+
+def test_the_measurement_formats_of_the_cli_are_the_readers():
+    from vrcal.measurements.reader import FORMATS
+
+    assert tuple(FORMATS) == opt.MEASUREMENT_FORMATS

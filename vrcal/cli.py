@@ -425,7 +425,7 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
 @MASS_OPTION
 @DIAMETER_OPTION
 @from_option("simulate the discovered model (its ball, epsilon, drop height, release time, effects and g)")
-@click.option("--drop", "drop_m", type=opt.HEIGHT_M, default=None,
+@click.option("--drop", "--drop-height", "drop_m", type=opt.HEIGHT_M, default=None,
               help="Drop height of the ball's bottom [m] (default: the standard's, or the --from result's).")
 @click.option("--bounces", type=opt.BOUNCES, default=10, show_default=True, help="Number of floor impacts.")
 @click.option("--epsilon", type=opt.EPSILON, default=None,
@@ -496,12 +496,15 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
                    "--diameter.")
 @MASS_OPTION
 @DIAMETER_OPTION
-@click.option("--format", "fmt", default=None, help="Format of DATA (default: detected from the file).")
+@click.option("--format", "fmt", type=click.Choice(opt.MEASUREMENT_FORMATS), default=None, metavar="FORMAT",
+              help=f"Format of DATA (default: detected from the file): {', '.join(opt.MEASUREMENT_FORMATS)} "
+                   "(docs/measurements.md).")
 @click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook (default: 'All', else the first table).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
-@click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, help="Frame rate [Hz] when the file has no time column.")
+@click.option("--fs", "--fps", "fs_hz", type=opt.RATE_HZ, default=None,
+              help="Frame rate [Hz] when the file has no time column.")
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
@@ -523,8 +526,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
     by their evidence with a materiality test and hard physical limits; repeats until nothing
-    material is left. Prints the answer, the verdict (explained / unexplained / suspect input)
-    and the epsilon for an engine. Several DATA files of one ball (or a table of drop and
+    material is left. Prints the answer, the verdict (explained / unexplained / untested /
+    suspect input) and the epsilon for an engine. Several DATA files of one ball (or a table of drop and
     rebound heights, one trial per row) are fitted jointly: one epsilon, a drop height each.
 
     \b

@@ -199,3 +199,8 @@ POSITIVE_COUNT = Count(1, None)
 #: An input file: a missing file or a directory is a usage error (exit 2), said while the command
 #: line is parsed ("Path 'x.csv' does not exist"), before any work.
 INPUT_FILE = click.Path(exists=True, dir_okay=False)
+
+#: The measurement formats of ``--format`` (the keys of vrcal.measurements.reader.FORMATS, written out
+#: so that the CLI starts without importing the readers; a test keeps the two equal).
+MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "tracker", "phyphox-collision", "drops", "apexes",
+                       "trajectory", "impacts", "sound", "video")

@@ -265,6 +265,20 @@ def test_a_misfit_is_not_called_a_success():
     assert f"Verdict: {d.verdict}" in text and "suffices" not in text
 
 
+def test_a_drop_and_one_rebound_is_untested_not_explained():
+    """Two apexes fix epsilon exactly: nothing is left to judge the model by, so no 'explained'."""
+    from vrcal.discovery.report import fit_report
+    from vrcal.measurements import ApexHeights
+
+    tennis = BallProperties.from_ball(get_ball("tennis"))
+    d = discover(ApexHeights(np.array([0, 1]), np.array([1.0, 0.56]), "two"), tennis)
+    assert d.verdict == "untested" and d.as_dict()["verdict"] == "untested"
+    assert d.epsilon == pytest.approx(0.75, abs=0.01)
+    assert "Verdict: untested: 2 data and 2 parameters" in fit_report(d) and "suffices" not in fit_report(d)
+    three = discover(ApexHeights(np.array([0, 1, 2]), np.array([1.0, 0.56, 0.315]), "three"), tennis)
+    assert three.verdict != "untested"
+
+
 def test_an_upside_down_record_is_an_error_naming_the_fix():
     from vrcal.errors import DataError
 
@@ -328,7 +342,7 @@ def test_cli_on_the_three_data_forms(tmp_path, kind, effect):
     data = json.loads(out.read_text())
     assert JSON_KEYS <= set(data)
     assert data["effects"] == [effect]
-    assert data["verdict"] in ("explained", "unexplained", "suspect input")
+    assert data["verdict"] in ("explained", "unexplained", "untested", "suspect input")
     assert data["schema_version"] >= 1 and data["reader"]["files"] == [str(path)]
 
 

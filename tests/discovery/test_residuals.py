@@ -99,6 +99,22 @@ def test_fit_recovers_the_baseline_from_noisy_data(kind):
     assert abs(fit.baseline_values["epsilon"] - 0.75) < 6 * fit.uncertainty("epsilon") + 1e-4
 
 
+@pytest.mark.parametrize("kind,sigma", [("impacts", 2e-4), ("apexes", 2e-3)])
+def test_a_known_noise_is_the_floor_of_the_uncertainties(kind, sigma):
+    """Noise-free data leave no residuals: scaled by them alone, epsilon would be exact. A noise that
+    was given or measured is the least scatter the data have, so the uncertainty is (JᵀJ)⁻¹ σ²."""
+    data = drop(kind, n=8)
+    free = res.fit_model(res.make_problem(data, TENNIS, noise=sigma))
+    known = res.fit_model(res.make_problem(data, TENNIS, noise=sigma, noise_known=True))
+    assert free.uncertainty("epsilon") < 1e-3 * known.uncertainty("epsilon")
+    expected = sigma * np.sqrt(np.diag(np.linalg.pinv(known.extra["jtj"])))
+    assert known.uncertainties == pytest.approx(expected, rel=1e-6)
+    noisy = drop(kind, n=8, noise=5 * sigma if kind == "apexes" else 0.0, jitter=5 * sigma, seed=2)
+    loud = res.fit_model(res.make_problem(noisy, TENNIS, noise=sigma, noise_known=True))
+    assert loud.uncertainty("epsilon") == pytest.approx(
+        res.fit_model(res.make_problem(noisy, TENNIS, noise=sigma)).uncertainty("epsilon"))   # residuals rule
+
+
 def test_fit_with_an_effect_reports_prior_and_values():
     data = drop("trajectory", {"contact_duration": {"contact_time_s": 0.006}}, noise=0.001, seed=2)
     fit = res.fit_model(res.make_problem(data, TENNIS), ("contact_duration",))

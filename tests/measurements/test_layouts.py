@@ -156,6 +156,19 @@ def test_impact_times_read_off_video_frames_carry_the_grid_as_their_timing_noise
     assert any(f"{1e3 / fps:.4g} ms grid" in n and "fps video" in n for n in data.notes), data.notes
 
 
+def test_a_fast_video_printed_to_ms_is_told_by_many_times_not_by_chance():
+    """240 fps printed to 1 ms: a time lands within the rounding of a frame by chance in 29 %, so 8 times
+    cannot tell the frames; 14 can (chance 14 x 0.29^13 < 1e-6), and times at random printed to 1 ms
+    are not taken for frames."""
+    from vrcal.measurements.cleanup import time_grid
+
+    t = np.round(np.round(impact_times(H=2.0, eps=0.85, n=14) * 240) / 240, 3)
+    assert time_grid(t).period_s == pytest.approx(1 / 240) and "240 fps" in time_grid(t).what
+    rng = np.random.default_rng(3)
+    found = [time_grid(np.round(np.cumsum(rng.uniform(0.1, 0.6, 14)), 3)) for _ in range(2000)]
+    assert sum("fps" in g.what for g in found if g is not None) <= 2
+
+
 def test_finely_timed_impacts_have_no_grid():
     from vrcal.measurements.cleanup import time_grid
 

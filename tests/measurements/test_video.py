@@ -248,3 +248,13 @@ def test_real_video_of_a_green_ball(ameen):
     result = discover(vt.trajectory, BallProperties(0.026, 0.0687, "green"))
     assert abs(result.epsilon - 0.70) < 0.015
     assert not result.effects
+
+
+@pytest.mark.parametrize("name", ["drop.mp4", "drop.mov"])
+def test_an_mp4_or_mov_is_written_with_a_codec_it_takes(tmp_path, capfd, name):
+    """Motion JPEG in MP4 or QuickTime made OpenCV print two FFMPEG warnings and fall back; the codec
+    follows the extension, and the video tracks."""
+    path, truth = render(tmp_path, name=name, n=2, H=0.4)
+    assert "not supported" not in capfd.readouterr().err
+    avi, _ = render(tmp_path, name="drop.avi", n=2, H=0.4)
+    assert track_video(path, diameter_m=D).kept.sum() == track_video(avi, diameter_m=D).kept.sum() > 0

@@ -88,6 +88,18 @@ def test_lookup_accepts_dashes_and_case():
     assert get_ball("Table-Tennis").key == "table_tennis"
 
 
+@pytest.mark.parametrize("name,key", [("ping-pong", "table_tennis"), ("Ping Pong", "table_tennis"),
+                                      ("pingpong", "table_tennis"), ("soccer", "football"),
+                                      ("Soccer ball", "football"), ("tennis ball", "tennis")])
+def test_a_ball_is_found_by_the_name_people_use(name, key):
+    assert get_ball(name).key == key
+
+
+def test_a_misspelt_alias_suggests_the_key():
+    with pytest.raises(UsageError, match="did you mean 'table_tennis'"):
+        get_ball("pingpon")
+
+
 @pytest.mark.parametrize(
     "edit,path_in_message",
     [
@@ -101,6 +113,9 @@ def test_lookup_accepts_dashes_and_case():
         (lambda d: d["balls"]["volleyball"].pop("circumference_m"), "balls.volleyball.diameter_m: missing"),
         (lambda d: d.__setitem__("schema_version", 7), "schema_version must be 1"),
         (lambda d: d["balls"]["tennis"]["rebound_m"].__setitem__("min", 1.5), "balls.tennis.rebound_m: min"),
+        (lambda d: d["balls"]["tennis"].__setitem__("aliases", ["soccer"]), "'soccer' already names the ball"),
+        (lambda d: d["balls"]["tennis"].__setitem__("aliases", ["volleyball"]), "balls.tennis.aliases"),
+        (lambda d: d["balls"]["tennis"].__setitem__("aliases", "lawn"), "balls.tennis.aliases: must be a list"),
     ],
 )
 def test_schema_errors_name_the_field_path(edit, path_in_message):

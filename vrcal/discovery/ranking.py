@@ -120,7 +120,7 @@ CONFUSABLE = {
 SPREAD_SEPARATES = 1.5
 
 #: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
-VERDICTS = ("explained", "unexplained", "suspect input")
+VERDICTS = ("explained", "unexplained", "untested", "suspect input")
 
 
 @dataclass(frozen=True)
@@ -472,10 +472,14 @@ def verdict(d):
     * "explained": the final model's gap is at most :data:`EXPLAINED_FACTOR` times the noise floor
       (or the gap that the record's own bounce-to-bounce scatter leaves, when larger), and no
       unphysical candidate fits far better;
+    * "untested": as many parameters as data (a drop and one rebound): the model is fixed by the
+      data, no residual is left to judge it or an effect by;
     * "unexplained": otherwise -- structure that no named effect removes.
     """
     if d.warnings:
         return "suspect input"
+    if not d.rounds and d.final.n <= d.final.k:
+        return "untested"
     ref = d.reference_gap
     if ref and d.gap_after <= EXPLAINED_FACTOR * ref:
         # near the noise, yet a candidate beyond its physical limits fits far better: the named effects
@@ -489,8 +493,9 @@ def verdict_reason(d):
     v = verdict(d)
     if v == "suspect input":
         return "; ".join(list(d.warnings) + [_stand_in_reason(d, u) for u in d.unphysical_better])
-    if not d.rounds:
-        return f"{d.final.n} data and {d.final.k} parameters: nothing is left unexplained, and nothing could be tested"
+    if v == "untested":
+        return (f"{d.final.n} data and {d.final.k} parameters: the model goes through every datum, which "
+                "tests neither it nor any effect")
     ref = d.reference_gap
     ratio = d.gap_after / ref if ref else math.inf
     what = "the bounce-to-bounce scatter's gap" if (d.scatter_gap or 0) > (d.noise_floor or 0) else "the noise floor"
@@ -733,7 +738,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         # no floor in the record: the contact's level is a nuisance of every model, not an effect to name
         nuisance = ("height_offset",)
         pool = [n for n in pool if n not in nuisance]
-    problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor)
+    problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor, noise_known=noise_known(noise_source))
     spread = res.drop_height_spread(problem)
     if stages is not None:
         stages(1.0, f"fitting {problem_size(problem):,} data")
@@ -872,6 +877,12 @@ def chosen_noise(data, prepared, noise=None):
         source += (f", with the tracker's systematic error of the centres ({systematic * 1e3:.2g} mm) "
                    "added in quadrature")
     return sigma, source
+
+
+def noise_known(source):
+    """Whether a noise of :func:`chosen_noise`'s ``source`` is known (given, or measured in the record
+    or its grid) rather than assumed: a known noise is the floor of the fit's uncertainties."""
+    return source in ("given", REPLICATE_SOURCE, GRID_SOURCE) or source.startswith("third differences")
 
 
 #: Relative standard deviation of a height read by eye against a ruler (a rebound's apex).

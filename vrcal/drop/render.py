@@ -268,14 +268,19 @@ def video_truth(drops, scene, diameter_m, n_frames):
     return t, row, np.full(n_frames, scene.x_px), src
 
 
-def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None, seed=0, fourcc="MJPG",
+#: The codec OpenCV writes a container with: MPEG-4 part 2 for MP4 and QuickTime (which do not take
+#: Motion JPEG: OpenCV fell back with two lines of FFMPEG warnings), Motion JPEG otherwise (.avi, .mkv).
+CODEC_OF_SUFFIX = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}
+
+
+def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None, seed=0, fourcc=None,
                  progress=None):
     """Write a synthetic video of a simulated drop (see the module docstring) and return the truth.
 
     Parameters
     ----------
     path : str or Path
-        output file (``.avi`` with ``MJPG``; ``.mp4`` with ``mp4v``)
+        output file (``.avi``, ``.mkv`` with ``MJPG``; ``.mp4``, ``.mov`` with ``mp4v``)
     drops : Drops
         one simulated drop (:func:`vrcal.drop.simulate.simulate_drops`)
     diameter_m : float
@@ -285,8 +290,8 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
         length [s]; default 0.4 s after the landing of the last bounce
     seed : int
         noise seed
-    fourcc : str
-        OpenCV codec code
+    fourcc : str or None
+        OpenCV codec code (None: :data:`CODEC_OF_SUFFIX` by the file's extension, else ``MJPG``)
 
     Returns
     -------
@@ -301,6 +306,8 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
         from vrcal.measurements.video import VIDEO_HINT
 
         raise UsageError(VIDEO_HINT) from None
+    if fourcc is None:
+        fourcc = CODEC_OF_SUFFIX.get(Path(path).suffix.lower(), "MJPG")
     rng = np.random.default_rng(seed)
     if duration_s is None:
         duration_s = float(drops.landing_times_s[0]) + 0.4

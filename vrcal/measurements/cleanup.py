@@ -200,11 +200,23 @@ class TimeGrid(NamedTuple):
         return self.period_s / 12**0.5
 
 
+#: The largest chance that times at random lie on a frame grid within the printed rounding, for the
+#: grid to be taken (one frame rate; about 10 are tried).
+GRID_CHANCE = 1e-4
+
+
+def _chance_on_grid(width, n):
+    """Chance that n times at random fall in one band ``width`` periods wide (the band's place free)."""
+    return n * min(width, 1.0) ** (n - 1)
+
+
 def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
     """The coarsest grid that impact times lie on, or None: the frames of a video (times read off
     a camera at one of :data:`VIDEO_FRAME_RATES_HZ` with a period of at least ``min_period_s``:
     t = t0 + k / fps, k whole, every time within ``tolerance`` of a frame period of the grid, or
-    within the printed rounding when that is at most a tenth of the period) or the printed
+    within the printed rounding when that is at most a tenth of the period or when so many times
+    fall on the grid that chance cannot put them there (:data:`GRID_CHANCE`: a 240 fps video printed
+    to 1 ms, from 11 times on)) or the printed
     resolution (``0.45, 1.22, 1.88``: 0.01 s, from 1 ms up). Grids finer than ``min_period_s``
     (0.43 ms standard deviation) are below an acoustic stopwatch's own timing noise.
 
@@ -225,9 +237,10 @@ def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
         k = np.round((t - t[0]) / period)
         if np.any(np.diff(k) < 1):
             continue
-        t0 = float(np.mean(t - k * period))
-        dev = float(np.max(np.abs(t - t0 - k * period)))
-        if dev <= tolerance * period or (dev <= 0.6 * printed and 0.6 * printed <= 0.1 * period):
+        dev = 0.5 * float(np.ptp(t - k * period))      # from the band's middle
+        rounded = dev <= 0.6 * printed and (0.6 * printed <= 0.1 * period
+                                            or _chance_on_grid(1.2 * printed / period, t.size) <= GRID_CHANCE)
+        if dev <= tolerance * period or rounded:
             found.append((period, dev, fps))
     if found:
         coarsest = max(p for p, _, _ in found)

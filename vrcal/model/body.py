@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from vrcal.errors import UsageError
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
-from vrcal.model.standards import get_ball, load_standards
+from vrcal.model.standards import find_ball, get_ball, load_standards, normalised_name
 
 
 @dataclass(frozen=True)
@@ -74,9 +75,8 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
     standards = load_standards() if standards is None else standards
     _check_size("--mass", mass_kg, "[kg]")
     _check_size("--diameter", diameter_m, "[m]")
-    norm = str(name).strip().lower().replace("-", "_").replace(" ", "_")
-    if norm in standards:
-        std = standards[norm]
+    std = find_ball(name, standards)
+    if std is not None:
         props = BallProperties.from_ball(std)
         return BallProperties(props.mass_kg if mass_kg is None else float(mass_kg),
                               props.diameter_m if diameter_m is None else float(diameter_m), std.key), std
@@ -84,7 +84,11 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
         try:
             get_ball(name, standards)
         except UsageError as exc:
-            raise UsageError(f"{exc}; for another ball give --mass and --diameter") from None
+            hint = "for another ball give --mass and --diameter"
+            if Path(str(name)).suffix or Path(str(name)).exists():
+                hint = (f"'{name}' is a file, not a ball (a measurement goes to 'vrcal discover FILE', an export "
+                        "to 'vrcal verify --file FILE')")
+            raise UsageError(f"{exc}; {hint}") from None
     return BallProperties(float(mass_kg), float(diameter_m), str(name)), None
 
 
@@ -253,14 +257,14 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
     if from_json is not None:
         doc = read_discover_json(from_json)
         found = doc["ball"]
-        if ball is not None and _norm(ball) != _norm(found["name"]):
+        standards = load_standards() if standards is None else standards
+        if ball is not None and _key(ball, standards) != _key(found["name"], standards):
             raise UsageError(f"{ball_label} '{ball}' differs from the ball of {from_json} ('{found['name']}'): "
                              "give one of them")
         props = BallProperties(float(found["mass_kg"]) if mass_kg is None else float(mass_kg),
                                float(found["diameter_m"]) if diameter_m is None else float(diameter_m),
                                str(found["name"]))
-        standards = load_standards() if standards is None else standards
-        std = standards.get(_norm(found["name"]))
+        std = find_ball(found["name"], standards)
         return Body(_plausible(props, mass_kg, diameter_m), std, str(from_json), doc)
     if ball is None:
         others = f"{ball_label}, a ball of the standards" + (f", or {from_label} a discover JSON" if from_label else "")
@@ -372,8 +376,10 @@ def read_limited(path, max_bytes, what):
         raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
-def _norm(name):
-    return str(name).strip().lower().replace("-", "_").replace(" ", "_")
+def _key(name, standards):
+    """The standards' key of a ball named ``name`` (key or alias), else the name normalised."""
+    std = find_ball(name, standards)
+    return normalised_name(name) if std is None else std.key
 
 
 #: Mean densities a ball can have [kg/m^3]: above the air's (a lighter one floats away), below

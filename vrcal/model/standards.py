@@ -66,6 +66,7 @@ class Ball:
     source: tuple
     paper: PaperValues | None
     departures: tuple
+    aliases: tuple = ()
 
     @property
     def radius_m(self):
@@ -153,6 +154,13 @@ def validate_standards(doc, where="standards"):
         if not isinstance(key, str) or not key.replace("_", "").isalnum() or key != key.lower():
             raise DataError(f"{where}: {path}: ball keys must be lower-case words (letters, digits, '_')")
         out[key] = _ball(key, fields, where, path)
+    named = {}
+    for key, ball in out.items():
+        for alias in ball.aliases:
+            if alias in out or alias in named:
+                raise _err(where, f"balls.{key}.aliases", f"'{alias}' already names the ball "
+                                                          f"'{alias if alias in out else named[alias]}'")
+            named[alias] = key
     return out
 
 
@@ -252,10 +260,13 @@ def _ball(key, fields, where, path):
     departures = fields.get("departures", [])
     if not isinstance(departures, list) or not all(isinstance(s, str) for s in departures):
         raise _err(where, f"{path}.departures", "must be a list of text")
+    aliases = fields.get("aliases", [])
+    if not isinstance(aliases, list) or not all(isinstance(s, str) and normalised_name(s) for s in aliases):
+        raise _err(where, f"{path}.aliases", "must be a list of names")
     paper = _paper(fields.get("paper"), where, f"{path}.paper")
     known = set(_REQUIRED_STR) | {
         "official", "mass_kg", "diameter_m", "circumference_m", "drop_height_m", "drop_measured_to",
-        "rebound_m", "rebound_measured_to", "source", "paper", "departures",
+        "rebound_m", "rebound_measured_to", "source", "paper", "departures", "aliases",
     }
     unknown = set(fields) - known
     if unknown:
@@ -263,7 +274,8 @@ def _ball(key, fields, where, path):
     return Ball(
         key=key, official=official, mass_kg=mass, diameter_m=diameter, drop_height_m=drop,
         drop_measured_to=drop_to, rebound_m=rebound, rebound_measured_to=rebound_to,
-        source=tuple(source), paper=paper, departures=tuple(departures), **strings,
+        source=tuple(source), paper=paper, departures=tuple(departures),
+        aliases=tuple(normalised_name(a) for a in aliases), **strings,
     )
 
 
@@ -291,23 +303,40 @@ def _paper(fields, where, path):
 # --------------------------------------------------------------------------- lookup
 
 
+def normalised_name(name):
+    """A ball's name as looked up: lower case, '-' and ' ' read as '_' ("Table-tennis" -> table_tennis)."""
+    return str(name).strip().lower().replace("-", "_").replace(" ", "_")
+
+
+def find_ball(key, standards):
+    """The :class:`Ball` named ``key`` (its key or one of its ``aliases``, see :func:`get_ball`), or None."""
+    norm = normalised_name(key)
+    if norm in standards:
+        return standards[norm]
+    return next((ball for ball in standards.values() if norm in ball.aliases), None)
+
+
 def get_ball(key, standards=None):
-    """Look up a ball by key; an unknown key names the valid keys and the closest one.
+    """Look up a ball by key or alias; an unknown key names the valid keys and the closest one.
 
     Parameters
     ----------
     key : str
-        ball key, case-insensitive; '-' and ' ' are read as '_' ("table-tennis")
+        ball key or alias (``ping-pong`` for table_tennis, ``soccer`` for football), case-insensitive;
+        '-' and ' ' are read as '_' ("table-tennis")
     standards : dict or None
         the result of :func:`load_standards`; the shipped file when None
     """
     standards = load_standards() if standards is None else standards
-    norm = str(key).strip().lower().replace("-", "_").replace(" ", "_")
-    if norm in standards:
-        return standards[norm]
+    found = find_ball(key, standards)
+    if found is not None:
+        return found
     import difflib
 
-    close = difflib.get_close_matches(norm, list(standards), n=1, cutoff=0.5)
+    norm = normalised_name(key)
+    names = list(standards) + [a for ball in standards.values() for a in ball.aliases]
+    close = difflib.get_close_matches(norm, names, n=1, cutoff=0.5)
+    close = [find_ball(c, standards).key for c in close]
     hint = f"; did you mean '{close[0]}'?" if close else ""
     raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
 
