@@ -243,3 +243,16 @@ def test_a_solid_balls_contact_time_is_bounded_by_hertz_not_by_a_membrane():
                                solid_contact_time_s(0.0459, 0.0427))
     (param,) = EFFECTS["contact_duration"].parameters
     assert param.physical_limits(BallProperties(*golf, "golf"))[1] == pytest.approx(contact_time_limit_s(*golf))
+
+
+def test_a_solid_balls_expected_contact_time_lies_inside_its_limit():
+    """The prior's median of a golf ball's contact was the membrane model's 7.5 ms, beyond the 4.3 ms
+    limit; it is Hertz's time at a golf ball's stiffness (0.5-2 ms: about 0.45 ms measured at 40 m/s,
+    longer at drop-test speeds)."""
+    from vrcal.drop.effects import EFFECTS, contact_time_limit_s, expected_contact_time_s
+
+    golf, tennis = (0.0459, 0.0427), (0.0577, 0.067)
+    assert 0.0005 < expected_contact_time_s(*golf) < 0.002 < contact_time_limit_s(*golf)
+    assert expected_contact_time_s(*tennis) == pytest.approx(inflated_contact_time_s(*tennis))
+    tau = EFFECTS["contact_duration"].parameter("contact_time_s")
+    assert tau.density.center(BallProperties(*golf, "golf")) == pytest.approx(expected_contact_time_s(*golf))

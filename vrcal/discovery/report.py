@@ -210,6 +210,7 @@ def engine_advice(discovery):
         out.append("(check the input first: these values assume it is right)")
     if not d.effects:
         out.append(f"epsilon = {pm(eps, u)}")
+        out.extend(_contact_lines(d, u))
         if not d.rounds:
             out.append("(nothing tested: an engine without air drag reproduces these heights with it)")
         elif d.verdict == "explained":
@@ -226,6 +227,7 @@ def engine_advice(discovery):
         out.append("choose the value at the impact speeds of your simulation.")
     else:
         out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution)")
+        out.extend(_contact_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():
             lo, hi = alt["epsilon"]
@@ -244,6 +246,19 @@ def engine_advice(discovery):
         out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
                    f"{eps:.4f}.")
     return out
+
+
+def _contact_lines(d, sigma):
+    """The contact time's systematic on ε of impact times (:attr:`Discovery.contact_systematic`), when it
+    is at least half the fit's uncertainty."""
+    if d.contact_systematic is None:
+        return []
+    tau, shift = d.contact_systematic
+    if abs(shift) < 0.5 * (sigma or 0.0) or abs(shift) < 5e-5:
+        return []
+    return [f"(if each contact lasts the {tau * 1e3:.2g} ms expected of this ball, which impact times cannot "
+            f"tell from epsilon here: {d.epsilon + shift:.4f}, {shift:+.4f}; a systematic uncertainty beside "
+            f"the ± above)"]
 
 
 def _split_advice(d):

@@ -863,7 +863,7 @@ def prior_deviates(layout, ball):
     return deviate
 
 
-def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None):
+def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None, fixed=None):
     """Fit the baseline plus ``effects`` to ``problem.data`` by bounded least squares.
 
     Parameters
@@ -884,6 +884,9 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None)
         (:func:`prior_deviates`; for a log-normal ln(x / median) / σ_ln, the prior on ln x), so that
         the cost is χ² + Σ z² at noise σ; a parameter with a uniform density is held inside its
         support. The returned residuals and RSS are the data's alone; ``extra["prior_chi2"]`` holds Σ z².
+    fixed : dict, optional
+        parameters held at a value ({key: value}, e.g. ``{"contact_duration.contact_time_s": 0.005}``:
+        what epsilon would be if the contact lasted 5 ms)
 
     Returns
     -------
@@ -918,6 +921,9 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None)
         raise DataError(f"{data.source}: {n} data cannot fit {len(layout)} parameters")
     lo = np.array([p.bounds[0] for p in layout])
     hi = np.array([p.bounds[1] for p in layout])
+    for j, p in enumerate(layout):
+        if p.key in (fixed or {}):       # held at a value: its bounds closed on it
+            lo[j] = hi[j] = x0[j] = float(fixed[p.key])
     prior = None
     if prior_sigma is not None:
         from vrcal.drop.effects import LogNormalPrior

@@ -464,9 +464,9 @@ def inflated_contact_time_s(mass_kg, diameter_m, gauge_pressure_pa=TYPICAL_GAUGE
     spring (the wall's bending stiffness and the rise of p are neglected). The contact
     lasts half a period. With p = 60 kPa: table tennis 1.9 ms, tennis 6.7 ms, volleyball
     8.2 ms, football 10 ms, basketball 11 ms -- the scale of measured contact times
-    (about 1 ms for table tennis, 4-10 ms for tennis balls and basketballs; see [3]). Used
-    as the median of the contact time's prior density (which is wide: sigma_ln 1); it is
-    no model of solid balls.
+    (about 1 ms for table tennis, 4-10 ms for tennis balls and basketballs; see [3]). The
+    median of the contact time's prior density of a hollow ball (which is wide: sigma_ln 1;
+    :func:`expected_contact_time_s`); it is no model of solid balls.
     """
     m = np.asarray(mass_kg, dtype=float)
     D = np.asarray(diameter_m, dtype=float)
@@ -514,6 +514,34 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOFT_SOLID_MODULUS_PA, 
     E = np.asarray(modulus_pa, dtype=float)
     v = np.asarray(speed_m_per_s, dtype=float)
     return _out(2.868 * (m * m / (R * E * E * v)) ** 0.2)
+
+
+#: Effective modulus E* [Pa] and impact speed [m/s] of a typical solid ball's contact in a drop test, for
+#: :func:`expected_contact_time_s` (a golf ball: about 0.45 ms measured at 40 m/s, Hertz's v^(-1/5) gives
+#: 0.8 ms at 3 m/s).
+TYPICAL_SOLID_MODULUS_PA = 100e6
+TYPICAL_IMPACT_M_PER_S = 2.0
+
+
+def expected_contact_time_s(mass_kg, diameter_m):
+    """The contact time to expect of a ball [s]: the membrane model of an inflated ball
+    (:func:`inflated_contact_time_s`, 60 kPa), or Hertz's time of a solid one
+    (:func:`solid_contact_time_s` with :data:`TYPICAL_SOLID_MODULUS_PA` at
+    :data:`TYPICAL_IMPACT_M_PER_S`) when the ball is denser than :data:`SOLID_BALL_DENSITY_KG_PER_M3`:
+    table tennis 1.9 ms, tennis 6.7 ms, basketball 11 ms, a golf ball 1.0 ms. The median of the
+    contact time's prior density.
+
+    Parameters
+    ----------
+    mass_kg : float
+        ball mass [kg]
+    diameter_m : float
+        ball diameter [m]
+    """
+    density = float(mass_kg) / (math.pi / 6.0 * float(diameter_m) ** 3)
+    if density > SOLID_BALL_DENSITY_KG_PER_M3:
+        return float(solid_contact_time_s(mass_kg, diameter_m, TYPICAL_SOLID_MODULUS_PA, TYPICAL_IMPACT_M_PER_S))
+    return float(inflated_contact_time_s(mass_kg, diameter_m))
 
 
 def contact_time_limit_s(mass_kg, diameter_m):
@@ -583,8 +611,9 @@ EFFECTS = {
             Parameter("contact_time_s", "s", 0.005, (0.0, 0.05), (0.0, 0.02),
                       "time the ball spends on the floor at each bounce (about 1 ms table tennis, 4-10 ms "
                       "tennis/basketball)",
-                      LogNormalPrior(inflated_contact_time_s, 1.0,
-                                     "half period of an inflated ball, gauge pressure 60 kPa"),
+                      LogNormalPrior(expected_contact_time_s, 1.0,
+                                     "half period of an inflated ball at 60 kPa gauge, Hertz's time of a "
+                                     "solid one"),
                       limits=lambda m, D: (0.0, contact_time_limit_s(m, D))),
         ),
         equation="t_liftoff = t_impact + tau_c;  in contact a half-sine dip of (v_in + v_out) tau_c / (2 pi)",
