@@ -119,8 +119,10 @@ class Count(click.ParamType):
 
 
 def _fail(param, ctx, message):
-    """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2)."""
-    name = max(param.opts, key=len) if param is not None and param.opts else "value"
+    """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2); NAME is the
+    option's first long name (``--drop`` of ``--drop/--drop-height``)."""
+    longs = [o for o in (param.opts if param is not None else ()) if o.startswith("--")]
+    name = longs[0] if longs else (max(param.opts, key=len) if param is not None and param.opts else "value")
     raise click.UsageError(f"{name} {message}", ctx)
 
 
