@@ -88,8 +88,18 @@ def test_phase_shifts_cover_one_step():
 
 @pytest.mark.parametrize("bad", [0.0, -1e-3, 1e-320, 1e-9, float("nan"), float("inf"), 0.5, "x"])
 def test_bad_time_steps_are_refused_with_the_limits(bad):
-    with pytest.raises(UsageError, match=r"\[1e-07, 0.1\]|time step in seconds"):
+    with pytest.raises(UsageError, match=r"--dt must be a number between 1e-07 and 0.1 \[s\]"):
         check_dt(bad)
+
+
+def test_the_command_line_and_the_engines_refuse_the_same_steps():
+    """One range for --dt: the option type of export/verify and check_dt agree on both ends."""
+    from vrcal.engines.common import MAX_DT_S, MIN_DT_S
+    from vrcal.options import ODE_TIME_STEP_S, TIME_STEP_S
+
+    assert (TIME_STEP_S.minimum, TIME_STEP_S.maximum) == (MIN_DT_S, MAX_DT_S)
+    assert (ODE_TIME_STEP_S.minimum, ODE_TIME_STEP_S.maximum) == (MIN_DT_S, MAX_DT_S)
+    assert f"--dt must be a number {TIME_STEP_S.range_text()}" in str(pytest.raises(UsageError, check_dt, 0.5).value)
 
 
 @pytest.mark.parametrize("bounces, phases", [(0, 4), (1000000, 4), (3, 0), (3, 1000), (2.5, 4)])

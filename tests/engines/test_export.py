@@ -158,7 +158,7 @@ def test_cli_export_json_format_is_a_machine_document():
 
 @pytest.mark.parametrize("args, code, message", [
     (["basketball", "--engine", "ode", "--epsilon", "1.5"], 2, "--epsilon must be a number between 0.001 and 1"),
-    (["basketball", "--engine", "mujoco", "--dt", "1e-320"], 2, "--dt must be a time step in [1e-07, 0.1] s"),
+    (["basketball", "--engine", "mujoco", "--dt", "1e-320"], 2, "--dt must be a number between 1e-07 and 0.1 [s]"),
     (["--engine", "mujoco", "--mass", "nan", "--diameter", "0.1", "--epsilon", "0.5", "--drop-height", "1"], 2,
      "--mass must be a finite number"),
     (["--engine", "mujoco", "--mass", "0.1", "--diameter", "-1", "--epsilon", "0.5", "--drop-height", "1"], 2,
@@ -268,9 +268,9 @@ def test_verify_file_that_is_not_an_export_is_a_one_line_error(tmp_path, engine,
 
 @pytest.mark.parametrize("args, message", [
     (["--bounces", "1000000"], "--bounces must be an integer from 1 to 50"),
-    (["--dt", "1e-9"], "--dt must be a time step in [1e-07, 0.1] s"),
+    (["--dt", "1e-9"], "--dt must be a number between 1e-07 and 0.1 [s]"),
     (["--dt", "1e-6"], "the limit is 400,000 steps"),
-    (["--bounces", "40"], "ask for fewer bounces"),
+    (["--bounces", "40"], "ask for --bounces 14 or fewer"),
 ])
 def test_runs_that_would_not_end_are_refused_up_front(args, message):
     require_engine("bullet")

@@ -49,12 +49,16 @@ from vrcal.engines.common import (
     N_PHASES,
     DropRuns,
     RunsSummary,
+    StillBouncing,
     check_steps,
     drag_atol,
     drop_runs,
+    drop_window_s,
     metadata,
     phase_shifts_m,
     round_down,
+    sized_run,
+    step_note,
 )
 from vrcal.errors import DataError, EngineUnavailable, UsageError
 
@@ -435,13 +439,17 @@ def drop_test(mjcf, setup, n_bounces, n_phases):
     model = load_model(mjcf) if isinstance(mjcf, str) else mjcf
     setup = replace(setup, n_bounces=int(n_bounces))
     shifts = phase_shifts_m(setup, n_phases)
-    duration = setup.flight_time_s(setup.drop_height_m + shifts[-1]) * 1.05
     stiff = [-float(s) for s in model.pair_solref[:, 0] if s < 0]
-    if stiff:                            # spring contacts last about pi/w each: two periods per bounce
-        duration += n_bounces * 2.0 * math.pi / math.sqrt(min(stiff))
-    z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
-    return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
-                     drag_atol(setup))
+    # spring contacts last about pi/w each: two periods per bounce
+    contacts = n_bounces * 2.0 * math.pi / math.sqrt(min(stiff)) if stiff else 0.0
+
+    def run(ratio):
+        duration = drop_window_s(setup, setup.drop_height_m + shifts[-1], ratio) + contacts
+        z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
+        return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
+                         drag_atol(setup))
+
+    return sized_run(run, setup, n_phases, MAX_STEPS)
 
 
 # --------------------------------------------------------------------------- calibration in MuJoCo
@@ -545,6 +553,8 @@ def _calibrate_at(setup, n_phases, kind, w, margin):
         try:
             runs = drop_test(model, setup, setup.n_bounces, n_phases)
             f = runs.midrange_error
+        except StillBouncing:
+            runs, f = None, 1.0                      # bounced on past the window: far too much epsilon
         except DataError:
             runs, f = None, -1.0                     # no bounce: far too little epsilon
         cache[x] = (c, runs, f)
@@ -662,6 +672,7 @@ def header_lines(setup, cal):
     lines = [
         f"vrcal export: {setup.ball}, target epsilon {setup.epsilon:.4f}, dt {setup.dt_s:g} s, "
         f"{integrator_name(setup)}",
+        step_note(setup, "mujoco"),
         f"contact {how}",
         f"calibrated in MuJoCo: {cal.runs.apex_ratios.shape[0]} phases x {setup.n_bounces} bounces, "
         f"{cal.evaluations} runs",
