@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from vrcal.drop.simulate import simulate_drops
 from vrcal.engines.common import (
     DropSetup,
+    StillBouncing,
     check_counts,
     check_dt,
     check_steps,
@@ -63,6 +64,30 @@ def test_measure_bounces_of_a_planted_bounce():
     assert b.apex_m[0] == 1.0 and np.all(np.diff(b.apex_m) < 0)
     with pytest.raises(DataError, match="complete bounce"):
         measure_bounces(np.array(z[:9000]), np.array(v[:9000]), 1.0, dt, g, 40)
+
+
+def test_a_run_that_ends_in_flight_is_still_bouncing_not_stuck():
+    """Cut a planted bounce sequence (eps 0.6) mid-flight: the ball is said to be still bouncing,
+    with the ratio it showed; a ball that comes to rest on the floor is said to stick."""
+    g, dt, eps = 9.80665, 1e-4, 0.6
+    z, v = [1.0], [0.0]
+    for _ in range(int(1.2 / dt)):
+        vn = v[-1] - g * dt
+        zn = z[-1] + vn * dt
+        if zn < 0 and vn < 0:
+            vn = -eps * v[-1]
+            zn = z[-1] + vn * dt
+        v.append(vn)
+        z.append(zn)
+    with pytest.raises(StillBouncing) as info:
+        measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
+    assert info.value.ratio == pytest.approx(eps, abs=0.01) and "bounced higher" in str(info.value)
+    k = int(np.argmax(np.array(z) < 0))                   # rest from the first contact on
+    z_rest = np.r_[z[:k], np.zeros(len(z) - k)]
+    v_rest = np.r_[v[:k], np.zeros(len(v) - k)]
+    with pytest.raises(DataError, match="stuck to the floor") as info:
+        measure_bounces(z_rest, v_rest, 1.0, dt, g, 1)
+    assert not isinstance(info.value, StillBouncing)
 
 
 def test_setup_model_is_vrcals_simulator_with_drag():

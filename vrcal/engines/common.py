@@ -476,7 +476,9 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
         last_out = ends[-1] + 1
         if last_out < len(v) - 1 and np.any(v[last_out:] > 0) and np.max(z[last_out:]) >= RISE_M:
             # the run ended with the ball in flight, risen from the floor: it was still bouncing
-            seen = [*ratios, *vel, math.sqrt(max(float(np.max(z[last_out:])), 0.0) / apex[-1])]
+            seen = [*ratios, *vel]
+            if len(ratios) < len(starts):              # the last contact's flight is unfinished: its rise so far
+                seen.append(math.sqrt(max(float(np.max(z[last_out:])), 0.0) / apex[-1]))
             raise StillBouncing(
                 f"the ball made only {len(ratios)} complete bounce(s) of the {n_bounces} asked for before "
                 f"the simulated time ended: it bounced higher than the target (ratio up to {max(seen):.4g})",
