@@ -724,6 +724,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal export tennis --engine mujoco --trade-off
       vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
+      vrcal export tennis --engine ode --epsilon 0.3 --drop-height 0.05 --dt 1e-4 --bounces 1
       vrcal export basketball --engine tables --against volleyball
     """
     from vrcal.engines.common import DEFAULT_TOLERANCE
@@ -763,7 +764,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               required=True, help="Engine to run the drop test in.")
 @_engine_options
 @click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
-              help="Verify this file written by 'vrcal export' instead of a fresh export.")
+              help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
+                   "--drop-height run it at your step, gravity, height; body and contact options are refused).")
 @click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
@@ -801,6 +803,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal verify --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
       vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
+      vrcal verify --engine bullet --file b.json --dt 5e-4
       vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
     from vrcal.fileio import dumps
