@@ -46,11 +46,10 @@ def test_floor_speed_is_exact_for_a_semi_implicit_flight(H, dt, k):
     assert abs(floor_speed_m_per_s(z[k], v[k], g, dt, False) - first) <= g * dt
 
 
-def test_measure_bounces_of_a_planted_bounce():
-    """A stepped drop with an instantaneous velocity reversal (eps 0.6) at each floor crossing."""
-    g, dt, eps = 9.80665, 1e-4, 0.6
+def planted_drop(duration_s, eps=0.6, dt=1e-4, g=9.80665):
+    """(z, v) of a stepped drop from 1 m with an instantaneous velocity reversal at each floor crossing."""
     z, v = [1.0], [0.0]
-    for _ in range(int(3.0 / dt)):
+    for _ in range(int(duration_s / dt)):
         vn = v[-1] - g * dt
         zn = z[-1] + vn * dt
         if zn < 0 and vn < 0:
@@ -58,6 +57,13 @@ def test_measure_bounces_of_a_planted_bounce():
             zn = z[-1] + vn * dt
         v.append(vn)
         z.append(zn)
+    return z, v
+
+
+def test_measure_bounces_of_a_planted_bounce():
+    """A stepped drop with an instantaneous velocity reversal (eps 0.6) at each floor crossing."""
+    g, dt, eps = 9.80665, 1e-4, 0.6
+    z, v = planted_drop(3.0, eps, dt, g)
     b = measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
     assert np.allclose(b.velocity_ratios, eps, atol=2e-3)
     assert np.allclose(b.apex_ratios, eps, atol=3e-3)
@@ -70,15 +76,7 @@ def test_a_run_that_ends_in_flight_is_still_bouncing_not_stuck():
     """Cut a planted bounce sequence (eps 0.6) mid-flight: the ball is said to be still bouncing,
     with the ratio it showed; a ball that comes to rest on the floor is said to stick."""
     g, dt, eps = 9.80665, 1e-4, 0.6
-    z, v = [1.0], [0.0]
-    for _ in range(int(1.2 / dt)):
-        vn = v[-1] - g * dt
-        zn = z[-1] + vn * dt
-        if zn < 0 and vn < 0:
-            vn = -eps * v[-1]
-            zn = z[-1] + vn * dt
-        v.append(vn)
-        z.append(zn)
+    z, v = planted_drop(1.2, eps, dt, g)
     with pytest.raises(StillBouncing) as info:
         measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
     assert info.value.ratio == pytest.approx(eps, abs=0.01) and "bounced higher" in str(info.value)

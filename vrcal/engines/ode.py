@@ -175,7 +175,7 @@ def run_drop(params, drop_height_m, duration_s):
     group = lib.dJointGroupCreate(0)
     try:
         lib.dWorldSetGravity(world, *[float(x) for x in world_p["gravity"]])
-        if "erp" in world_p:             # files of vrcal 0.x set the world's ERP and CFM
+        if "erp" in world_p:             # files of an earlier vrcal set the world's ERP and CFM
             lib.dWorldSetERP(world, float(world_p["erp"]))
         if "cfm" in world_p:
             lib.dWorldSetCFM(world, float(world_p["cfm"]))
