@@ -383,10 +383,10 @@ def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, **options):
     setup = build_setup(ball, "mujoco", **options)
     rows = []
     for dt, kind, w, cal in M.trade_off(setup, n_phases):
-        if cal is None:
+        if isinstance(cal, str):                     # 'no bounce' or 'too high'
             rows.append({"dt_s": dt, "contact": kind, "stiffness_per_s2": M.IMPEDANCE * w * w, "damping_per_s": None,
                          "margin_m": None, "worst_error": None, "median_error": None, "penetration_m": None,
-                         "hover_m": None, "ok": False})
+                         "hover_m": None, "ok": False, "failure": cal})
             continue
         c = cal.contact
         rows.append({"dt_s": dt, "contact": c.kind, "stiffness_per_s2": c.stiffness,
@@ -411,7 +411,8 @@ def format_trade_off(setup, rows):
               num(r["worst_error"], ".4f"), num(r["median_error"], ".4f"),
               "-" if r["penetration_m"] is None else f"{r['penetration_m'] * 1e3:.3g}",
               "-" if r["hover_m"] is None else f"{r['hover_m'] * 1e3:.3g}",
-              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else "no bounce"] for r in rows]
+              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else r.get("failure", "no bounce")]
+             for r in rows]
     body = table(cells, ["dt s", "contact", "S 1/s2", "D 1/s", "worst err", "median err", "pen mm", "hover mm",
                          "meets"])
     return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")

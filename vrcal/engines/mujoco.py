@@ -591,6 +591,9 @@ def _calibrate_at(setup, n_phases, kind, w, margin):
         x0, f0, x1, f1 = x1, f1, x2, f2
     done = [(c, r) for c, r, _ in cache.values() if r is not None]
     if not done:
+        if all(f > 0 for _, _, f in cache.values()):
+            raise StillBouncing("MuJoCo's ball bounced higher than the target at every damping tried "
+                                "(the contact adds energy at this step)", 1.0)
         raise DataError("MuJoCo did not bounce the ball at any damping tried")
     contact, runs = min(done, key=lambda cr: cr[1].worst_error)
     del mujoco
@@ -638,8 +641,9 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
 
     Returns
     -------
-    list of (dt_s, kind, omega_per_s, Calibration or None)
-        None where MuJoCo did not bounce the ball with that contact at that step
+    list of (dt_s, kind, omega_per_s, Calibration or str)
+        the str says why there is no calibration: 'no bounce' (MuJoCo did not bounce the ball
+        with that contact at that step) or 'too high' (it bounced higher at every damping)
     """
     steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
     rows = []
@@ -655,8 +659,10 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
         for kind, w in kinds:
             try:
                 cal = calibrate(trial, n_phases, kind, w or None)
+            except StillBouncing:
+                cal = "too high"
             except (UsageError, DataError):
-                cal = None
+                cal = "no bounce"
             rows.append((trial.dt_s, kind, w, cal))
     return rows
 
