@@ -512,7 +512,7 @@ def drop_window_s(setup, drop_height_m, ratio=None):
     """
     t = setup.flight_time_s(drop_height_m)
     if ratio is not None:
-        r = min(max(float(ratio), 1.0), 2.0)       # a ball gaining energy: sized for what it showed, to 2
+        r = min(max(float(ratio), 1.0), 10.0)      # a ball gaining energy: sized for what it showed
         t = max(t, flight_time_s(drop_height_m, r, setup.n_bounces, setup.g_m_per_s2))
     return 1.05 * t
 
