@@ -681,7 +681,7 @@ def _engine_options(f):
                      help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
         click.option("--stiffness", type=opt.STIFFNESS, default=None,
                      help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
-        click.option("--tolerance", type=opt.TOLERANCE, default=0.01, show_default=True,
+        click.option("--tolerance", type=opt.TOLERANCE, default=None, show_default="0.01; verify --file: the file's",
                      help="Largest accepted |achieved - target| epsilon."),
         click.option("--max-penetration", "max_penetration_m", type=opt.PENETRATION_M, default=None,
                      help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
@@ -699,6 +699,9 @@ def _engine_options(f):
               help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
 @_engine_options
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
+@click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
+              show_default="3, or as --impact-speed needs",
+              help="Bounces to calibrate and check (1-50; each must rise at least 1 mm).")
 @K_OPTION
 @click.option("--trade-off", "trade_off", is_flag=True,
               help="MuJoCo: print the achievable (step, stiffness, epsilon error, penetration) table.")
@@ -708,8 +711,8 @@ def _engine_options(f):
 @STANDARDS_OPTION
 @click.pass_context
 def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
-               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, against, K, trade_off, fmt,
-               output):
+               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, against, n_bounces, K, trade_off,
+               fmt, output):
     """Export a ball's calibrated bounce to a physics engine's own file.
 
     BALL is a ball of the standards; without it give --mass and --diameter (and --epsilon and
@@ -724,20 +727,25 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal export tennis --engine mujoco --trade-off
       vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
+      vrcal export tennis --engine ode --epsilon 0.3 --drop-height 0.05 --dt 1e-4 --bounces 1
       vrcal export basketball --engine tables --against volleyball
     """
+    from vrcal.engines.common import DEFAULT_TOLERANCE
     from vrcal.engines.export import export, format_trade_off
     from vrcal.engines.export import trade_off as run_trade_off
-    from vrcal.fileio import dumps
+    from vrcal.fileio import check_writable, dumps
     from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.textout import choose_format, machine_document
 
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
                    K_per_s=DEFAULT_K_PER_S if K is None else K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
-                   from_json=from_json, integrator=integrator, tolerance=tolerance,
-                   max_penetration_m=max_penetration_m)
+                   from_json=from_json, integrator=integrator,
+                   tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance,
+                   max_penetration_m=max_penetration_m, n_bounces=n_bounces)
     form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
+    if output not in (None, "-"):
+        check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:
         setup, rows = run_trade_off(ball, engine, **options)
         emit(format_trade_off(setup, rows) if form == "text" else
@@ -759,7 +767,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               required=True, help="Engine to run the drop test in.")
 @_engine_options
 @click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
-              help="Verify this file written by 'vrcal export' instead of a fresh export.")
+              help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
+                   "--drop-height run it at your step, gravity, height; body and contact options are refused).")
 @click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
@@ -797,6 +806,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal verify --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
       vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
+      vrcal verify --engine bullet --file b.json --dt 5e-4
       vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
     from vrcal.fileio import dumps
@@ -808,7 +818,10 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 
         if from_json is None:
             raise UsageError("--against replays a record with the export of a discover result: give --from too")
-        result = replay(from_json, against, engine, dt_s=dt_s, integrator=integrator, tolerance=tolerance,
+        from vrcal.engines.common import DEFAULT_TOLERANCE
+
+        result = replay(from_json, against, engine, dt_s=dt_s, integrator=integrator,
+                        tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance,
                         max_penetration_m=max_penetration_m, stiffness=stiffness, fmt=data_fmt,
                         scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz, floor_m=data_floor_m,
                         standards=standards_of(ctx))

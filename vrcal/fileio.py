@@ -122,6 +122,25 @@ def _make_directory(d):
     return made
 
 
+def check_writable(path):
+    """Refuse up front (UsageError, one line) an output path that cannot be written.
+
+    For a command that works for seconds before it writes: a directory given as the file, a
+    missing directory, or one without write permission is said before the work, in the words
+    the write itself would use.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise UsageError(f"cannot write '{path}': it is a directory")
+    if path.exists() and not path.is_file():
+        return                                     # a device or FIFO: written into
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise UsageError(f"cannot write '{path}': {os.strerror(13)}")
+
+
 def _stage(path, data, staged):
     """Append (target, temporary file or None, data) to ``staged``; a regular file's data is written now."""
     if path.is_dir():

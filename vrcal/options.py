@@ -185,8 +185,9 @@ FLOOR_M = Real(-1e4, 1e4, unit="m")
 DATA_NOISE = Real(1e-9, 1e3)
 #: Gravitational acceleration [m/s^2].
 GRAVITY_M_PER_S2 = Real(1e-2, 1e3, unit="m/s^2")
-#: A physics engine's time step [s] (each engine may bound it further).
-TIME_STEP_S = Real(0, 1, min_open=True, unit="s")
+#: A physics engine's time step [s]: the range of vrcal.engines.common.check_dt (below 1e-7 s no run
+#: ends in reasonable time; above 0.1 s no bounce is resolved).
+TIME_STEP_S = Real(1e-7, 0.1, unit="s")
 #: ODE's time step in a scene [s].
 ODE_TIME_STEP_S = Real(1e-7, 0.1, unit="s")
 #: Largest accepted |achieved - target| epsilon.

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from vrcal.drop.simulate import simulate_drops
 from vrcal.engines.common import (
     DropSetup,
+    StillBouncing,
     check_counts,
     check_dt,
     check_steps,
@@ -45,11 +46,10 @@ def test_floor_speed_is_exact_for_a_semi_implicit_flight(H, dt, k):
     assert abs(floor_speed_m_per_s(z[k], v[k], g, dt, False) - first) <= g * dt
 
 
-def test_measure_bounces_of_a_planted_bounce():
-    """A stepped drop with an instantaneous velocity reversal (eps 0.6) at each floor crossing."""
-    g, dt, eps = 9.80665, 1e-4, 0.6
+def planted_drop(duration_s, eps=0.6, dt=1e-4, g=9.80665):
+    """(z, v) of a stepped drop from 1 m with an instantaneous velocity reversal at each floor crossing."""
     z, v = [1.0], [0.0]
-    for _ in range(int(3.0 / dt)):
+    for _ in range(int(duration_s / dt)):
         vn = v[-1] - g * dt
         zn = z[-1] + vn * dt
         if zn < 0 and vn < 0:
@@ -57,12 +57,35 @@ def test_measure_bounces_of_a_planted_bounce():
             zn = z[-1] + vn * dt
         v.append(vn)
         z.append(zn)
+    return z, v
+
+
+def test_measure_bounces_of_a_planted_bounce():
+    """A stepped drop with an instantaneous velocity reversal (eps 0.6) at each floor crossing."""
+    g, dt, eps = 9.80665, 1e-4, 0.6
+    z, v = planted_drop(3.0, eps, dt, g)
     b = measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
     assert np.allclose(b.velocity_ratios, eps, atol=2e-3)
     assert np.allclose(b.apex_ratios, eps, atol=3e-3)
     assert b.apex_m[0] == 1.0 and np.all(np.diff(b.apex_m) < 0)
     with pytest.raises(DataError, match="complete bounce"):
         measure_bounces(np.array(z[:9000]), np.array(v[:9000]), 1.0, dt, g, 40)
+
+
+def test_a_run_that_ends_in_flight_is_still_bouncing_not_stuck():
+    """Cut a planted bounce sequence (eps 0.6) mid-flight: the ball is said to be still bouncing,
+    with the ratio it showed; a ball that comes to rest on the floor is said to stick."""
+    g, dt, eps = 9.80665, 1e-4, 0.6
+    z, v = planted_drop(1.2, eps, dt, g)
+    with pytest.raises(StillBouncing) as info:
+        measure_bounces(np.array(z), np.array(v), 1.0, dt, g, 3)
+    assert info.value.ratio == pytest.approx(eps, abs=0.01) and "bounced higher" in str(info.value)
+    k = int(np.argmax(np.array(z) < 0))                   # rest from the first contact on
+    z_rest = np.r_[z[:k], np.zeros(len(z) - k)]
+    v_rest = np.r_[v[:k], np.zeros(len(v) - k)]
+    with pytest.raises(DataError, match="stuck to the floor") as info:
+        measure_bounces(z_rest, v_rest, 1.0, dt, g, 1)
+    assert not isinstance(info.value, StillBouncing)
 
 
 def test_setup_model_is_vrcals_simulator_with_drag():
@@ -88,8 +111,18 @@ def test_phase_shifts_cover_one_step():
 
 @pytest.mark.parametrize("bad", [0.0, -1e-3, 1e-320, 1e-9, float("nan"), float("inf"), 0.5, "x"])
 def test_bad_time_steps_are_refused_with_the_limits(bad):
-    with pytest.raises(UsageError, match=r"\[1e-07, 0.1\]|time step in seconds"):
+    with pytest.raises(UsageError, match=r"--dt must be a number between 1e-07 and 0.1 \[s\]"):
         check_dt(bad)
+
+
+def test_the_command_line_and_the_engines_refuse_the_same_steps():
+    """One range for --dt: the option type of export/verify and check_dt agree on both ends."""
+    from vrcal.engines.common import MAX_DT_S, MIN_DT_S
+    from vrcal.options import ODE_TIME_STEP_S, TIME_STEP_S
+
+    assert (TIME_STEP_S.minimum, TIME_STEP_S.maximum) == (MIN_DT_S, MAX_DT_S)
+    assert (ODE_TIME_STEP_S.minimum, ODE_TIME_STEP_S.maximum) == (MIN_DT_S, MAX_DT_S)
+    assert f"--dt must be a number {TIME_STEP_S.range_text()}" in str(pytest.raises(UsageError, check_dt, 0.5).value)
 
 
 @pytest.mark.parametrize("bounces, phases", [(0, 4), (1000000, 4), (3, 0), (3, 1000), (2.5, 4)])

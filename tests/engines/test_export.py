@@ -158,7 +158,7 @@ def test_cli_export_json_format_is_a_machine_document():
 
 @pytest.mark.parametrize("args, code, message", [
     (["basketball", "--engine", "ode", "--epsilon", "1.5"], 2, "--epsilon must be a number between 0.001 and 1"),
-    (["basketball", "--engine", "mujoco", "--dt", "1e-320"], 2, "--dt must be a time step in [1e-07, 0.1] s"),
+    (["basketball", "--engine", "mujoco", "--dt", "1e-320"], 2, "--dt must be a number between 1e-07 and 0.1 [s]"),
     (["--engine", "mujoco", "--mass", "nan", "--diameter", "0.1", "--epsilon", "0.5", "--drop-height", "1"], 2,
      "--mass must be a finite number"),
     (["--engine", "mujoco", "--mass", "0.1", "--diameter", "-1", "--epsilon", "0.5", "--drop-height", "1"], 2,
@@ -268,9 +268,9 @@ def test_verify_file_that_is_not_an_export_is_a_one_line_error(tmp_path, engine,
 
 @pytest.mark.parametrize("args, message", [
     (["--bounces", "1000000"], "--bounces must be an integer from 1 to 50"),
-    (["--dt", "1e-9"], "--dt must be a time step in [1e-07, 0.1] s"),
+    (["--dt", "1e-9"], "--dt must be a number between 1e-07 and 0.1 [s]"),
     (["--dt", "1e-6"], "the limit is 400,000 steps"),
-    (["--bounces", "40"], "ask for fewer bounces"),
+    (["--bounces", "40"], "ask for --bounces 14 or fewer"),
 ])
 def test_runs_that_would_not_end_are_refused_up_front(args, message):
     require_engine("bullet")
@@ -309,3 +309,122 @@ def test_a_discover_result_from_another_engine_option_is_checked(write_discover)
     path = write_discover(effects={"air_drag": {"drag_coefficient": 9.0}})
     with pytest.raises(DataError, match="outside"):
         build_setup(None, "ode", from_json=path)
+
+
+# --------------------------------------------------------------------------- a user's step, a user's file
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "ode", "bullet", "gazebo"])
+def test_every_exported_file_names_the_step_it_holds_for(engine):
+    dt = {"mujoco": 0.002, "ode": 1e-3, "bullet": 1e-3, "gazebo": 1e-3}[engine]
+    if engine == "mujoco":
+        require_engine("mujoco")
+    text = export("basketball", engine, dt_s=dt).text
+    line = next(line for line in text.splitlines() if f"{dt:g} s only" in line)
+    if engine == "mujoco":
+        assert len(line) <= 100 and "valid at timestep 0.002 s only" in line
+        assert "--" not in line.strip()[4:-3]                      # an XML comment holds no two dashes
+    elif engine != "gazebo":
+        assert "vrcal verify --file F --dt DT" in line
+
+
+def test_verify_file_runs_the_file_at_the_asked_step(tmp_path):
+    """MuJoCo's damper D = (1 + eps)/dt is tuned to the file's step: run at twice that step the
+    same file reverses the velocity by 1 - D dt = -(1 + 2 eps), and verify says so (it used to run
+    the file at its own step and pass, ignoring --dt)."""
+    require_engine("mujoco")
+    out = tmp_path / "b.xml"
+    assert run("export", "basketball", "--engine", "mujoco", "-o", out).exit_code == 0
+    result = run("verify", "--engine", "mujoco", "--file", out, "--dt", "0.004", "--phases", "1", "--format", "json")
+    assert result.exit_code == 1, result.output
+    report = json.loads(result.stdout)
+    assert report["dt_s"] == 0.004 and not report["passed"]
+    assert any("run at --dt 0.004 s; the file is for 0.002 s" in n for n in report["notes"])
+    eps = 0.7662
+    assert report["velocity_ratios"][0][0] == pytest.approx(1 + 2 * eps, abs=0.05)
+
+
+def test_verify_file_runs_an_ode_file_at_the_asked_step(tmp_path):
+    require_engine("ode")
+    out = tmp_path / "b.json"
+    assert run("export", "basketball", "--engine", "ode", "-o", out).exit_code == 0
+    own = verify(None, "ode", exported_text=out.read_text(), n_phases=1)
+    half = verify(None, "ode", exported_text=out.read_text(), dt_s=5e-4, n_phases=1)
+    assert (own.dt_s, half.dt_s) == (1e-3, 5e-4) and half.passed
+    assert half.runs.penetration_m < 0.7 * own.runs.penetration_m          # the ball sinks up to v dt
+
+
+@pytest.mark.parametrize("args, named", [
+    (["basketball"], "BALL is fixed"),
+    (["--integrator", "rk4"], "--integrator is fixed"),
+    (["--stiffness", "100"], "--stiffness is fixed"),
+    (["--floor", "volleyball"], "--floor is fixed"),
+    (["--mass", "0.5", "--diameter", "0.2"], "--mass and --diameter are fixed"),
+])
+def test_verify_file_refuses_what_the_file_fixes_in_one_line(tmp_path, args, named):
+    out = tmp_path / "b.xml"
+    out.write_text('<mujoco><option timestep="0.002"/><worldbody><body><geom name="ball" type="sphere" '
+                   'size="0.1" mass="0.5"/></body></worldbody><custom><numeric name="vrcal_epsilon" data="0.8"/>'
+                   '<numeric name="vrcal_drop_height_m" data="1"/></custom></mujoco>')
+    require_engine("mujoco")
+    result = run("verify", "--engine", "mujoco", "--file", out, *args)
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and named in lines[0] and "only --dt, --g, --drop-height, --epsilon" in lines[0]
+
+
+def test_verify_file_takes_the_files_tolerance(tmp_path):
+    require_engine("ode")
+    out = tmp_path / "b.json"
+    assert run("export", "basketball", "--engine", "ode", "--tolerance", "0.02", "-o", out).exit_code == 0
+    assert verify(None, "ode", exported_text=out.read_text(), n_phases=1).tolerance == 0.02
+    assert verify(None, "ode", exported_text=out.read_text(), n_phases=1, tolerance=0.005).tolerance == 0.005
+
+
+def test_verify_says_the_ball_bounced_too_high_not_that_it_stuck(tmp_path):
+    """A file whose bounce is higher than its target (edited, or another ball's): the run sized
+    for the target ended with the ball still bouncing; verify now measures the bounces and fails
+    them (it used to say 'stuck to the floor')."""
+    require_engine("ode")
+    ex = export("tennis", "ode", epsilon=0.5, dt_s=2e-4)
+    data = json.loads(ex.text)
+    data["contact"]["bounce"] = 0.9
+    result = verify(None, "ode", exported_text=json.dumps(data), n_phases=1)
+    assert not result.passed
+    assert result.runs.velocity_ratios == pytest.approx(0.9, abs=0.005)
+
+
+def test_export_bounces_is_an_option_and_verify_bounces_is_not_ignored():
+    """A slow low drop: its third bounce rises under 1 mm; --bounces 1 is what the refusal names,
+    and verify --bounces 1 runs (it used to export for 3 bounces and refuse)."""
+    require_engine("ode")
+    low = dict(epsilon=0.3, drop_height_m=0.05, dt_s=1e-4)
+    with pytest.raises(UsageError, match=r"ask for --bounces 1 or fewer"):
+        export("tennis", "ode", **low)
+    ex = export("tennis", "ode", n_bounces=1, **low)
+    assert json.loads(ex.text)["target"]["n_bounces"] == 1
+    result = run("verify", "tennis", "--engine", "ode", "--epsilon", "0.3", "--drop-height", "0.05",
+                 "--dt", "1e-4", "--bounces", "1", "--phases", "1")
+    assert result.exit_code == 0 and "1 bounce(s)" in result.output, result.output
+    result = run("export", "tennis", "--engine", "ode", "--epsilon", "0.3", "--drop-height", "0.05",
+                 "--dt", "1e-4", "--bounces", "1")
+    assert result.exit_code == 0 and json.loads(result.output)["target"]["n_bounces"] == 1
+
+
+def test_export_refuses_an_unwritable_output_before_the_work(tmp_path, monkeypatch):
+    import vrcal.engines.export as ex
+
+    def never(*args, **kwargs):
+        raise AssertionError("calibrated before checking -o")
+
+    monkeypatch.setattr(ex, "export", never)
+    result = run("export", "basketball", "--engine", "mujoco", "-o", tmp_path / "missing" / "b.xml")
+    assert result.exit_code == 2, result.output
+    assert "directory" in result.output and "does not exist" in result.output
+
+
+def test_the_ode_step_check_names_every_limit_it_misses():
+    with pytest.raises(UsageError) as info:
+        export("basketball", "ode", dt_s=0.05)
+    text = str(info.value)
+    assert "--max-penetration" in text and "tolerance 0.01" in text and "\n" not in text

@@ -24,12 +24,52 @@ def test_exported_settings_reproduce_epsilon_in_ode(eps):
 
 def test_json_has_the_documented_fields():
     data = json.loads(export("tennis", "ode").text)
-    assert data["contact"]["mode"] == ["dContactBounce"] and data["contact"]["mode_value"] == 4
-    assert set(data["world"]) >= {"erp", "cfm", "dt", "gravity"}
+    contact = data["contact"]
+    assert contact["mode"] == ["dContactBounce", "dContactSoftERP", "dContactSoftCFM"]
+    assert contact["mode_value"] == 4 | 8 | 16
+    assert contact["soft_erp"] == 0.0 and 0 < contact["soft_cfm"] <= 1e-10
+    assert set(data["world"]) == {"dt", "gravity", "step"}               # the world's ERP and CFM stay the user's
     assert data["world"]["dt"] == 1e-3 and data["world"]["gravity"][2] == -9.80665
-    assert 0 < data["contact"]["bounce_vel"] < 0.1
+    assert 0 < contact["bounce_vel"] < 0.1
     assert "dContactBounce" in data["snippet"] and "bounce_vel" in data["snippet"]
     assert "drag" not in data and "restitution_law" not in data
+
+
+def test_snippet_sets_the_balls_contacts_only_and_the_gravity():
+    """Pasted into a model with joints, the snippet must not zero the world ERP (joints drift
+    apart) nor set every contact's friction: soft ERP/CFM and mu on the ball's contacts only."""
+    snippet = json.loads(export("tennis", "ode", g_m_per_s2=9.81).text)["snippet"]
+    assert "dWorldSetERP" not in snippet and "dWorldSetCFM" not in snippet
+    assert "dWorldSetGravity(world, 0.0, 0.0, -9.81);" in snippet
+    assert "if (o1 != ball_geom && o2 != ball_geom)" in snippet
+    assert "soft_erp = 0.0;" in snippet and "dContactSoftERP" in snippet
+    assert max(len(line) for line in snippet.splitlines()) <= 100
+
+
+def test_the_users_world_erp_and_cfm_leave_the_bounce_alone():
+    """A world with ODE's default ERP 0.2 and the single-precision CFM 1e-5 (a user's model with
+    joints): the ball's own contact settings still give epsilon; the same world without them does not."""
+    require_engine("ode")
+    ex = export("basketball", "ode", dt_s=1e-3)
+    params = parse_exported("ode", ex.text)
+    params["world"].update(erp=0.2, cfm=1e-5)
+    assert E.drop_test(params, ex.setup, 3, 2).worst_error < 0.005
+    for key in ("soft_erp", "soft_cfm"):
+        del params["contact"][key]
+    params["contact"]["mode"] = ["dContactBounce"]
+    assert E.drop_test(params, ex.setup, 3, 2).worst_error > 0.01
+
+
+def test_a_file_of_an_earlier_vrcal_with_world_erp_and_cfm_still_runs():
+    require_engine("ode")
+    ex = export("basketball", "ode", dt_s=1e-3)
+    params = parse_exported("ode", ex.text)
+    params["world"].update(erp=0.0, cfm=1e-10)
+    params["contact"] = {k: params["contact"][k] for k in ("mu", "bounce", "bounce_vel")} | {
+        "mode": ["dContactBounce"]}
+    text = json.dumps(params)
+    again = parse_exported("ode", text)
+    assert E.drop_test(again, ex.setup, 3, 1).worst_error < 0.005
 
 
 def test_impacts_below_bounce_vel_do_not_bounce():

@@ -17,7 +17,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from vrcal.engines.common import metadata, stepped_drop_test
+from vrcal.engines import get_engine
+from vrcal.engines.common import metadata, step_note, stepped_drop_test
 from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError
 
@@ -46,17 +47,19 @@ def export_params(setup, n_bounces=None, pair=None):
             "floor": {"restitution": setup.floor_epsilon, "contactProcessingThreshold": 0.0},
         },
         "setPhysicsEngineParameter": {
-            "fixedTimeStep": setup.dt_s, "numSubSteps": 0, "erp": 0.0, "contactERP": 0.0,
-            "frictionERP": 0.0, "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD,
+            "fixedTimeStep": setup.dt_s, "numSubSteps": 0, "contactERP": 0.0,
+            "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD,
         },
         "setGravity": [0.0, 0.0, -setup.g_m_per_s2],
         "notes": [
+            step_note(setup, "bullet"),
             "Bullet multiplies the two bodies' restitution: ball x floor = "
             f"{ball_eps:.6g} x {setup.floor_epsilon:.6g} = {setup.epsilon:.6g}",
             f"no bounce below restitutionVelocityThreshold (Bullet's default 0.2 m/s; set here to "
             f"{RESTITUTION_VELOCITY_THRESHOLD} m/s; last verified impact {v_last:.3g} m/s)",
-            "contactProcessingThreshold=0, erp=contactERP=0 and zero damping: Bullet's defaults give "
+            "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
+            "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
         ],
     }
     out.update(effect_params(setup))
@@ -150,7 +153,8 @@ def run_drop(params, drop_height_m, duration_s):
 
 def drop_test(params, setup, n_bounces, n_phases):
     """Run the exported settings in PyBullet and measure them against vrcal's model: a DropRuns."""
-    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases)
+    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases,
+                             get_engine("bullet").max_steps)
 
 
 class _Bound:

@@ -58,6 +58,9 @@ N_PHASES = 4
 #: Most bounces a drop test may ask for (each one more is a longer run and a smaller rebound).
 MAX_BOUNCES = 50
 
+#: Smallest rebound [m] that counts as a bounce (below it the ball rests: a drop test refuses such bounces).
+RISE_M = 1e-3
+
 #: Smallest time step vrcal accepts [s] (below it no engine run ends in reasonable time).
 MIN_DT_S = 1e-7
 
@@ -222,6 +225,21 @@ def metadata(setup):
     }
 
 
+def step_note(setup, engine):
+    """The line every exported file carries: the time step its numbers hold for (< 100 columns).
+
+    MuJoCo's contact is tuned to its step (the damper's ``D = (1 + eps)/dt`` and margin
+    ``v dt/2``, or a spring calibrated at dt): at another step the bounce is another one. ODE's
+    and Bullet's bounce is epsilon at any step, but the depth and the epsilon error were checked
+    at this step only. The MuJoCo and Gazebo lines go into XML comments, which may not hold two
+    dashes: they name no option.
+    """
+    if engine == "mujoco":
+        return f"valid at timestep {setup.dt_s:g} s only (the contact is tuned to it): export again for another"
+    line = f"checked at step {setup.dt_s:g} s only (a larger step sinks deeper and moves epsilon)"
+    return line if engine == "gazebo" else line + "; vrcal verify --file F --dt DT runs it at DT"
+
+
 def drag_force_coefficient_kg_per_m(setup):
     """c of the drag force ``F = -c |v| v`` = 1/2 rho C_d pi R^2 [kg/m] (= m k)."""
     return setup.mass_kg * setup.drag_k_per_m
@@ -238,14 +256,18 @@ def restitution_table(setup, n=8):
     return speeds, np.asarray(eps, dtype=float)
 
 
-def check_dt(dt_s):
-    """Return the time step as a float in [:data:`MIN_DT_S`, :data:`MAX_DT_S`] [s]; UsageError otherwise."""
+def check_dt(dt_s, what="--dt"):
+    """Return the time step as a float in [:data:`MIN_DT_S`, :data:`MAX_DT_S`] [s]; UsageError otherwise.
+
+    The message is the command line's (:data:`vrcal.options.TIME_STEP_S`); ``what`` names the
+    step (``--dt``, or the file's ``timestep``).
+    """
     try:
         dt = float(dt_s)
     except (TypeError, ValueError):
-        raise UsageError(f"--dt must be a time step in seconds, got {dt_s!r}") from None
+        raise UsageError(f"{what} must be a number between {MIN_DT_S:g} and {MAX_DT_S:g} [s], got {dt_s!r}") from None
     if not (math.isfinite(dt) and MIN_DT_S <= dt <= MAX_DT_S):
-        raise UsageError(f"--dt must be a time step in [{MIN_DT_S:g}, {MAX_DT_S:g}] s, got {dt:g}")
+        raise UsageError(f"{what} must be a number between {MIN_DT_S:g} and {MAX_DT_S:g} [s], got {dt:g}")
     return dt
 
 
@@ -355,6 +377,17 @@ def floor_speed_m_per_s(z_m, v_m_per_s, g_m_per_s2, dt_s, semi_implicit):
     return 0.5 * (root + gdt) if v_m_per_s > 0 else 0.5 * (root - gdt)
 
 
+class StillBouncing(DataError):
+    """A run ended with the ball still bouncing: it bounced higher than the target it was sized for.
+
+    ``ratio`` is the largest apex or velocity ratio seen (a lower bound of the ball's own).
+    """
+
+    def __init__(self, message, ratio):
+        super().__init__(message)
+        self.ratio = float(ratio)
+
+
 @dataclass
 class Bounces:
     """What one engine run shows of the first ``n_bounces`` bounces.
@@ -440,6 +473,16 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
         turn.append(float(np.min(z[i_in:i_out + 1])))
         apex.append(h)
     if len(ratios) < n_bounces:
+        last_out = ends[-1] + 1
+        if last_out < len(v) - 1 and np.any(v[last_out:] > 0) and np.max(z[last_out:]) >= RISE_M:
+            # the run ended with the ball in flight, risen from the floor: it was still bouncing
+            seen = [*ratios, *vel]
+            if len(ratios) < len(starts):              # the last contact's flight is unfinished: its rise so far
+                seen.append(math.sqrt(max(float(np.max(z[last_out:])), 0.0) / apex[-1]))
+            raise StillBouncing(
+                f"the ball made only {len(ratios)} complete bounce(s) of the {n_bounces} asked for before "
+                f"the simulated time ended: it bounced higher than the target (ratio up to {max(seen):.4g})",
+                max(seen))
         raise DataError(
             f"the ball made only {len(ratios)} complete bounce(s) of the {n_bounces} asked for: "
             "it stuck to the floor or the contact settings do not bounce"
@@ -458,6 +501,37 @@ def flight_time_s(drop_height_m, epsilon, n_bounces, g_m_per_s2):
     """Time to the apex after bounce ``n_bounces`` for a ball dropped from rest, no drag [s]."""
     t_fall = math.sqrt(2.0 * drop_height_m / g_m_per_s2)
     return t_fall * (1.0 + 2.0 * sum(epsilon ** k for k in range(1, n_bounces)) + epsilon ** n_bounces)
+
+
+def drop_window_s(setup, drop_height_m, ratio=None):
+    """Simulated time of one drop of a drop test [s], 5 % beyond the apex after the last bounce.
+
+    Sized for vrcal's model of the target; with ``ratio`` (what a run that ended too early saw,
+    :class:`StillBouncing`) for a ball that bounces that high (at least epsilon 1, no drag: an
+    upper bound for a ball that does not gain energy).
+    """
+    t = setup.flight_time_s(drop_height_m)
+    if ratio is not None:
+        r = min(max(float(ratio), 1.0), 10.0)      # a ball gaining energy: sized for what it showed
+        t = max(t, flight_time_s(drop_height_m, r, setup.n_bounces, setup.g_m_per_s2))
+    return 1.05 * t
+
+
+def sized_run(run, setup, n_phases, max_steps=None):
+    """``run(ratio)`` (a :class:`DropRuns`) sized for the target, once more for what the ball did.
+
+    A ball that bounces higher than the target (a file with another epsilon, a step that adds
+    energy) is still in the air when a run sized for the target ends: ``run`` is called again
+    with the window of :func:`drop_window_s` for that ball, unless that run would be longer than
+    ``max_steps`` steps (then the :class:`StillBouncing` error, which says so, stands).
+    """
+    try:
+        return run(None)
+    except StillBouncing as exc:
+        longest = drop_window_s(setup, setup.drop_height_m + setup.impact_speed_m_per_s * setup.dt_s, exc.ratio)
+        if max_steps and longest / setup.dt_s * n_phases > max_steps:
+            raise
+        return run(exc.ratio)
 
 
 @dataclass
@@ -562,20 +636,25 @@ def drag_atol(setup):
     return 2.0 * setup.drag_k_per_m * v * v * setup.dt_s + 1e-12
 
 
-def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases):
+def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases, max_steps=None):
     """The drop test of a time-stepping engine, once per contact phase: a :class:`DropRuns`.
 
     ``run_drop(params, drop_height_m, duration_s)`` runs one drop and returns the sampled
     bottom height z [m] and vertical velocity v [m/s] of every step, the step dt [s] and g
-    [m/s^2].
+    [m/s^2]. The runs are sized for the target, and once more for a ball that bounced
+    higher (:func:`sized_run`, at most ``max_steps`` steps).
     """
     shifts = phase_shifts_m(setup, n_phases)
-    runs, dt, g = [], setup.dt_s, setup.g_m_per_s2
-    for shift in shifts:
-        H = setup.drop_height_m + shift
-        z, v, dt, g = run_drop(params, H, setup.flight_time_s(H) * 1.05)
-        runs.append((z, v))
-    return drop_runs(setup, shifts, runs, dt, g, n_bounces, True, drag_atol(setup))
+
+    def run(ratio):
+        runs, dt, g = [], setup.dt_s, setup.g_m_per_s2
+        for shift in shifts:
+            H = setup.drop_height_m + shift
+            z, v, dt, g = run_drop(params, H, drop_window_s(setup, H, ratio))
+            runs.append((z, v))
+        return drop_runs(setup, shifts, runs, dt, g, n_bounces, True, drag_atol(setup))
+
+    return sized_run(run, setup, n_phases, max_steps)
 
 
 class RunsSummary:

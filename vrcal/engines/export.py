@@ -29,6 +29,7 @@ from vrcal.engines.common import (
     MAX_BOUNCES,
     N_BOUNCES,
     N_PHASES,
+    RISE_M,
     DropSetup,
     check_dt,
     check_epsilon,
@@ -235,20 +236,24 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
 
 
 def _check_bounces_reachable(setup):
-    """Refuse a drop whose last bounce is too slow to measure (below 1 cm of rebound)."""
+    """Refuse a drop whose last bounce is too slow to measure (below 1 mm of rebound), naming
+    ``--bounces`` with the most bounces that do rise that far."""
     try:
         apex = setup.model.apex_heights_m[0]
     except UsageError as exc:
         raise UsageError(f"cannot model this drop: {exc}") from None
-    if float(apex[-1]) < 1e-3:
-        raise UsageError(f"bounce {setup.n_bounces} of this drop rises only {apex[-1] * 1e3:.2g} mm: "
-                         "ask for fewer bounces or a larger drop height")
+    if float(apex[-1]) < RISE_M:
+        rising = int(np.sum(np.asarray(apex[1:]) >= RISE_M))
+        fewer = f"--bounces {rising} or fewer, or a larger --drop-height" if rising else \
+            "a larger --drop-height or --epsilon"
+        raise UsageError(f"bounce {setup.n_bounces} of this drop rises only {apex[-1] * 1e3:.2g} mm "
+                         f"(a bounce must rise {RISE_M * 1e3:g} mm): ask for {fewer}")
 
 
 def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
            K_per_s=DEFAULT_K_PER_S, tolerance=DEFAULT_TOLERANCE, mass_kg=None, diameter_m=None,
            drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
-           max_penetration_m=None, stiffness=None, n_phases=N_PHASES):
+           max_penetration_m=None, stiffness=None, n_phases=N_PHASES, n_bounces=None):
     """Export a body's calibrated drop for ``engine``.
 
     Parameters
@@ -265,6 +270,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         damper for semi-implicit integrators, a spring for RK4
     n_phases : int
         contact phases of MuJoCo's calibration runs
+    n_bounces : int or None
+        bounces to calibrate and verify (``--bounces``; default: see :func:`build_setup`)
 
     Returns
     -------
@@ -280,7 +287,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     setup = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, K_per_s, mass_kg=mass_kg,
                         diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                         g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator, tolerance=tolerance,
-                        max_penetration_m=max_penetration_m)
+                        max_penetration_m=max_penetration_m, n_bounces=n_bounces)
     if stiffness is not None and eng.name != "mujoco":
         raise UsageError(f"--stiffness applies to MuJoCo only, not to {eng.name}")
     pair = second = None
@@ -376,10 +383,10 @@ def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, **options):
     setup = build_setup(ball, "mujoco", **options)
     rows = []
     for dt, kind, w, cal in M.trade_off(setup, n_phases):
-        if cal is None:
+        if isinstance(cal, str):                     # 'no bounce' or 'too high'
             rows.append({"dt_s": dt, "contact": kind, "stiffness_per_s2": M.IMPEDANCE * w * w, "damping_per_s": None,
                          "margin_m": None, "worst_error": None, "median_error": None, "penetration_m": None,
-                         "hover_m": None, "ok": False})
+                         "hover_m": None, "ok": False, "failure": cal})
             continue
         c = cal.contact
         rows.append({"dt_s": dt, "contact": c.kind, "stiffness_per_s2": c.stiffness,
@@ -404,7 +411,8 @@ def format_trade_off(setup, rows):
               num(r["worst_error"], ".4f"), num(r["median_error"], ".4f"),
               "-" if r["penetration_m"] is None else f"{r['penetration_m'] * 1e3:.3g}",
               "-" if r["hover_m"] is None else f"{r['hover_m'] * 1e3:.3g}",
-              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else "no bounce"] for r in rows]
+              ("yes" if r["ok"] else "no") if r["worst_error"] is not None else r.get("failure", "no bounce")]
+             for r in rows]
     body = table(cells, ["dt s", "contact", "S 1/s2", "D 1/s", "worst err", "median err", "pen mm", "hover mm",
                          "meets"])
     return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")
@@ -458,12 +466,11 @@ def check_step(setup, engine="ode", n_bounces=None):
                f"{runs.penetration_m * 1e3:.3g} mm)")
     else:
         how = f"use --dt {dt_ok:g} or smaller"
+    what = f"its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor"
+    if depth > setup.penetration_limit_m:          # name every limit missed, in one line
+        what += f" (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)"
     if bound > setup.tolerance:
-        what = (f"its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor, which can "
-                f"move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})")
-    else:
-        what = (f"the ball may sink up to {depth * 1e3:.3g} mm into the floor before the contact acts "
-                f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+        what += f", which can move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})"
     raise UsageError(f"time step {setup.dt_s:g} s is too large for {engine}: {what}; {how}")
 
 

@@ -48,10 +48,17 @@ def _get(doc, path, engine):
     return cur
 
 
+#: (key path, low, high) of the numbers a runner reads when the file has them (ODE: the world's ERP and
+#: CFM in older files, the contact's own in newer ones).
+_OPTIONAL_NUMBERS = {
+    "ode": [("world.erp", 0, 1), ("world.cfm", 0, 1e6), ("contact.soft_erp", 0, 1), ("contact.soft_cfm", 0, 1e6)],
+    "bullet": [],
+}
+
 #: (key path, low, high) of the numbers each runner reads.
 _NUMBERS = {
     "ode": [("ball.mass_kg", 0, 1e6), ("ball.radius_m", 0, 1e3), ("ball.drop_height_m", 0, 1e4),
-            ("target_epsilon", 0, 1), ("world.dt", 0, 1), ("world.erp", 0, 1), ("world.cfm", 0, 1e6),
+            ("target_epsilon", 0, 1), ("world.dt", 0, 1),
             ("contact.mu", 0, math.inf), ("contact.bounce", 0, 1), ("contact.bounce_vel", 0, 1e6)],
     "bullet": [("ball.mass_kg", 0, 1e6), ("ball.radius_m", 0, 1e3), ("ball.drop_height_m", 0, 1e4),
                ("target_epsilon", 0, 1), ("setPhysicsEngineParameter.fixedTimeStep", 0, 1),
@@ -89,6 +96,10 @@ def read_params(engine, text):
     for path, lo, hi in _NUMBERS[engine]:
         _number(_get(data, path, engine), f"{engine} export: {path}", lo, hi, lo_open=path.endswith(
             ("mass_kg", "radius_m", "dt", "fixedTimeStep")))
+    for path, lo, hi in _OPTIONAL_NUMBERS[engine]:
+        block, _, key = path.partition(".")
+        if isinstance(data.get(block), dict) and key in data[block]:
+            _number(data[block][key], f"{engine} export: {path}", lo, hi)
     if engine == "ode":
         gravity = _get(data, "world.gravity", engine)
         if not (isinstance(gravity, list) and len(gravity) == 3):

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
+from vrcal.engines.common import step_note
 from vrcal.engines.ode import BOUNCE_VEL_M_PER_S
 
 SDF_VERSION = "1.7"
@@ -112,7 +113,8 @@ def export_sdf(setup, pair=None, second=None):
         f"<!-- vrcal export: {setup.ball}, target epsilon {setup.epsilon:.6f} on a rigid floor.\n"
         "     Gazebo classic (ODE) uses bounce = min(ball, floor) and bounce_vel = min(thresholds):\n"
         "     the floor is set to 1 so the ball's coefficient is the one used; impacts slower than\n"
-        f"     the threshold ({BOUNCE_VEL_M_PER_S} m/s) do not bounce (SDF's default 100000 m/s never bounces). -->\n"
+        f"     the threshold ({BOUNCE_VEL_M_PER_S} m/s) do not bounce (SDF's default 100000 m/s never bounces).\n"
+        f"     max_step_size: {step_note(setup, 'gazebo')}. -->\n"
     )
     if setup.drag_coefficient or setup.restitution_exponent:
         head += (

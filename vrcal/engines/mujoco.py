@@ -49,12 +49,16 @@ from vrcal.engines.common import (
     N_PHASES,
     DropRuns,
     RunsSummary,
+    StillBouncing,
     check_steps,
     drag_atol,
     drop_runs,
+    drop_window_s,
     metadata,
     phase_shifts_m,
     round_down,
+    sized_run,
+    step_note,
 )
 from vrcal.errors import DataError, EngineUnavailable, UsageError
 
@@ -430,18 +434,27 @@ def _semi_implicit(model):
     return int(model.opt.integrator) != int(mujoco.mjtIntegrator.mjINT_RK4)
 
 
-def drop_test(mjcf, setup, n_bounces, n_phases):
-    """Run a model (MJCF text or compiled) and measure it against vrcal's model: a :class:`DropRuns`."""
+def drop_test(mjcf, setup, n_bounces, n_phases, resize=True):
+    """Run a model (MJCF text or compiled) and measure it against vrcal's model: a :class:`DropRuns`.
+
+    ``resize``: run once more, longer, for a ball that bounced higher than the target
+    (:func:`vrcal.engines.common.sized_run`); the calibration, which needs only the sign of the
+    error, does not.
+    """
     model = load_model(mjcf) if isinstance(mjcf, str) else mjcf
     setup = replace(setup, n_bounces=int(n_bounces))
     shifts = phase_shifts_m(setup, n_phases)
-    duration = setup.flight_time_s(setup.drop_height_m + shifts[-1]) * 1.05
     stiff = [-float(s) for s in model.pair_solref[:, 0] if s < 0]
-    if stiff:                            # spring contacts last about pi/w each: two periods per bounce
-        duration += n_bounces * 2.0 * math.pi / math.sqrt(min(stiff))
-    z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
-    return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
-                     drag_atol(setup))
+    # spring contacts last about pi/w each: two periods per bounce
+    contacts = n_bounces * 2.0 * math.pi / math.sqrt(min(stiff)) if stiff else 0.0
+
+    def run(ratio):
+        duration = drop_window_s(setup, setup.drop_height_m + shifts[-1], ratio) + contacts
+        z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
+        return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
+                         drag_atol(setup))
+
+    return sized_run(run, setup, n_phases, MAX_STEPS) if resize else run(None)
 
 
 # --------------------------------------------------------------------------- calibration in MuJoCo
@@ -543,8 +556,10 @@ def _calibrate_at(setup, n_phases, kind, w, margin):
         model.pair_solref[0] = c.solref
         model.pair_margin[0] = c.margin_m
         try:
-            runs = drop_test(model, setup, setup.n_bounces, n_phases)
+            runs = drop_test(model, setup, setup.n_bounces, n_phases, resize=False)
             f = runs.midrange_error
+        except StillBouncing:
+            runs, f = None, 1.0                      # bounced on past the window: far too much epsilon
         except DataError:
             runs, f = None, -1.0                     # no bounce: far too little epsilon
         cache[x] = (c, runs, f)
@@ -581,6 +596,9 @@ def _calibrate_at(setup, n_phases, kind, w, margin):
         x0, f0, x1, f1 = x1, f1, x2, f2
     done = [(c, r) for c, r, _ in cache.values() if r is not None]
     if not done:
+        if all(f > 0 for _, _, f in cache.values()):
+            raise StillBouncing("MuJoCo's ball bounced higher than the target at every damping tried "
+                                "(the contact adds energy at this step)", 1.0)
         raise DataError("MuJoCo did not bounce the ball at any damping tried")
     contact, runs = min(done, key=lambda cr: cr[1].worst_error)
     del mujoco
@@ -628,8 +646,9 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
 
     Returns
     -------
-    list of (dt_s, kind, omega_per_s, Calibration or None)
-        None where MuJoCo did not bounce the ball with that contact at that step
+    list of (dt_s, kind, omega_per_s, Calibration or str)
+        the str says why there is no calibration: 'no bounce' (MuJoCo did not bounce the ball
+        with that contact at that step) or 'too high' (it bounced higher at every damping)
     """
     steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
     rows = []
@@ -645,8 +664,10 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
         for kind, w in kinds:
             try:
                 cal = calibrate(trial, n_phases, kind, w or None)
+            except StillBouncing:
+                cal = "too high"
             except (UsageError, DataError):
-                cal = None
+                cal = "no bounce"
             rows.append((trial.dt_s, kind, w, cal))
     return rows
 
@@ -662,6 +683,7 @@ def header_lines(setup, cal):
     lines = [
         f"vrcal export: {setup.ball}, target epsilon {setup.epsilon:.4f}, dt {setup.dt_s:g} s, "
         f"{integrator_name(setup)}",
+        step_note(setup, "mujoco"),
         f"contact {how}",
         f"calibrated in MuJoCo: {cal.runs.apex_ratios.shape[0]} phases x {setup.n_bounces} bounces, "
         f"{cal.evaluations} runs",

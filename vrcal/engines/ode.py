@@ -19,11 +19,13 @@ from dataclasses import replace
 import numpy as np
 
 from vrcal.drop.effects import AIR_DENSITY_KG_PER_M3
+from vrcal.engines import get_engine
 from vrcal.engines import ode_ctypes as O
 from vrcal.engines.common import (
     drag_force_coefficient_kg_per_m,
     metadata,
     restitution_table,
+    step_note,
     stepped_drop_test,
 )
 from vrcal.errors import UsageError
@@ -31,14 +33,19 @@ from vrcal.errors import UsageError
 #: Smallest incoming speed that bounces [m/s].
 BOUNCE_VEL_M_PER_S = 0.01
 
-#: World constraint force mixing: tiny (1e-5 already costs 1 % of epsilon).
-WORLD_CFM = 1e-10
+#: CFM of the ball's contacts (``dContactSoftCFM``): ODE's double-precision world default, set on the
+#: contact so that a world CFM of the user's (1e-5 is the single-precision default) does not soften it.
+CONTACT_SOFT_CFM = 1e-10
 
-#: World error reduction. ODE's contact takes the larger of the bounce speed and the ERP
-#: push-out speed ``erp * depth / dt``: with 0.2 a ball 1 mm deep at dt = 1e-4 leaves at 2 m/s
-#: whatever its bounce (tests/test_engines_ode_ctypes.py). 0 keeps the bounce exact; in the
-#: drop tests 0 and 0.2 agreed to 1e-4 because the depth stays below v dt.
-WORLD_ERP = 0.0
+#: ERP of the ball's contacts (``dContactSoftERP``). ODE's contact leaves at the larger of the
+#: bounce speed and the ERP push-out speed ``erp * depth / dt``: with the world default 0.2 a ball
+#: 1 mm deep at dt = 1e-4 leaves at 2 m/s whatever its bounce (tests/engines/test_ode_ctypes.py).
+#: 0 on the ball's contacts only keeps the bounce exact and leaves the world ERP, which holds the
+#: user's joints together, alone.
+CONTACT_SOFT_ERP = 0.0
+
+#: The contact flags of the ball's contacts.
+CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM")
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -70,22 +77,27 @@ def export_params(setup, n_bounces=None, pair=None):
                  "drop_height_m": setup.drop_height_m},
         "target_epsilon": setup.epsilon,
         "target": metadata(setup),
-        "world": {"dt": setup.dt_s, "erp": WORLD_ERP, "cfm": WORLD_CFM,
-                  "gravity": [0.0, 0.0, -setup.g_m_per_s2], "step": "dWorldStep"},
+        "world": {"dt": setup.dt_s, "gravity": [0.0, 0.0, -setup.g_m_per_s2], "step": "dWorldStep"},
         "contact": {
-            "mode": ["dContactBounce"],
-            "mode_value": O.dContactBounce,
+            "applies_to": "the ball's contacts only (other pairs keep your settings)",
+            "mode": list(CONTACT_MODE),
+            "mode_value": _mode_value(CONTACT_MODE),
             "mu": 0.0,
             "bounce": setup.epsilon,
             "bounce_vel": BOUNCE_VEL_M_PER_S,
+            "soft_erp": CONTACT_SOFT_ERP,
+            "soft_cfm": CONTACT_SOFT_CFM,
         },
         "notes": [
+            step_note(setup, "ode"),
             f"impacts slower than bounce_vel = {BOUNCE_VEL_M_PER_S} m/s do not bounce "
             f"(the last verified impact is at {v_last:.3g} m/s)",
-            "keep CFM tiny: world CFM 1e-5 already lowers epsilon by about 1 %; soft_cfm eats energy too",
-            "erp = 0: ODE's contact leaves at max(bounce speed, erp*depth/dt); with the default 0.2 a slow or "
-            "deep contact leaves faster than epsilon allows (and without dContactBounce ERP fakes epsilon ~ 0.14)",
-            "mu is free: friction does not change a vertical drop",
+            "soft_erp = 0 on the ball's contacts only (dContactSoftERP; the world ERP stays yours, for your "
+            "joints): a contact leaves at max(bounce speed, erp*depth/dt), so ERP 0.2 throws a deep ball out "
+            "faster than epsilon allows",
+            f"soft_cfm = {CONTACT_SOFT_CFM:g} on the ball's contacts (dContactSoftCFM): a soft contact eats "
+            "energy (CFM 1e-5 lowers epsilon by about 1.5 %)",
+            "mu only on the ball's contacts: your friction; a vertical drop ignores it",
         ],
     }
     out.update(effect_params(setup))
@@ -105,6 +117,14 @@ def export_params(setup, n_bounces=None, pair=None):
             "from 'pairs' (Eq. 6: the product of the two bodies' epsilons)"
         )
     return out
+
+
+def _mode_value(flags):
+    """The ``surface.mode`` integer of dContact... flag names."""
+    value = 0
+    for flag in flags:
+        value |= getattr(O, flag)
+    return value
 
 
 def effect_params(setup):
@@ -155,8 +175,10 @@ def run_drop(params, drop_height_m, duration_s):
     group = lib.dJointGroupCreate(0)
     try:
         lib.dWorldSetGravity(world, *[float(x) for x in world_p["gravity"]])
-        lib.dWorldSetERP(world, float(world_p["erp"]))
-        lib.dWorldSetCFM(world, float(world_p["cfm"]))
+        if "erp" in world_p:             # files of an earlier vrcal set the world's ERP and CFM
+            lib.dWorldSetERP(world, float(world_p["erp"]))
+        if "cfm" in world_p:
+            lib.dWorldSetCFM(world, float(world_p["cfm"]))
         body = lib.dBodyCreate(world)
         R = float(ball["radius_m"])
         mass = O.sphere_mass(float(ball["mass_kg"]), R)
@@ -165,11 +187,9 @@ def run_drop(params, drop_height_m, duration_s):
         lib.dGeomSetBody(sphere, body)
         lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
         lib.dBodySetPosition(body, 0.0, 0.0, drop_height_m + R)
-        mode = 0
-        for flag in contact_p["mode"]:
-            mode |= getattr(O, flag)
-        surf = O.surface(mode, float(contact_p["mu"]), bounce=float(contact_p["bounce"]),
-                         bounce_vel=float(contact_p["bounce_vel"]))
+        soft = {k: float(contact_p[k]) for k in ("soft_erp", "soft_cfm") if k in contact_p}
+        surf = O.surface(_mode_value(contact_p["mode"]), float(contact_p["mu"]), bounce=float(contact_p["bounce"]),
+                         bounce_vel=float(contact_p["bounce_vel"]), **soft)
         step = getattr(lib, world_p.get("step", "dWorldStep"))
         n = int(math.ceil(duration_s / dt))
         z = np.empty(n + 1)
@@ -203,27 +223,34 @@ def run_drop(params, drop_height_m, duration_s):
 
 def drop_test(params, setup, n_bounces, n_phases):
     """Run the exported settings in libode and measure them against vrcal's model: a DropRuns."""
-    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases)
+    return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases,
+                             get_engine("ode").max_steps)
 
 
 C_SNIPPET = """\
-/* near callback: every ball/floor contact bounces with the calibrated epsilon */
+/* near callback: the ball's contacts bounce with the calibrated epsilon; other pairs keep yours */
 static void near_callback(void *data, dGeomID o1, dGeomID o2)
 {{
     dContact c[4];
-    int i, n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
+    int i, n;
+    if (o1 != ball_geom && o2 != ball_geom) {{   /* ball_geom: your ball's sphere */
+        your_near_callback(data, o1, o2);       /* every other pair: your own contacts */
+        return;
+    }}
+    n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
     for (i = 0; i < n; i++) {{
-        c[i].surface.mode = dContactBounce;          /* no dContactSoftCFM: keep CFM tiny */
-        c[i].surface.mu = 0.0;                       /* your friction; a vertical drop ignores it */
-        c[i].surface.bounce = {bounce};            /* epsilon ({ball}) */
-{law}        c[i].surface.bounce_vel = {bounce_vel};             /* m/s: slower impacts do not bounce */
+        c[i].surface.mode = {mode};
+        c[i].surface.mu = {mu};             /* the ball's friction: a vertical drop ignores it */
+        c[i].surface.bounce = {bounce};    /* epsilon ({ball}) */
+{law}        c[i].surface.bounce_vel = {bounce_vel};    /* m/s: slower impacts do not bounce */
+        c[i].surface.soft_erp = {soft_erp};       /* this contact only: no ERP push-out */
+        c[i].surface.soft_cfm = {soft_cfm};     /* this contact only: rigid */
         dJointAttach(dJointCreateContact(world, contact_group, &c[i]),
                      dGeomGetBody(o1), dGeomGetBody(o2));
     }}
 }}
-/* world: */
-dWorldSetERP(world, {erp});
-dWorldSetCFM(world, {cfm});
+/* world: gravity (the world's ERP and CFM stay yours: the ball's contacts set their own) */
+dWorldSetGravity(world, {gx}, {gy}, {gz});
 /* each step: */
 {drag}dSpaceCollide(space, 0, near_callback);
 dWorldStep(world, {dt});
@@ -254,6 +281,10 @@ def c_snippet(params):
     law_c = LAW_C.format(eps_ref=f"{law['epsilon_ref']:.6f}", v_ref=f"{law['reference_speed_m_per_s']:.6g}",
                          p=f"{law['exponent']:.6g}") if law else ""
     drag_c = DRAG_C.format(c=f"{drag['force_coefficient_kg_per_m']:.6g}") if drag else ""
-    return C_SNIPPET.format(bounce=f"{params['contact']['bounce']:.6f}", ball=params["ball"]["name"], law=law_c,
-                            bounce_vel=params["contact"]["bounce_vel"], erp=params["world"]["erp"],
-                            cfm=params["world"]["cfm"], dt=params["world"]["dt"], drag=drag_c)
+    contact, world = params["contact"], params["world"]
+    gx, gy, gz = (float(x) for x in world["gravity"])
+    return C_SNIPPET.format(mode=" | ".join(contact["mode"]), mu=contact["mu"], bounce=f"{contact['bounce']:.6f}",
+                            ball=params["ball"]["name"], law=law_c, bounce_vel=contact["bounce_vel"],
+                            soft_erp=contact.get("soft_erp", CONTACT_SOFT_ERP),
+                            soft_cfm=contact.get("soft_cfm", CONTACT_SOFT_CFM), gx=repr(gx), gy=repr(gy), gz=repr(gz),
+                            dt=world["dt"], drag=drag_c)

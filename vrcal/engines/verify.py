@@ -8,6 +8,7 @@ measures ``n_bounces`` bounces against vrcal's own model of the same drop
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -30,7 +31,7 @@ DEFAULT_PHASES = N_PHASES
 
 
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
-           tolerance=DEFAULT_TOLERANCE, n_bounces=None, n_phases=N_PHASES, exported_text=None,
+           tolerance=None, n_bounces=None, n_phases=N_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
            from_json=None, integrator=None, max_penetration_m=None, stiffness=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
@@ -42,14 +43,17 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         as for :func:`vrcal.engines.export.export`
     engine : str
         mujoco, ode or bullet (pybullet)
-    tolerance : float
-        largest accepted |achieved - target|
+    tolerance : float or None
+        largest accepted |achieved - target| (None: the file's ``vrcal_tolerance`` with
+        ``exported_text``, else 0.01)
     n_bounces, n_phases : int
         bounces per drop (1 ... 50; default 3, or as many as ``impact_speed`` needs) and contact
         phases across one step (1 ... 64)
     exported_text : str, optional
-        a file written by ``vrcal export`` to load instead of a fresh export: its time step,
-        ball and target are used (``--epsilon`` overrides the target)
+        a file written by ``vrcal export`` to load instead of a fresh export: its ball, contact,
+        step, gravity and target are used; ``dt_s``, ``g_m_per_s2`` and ``drop_height_m`` run it at
+        another step, gravity or height, ``epsilon`` judges it against another target; the body,
+        integrator, stiffness, floor and impact speed are fixed by the file (UsageError)
 
     Returns
     -------
@@ -59,25 +63,29 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     version = require_runtime(eng.name)
     asked = n_bounces
     n_bounces, n_phases = check_counts(N_BOUNCES if asked is None else asked, n_phases)
-    tolerance = check_positive(tolerance, "--tolerance")
-    export_tolerance = max(tolerance, DEFAULT_TOLERANCE)   # a tight tolerance fails the test, not the export
+    if tolerance is not None:
+        tolerance = check_positive(tolerance, "--tolerance")
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards, mass_kg=mass_kg,
                    diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                    max_penetration_m=max_penetration_m)
     if exported_text is not None:
-        loaded, setup = _load_file(eng.name, exported_text, ball, options)
+        loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
+                                             dict(options, stiffness=stiffness, tolerance=tolerance))
+        tolerance = setup.tolerance
     else:
         from vrcal.engines.export import build_setup
 
+        tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
+        export_tolerance = max(tolerance, DEFAULT_TOLERANCE)   # a tight tolerance fails the test, not the export
         pre = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, tolerance=export_tolerance,
                           mass_kg=mass_kg,
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                           max_penetration_m=max_penetration_m, n_bounces=asked)
         check_steps(pre, n_phases, eng.name, eng.max_steps)
-        ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, **options)
-        loaded = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
+        ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, n_bounces=asked, **options)
+        loaded = runnable = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
         setup = ex.setup
     if asked is None:
         n_bounces = setup.n_bounces                    # 3, or as many as --impact-speed LO:HI needs
@@ -86,7 +94,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
 
     _check_bounces_reachable(setup)
     check_steps(setup, n_phases, eng.name, eng.max_steps)
-    runs = load(eng.name).drop_test(loaded, setup, n_bounces, n_phases)
+    runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
@@ -94,57 +102,135 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     )
 
 
+#: Options whose value an exported file fixes (option key, as typed): verify --file refuses them.
+FIXED_BY_FILE = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diameter"), ("from_json", "--from"),
+                 ("integrator", "--integrator"), ("stiffness", "--stiffness"), ("floor", "--floor"),
+                 ("impact_speed", "--impact-speed"))
+
+#: What applies with --file (named in the refusal).
+APPLY_TO_FILE = "--dt, --g, --drop-height, --epsilon, --tolerance, --max-penetration, --bounces and --phases"
+
+
+def _refuse_fixed(options, keys):
+    """One-line UsageError naming every option of ``keys`` given with ``--file``, and what applies."""
+    given = [flag for key, flag in FIXED_BY_FILE if key in keys and options.get(key) is not None]
+    if given:
+        names = given[0] if len(given) == 1 else ", ".join(given[:-1]) + " and " + given[-1]
+        raise UsageError(f"{names} {'is' if len(given) == 1 else 'are'} fixed by the exported file: with --file only "
+                         f"{APPLY_TO_FILE} apply (export again for another body or contact)")
+
+
 def _load_file(engine, text, ball, options):
-    """(what the engine loads, DropSetup) of an exported file's text."""
-    from vrcal.engines.export import build_setup
+    """(the file as read, what the engine runs, DropSetup) of an exported file's text.
+
+    The file fixes the body, the contact and the integrator (the options that would change them
+    are refused in one line, :func:`_refuse_fixed`); ``--dt`` and ``--g`` run the file's model at
+    another step or gravity (what a user does who pastes it into a model with another step),
+    ``--drop-height`` drops it from another height, ``--epsilon`` judges it against another
+    target, and the notes say so.
+    """
+    from vrcal.engines.common import check_dt, check_epsilon
     from vrcal.engines.files import read_mjcf
 
-    given = ball is not None or options["from_json"] is not None or (
-        options["mass_kg"] is not None and options["diameter_m"] is not None)
+    options = dict(options, ball=ball)
     if engine == "mujoco":
         info = read_mjcf(text)
-        dt, integrator, target = info["timestep"], info["integrator"], info["target"]
+        file_dt, integrator, target = info["timestep"], info["integrator"], info["target"]
         radius, mass, name = info["radius_m"], info["mass_kg"], info["ball"]
         loaded = text
     else:
         loaded = parse_exported(engine, text)
-        dt = loaded["world"]["dt"] if engine == "ode" else loaded["setPhysicsEngineParameter"]["fixedTimeStep"]
+        file_dt = loaded["world"]["dt"] if engine == "ode" else loaded["setPhysicsEngineParameter"]["fixedTimeStep"]
         integrator = None
         target = dict(loaded.get("target") or {})
         target["epsilon"] = loaded["target_epsilon"]
         target.setdefault("drop_height_m", loaded["ball"]["drop_height_m"])
         radius, mass, name = loaded["ball"]["radius_m"], loaded["ball"]["mass_kg"], str(loaded["ball"].get("name"))
-    if given:
-        opts = dict(options, dt_s=dt)
-        if engine == "mujoco":
-            opts["integrator"] = integrator
-        setup = build_setup(ball, engine, **opts)
-        return loaded, setup
-    if "epsilon" not in target and options["epsilon"] is None:
-        raise UsageError("the file carries no vrcal target: give BALL (or --mass and --diameter) and --epsilon")
-    if mass is None:
-        raise DataError("the MJCF ball geom has no mass: give BALL (or --mass and --diameter)")
-    from vrcal.engines.common import check_epsilon
-    from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+    vrcal_file = "epsilon" in target
+    _refuse_fixed(options, [k for k, _ in FIXED_BY_FILE] if vrcal_file else ("integrator", "stiffness"))
+    file_dt = check_dt(file_dt, "the file's time step")
+    dt = file_dt if options["dt_s"] is None else check_dt(options["dt_s"])
+    file_g = _file_gravity(engine, loaded)
+    g = file_g if options["g_m_per_s2"] is None else float(options["g_m_per_s2"])
+    notes = []
+    if dt != file_dt:
+        what = "its contact is tuned to that step" if engine == "mujoco" else "it was checked at that step"
+        notes.append(f"run at --dt {dt:g} s; the file is for {file_dt:g} s ({what})")
+    if g != file_g:
+        notes.append(f"run at --g {g:g} m/s^2; the file holds {file_g:g} m/s^2")
+    runnable = _with_step_and_gravity(engine, loaded, dt, g)
+    if not vrcal_file:                             # a model of the user's: the body and target from options
+        from vrcal.engines.export import build_setup
 
-    eps = check_epsilon(options["epsilon"] if options["epsilon"] is not None else target["epsilon"], "epsilon")
-    H = target.get("drop_height_m")
+        opts = {k: v for k, v in options.items() if k not in ("ball", "stiffness", "tolerance")}
+        opts.update(dt_s=dt, g_m_per_s2=g, integrator=integrator if engine == "mujoco" else None)
+        if options.get("tolerance") is not None:
+            opts["tolerance"] = options["tolerance"]
+        setup = build_setup(ball, engine, **opts)
+        return loaded, runnable, replace(setup, notes=setup.notes + tuple(notes))
+    if mass is None:
+        raise DataError("the MJCF ball geom has no mass: give it one (a vrcal export has it)")
+    if options["epsilon"] is not None:
+        eps = check_epsilon(options["epsilon"], "--epsilon")
+        notes.insert(0, f"target epsilon {eps:.4f} given with --epsilon (the file's: {target['epsilon']:.4f})")
+    else:
+        eps = check_epsilon(target["epsilon"], "the file's epsilon")
+        notes.insert(0, f"target epsilon {eps:.4f} from the file")
+    H = target.get("drop_height_m") if options["drop_height_m"] is None else float(options["drop_height_m"])
     if H is None or not H > 0:
-        raise DataError("the file carries no drop height: give BALL or --drop-height")
-    n_b = target.get("n_bounces", N_BOUNCES)
+        raise DataError("the file carries no drop height: give --drop-height")
+    if options["drop_height_m"] is not None and H != target.get("drop_height_m"):
+        notes.append(f"dropped from --drop-height {H:g} m (the file's: {target.get('drop_height_m', math.nan):g} m)")
+    tolerance = options.get("tolerance")
+    if tolerance is None:
+        tolerance = float(target.get("tolerance", DEFAULT_TOLERANCE))
     setup = DropSetup(
         ball=name, mass_kg=float(mass), radius_m=float(radius), drop_height_m=float(H), epsilon=eps,
-        dt_s=float(dt), g_m_per_s2=float(target.get("g_m_per_s2", STANDARD_GRAVITY_M_PER_S2)), ball_epsilon=eps,
-        notes=(f"target epsilon {eps:.4f} from the file",), n_bounces=max(int(n_b), 1),
+        dt_s=dt, g_m_per_s2=g, ball_epsilon=eps,
+        notes=tuple(notes), n_bounces=max(int(target.get("n_bounces", N_BOUNCES)), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
-        max_penetration_m=options["max_penetration_m"] or target.get("max_penetration_m"),
+        max_penetration_m=options["max_penetration_m"] or target.get("max_penetration_m"), tolerance=tolerance,
         integrator=integrator, release_time_s=float(target.get("release_time_s", 0.0)),
         height_offset_m=float(target.get("height_offset_m", 0.0)),
     )
     if not (0 <= setup.drag_coefficient <= 3 and -1 <= setup.restitution_exponent <= 2 and setup.g_m_per_s2 > 0):
         raise DataError("the file's vrcal_* numbers are out of range (drag_coefficient, restitution_exponent, g)")
-    return loaded, setup
+    return loaded, runnable, setup
+
+
+def _file_gravity(engine, loaded):
+    """The downward gravity [m/s^2] an exported file sets."""
+    if engine == "mujoco":
+        from vrcal.engines.mujoco import load_model
+
+        return -float(load_model(loaded).opt.gravity[2])
+    return -float(loaded["world"]["gravity"][2] if engine == "ode" else loaded["setGravity"][2])
+
+
+def _with_step_and_gravity(engine, loaded, dt_s, g_m_per_s2):
+    """What the engine runs: the file's model with its time step and gravity set.
+
+    MuJoCo: the compiled model with ``opt.timestep`` and ``opt.gravity`` set; ODE, PyBullet: a
+    copy of the JSON with ``world.dt``/``fixedTimeStep`` and the gravity set.
+    """
+    if engine == "mujoco":
+        from vrcal.engines.mujoco import load_model
+
+        model = load_model(loaded)
+        model.opt.timestep = dt_s
+        model.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
+        return model
+    import copy
+
+    out = copy.deepcopy(loaded)
+    if engine == "ode":
+        out["world"]["dt"] = dt_s
+        out["world"]["gravity"] = [0.0, 0.0, -g_m_per_s2]
+    else:
+        out["setPhysicsEngineParameter"]["fixedTimeStep"] = dt_s
+        out["setGravity"] = [0.0, 0.0, -g_m_per_s2]
+    return out
 
 
 def _settings(engine, loaded, setup):
@@ -160,9 +246,11 @@ def _settings(engine, loaded, setup):
         margin = f"{1e3 * float(m.group(1)):.3g} mm" if m else "0"
         return {"integrator": integrator_name(setup), "solref": solref, "margin": margin}
     if engine == "ode":
-        c = loaded["contact"]
-        return {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"],
-                "erp": loaded["world"]["erp"], "cfm": loaded["world"]["cfm"]}
+        c, w = loaded["contact"], loaded["world"]
+        out = {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"]}
+        out.update({k: f"{c[k]:g}" for k in ("soft_erp", "soft_cfm") if k in c})
+        out.update({f"world {k}": f"{w[k]:g}" for k in ("erp", "cfm") if k in w})
+        return out
     return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
             "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}"}
 
