@@ -82,6 +82,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vrcal.errors import UsageError
+from vrcal.model.body import ball_density_kg_per_m3
 
 #: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
 AIR_DENSITY_KG_PER_M3 = 1.204
@@ -523,6 +524,11 @@ TYPICAL_SOLID_MODULUS_PA = 100e6
 TYPICAL_IMPACT_M_PER_S = 2.0
 
 
+def _solid(mass_kg, diameter_m):
+    """Whether a ball is solid: denser than :data:`SOLID_BALL_DENSITY_KG_PER_M3`."""
+    return float(ball_density_kg_per_m3(mass_kg, diameter_m)) > SOLID_BALL_DENSITY_KG_PER_M3
+
+
 def expected_contact_time_s(mass_kg, diameter_m):
     """The contact time to expect of a ball [s]: the membrane model of an inflated ball
     (:func:`inflated_contact_time_s`, 60 kPa), or Hertz's time of a solid one
@@ -538,8 +544,7 @@ def expected_contact_time_s(mass_kg, diameter_m):
     diameter_m : float
         ball diameter [m]
     """
-    density = float(mass_kg) / (math.pi / 6.0 * float(diameter_m) ** 3)
-    if density > SOLID_BALL_DENSITY_KG_PER_M3:
+    if _solid(mass_kg, diameter_m):
         return float(solid_contact_time_s(mass_kg, diameter_m, TYPICAL_SOLID_MODULUS_PA, TYPICAL_IMPACT_M_PER_S))
     return float(inflated_contact_time_s(mass_kg, diameter_m))
 
@@ -556,8 +561,7 @@ def contact_time_limit_s(mass_kg, diameter_m):
     diameter_m : float
         ball diameter [m]
     """
-    density = float(mass_kg) / (math.pi / 6.0 * float(diameter_m) ** 3)
-    if density > SOLID_BALL_DENSITY_KG_PER_M3:
+    if _solid(mass_kg, diameter_m):
         return float(solid_contact_time_s(mass_kg, diameter_m))
     return 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
 
