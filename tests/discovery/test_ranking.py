@@ -505,23 +505,24 @@ def test_a_wrong_mass_is_suspect_input_not_explained():
     assert right.verdict == "explained" and right.effects == ["air_drag"] and right.unphysical_better == []
 
 
-def test_an_unresolved_contact_time_is_a_systematic_of_epsilon_from_impact_times():
-    """A tennis ball's 5 ms contacts hidden in impact times timed to 1 ms: each interval grows by tau,
-    which the constant-epsilon model takes for a higher epsilon (+0.003, ten times its +- 0.0003).
-    The report and the JSON say how far epsilon moves if the contact lasts what this ball's does."""
+@pytest.mark.parametrize("seed", [1, 2])
+def test_what_every_ball_has_but_impact_times_cannot_resolve_is_a_systematic_of_epsilon(seed):
+    """A tennis ball's air drag (C_d 0.55) and 5 ms contacts in impact times timed to 0.15 ms, as a phone
+    times them: a slight speed law or a contact alone stands in for the pair, epsilon 15-20 sigma low
+    (found by an independent simulator). Held where physics expects them (a sphere's C_d 0.47, the ball's
+    6.7 ms), epsilon comes back within 0.002; report and JSON say so."""
     from vrcal.discovery.report import fit_report
 
     tennis = BallProperties.from_ball(get_ball("tennis"))
-    d = simulate_drops(1.5, 0.75, 10, tennis, effects={"contact_duration": {"contact_time_s": 0.005}},
-                       release_time_s=0.2)
-    t = sample_measurement(d, "impacts", jitter_s=0.001, rng=1)["t"]
-    found = discover(ImpactTimes(t, "taus"), tennis, noise=0.001)
-    assert "contact_duration" not in found.effects
-    tau, shift = found.contact_systematic
-    assert 0.004 < tau < 0.008 and shift < -0.002
-    assert abs(found.epsilon + shift - 0.75) < abs(found.epsilon - 0.75) - 0.002
-    assert found.as_dict()["epsilon_contact_systematic"]["epsilon_shift"] == shift
-    assert "ms expected of this ball" in fit_report(found)
+    d = simulate_drops(1.0, 0.75, 10, tennis, release_time_s=0.2,
+                       effects={"air_drag": {"drag_coefficient": 0.55}, "contact_duration": {"contact_time_s": 0.005}})
+    t = sample_measurement(d, "impacts", jitter_s=1.5e-4, rng=seed)["t"]
+    found = discover(ImpactTimes(t, "phone"), tennis)
+    held, shift = found.systematic["held"], found.systematic["epsilon_shift"]
+    assert set(held) <= {"air_drag.drag_coefficient", "contact_duration.contact_time_s"} and held
+    assert abs(found.epsilon + shift - 0.75) < 0.002 < abs(found.epsilon - 0.75) - 0.002
+    assert found.as_dict()["epsilon_systematic"]["epsilon_shift"] == shift
+    assert "which these data do not resolve" in " ".join(fit_report(found).split())
     cols = sample_measurement(simulate_drops(1.2, 0.75, 4, tennis, release_time_s=0.2), "trajectory", noise_m=0.001,
                               rng=0)
-    assert discover(Trajectory(cols["t"], cols["y"], "track"), tennis).contact_systematic is None
+    assert discover(Trajectory(cols["t"], cols["y"], "track"), tennis).systematic is None

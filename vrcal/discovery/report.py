@@ -210,9 +210,13 @@ def engine_advice(discovery):
         out.append("(check the input first: these values assume it is right)")
     if not d.effects:
         out.append(f"epsilon = {pm(eps, u)}")
-        out.extend(_contact_lines(d, u))
+        shown = _systematic_lines(d, u)
+        out.extend(shown)
         if not d.rounds:
             out.append("(nothing tested: an engine without air drag reproduces these heights with it)")
+        elif d.verdict == "explained" and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
+            out.append("The baseline suffices: this constant epsilon reproduces the record in an engine without "
+                       "air drag (with drag, the value above).")
         elif d.verdict == "explained":
             out.append("The baseline suffices: this constant epsilon reproduces the record in any engine.")
         else:
@@ -227,7 +231,7 @@ def engine_advice(discovery):
         out.append("choose the value at the impact speeds of your simulation.")
     else:
         out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution)")
-        out.extend(_contact_lines(d, u))
+    out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():
             lo, hi = alt["epsilon"]
@@ -248,17 +252,20 @@ def engine_advice(discovery):
     return out
 
 
-def _contact_lines(d, sigma):
-    """The contact time's systematic on ε of impact times (:attr:`Discovery.contact_systematic`), when it
-    is at least half the fit's uncertainty."""
-    if d.contact_systematic is None:
+def _systematic_lines(d, sigma):
+    """What ε would be with the effects every ball has held where physics expects them
+    (:attr:`Discovery.systematic`), when that moves it by at least half the fit's uncertainty."""
+    sys_ = d.systematic
+    if sys_ is None:
         return []
-    tau, shift = d.contact_systematic
+    shift = sys_["epsilon_shift"]
     if abs(shift) < 0.5 * (sigma or 0.0) or abs(shift) < 5e-5:
         return []
-    return [f"(if each contact lasts the {tau * 1e3:.2g} ms expected of this ball, which impact times cannot "
-            f"tell from epsilon here: {d.epsilon + shift:.4f}, {shift:+.4f}; a systematic uncertainty beside "
-            f"the ± above)"]
+    what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
+            "contact_duration.contact_time_s": lambda v: f"a contact of the {v * 1e3:.2g} ms expected of this ball"}
+    held = " and ".join(what[k](v) for k, v in sys_["held"].items())
+    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.4f}, {shift:+.4f}; "
+            f"a systematic uncertainty beside the ± above)"]
 
 
 def _split_advice(d):
