@@ -205,5 +205,5 @@ INPUT_FILE = click.Path(exists=True, dir_okay=False)
 
 #: The measurement formats of ``--format`` (the keys of vrcal.measurements.reader.FORMATS, written out
 #: so that the CLI starts without importing the readers; a test keeps the two equal).
-MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "tracker", "phyphox-collision", "drops", "apexes",
+MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "tracker", "phyphox-collision", "drops", "apexes",
                        "trajectory", "impacts", "sound", "video")

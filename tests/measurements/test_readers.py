@@ -161,6 +161,35 @@ def test_y_only_pixels_need_fs(tmp_path, flight):
     assert abs(data.release_index - 30) <= 2
 
 
+# --------------------------------------------------------------------------- Vernier text exports
+
+
+@pytest.mark.parametrize("head,scale", [
+    (["Untitled.cmbl 3/4/2024 10:12:00 .", "Run 1", "Time\tPosition\tVelocity", "t\tx\tv", "s\tm\tm/s"], 1.0),
+    (["Motion Detector Readings taken using Ardunio", "Data Set", "Time\tDistance", "seconds\tcentimeters"], 100.0),
+])
+def test_a_vernier_text_export_is_a_trajectory(tmp_path, flight, head, scale):
+    """Logger Pro's 'Export As Text' (long names, short names, units) and Vernier's Arduino sketches
+    (long names, units spelled out): 'Vernier Format 2' was refused ('3 cells but the header names 1')."""
+    t, y = flight
+    rows = [f"{a:.4f}\t{b * scale:.6f}" + ("\t0.0" if len(head) == 5 else "") for a, b in zip(t, y)]
+    p = write(tmp_path, "run.txt", "\n".join(["Vernier Format 2", *head, *rows]) + "\n")
+    assert detect_format(p) == "vernier"
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.y_m, np.round(y * scale, 6) / scale, atol=1e-9)
+    assert data.notes[0].startswith("format: Vernier text export")
+
+
+def test_a_vernier_export_of_two_runs_gives_two_runs(tmp_path, flight):
+    t, y = flight
+    rows = [f"{a:.4f}\t{b:.6f}\t{a:.4f}\t{0.9 * b:.6f}" for a, b in zip(t, y)]
+    text = ["Vernier Format 2", "drops.cmbl", "Run 1\t\tRun 2\t", "Time\tPosition\tTime\tPosition",
+            "s\tm\ts\tm", *rows]
+    got = read_measurement(write(tmp_path, "two.txt", "\n".join(text) + "\n"))
+    assert len(got.runs) == 2
+    np.testing.assert_allclose(got.runs[1].y_m, np.round(0.9 * y, 6), atol=1e-9)
+
+
 # --------------------------------------------------------------------------- Tracker exports
 
 

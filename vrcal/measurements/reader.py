@@ -24,6 +24,7 @@ from vrcal.measurements import (
     sound,
     tracker,
     trajectory,
+    vernier,
     video,
 )
 from vrcal.measurements.table import fail, is_numeric_row, load_text
@@ -53,6 +54,9 @@ FORMATS = {
     "audacity-labels": Format(audacity_labels.detect, audacity_labels.parse,
                               "Audacity label export (no header; 'start<TAB>end<TAB>text' per label): the labels' "
                               "starts are the impact times"),
+    "vernier": Format(vernier.detect, vernier.parse,
+                      "Vernier text export (Logger Pro 'Export As Text'): 'Vernier Format 2', a description, the data "
+                      "set, long names, short names and/or units, then tab-separated numbers"),
     "tracker": Format(tracker.detect, tracker.parse,
                       "Tracker data export: line 1 the track name (mass_A), then columns t, x, y "
                       "(tab, space, comma or semicolon)"),
