@@ -555,3 +555,15 @@ def test_trajectory_options_on_other_records_are_said_to_be_ignored(example, opt
     """--fs, --scale and --y-down given for impact times or heights changed nothing, silently."""
     got = read_measurement(EXAMPLES / "data" / example, **options)
     assert any(said in n for n in got.notes), got.notes
+
+
+@pytest.mark.parametrize("header", ['"Ereigniszeit (s)";"Intervall (s)"', '"Zeit (s)";"Intervall (s)"',
+                                    '"Tiempo (s)";"Intervalo (s)"'])
+def test_a_phones_export_in_the_class_language_is_read(tmp_path, header):
+    """phyphox in German writes 'Ereigniszeit (s)' with semicolons and decimal commas: 'cannot tell the
+    layout' before."""
+    t = impact_times(H=0.5, eps=0.9, n=8)
+    rows = [f"{a:.9E};{b:.9E}".replace(".", ",") for a, b in zip(t, np.diff(t, prepend=0.0))]
+    got = read_measurement(write(tmp_path, "de.csv", header + "\n" + "\n".join(rows) + "\n"))
+    assert got.kind == "impacts"
+    np.testing.assert_allclose(got.t_s, t, rtol=1e-8)
