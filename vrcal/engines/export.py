@@ -340,6 +340,7 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     from vrcal.engines import mujoco as M
 
     kind, w = _contact_choice(setup, stiffness)
+    refuse_constant_for_law(setup, "MuJoCo")
     cal = M.calibrate(setup, n_phases, kind, w)
     if cal.ok:
         return cal
@@ -354,6 +355,24 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
              f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
                      f"misses: {'; '.join(misses)}; {where}; see --trade-off")
+
+
+def refuse_constant_for_law(setup, engine):
+    """UsageError (one line) when no constant epsilon can meet the tolerance against the setup's
+    speed-dependent epsilon: its spread over the calibrated impacts, half of it the least worst
+    error, and what to do. Known before any engine run."""
+    from vrcal.engines.common import epsilon_spread
+
+    lo, hi, least = epsilon_spread(setup)
+    if least <= setup.tolerance:
+        return
+    speeds = setup.impact_speeds_m_per_s
+    raise UsageError(
+        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over the {setup.n_bounces} calibrated bounces (impact speeds "
+        f"{float(np.max(speeds)):.3g}..{float(np.min(speeds)):.3g} m/s); {engine}'s contact is one constant "
+        f"epsilon, which misses by at least {least:.4f} (half the spread), more than --tolerance "
+        f"{setup.tolerance:g}: give fewer --bounces or a narrower --impact-speed range, a --tolerance above "
+        f"{least:.3g}, or an engine that takes epsilon per impact (ode, bullet: their exports carry the speed law)")
 
 
 def _contact_choice(setup, stiffness):
