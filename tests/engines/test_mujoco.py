@@ -228,3 +228,22 @@ def test_the_constant_for_a_speed_law_is_centred(write_discover):
     half = 0.5 * float(np.ptp(setup.epsilons))
     assert abs(cal.runs.midrange_error) < 0.005
     assert half <= cal.worst_error < 1.05 * half
+
+
+def test_the_ball_has_mujocos_default_friction_and_rolls():
+    """condim 3 with MuJoCo's default friction, said in the file: a ball sliding at 2 m/s on the
+    floor ends rolling at 5/7 of it (a solid sphere), its spin v/R; the drop test is what condim 1 gave."""
+    require_engine("mujoco")
+    import mujoco
+
+    ex = export("basketball", "mujoco", n_bounces=2, n_phases=2)
+    assert 'condim="3" friction="1 1 0.005 0.0001 0.0001"' in ex.text and "not set by vrcal" in ex.text
+    model = M.load_model(ex.text)
+    data = mujoco.MjData(model)
+    R = ex.setup.radius_m
+    data.qpos[2], data.qvel[0] = R, 2.0
+    mujoco.mj_step(model, data, nstep=int(3.0 / model.opt.timestep))
+    assert data.qvel[0] == pytest.approx(2.0 * 5 / 7, rel=0.02)
+    assert data.qvel[4] * R == pytest.approx(data.qvel[0], rel=0.05)
+    frictionless = M.drop_test(ex.text.replace('condim="3"', 'condim="1"'), ex.setup, 2, 2)
+    assert M.drop_test(ex.text, ex.setup, 2, 2).worst_error == pytest.approx(frictionless.worst_error, abs=1e-4)

@@ -60,6 +60,8 @@ def export_params(setup, n_bounces=None, pair=None):
             "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
             "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
+            "friction is not set by vrcal: lateralFriction 0 makes the ball frictionless (it slides, never "
+            "rolls); a vertical drop ignores it: set lateralFriction on the ball and the floor to yours",
         ],
     }
     out.update(effect_params(setup))

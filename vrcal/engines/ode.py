@@ -97,7 +97,8 @@ def export_params(setup, n_bounces=None, pair=None):
             "faster than epsilon allows",
             f"soft_cfm = {CONTACT_SOFT_CFM:g} on the ball's contacts (dContactSoftCFM): a soft contact eats "
             "energy (CFM 1e-5 lowers epsilon by about 1.5 %)",
-            "mu only on the ball's contacts: your friction; a vertical drop ignores it",
+            "friction is not set by vrcal: mu = 0 makes the ball's contacts frictionless (it slides, never "
+            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip)",
         ],
     }
     out.update(effect_params(setup))
@@ -240,7 +241,7 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
     n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
     for (i = 0; i < n; i++) {{
         c[i].surface.mode = {mode};
-        c[i].surface.mu = {mu};             /* the ball's friction: a vertical drop ignores it */
+        c[i].surface.mu = {mu};             /* frictionless: your mu here (a drop ignores it) */
         c[i].surface.bounce = {bounce};    /* epsilon ({ball}) */
 {law}        c[i].surface.bounce_vel = {bounce_vel};    /* m/s: slower impacts do not bounce */
         c[i].surface.soft_erp = {soft_erp};       /* this contact only: no ERP push-out */
