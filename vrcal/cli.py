@@ -672,7 +672,8 @@ def _engine_options(f):
         click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
                      help="Drop height of the ball's bottom [m] (default: the standard's)."),
         click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
-                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
+                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height): LO:HI drops from the "
+                          "height that gives HI and bounces down to LO; one value: the first impact's speed."),
         g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
                      help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),

@@ -233,6 +233,10 @@ def test_cli_verify_loads_an_exported_mjcf_without_ball(tmp_path):
     result = run("verify", "--engine", "mujoco", "--file", out, "--phases", "2")
     assert result.exit_code == 0, result.output
     assert "PASSED" in result.output and "0.7800" in result.output
+    # a much smaller step than the file's: MuJoCo's damper, tuned to 2 ms, no longer bounces; said why
+    result = run("verify", "--engine", "mujoco", "--file", out, "--phases", "1", "--bounces", "1", "--dt", "1e-4")
+    assert result.exit_code == 1, result.output
+    assert "the file is for 0.002 s (its contact is tuned to that step)" in " ".join(result.output.split())
 
 
 BOMB = """<?xml version="1.0"?>
@@ -428,3 +432,19 @@ def test_the_ode_step_check_names_every_limit_it_misses():
         export("basketball", "ode", dt_s=0.05)
     text = str(info.value)
     assert "--max-penetration" in text and "tolerance 0.01" in text and "\n" not in text
+
+
+def test_impact_speeds_say_where_the_bounces_end():
+    """LO:HI: bounces down to LO, or the note says why they stop above it; one value: the first impact."""
+    setup = build_setup("basketball", "ode", impact_speed="1:6")
+    v = setup.impact_speeds_m_per_s
+    assert v[-1] <= 1.0 < v[-2]
+    assert any(f"bounce(s) at 6..{v[-1]:.3g} m/s" in n for n in setup.notes)
+    limited = build_setup("basketball", "ode", impact_speed="1:6", n_bounces=3)
+    assert any("not down to 1 m/s (--bounces limits it)" in n for n in limited.notes)
+    slow = build_setup("basketball", "ode", impact_speed="0.05:6")      # below 0.14 m/s a bounce rises < 1 mm
+    assert slow.impact_speeds_m_per_s[-1] > 0.05
+    assert any("not down to 0.05 m/s (a slower bounce would rise less than 1 mm)" in n for n in slow.notes)
+    one = build_setup("basketball", "ode", impact_speed="5")
+    assert one.impact_speed_m_per_s == pytest.approx(5.0) and one.n_bounces == 3
+    assert any("one value: the first impact" in n for n in one.notes)

@@ -231,8 +231,38 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         tolerance=tolerance, max_penetration_m=max_penetration_m, integrator=integrator,
         release_time_s=release, height_offset_m=offset,
     )
+    if impact_speed is not None:
+        setup = _reach_lowest_speed(setup, lo, hi, n_bounces)
     _check_bounces_reachable(setup)
     return setup
+
+
+def _reach_lowest_speed(setup, lo, hi, n_bounces):
+    """The setup with as many bounces as reach down to ``lo`` [m/s] (``--bounces`` not given; each
+    must still rise :data:`RISE_M`), and its ``impact speeds`` note saying where the bounces end."""
+    def speeds(s):
+        return np.asarray(s.model.impact_speeds_m_per_s[0], dtype=float)
+
+    if n_bounces is None and lo < hi:
+        while float(setup.model.apex_heights_m[0][-1]) < RISE_M and setup.n_bounces > 1:
+            setup = replace(setup, n_bounces=setup.n_bounces - 1)      # the guess went below what rises
+        while speeds(setup)[-1] > lo * (1 + 1e-9) and setup.n_bounces < MAX_BOUNCES:
+            more = replace(setup, n_bounces=setup.n_bounces + 1)
+            if float(more.model.apex_heights_m[0][-1]) < RISE_M:
+                break
+            setup = more
+    v = speeds(setup)
+    what = (f"impact speeds {lo:g}..{hi:g} m/s: drop from {setup.drop_height_m:.4g} m, {setup.n_bounces} "
+            f"bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s" if lo < hi else
+            f"impact speed {hi:g} m/s (one value: the first impact): drop from {setup.drop_height_m:.4g} m, "
+            f"{setup.n_bounces} bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s")
+    if lo < hi and v[-1] > lo * (1 + 1e-6):
+        why = ("--bounces limits it" if n_bounces is not None else
+               f"a slower bounce would rise less than {RISE_M * 1e3:g} mm" if setup.n_bounces < MAX_BOUNCES else
+               f"at most {MAX_BOUNCES} bounces")
+        what += f"; not down to {lo:g} m/s ({why})"
+    notes = tuple(what if n.startswith("impact speeds ") else n for n in setup.notes)
+    return replace(setup, notes=notes)
 
 
 def _check_bounces_reachable(setup):

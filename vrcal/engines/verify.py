@@ -94,7 +94,13 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
 
     _check_bounces_reachable(setup)
     check_steps(setup, n_phases, eng.name, eng.max_steps)
-    runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
+    try:
+        runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
+    except DataError as exc:
+        other_step = next((n for n in setup.notes if n.startswith("run at --dt")), None)
+        if other_step is None:
+            raise
+        raise DataError(f"{exc}; {other_step}: export again with --dt {setup.dt_s:g}") from None
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
