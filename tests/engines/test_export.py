@@ -253,7 +253,9 @@ EXTERNAL = """<?xml version="1.0"?>
 @pytest.mark.parametrize("engine, content, message", [
     ("ode", "[1, 2]", "the top level is a list"),
     ("ode", '{"engine": "ode"}', "missing 'ball.mass_kg'"),
-    ("bullet", '{"engine": "ode"}', "engine is 'ode'"),
+    ("bullet", '{"engine": "ode"}', "the file is a vrcal ode export: use --engine ode"),
+    ("ode", '<mujoco model="m"/>', "the file is an MJCF (MuJoCo) file: use --engine mujoco"),
+    ("mujoco", '{"engine": "bullet"}', "the file is a vrcal bullet export: use --engine bullet"),
     ("ode", b"\x7fELF\x02\x01\x01\x00\x00\x00", "a binary file"),
     ("mujoco", '<mujoco><option timestep="fast"/><worldbody/></mujoco>', "'fast' is not a number"),
     ("mujoco", BOMB, "declares a DTD or entities"),
