@@ -672,7 +672,8 @@ def _engine_options(f):
         click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
                      help="Drop height of the ball's bottom [m] (default: the standard's)."),
         click.option("--impact-speed", "impact_speed", default=None, metavar="LO[:HI]",
-                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height)."),
+                     help="Impact speeds to calibrate for [m/s] (instead of --drop-height): LO:HI drops from the "
+                          "height that gives HI and bounces down to LO; one value: the first impact's speed."),
         g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
                      help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
@@ -818,19 +819,27 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 
         if from_json is None:
             raise UsageError("--against replays a record with the export of a discover result: give --from too")
+        _refuse_in_replay(ctx, file)
         from vrcal.engines.common import DEFAULT_TOLERANCE
+        from vrcal.engines.files import read_file
 
         result = replay(from_json, against, engine, dt_s=dt_s, integrator=integrator,
                         tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance,
                         max_penetration_m=max_penetration_m, stiffness=stiffness, fmt=data_fmt,
                         scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz, floor_m=data_floor_m,
-                        standards=standards_of(ctx))
+                        standards=standards_of(ctx), exported_text=read_file(file) if file else None,
+                        file_name=file)
         if plot_file:
             from vrcal.fileio import atomic_savefig
 
             atomic_savefig(replay_figure(result).figure, plot_file, dpi=120)
             click.echo(f"wrote {plot_file}", err=True)
         emit(format_replay(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
+        if not result.within_goal:
+            k, err = result.worst_apex()
+            click.echo(f"vrcal: error: the engine's rebound {k} apex is {100 * err:+.1f} % from the measured one "
+                       f"(goal: within {100 * result.apex_goal:g} %)", err=True)
+            return 1
         return 0
     if plot_file:
         from vrcal.errors import UsageError
@@ -854,6 +863,32 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
         click.echo(f"vrcal: error: {why}", err=True)
         return 1
     return 0
+
+
+#: verify's options a replay (--from with --against) takes from the discover result or does not run.
+_NOT_IN_REPLAY = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diameter"), ("epsilon", "--epsilon"),
+                  ("drop_height_m", "--drop-height"), ("impact_speed", "--impact-speed"), ("g_m_per_s2", "--g"),
+                  ("floor", "--floor"), ("n_bounces", "--bounces"), ("n_phases", "--phases"))
+
+
+def _refuse_in_replay(ctx, file):
+    """One-line UsageError for an option given to a replay that it would ignore."""
+    from click.core import ParameterSource
+
+    from vrcal.errors import UsageError
+
+    given = [flag for key, flag in _NOT_IN_REPLAY
+             if ctx.get_parameter_source(key) not in (None, ParameterSource.DEFAULT)]
+    if file:
+        given += [flag for key, flag in (("integrator", "--integrator"), ("stiffness", "--stiffness"))
+                  if ctx.params.get(key) is not None]
+    if given:
+        names = given[0] if len(given) == 1 else ", ".join(given[:-1]) + " and " + given[-1]
+        applies = ("--file, --dt, " + ("" if file else "--integrator, --stiffness, ") + "--tolerance, "
+                   "--max-penetration, the reader options (--data-format, --fs, --scale, --y-down, --data-floor) "
+                   "and --plot")
+        raise UsageError(f"{names} {'does' if len(given) == 1 else 'do'} not apply to a replay (--against): it "
+                         f"takes the ball, release and epsilon from --from; only {applies} apply")
 
 
 @main.command("engines")

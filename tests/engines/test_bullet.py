@@ -78,3 +78,30 @@ def test_only_the_contacts_error_reduction_is_set():
     ex = export("basketball", "bullet", dt_s=1e-3)
     runs = E.drop_test(parse_exported("bullet", ex.text), ex.setup, 3, 2)
     assert runs.worst_error < 0.01
+
+
+def test_vrcal_step_clamps_the_speed_law_to_0_1():
+    """eps(v) = 1 - 0.5 (v / 5)^-1 is below 0 for v < 2.5 m/s and eps(v) = 1 - 0.5 (v / 5)^2 below 0
+    above 7.1 m/s: the restitution vrcal_step sets stays in [0, 1]; the snippet says it takes |v_z|."""
+    set_to = []
+
+    class FakePyBullet:
+        WORLD_FRAME = 2
+
+        def __init__(self, vz):
+            self.vz = vz
+
+        def getBaseVelocity(self, ball):
+            return (0.0, 0.0, self.vz), (0.0, 0.0, 0.0)
+
+        def changeDynamics(self, ball, link, restitution):
+            set_to.append(restitution)
+
+        def stepSimulation(self):
+            pass
+
+    for exponent, vz in ((-1.0, -1.0), (2.0, -9.0), (0.5, -5.0)):
+        params = {"restitution_law": {"epsilon_ref": 0.5, "reference_speed_m_per_s": 5.0, "exponent": exponent}}
+        E.step_function(params, FakePyBullet(vz))(1)
+    assert set_to == [0.0, 0.0, pytest.approx(0.5)]
+    assert "z-up floor" in E.step_code(params)

@@ -233,6 +233,10 @@ def test_cli_verify_loads_an_exported_mjcf_without_ball(tmp_path):
     result = run("verify", "--engine", "mujoco", "--file", out, "--phases", "2")
     assert result.exit_code == 0, result.output
     assert "PASSED" in result.output and "0.7800" in result.output
+    # a much smaller step than the file's: MuJoCo's damper, tuned to 2 ms, no longer bounces; said why
+    result = run("verify", "--engine", "mujoco", "--file", out, "--phases", "1", "--bounces", "1", "--dt", "1e-4")
+    assert result.exit_code == 1, result.output
+    assert "the file is for 0.002 s (its contact is tuned to that step)" in " ".join(result.output.split())
 
 
 BOMB = """<?xml version="1.0"?>
@@ -249,7 +253,9 @@ EXTERNAL = """<?xml version="1.0"?>
 @pytest.mark.parametrize("engine, content, message", [
     ("ode", "[1, 2]", "the top level is a list"),
     ("ode", '{"engine": "ode"}', "missing 'ball.mass_kg'"),
-    ("bullet", '{"engine": "ode"}', "engine is 'ode'"),
+    ("bullet", '{"engine": "ode"}', "the file is a vrcal ode export: use --engine ode"),
+    ("ode", '<mujoco model="m"/>', "the file is an MJCF (MuJoCo) file: use --engine mujoco"),
+    ("mujoco", '{"engine": "bullet"}', "the file is a vrcal bullet export: use --engine bullet"),
     ("ode", b"\x7fELF\x02\x01\x01\x00\x00\x00", "a binary file"),
     ("mujoco", '<mujoco><option timestep="fast"/><worldbody/></mujoco>', "'fast' is not a number"),
     ("mujoco", BOMB, "declares a DTD or entities"),
@@ -428,3 +434,19 @@ def test_the_ode_step_check_names_every_limit_it_misses():
         export("basketball", "ode", dt_s=0.05)
     text = str(info.value)
     assert "--max-penetration" in text and "tolerance 0.01" in text and "\n" not in text
+
+
+def test_impact_speeds_say_where_the_bounces_end():
+    """LO:HI: bounces down to LO, or the note says why they stop above it; one value: the first impact."""
+    setup = build_setup("basketball", "ode", impact_speed="1:6")
+    v = setup.impact_speeds_m_per_s
+    assert v[-1] <= 1.0 < v[-2]
+    assert any(f"bounce(s) at 6..{v[-1]:.3g} m/s" in n for n in setup.notes)
+    limited = build_setup("basketball", "ode", impact_speed="1:6", n_bounces=3)
+    assert any("not down to 1 m/s (--bounces limits it)" in n for n in limited.notes)
+    slow = build_setup("basketball", "ode", impact_speed="0.05:6")      # below 0.14 m/s a bounce rises < 1 mm
+    assert slow.impact_speeds_m_per_s[-1] > 0.05
+    assert any("not down to 0.05 m/s (a slower bounce would rise less than 1 mm)" in n for n in slow.notes)
+    one = build_setup("basketball", "ode", impact_speed="5")
+    assert one.impact_speed_m_per_s == pytest.approx(5.0) and one.n_bounces == 3
+    assert any("one value: the first impact" in n for n in one.notes)

@@ -5,10 +5,12 @@ import re
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from helpers import EPSILONS, require_engine
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vrcal.cli import main
 from vrcal.drop.simulate import distance_fallen_m
 from vrcal.engines import mujoco as M
 from vrcal.engines.common import DropSetup
@@ -198,3 +200,50 @@ def test_a_spring_too_stiff_for_the_step_is_said_to_bounce_too_high():
     setup = build_setup("table_tennis", "mujoco")
     with pytest.raises(StillBouncing, match="bounced higher than the target at every damping"):
         M.calibrate(setup, 1, "spring", M.spring_omega(setup, setup.radius_m / 16))
+
+
+SPEED_LAW = {"velocity_dependent_restitution": {"exponent": 0.6}}
+
+
+def test_a_speed_law_no_constant_can_meet_is_refused_before_any_run(write_discover, monkeypatch):
+    """eps(v) spans 0.59..0.76 over 3 bounces: no constant is within 0.01; said before calibrating."""
+    path = write_discover(effects=SPEED_LAW, epsilon=0.59, mass_kg=0.16, diameter_m=0.072, drop_height_m=1.0)
+    setup = build_setup(None, "mujoco", from_json=path)
+    lo, hi = float(setup.epsilons.min()), float(setup.epsilons.max())
+    assert hi - lo > 0.1
+    monkeypatch.setattr(M, "calibrate", lambda *a, **k: pytest.fail("calibrated although no constant can pass"))
+    result = CliRunner().invoke(main, ["export", "--from", path, "--engine", "mujoco"])
+    assert result.exit_code == 2, result.output
+    text = " ".join(result.output.split())
+    assert f"spans {lo:.4f}..{hi:.4f} over the 3 calibrated bounces" in text
+    assert f"at least {0.5 * (hi - lo):.4f}" in text and "fewer --bounces" in text and "ode, bullet" in text
+
+
+def test_the_constant_for_a_speed_law_is_centred(write_discover):
+    """The best constant's errors are centred: worst error within 5 % of half the spread of eps(v)."""
+    require_engine("mujoco")
+    path = write_discover(effects=SPEED_LAW, epsilon=0.59, mass_kg=0.16, diameter_m=0.072, drop_height_m=1.0)
+    setup = build_setup(None, "mujoco", from_json=path, tolerance=0.1)
+    cal = M.calibrate(setup)
+    half = 0.5 * float(np.ptp(setup.epsilons))
+    assert abs(cal.runs.midrange_error) < 0.005
+    assert half <= cal.worst_error < 1.05 * half
+
+
+def test_the_ball_has_mujocos_default_friction_and_rolls():
+    """condim 3 with MuJoCo's default friction, said in the file: a ball sliding at 2 m/s on the
+    floor ends rolling at 5/7 of it (a solid sphere), its spin v/R; the drop test is what condim 1 gave."""
+    require_engine("mujoco")
+    import mujoco
+
+    ex = export("basketball", "mujoco", n_bounces=2, n_phases=2)
+    assert 'condim="3" friction="1 1 0.005 0.0001 0.0001"' in ex.text and "not set by vrcal" in ex.text
+    model = M.load_model(ex.text)
+    data = mujoco.MjData(model)
+    R = ex.setup.radius_m
+    data.qpos[2], data.qvel[0] = R, 2.0
+    mujoco.mj_step(model, data, nstep=int(3.0 / model.opt.timestep))
+    assert data.qvel[0] == pytest.approx(2.0 * 5 / 7, rel=0.02)
+    assert data.qvel[4] * R == pytest.approx(data.qvel[0], rel=0.05)
+    frictionless = M.drop_test(ex.text.replace('condim="3"', 'condim="1"'), ex.setup, 2, 2)
+    assert M.drop_test(ex.text, ex.setup, 2, 2).worst_error == pytest.approx(frictionless.worst_error, abs=1e-4)

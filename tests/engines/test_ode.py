@@ -114,3 +114,98 @@ def test_drag_and_speed_dependent_epsilon_run_in_ode(write_discover):
     plain = export(None, "ode", mass_kg=0.0027, diameter_m=0.04, epsilon=0.86, drop_height_m=2.0, dt_s=2e-4)
     off = E.drop_test(parse_exported("ode", plain.text), plain.setup, 3, 1).apex_m[0, 1:]
     assert np.all(off / ex.setup.model.apex_heights_m[0, 1:] - 1 > 0.05)
+
+
+#: The few libode declarations the compiled snippet needs (ODE 0.16, double precision; no libode-dev here).
+ODE_DECLARATIONS = """
+typedef double dReal; typedef dReal dVector3[4]; typedef dReal dMatrix3[12];
+typedef struct dxWorld *dWorldID; typedef struct dxSpace *dSpaceID; typedef struct dxBody *dBodyID;
+typedef struct dxGeom *dGeomID; typedef struct dxJoint *dJointID; typedef struct dxJointGroup *dJointGroupID;
+typedef struct { int mode; dReal mu, mu2, rho, rho2, rhoN, bounce, bounce_vel, soft_erp, soft_cfm,
+  motion1, motion2, motionN, slip1, slip2; } dSurfaceParameters;
+typedef struct { dVector3 pos, normal; dReal depth; dGeomID g1, g2; int side1, side2; } dContactGeom;
+typedef struct { dSurfaceParameters surface; dContactGeom geom; dVector3 fdir1; } dContact;
+typedef struct { dReal mass; dVector3 c; dMatrix3 I; } dMass;
+enum { dContactMu2 = 1, dContactFDir1 = 2, dContactBounce = 4, dContactSoftERP = 8, dContactSoftCFM = 16 };
+typedef void dNearCallback(void *, dGeomID, dGeomID);
+int dInitODE2(unsigned); dWorldID dWorldCreate(void); dSpaceID dHashSpaceCreate(dSpaceID);
+dJointGroupID dJointGroupCreate(int); dBodyID dBodyCreate(dWorldID);
+void dMassSetSphereTotal(dMass *, dReal, dReal); void dBodySetMass(dBodyID, const dMass *);
+dGeomID dCreateSphere(dSpaceID, dReal); void dGeomSetBody(dGeomID, dBodyID);
+dGeomID dCreatePlane(dSpaceID, dReal, dReal, dReal, dReal); void dBodySetPosition(dBodyID, dReal, dReal, dReal);
+int dCollide(dGeomID, dGeomID, int, dContactGeom *, int);
+dJointID dJointCreateContact(dWorldID, dJointGroupID, const dContact *);
+void dJointAttach(dJointID, dBodyID, dBodyID); dBodyID dGeomGetBody(dGeomID);
+void dWorldSetGravity(dWorldID, dReal, dReal, dReal); void dSpaceCollide(dSpaceID, void *, dNearCallback *);
+int dWorldStep(dWorldID, dReal); void dJointGroupEmpty(dJointGroupID);
+const dReal *dBodyGetPosition(dBodyID); const dReal *dBodyGetLinearVel(dBodyID);
+void dBodySetLinearVel(dBodyID, dReal, dReal, dReal);
+void dBodyGetPointVel(dBodyID, dReal, dReal, dReal, dVector3); void dBodyAddForce(dBodyID, dReal, dReal, dReal);
+"""
+
+
+def _compiled_drop(tmp_path, params, setup_c):
+    """Compile the exported C snippet into a drop of its ball on a plane and run it: apex heights [m]."""
+    import os
+    import shutil
+    import subprocess
+    from ctypes.util import find_library
+
+    from vrcal.engines.ode_ctypes import load_ode
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    lib = getattr(load_ode(), "_name", None) or find_library("ode")
+    if not cc or not lib:
+        pytest.skip("no C compiler or libode to compile the snippet")
+    lib = lib if os.path.isabs(lib) else f"-l:{lib}"
+    snippet, ball = params["snippet"], params["ball"]
+    callback, _, rest = snippet.partition("/* world:")
+    gravity, _, each_step = ("/* world:" + rest).partition("/* each step: */")
+    R, H, m = ball["radius_m"], ball["drop_height_m"], ball["mass_kg"]
+    source = f"""#include <stdio.h>
+#include <math.h>
+{ODE_DECLARATIONS}
+static dWorldID world; static dSpaceID space; static dJointGroupID contact_group;
+static dGeomID ball_geom; static dBodyID ball;
+static void your_near_callback(void *data, dGeomID o1, dGeomID o2) {{ (void)data; (void)o1; (void)o2; }}
+{callback}
+int main(void) {{
+  dMass mass; int i, k = 0; double prev_v = -1;
+  dInitODE2(0); world = dWorldCreate(); space = dHashSpaceCreate(0); contact_group = dJointGroupCreate(0);
+  ball = dBodyCreate(world); dMassSetSphereTotal(&mass, {m}, {R}); dBodySetMass(ball, &mass);
+  ball_geom = dCreateSphere(space, {R}); dGeomSetBody(ball_geom, ball); dCreatePlane(space, 0, 0, 1, 0);
+  dBodySetPosition(ball, 0, 0, {H} + {R});
+  {setup_c}
+  {gravity}
+  for (i = 0; i < {int(4.0 / params["world"]["dt"])} && k < 3; i++) {{
+    {each_step}
+    {{ const dReal *p = dBodyGetPosition(ball), *v = dBodyGetLinearVel(ball);
+      if (prev_v > 0 && v[2] <= 0) {{ k++; printf("%.9f\\n", p[2] - {R}); }}
+      prev_v = v[2]; }}
+  }}
+  return 0;
+}}
+"""
+    (tmp_path / "drop.c").write_text(source)
+    exe = tmp_path / "drop"
+    subprocess.run([cc, "-O1", "-o", str(exe), str(tmp_path / "drop.c"), lib, "-lm"], check=True, capture_output=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    return np.array([float(x) for x in out.split()])
+
+
+def test_the_compiled_speed_law_callback_bounces_by_the_relative_normal_speed(write_discover, tmp_path):
+    """The snippet compiled against libode: a ball dropped at rest follows eps(v); thrown down onto the
+    plane faster than the law allows (eps(v) < 0), its bounce is clamped to 0, not negative."""
+    require_engine("ode")
+    path = write_discover(effects={"velocity_dependent_restitution": {"exponent": 0.6}}, epsilon=0.59,
+                          mass_kg=0.16, diameter_m=0.072, drop_height_m=1.0)
+    ex = export(None, "ode", from_json=path, dt_s=2e-4)
+    params = parse_exported("ode", ex.text)
+    assert "dBodyGetPointVel(dGeomGetBody(o2)" in params["snippet"]     # relative to the other body
+    apexes = _compiled_drop(tmp_path, params, "")
+    model = ex.setup.model.apex_heights_m[0]
+    ratios = np.sqrt(apexes / np.concatenate([[ex.setup.drop_height_m], apexes[:-1]]))
+    assert np.allclose(ratios, np.sqrt(model[1:4] / model[0:3]), atol=0.005)
+    # eps(v) = 1 - 0.41 (v / 4.43)^0.6 < 0 above 19.5 m/s: thrown down at 25 m/s the ball stays down
+    apexes = _compiled_drop(tmp_path, params, "dBodySetLinearVel(ball, 0, 0, -25.0);")
+    assert apexes.size == 0 or apexes[0] < 0.01

@@ -78,3 +78,29 @@ def test_a_joint_result_replays_the_run_of_the_record(tmp_path):
     assert release_state(doc, "x/two.csv")["drop_height_m"] == 2.0
     assert release_state(doc, "one.csv")["release_time_s"] == 0.3
     assert release_state(doc, "three.csv")["drop_height_m"] == 1.0
+
+
+def test_a_replay_runs_the_users_file_and_fails_when_its_apexes_miss(pingpong, tmp_path):
+    """--file replaces the fresh export (a tampered bounce shows, exit 1); options a replay ignores: exit 2."""
+    require_engine("ode")
+    record, doc = pingpong
+    good = tmp_path / "pp-ode.json"
+    result = CliRunner().invoke(main, ["export", "--from", doc, "--engine", "ode", "--dt", "5e-4", "-o", str(good)])
+    assert result.exit_code == 0, result.output
+    replay_args = ["verify", "--from", doc, "--against", record, "--fs", "100", "--engine", "ode"]
+    result = CliRunner().invoke(main, replay_args + ["--file", str(good)])
+    assert result.exit_code == 0, result.output
+    assert f"engine: {good}" in " ".join(result.output.split()) and "measured ones: yes" in result.output
+    tampered = json.loads(good.read_text())
+    tampered["contact"]["bounce"] = 0.5
+    bad = tmp_path / "tampered.json"
+    bad.write_text(json.dumps(tampered))
+    result = CliRunner().invoke(main, replay_args + ["--file", str(bad)])
+    assert result.exit_code == 1, result.output
+    assert "measured ones: no" in result.output
+    assert result.output.strip().splitlines()[-1].startswith("vrcal: error: the engine's rebound")
+    for extra in (["--epsilon", "0.3"], ["--bounces", "2"], ["--phases", "4"], ["--drop-height", "1"],
+                  ["--g", "9.8"], ["--file", str(good), "--stiffness", "0"]):
+        result = CliRunner().invoke(main, replay_args + extra)
+        assert result.exit_code == 2, (extra, result.output)
+        assert "not apply to a replay" in result.output and len(result.output.strip().splitlines()) == 1

@@ -60,6 +60,8 @@ def export_params(setup, n_bounces=None, pair=None):
             "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
             "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
+            "friction is not set by vrcal: lateralFriction 0 makes the ball frictionless (it slides, never "
+            "rolls); a vertical drop ignores it: set lateralFriction on the ball and the floor to yours",
         ],
     }
     out.update(effect_params(setup))
@@ -189,8 +191,10 @@ def vrcal_step(ball):
 '''
 DRAG_PY = ("    p.applyExternalForce(ball, -1, [-{c} * speed * x for x in v], "
            "p.getBasePositionAndOrientation(ball)[0], p.WORLD_FRAME)\n")
-LAW_PY = ("    p.changeDynamics(ball, -1, restitution=1 - (1 - {eps_ref}) * "
-          "(max(abs(v[2]), 1e-9) / {v_ref}) ** {p})\n")
+LAW_PY = ("    # epsilon at this impact speed, clamped to [0, 1]; |v_z|: the normal speed on a z-up floor at rest\n"
+          "    # (another surface: the ball's speed relative to it along p.getContactPoints' normal)\n"
+          "    eps = 1 - (1 - {eps_ref}) * (max(abs(v[2]), 1e-9) / {v_ref}) ** {p}\n"
+          "    p.changeDynamics(ball, -1, restitution=min(max(eps, 0.0), 1.0))\n")
 
 
 def step_code(params):

@@ -503,14 +503,25 @@ def flight_time_s(drop_height_m, epsilon, n_bounces, g_m_per_s2):
     return t_fall * (1.0 + 2.0 * sum(epsilon ** k for k in range(1, n_bounces)) + epsilon ** n_bounces)
 
 
-def drop_window_s(setup, drop_height_m, ratio=None):
+def epsilon_spread(setup):
+    """(lowest, highest) epsilon of the target over the setup's impacts, and the least worst error
+    any constant epsilon can have against it: half their difference (0 for a constant target)."""
+    eps = setup.epsilons
+    lo, hi = float(np.min(eps)), float(np.max(eps))
+    return lo, hi, 0.5 * (hi - lo)
+
+
+def drop_window_s(setup, drop_height_m, ratio=None, at_least=None):
     """Simulated time of one drop of a drop test [s], 5 % beyond the apex after the last bounce.
 
     Sized for vrcal's model of the target; with ``ratio`` (what a run that ended too early saw,
     :class:`StillBouncing`) for a ball that bounces that high (at least epsilon 1, no drag: an
-    upper bound for a ball that does not gain energy).
+    upper bound for a ball that does not gain energy); with ``at_least`` also long enough for a
+    constant epsilon ``at_least`` without drag (a constant tried against a speed-dependent target).
     """
     t = setup.flight_time_s(drop_height_m)
+    if at_least is not None:
+        t = max(t, flight_time_s(drop_height_m, min(float(at_least), 1.0), setup.n_bounces, setup.g_m_per_s2))
     if ratio is not None:
         r = min(max(float(ratio), 1.0), 10.0)      # a ball gaining energy: sized for what it showed
         t = max(t, flight_time_s(drop_height_m, r, setup.n_bounces, setup.g_m_per_s2))

@@ -231,8 +231,38 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         tolerance=tolerance, max_penetration_m=max_penetration_m, integrator=integrator,
         release_time_s=release, height_offset_m=offset,
     )
+    if impact_speed is not None:
+        setup = _reach_lowest_speed(setup, lo, hi, n_bounces)
     _check_bounces_reachable(setup)
     return setup
+
+
+def _reach_lowest_speed(setup, lo, hi, n_bounces):
+    """The setup with as many bounces as reach down to ``lo`` [m/s] (``--bounces`` not given; each
+    must still rise :data:`RISE_M`), and its ``impact speeds`` note saying where the bounces end."""
+    def speeds(s):
+        return np.asarray(s.model.impact_speeds_m_per_s[0], dtype=float)
+
+    if n_bounces is None and lo < hi:
+        while float(setup.model.apex_heights_m[0][-1]) < RISE_M and setup.n_bounces > 1:
+            setup = replace(setup, n_bounces=setup.n_bounces - 1)      # the guess went below what rises
+        while speeds(setup)[-1] > lo * (1 + 1e-9) and setup.n_bounces < MAX_BOUNCES:
+            more = replace(setup, n_bounces=setup.n_bounces + 1)
+            if float(more.model.apex_heights_m[0][-1]) < RISE_M:
+                break
+            setup = more
+    v = speeds(setup)
+    what = (f"impact speeds {lo:g}..{hi:g} m/s: drop from {setup.drop_height_m:.4g} m, {setup.n_bounces} "
+            f"bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s" if lo < hi else
+            f"impact speed {hi:g} m/s (one value: the first impact): drop from {setup.drop_height_m:.4g} m, "
+            f"{setup.n_bounces} bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s")
+    if lo < hi and v[-1] > lo * (1 + 1e-6):
+        why = ("--bounces limits it" if n_bounces is not None else
+               f"a slower bounce would rise less than {RISE_M * 1e3:g} mm" if setup.n_bounces < MAX_BOUNCES else
+               f"at most {MAX_BOUNCES} bounces")
+        what += f"; not down to {lo:g} m/s ({why})"
+    notes = tuple(what if n.startswith("impact speeds ") else n for n in setup.notes)
+    return replace(setup, notes=notes)
 
 
 def _check_bounces_reachable(setup):
@@ -340,6 +370,7 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     from vrcal.engines import mujoco as M
 
     kind, w = _contact_choice(setup, stiffness)
+    refuse_constant_for_law(setup, "MuJoCo")
     cal = M.calibrate(setup, n_phases, kind, w)
     if cal.ok:
         return cal
@@ -354,6 +385,24 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
              f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
                      f"misses: {'; '.join(misses)}; {where}; see --trade-off")
+
+
+def refuse_constant_for_law(setup, engine):
+    """UsageError (one line) when no constant epsilon can meet the tolerance against the setup's
+    speed-dependent epsilon: its spread over the calibrated impacts, half of it the least worst
+    error, and what to do. Known before any engine run."""
+    from vrcal.engines.common import epsilon_spread
+
+    lo, hi, least = epsilon_spread(setup)
+    if least <= setup.tolerance:
+        return
+    speeds = setup.impact_speeds_m_per_s
+    raise UsageError(
+        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over the {setup.n_bounces} calibrated bounces (impact speeds "
+        f"{float(np.max(speeds)):.3g}..{float(np.min(speeds)):.3g} m/s); {engine}'s contact is one constant "
+        f"epsilon, which misses by at least {least:.4f} (half the spread), more than --tolerance "
+        f"{setup.tolerance:g}: give fewer --bounces or a narrower --impact-speed range, a --tolerance above "
+        f"{least:.3g}, or an engine that takes epsilon per impact (ode, bullet: their exports carry the speed law)")
 
 
 def _contact_choice(setup, stiffness):

@@ -97,7 +97,8 @@ def export_params(setup, n_bounces=None, pair=None):
             "faster than epsilon allows",
             f"soft_cfm = {CONTACT_SOFT_CFM:g} on the ball's contacts (dContactSoftCFM): a soft contact eats "
             "energy (CFM 1e-5 lowers epsilon by about 1.5 %)",
-            "mu only on the ball's contacts: your friction; a vertical drop ignores it",
+            "friction is not set by vrcal: mu = 0 makes the ball's contacts frictionless (it slides, never "
+            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip)",
         ],
     }
     out.update(effect_params(setup))
@@ -240,7 +241,7 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
     n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
     for (i = 0; i < n; i++) {{
         c[i].surface.mode = {mode};
-        c[i].surface.mu = {mu};             /* the ball's friction: a vertical drop ignores it */
+        c[i].surface.mu = {mu};             /* frictionless: your mu here (a drop ignores it) */
         c[i].surface.bounce = {bounce};    /* epsilon ({ball}) */
 {law}        c[i].surface.bounce_vel = {bounce_vel};    /* m/s: slower impacts do not bounce */
         c[i].surface.soft_erp = {soft_erp};       /* this contact only: no ERP push-out */
@@ -258,11 +259,16 @@ dJointGroupEmpty(contact_group);
 """
 
 LAW_C = """\
-        {{  /* epsilon at this impact speed: eps(v) = 1 - (1 - eps_1)(v / v_1)^p */
-            dBodyID b = dGeomGetBody(o1) ? dGeomGetBody(o1) : dGeomGetBody(o2);
-            const dReal *v = dBodyGetLinearVel(b);
-            dReal vn = fabs(v[0]*c[i].geom.normal[0] + v[1]*c[i].geom.normal[1] + v[2]*c[i].geom.normal[2]);
-            c[i].surface.bounce = 1 - (1 - {eps_ref})*pow(vn / {v_ref}, {p});
+        {{  /* epsilon at this impact: eps(v) = 1 - (1 - eps_1)(v / v_1)^p, clamped to [0, 1], v = the
+               normal speed of one body relative to the other at the contact point */
+            dVector3 v1 = {{0, 0, 0}}, v2 = {{0, 0, 0}};
+            const dReal *q = c[i].geom.pos, *nrm = c[i].geom.normal;
+            dReal vn, e;
+            if (dGeomGetBody(o1)) dBodyGetPointVel(dGeomGetBody(o1), q[0], q[1], q[2], v1);
+            if (dGeomGetBody(o2)) dBodyGetPointVel(dGeomGetBody(o2), q[0], q[1], q[2], v2);
+            vn = fabs((v1[0] - v2[0])*nrm[0] + (v1[1] - v2[1])*nrm[1] + (v1[2] - v2[2])*nrm[2]);
+            e = 1 - (1 - {eps_ref})*pow(vn / {v_ref}, {p});
+            c[i].surface.bounce = e < 0 ? 0 : (e > 1 ? 1 : e);
         }}
 """
 

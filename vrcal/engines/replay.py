@@ -74,6 +74,14 @@ class Replay:
         """Every engine rebound apex within :data:`APEX_GOAL` of the measured one."""
         return bool(np.all(np.abs(self.apex_errors("engine")) <= APEX_GOAL))
 
+    apex_goal = APEX_GOAL
+
+    def worst_apex(self):
+        """(rebound number from 1, relative error) of the engine's apex farthest from the measured one."""
+        errors = self.apex_errors("engine")
+        k = int(np.argmax(np.abs(errors)))
+        return k + 1, float(errors[k])
+
     def as_dict(self):
         return {
             "engine": self.engine, "engine_version": self.engine_version, "dt_s": self.dt_s,
@@ -158,7 +166,7 @@ def _apex_in(t_s, y_m, start, end):
 
 def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, tolerance=DEFAULT_TOLERANCE,
            max_penetration_m=None, stiffness=None, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None,
-           floor_m=None, standards=None):
+           floor_m=None, standards=None, exported_text=None, file_name=None):
     """Replay the record ``against`` in ``engine`` with the export of the discover result ``from_json``.
 
     Parameters
@@ -173,6 +181,10 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         as for :func:`vrcal.engines.export.export`
     fmt, scale_m_per_px, y_down, fs_hz, floor_m
         the reader options discover was given (see :func:`read_record`)
+    exported_text, file_name : str, optional
+        a file written by ``vrcal export`` (``--file``) and its name: the **engine** curve runs
+        this file (its ball, contact, drag and speed law; at ``dt_s`` when given) instead of a
+        fresh export of ``from_json``, released at the discover result's release state
 
     Returns
     -------
@@ -221,7 +233,11 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     # the engine: the export of the discover result, and the constant-epsilon export of its baseline
     common = dict(dt_s=dt_s, integrator=integrator, tolerance=tolerance, max_penetration_m=max_penetration_m,
                   stiffness=stiffness, standards=standards)
-    ex = export(None, eng.name, from_json=from_json, drop_height_m=float(model["drop_height_m"]), **common)
+    if exported_text is None:
+        ex = export(None, eng.name, from_json=from_json, drop_height_m=float(model["drop_height_m"]), **common)
+        engine_run = (ex.setup, parse_exported(eng.name, ex.text))
+    else:
+        engine_run = _file_run(eng.name, exported_text, file_name, from_json, props, model, common, notes)
     base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
     eps0 = base.get("epsilon", doc.get("epsilon_baseline"))
     H0, t0 = base.get("drop_height_m"), base.get("release_time_s")
@@ -238,15 +254,16 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         notes.append("the constant-epsilon export misses --tolerance or --max-penetration at this step: "
                      "it is run anyway, for the comparison only")
     module = load(eng.name)
-    for name, e, release, offset in (("engine", ex, float(model["release_time_s"]), ex.setup.height_offset_m),
-                                     ("constant", ex0, float(t0), level)):
-        setup = replace(e.setup, n_bounces=n_bounces)
+    for name, (setup, runnable), release, offset in (
+            ("engine", engine_run, float(model["release_time_s"]), engine_run[0].height_offset_m),
+            ("constant", (ex0.setup, parse_exported(eng.name, ex0.text)), float(t0), level)):
+        setup = replace(setup, n_bounces=n_bounces)
         duration = max(t_end - release, setup.dt_s) + 0.05
         steps = int(math.ceil(duration / setup.dt_s))
         if steps > eng.max_steps:
             raise UsageError(f"the replay needs {steps:,} {eng.name} steps at --dt {setup.dt_s:g} s "
                              f"(limit {eng.max_steps:,}): use a larger --dt")
-        z, _v = run_once(eng.name, module, parse_exported(eng.name, e.text), setup, duration)
+        z, _v = run_once(eng.name, module, runnable, setup, duration)
         tz = release + setup.dt_s * np.arange(z.size)
         curve = np.where(t < release, setup.drop_height_m, np.interp(t, tz, z)) + offset
         curves[name] = curve
@@ -257,7 +274,38 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     notes = notes + [f"gap: RMS of model - data over the {t.size - i0} samples after release"]
     if len(complete) < len(flights):
         notes.append(f"{len(flights) - len(complete)} rebound flight(s) not complete in the record: no apex compared")
-    return Replay(eng.name, version, ex.setup.dt_s, t, y, i0, curves, apex_measured, apexes, gaps, notes)
+    return Replay(eng.name, version, engine_run[0].dt_s, t, y, i0, curves, apex_measured, apexes, gaps, notes)
+
+
+def _file_run(engine, text, file_name, from_json, props, model, common, notes):
+    """(DropSetup, what the engine runs) of the user's exported file, released as the record was.
+
+    The file fixes the ball, the contact, the drag and the speed law; ``--dt`` runs it at another
+    step. The release height and the tracked point's offset are the discover result's; a file of
+    another ball than the discover result's is run all the same, and a note says so.
+    """
+    from vrcal.engines.export import build_setup
+    from vrcal.engines.verify import _load_file
+
+    options = dict(epsilon=None, dt_s=common["dt_s"], floor=None, mass_kg=None, diameter_m=None,
+                   drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None,
+                   integrator=common["integrator"], max_penetration_m=None, stiffness=common["stiffness"],
+                   tolerance=None)
+    _loaded, runnable, setup = _load_file(engine, text, None, options)
+    H = float(model["drop_height_m"])
+    pre = build_setup(None, engine, None, setup.dt_s, None, common["standards"], tolerance=common["tolerance"],
+                      from_json=from_json, drop_height_m=H)
+    name = file_name or "the file"
+    notes.append(f"engine: {name} ({setup.ball}, target epsilon {setup.epsilon:.4f}"
+                 + (f", speed law p = {setup.restitution_exponent:.3g}" if setup.restitution_exponent else "")
+                 + f"), released as the record: {H:.4g} m at {float(model['release_time_s']):.4g} s")
+    if not (math.isclose(setup.mass_kg, props.mass_kg, rel_tol=1e-3)
+            and math.isclose(2 * setup.radius_m, props.diameter_m, rel_tol=1e-3)):
+        notes.append(f"{name} holds another ball than {from_json}: {1e3 * setup.mass_kg:.4g} g, "
+                     f"D {2e3 * setup.radius_m:.4g} mm (discover: {1e3 * props.mass_kg:.4g} g, "
+                     f"D {1e3 * props.diameter_m:.4g} mm)")
+    notes.extend(n for n in setup.notes if n.startswith("run at --dt"))
+    return replace(setup, drop_height_m=H, height_offset_m=pre.height_offset_m), runnable
 
 
 def run_once(engine, module, loaded, setup, duration_s):

@@ -94,7 +94,13 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
 
     _check_bounces_reachable(setup)
     check_steps(setup, n_phases, eng.name, eng.max_steps)
-    runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
+    try:
+        runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
+    except DataError as exc:
+        other_step = next((n for n in setup.notes if n.startswith("run at --dt")), None)
+        if other_step is None:
+            raise
+        raise DataError(f"{exc}; {other_step}: export again with --dt {setup.dt_s:g}") from None
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
@@ -133,6 +139,7 @@ def _load_file(engine, text, ball, options):
     from vrcal.engines.files import read_mjcf
 
     options = dict(options, ball=ball)
+    _refuse_other_engine(engine, text)
     if engine == "mujoco":
         info = read_mjcf(text)
         file_dt, integrator, target = info["timestep"], info["integrator"], info["target"]
@@ -197,6 +204,26 @@ def _load_file(engine, text, ball, options):
     if not (0 <= setup.drag_coefficient <= 3 and -1 <= setup.restitution_exponent <= 2 and setup.g_m_per_s2 > 0):
         raise DataError("the file's vrcal_* numbers are out of range (drag_coefficient, restitution_exponent, g)")
     return loaded, runnable, setup
+
+
+def _refuse_other_engine(engine, text):
+    """DataError (one line) naming the ``--engine`` of a file written for another engine."""
+    import json
+
+    head = text.lstrip()
+    other = None
+    if head.startswith("<") and engine != "mujoco":
+        other = "an MJCF (MuJoCo) file: use --engine mujoco" if "<mujoco" in head else \
+            "an XML file (an SDF world is for Gazebo, which vrcal does not run)"
+    elif head.startswith("{"):
+        try:
+            name = json.loads(text).get("engine")
+        except (ValueError, AttributeError, RecursionError):
+            name = None
+        if isinstance(name, str) and name in ("ode", "bullet") and name != engine:
+            other = f"a vrcal {name} export: use --engine {name}"
+    if other:
+        raise DataError(f"--engine {engine}: the file is {other}")
 
 
 def _file_gravity(engine, loaded):
