@@ -121,8 +121,8 @@ class Count(click.ParamType):
 def _fail(param, ctx, message):
     """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2); NAME is the
     option's first long name (``--drop`` of ``--drop/--drop-height``)."""
-    longs = [o for o in (param.opts if param is not None else ()) if o.startswith("--")]
-    name = longs[0] if longs else (max(param.opts, key=len) if param is not None and param.opts else "value")
+    opts = list(param.opts) if param is not None else []
+    name = next((o for o in opts if o.startswith("--")), max(opts, key=len, default="value"))
     raise click.UsageError(f"{name} {message}", ctx)
 
 

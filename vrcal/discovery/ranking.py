@@ -120,6 +120,11 @@ CONFUSABLE = {
 #: apart; a rival is then ambiguous only when its evidence is close.
 SPREAD_SEPARATES = 1.5
 
+#: Effects every ball has, held at their prior's median by :attr:`Discovery.systematic` when a record of
+#: these kinds does not resolve them: (effect, parameter, kinds).
+EXPECTED_EFFECTS = (("air_drag", "drag_coefficient", ("impacts", "apexes")),
+                    ("contact_duration", "contact_time_s", ("impacts",)))
+
 #: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
 VERDICTS = ("explained", "unexplained", "untested", "suspect input")
 
@@ -237,10 +242,11 @@ class Discovery:
         physics expects of this ball: ``{"held": {parameter key: value}, "epsilon_shift": ...}``, or
         None (a trajectory, which resolves them; nothing left to hold; an untested record).
 
-        Held (when not named): air drag at a smooth sphere's C_d (the prior's median, 0.47) for impact
-        times and apex heights, and for impact times the contact's duration expected of the ball
-        (:func:`vrcal.drop.effects.expected_contact_time_s`). Impact times cannot tell a contact of
-        duration tau from a higher epsilon (each interval grows by tau), nor a little drag from a
+        Held (when not named, :data:`EXPECTED_EFFECTS`): air drag at a smooth sphere's C_d (the prior's
+        median, 0.47) for impact times and apex heights, and for impact times the contact's duration
+        expected of the ball (its prior's median, :func:`vrcal.drop.effects.expected_contact_time_s`).
+        Impact times cannot tell a contact of duration tau from a higher epsilon (each interval grows
+        by tau), nor a little drag from a
         slightly speed-dependent one; a drop table's few heights cannot prove drag at its size, yet
         the ball has it. The final model is fitted again with them held there (its own effects free):
         the shift of ε is a systematic uncertainty beside the fit's statistical one. Measured: the
@@ -248,24 +254,20 @@ class Discovery:
         a tennis ball's phone impact times with C_d 0.55 and 5 ms contacts named a speed law with
         epsilon 0.0064 (20 sigma) low, which the held fit restores.
         """
-        kind = self.kind
-        if kind == "trajectory" or self.verdict == "untested":
+        if self.kind == "trajectory" or self.verdict == "untested":
             return None
-        from vrcal.drop.effects import EFFECTS, expected_contact_time_s
+        from vrcal.drop.effects import EFFECTS
 
         f = self.final
-        m, D = float(np.mean(self.ball.mass_kg)), float(np.mean(self.ball.diameter_m))
-        held = {}
-        if "air_drag" not in f.effects:
-            held["air_drag.drag_coefficient"] = EFFECTS["air_drag"].parameter("drag_coefficient").density.center(
-                self.ball)
-        if kind == "impacts" and "contact_duration" not in f.effects:
-            held["contact_duration.contact_time_s"] = expected_contact_time_s(m, D)
-        if not held:
+        added = [(effect, name) for effect, name, kinds in EXPECTED_EFFECTS
+                 if self.kind in kinds and effect not in f.effects]
+        if not added:
             return None
+        # where physics puts them: the median of the parameter's prior density for this ball
+        held = {f"{effect}.{name}": EFFECTS[effect].parameter(name).density.center(self.ball)
+                for effect, name in added}
         start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
-        effects = tuple(f.effects) + tuple(k.split(".")[0] for k in held)
-        fit = res.fit_model(f.problem, effects, start, fixed=held)
+        fit = res.fit_model(f.problem, tuple(f.effects) + tuple(e for e, _ in added), start, fixed=held)
         return {"held": held, "epsilon_shift": float(fit.baseline_values["epsilon"] - f.baseline_values["epsilon"])}
 
     @property

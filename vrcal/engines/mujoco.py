@@ -54,6 +54,7 @@ from vrcal.engines.common import (
     drag_atol,
     drop_runs,
     drop_window_s,
+    epsilon_spread,
     metadata,
     phase_shifts_m,
     round_down,
@@ -702,10 +703,10 @@ def header_lines(setup, cal):
         f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
     ]
     if setup.restitution_exponent:
-        eps = setup.epsilons
-        lines.append(f"eps(v) {eps.min():.4f}..{eps.max():.4f} over the drop: MuJoCo's contact is one "
+        lo, hi, least = epsilon_spread(setup)
+        lines.append(f"eps(v) {lo:.4f}..{hi:.4f} over the drop: MuJoCo's contact is one "
                      f"constant, {cal.best_constant:.4f}")
-        lines.append(f"no constant is nearer eps(v) than {0.5 * (eps.max() - eps.min()):.4f} (half its spread); "
+        lines.append(f"no constant is nearer eps(v) than {least:.4f} (half its spread); "
                      "ODE, PyBullet carry the law")
     lines.append("friction: MuJoCo's default (condim 3, mu 1), not set by vrcal (the bounce ignores it);")
     lines.append("  your surface's: friction=\"MU MU 0.005 0.0001 0.0001\" on the pair (5 numbers)")

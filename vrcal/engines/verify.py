@@ -157,7 +157,7 @@ def _load_file(engine, text, ball, options):
     _refuse_fixed(options, [k for k, _ in FIXED_BY_FILE] if vrcal_file else ("integrator", "stiffness"))
     file_dt = check_dt(file_dt, "the file's time step")
     dt = file_dt if options["dt_s"] is None else check_dt(options["dt_s"])
-    file_g = _file_gravity(engine, loaded)
+    runnable, file_g = _runnable(engine, loaded)
     g = file_g if options["g_m_per_s2"] is None else float(options["g_m_per_s2"])
     notes = []
     if dt != file_dt:
@@ -165,7 +165,7 @@ def _load_file(engine, text, ball, options):
         notes.append(f"run at --dt {dt:g} s; the file is for {file_dt:g} s ({what})")
     if g != file_g:
         notes.append(f"run at --g {g:g} m/s^2; the file holds {file_g:g} m/s^2")
-    runnable = _with_step_and_gravity(engine, loaded, dt, g)
+    _set_step_and_gravity(engine, runnable, dt, g)
     if not vrcal_file:                             # a model of the user's: the body and target from options
         from vrcal.engines.export import build_setup
 
@@ -226,38 +226,35 @@ def _refuse_other_engine(engine, text):
         raise DataError(f"--engine {engine}: the file is {other}")
 
 
-def _file_gravity(engine, loaded):
-    """The downward gravity [m/s^2] an exported file sets."""
-    if engine == "mujoco":
-        from vrcal.engines.mujoco import load_model
+def _runnable(engine, loaded):
+    """(what the engine runs, the downward gravity it sets [m/s^2]) of an exported file as read.
 
-        return -float(load_model(loaded).opt.gravity[2])
-    return -float(loaded["world"]["gravity"][2] if engine == "ode" else loaded["setGravity"][2])
-
-
-def _with_step_and_gravity(engine, loaded, dt_s, g_m_per_s2):
-    """What the engine runs: the file's model with its time step and gravity set.
-
-    MuJoCo: the compiled model with ``opt.timestep`` and ``opt.gravity`` set; ODE, PyBullet: a
-    copy of the JSON with ``world.dt``/``fixedTimeStep`` and the gravity set.
+    MuJoCo: the compiled model (compiled once: its gravity is read from it and its step and
+    gravity are set on it); ODE, PyBullet: a copy of the JSON.
     """
     if engine == "mujoco":
         from vrcal.engines.mujoco import load_model
 
         model = load_model(loaded)
-        model.opt.timestep = dt_s
-        model.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
-        return model
+        return model, -float(model.opt.gravity[2])
     import copy
 
     out = copy.deepcopy(loaded)
-    if engine == "ode":
-        out["world"]["dt"] = dt_s
-        out["world"]["gravity"] = [0.0, 0.0, -g_m_per_s2]
+    return out, -float(out["world"]["gravity"][2] if engine == "ode" else out["setGravity"][2])
+
+
+def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
+    """Set the time step [s] and the downward gravity [m/s^2] of :func:`_runnable`'s model: MuJoCo's
+    ``opt.timestep`` and ``opt.gravity``; the JSON's ``world.dt``/``fixedTimeStep`` and gravity."""
+    if engine == "mujoco":
+        runnable.opt.timestep = dt_s
+        runnable.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
+    elif engine == "ode":
+        runnable["world"]["dt"] = dt_s
+        runnable["world"]["gravity"] = [0.0, 0.0, -g_m_per_s2]
     else:
-        out["setPhysicsEngineParameter"]["fixedTimeStep"] = dt_s
-        out["setGravity"] = [0.0, 0.0, -g_m_per_s2]
-    return out
+        runnable["setPhysicsEngineParameter"]["fixedTimeStep"] = dt_s
+        runnable["setGravity"] = [0.0, 0.0, -g_m_per_s2]
 
 
 def _settings(engine, loaded, setup):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import re
 from typing import Callable, NamedTuple
 
 from vrcal.errors import DataError, UsageError
@@ -27,7 +26,7 @@ from vrcal.measurements import (
     vernier,
     video,
 )
-from vrcal.measurements.table import fail, is_numeric_row, load_text
+from vrcal.measurements.table import fail, is_numeric_row, load_text, loose_cells
 from vrcal.measurements.types import Runs
 
 # --------------------------------------------------------------------------- registry and entry point
@@ -130,7 +129,7 @@ def _detect(text):
     for name, fmt in FORMATS.items():
         if not fmt.recording and fmt.detector(text):
             return name
-    cells = [c for c in re.split(r"[,;\t]", line) if c.strip()]
+    cells = loose_cells(line)
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
@@ -220,9 +219,7 @@ def _detect_below_title(text):
     except DataError:
         if len(text.lines) < 3 or text.lines[0][1].lstrip()[:1] in _DOCUMENTS:
             raise
-        first = [c for c in re.split(r"[,;\t]", text.lines[0][1]) if c.strip()]
-        second = [c for c in re.split(r"[,;\t]", text.lines[1][1]) if c.strip()]
-        if is_numeric_row(first) or is_numeric_row(second):
+        if is_numeric_row(loose_cells(text.lines[0][1])) or is_numeric_row(loose_cells(text.lines[1][1])):
             raise
         below = dataclasses.replace(text, lines=text.lines[1:])
         try:

@@ -155,6 +155,12 @@ def unquoted(text):
     return re.sub(r'"[^"]*"', "", text)
 
 
+def loose_cells(line):
+    """The non-blank cells of a line split at any comma, semicolon or tab (before the separator is known:
+    is a first line numbers, or a title?)."""
+    return [c for c in re.split(r"[,;\t]", line) if c.strip()]
+
+
 def split_cells(line, sep):
     if sep is None:
         cells = [line]

@@ -7,14 +7,13 @@ columns. Rows of frames that were not marked (empty ``y``) are skipped.
 
 from __future__ import annotations
 
-import re
-
 from vrcal.measurements.table import (
     TIME_NAMES,
     Y_NAMES,
     find_column,
     header_columns,
     is_numeric_row,
+    loose_cells,
     parse_table,
     strip_cell,
     unquoted,
@@ -26,7 +25,7 @@ def detect(text):
     if len(text.lines) < 3:
         return False
     first = unquoted(text.lines[0][1]).strip()
-    if not first or is_numeric_row([c for c in re.split(r"[,;\t]", first) if c.strip()]):
+    if not first or is_numeric_row(loose_cells(first)):
         return False
     at = 1
     cols = header_columns(text, at)

@@ -345,6 +345,8 @@ def get_ball(key, standards=None):
 
 
 PAPER_CONVENTION = "as printed in the paper's Table 1 (no point correction)"
+#: Where vrcal measures both heights of Eq. (9) (a rule's height to the top or centre brought there).
+BOTTOM_CONVENTION = "drop and rebound both to the bottom of the ball"
 
 
 def ball_epsilon(ball, as_paper=False):
@@ -379,7 +381,7 @@ def ball_epsilon(ball, as_paper=False):
         to_bottom = [height_to_bottom_m(h, ball.rebound_measured_to, D) for h in (r.min, r.nominal, r.max)]
         rebound = Range(to_bottom[0], to_bottom[2], to_bottom[1])
         if ball.drop_measured_to == ball.rebound_measured_to == "bottom":
-            convention = "drop and rebound both to the bottom of the ball, as the rule measures them"
+            convention = f"{BOTTOM_CONVENTION}, as the rule measures them"
         else:
             convention = (f"the rule measures the drop to the {ball.drop_measured_to} and the rebound to the "
                           f"{ball.rebound_measured_to} of the ball; H and h here are both to its bottom")

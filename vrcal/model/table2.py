@@ -35,7 +35,7 @@ from vrcal.errors import UsageError
 from vrcal.fileio import dumps
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_K
-from vrcal.model.standards import PAPER_CONVENTION, ball_epsilon
+from vrcal.model.standards import BOTTOM_CONVENTION, PAPER_CONVENTION, ball_epsilon
 from vrcal.textout import csv_text as _csv_text
 from vrcal.textout import machine_document, table, wrap
 
@@ -246,8 +246,7 @@ def regenerate(standards, K_per_s=DEFAULT_K_PER_S, as_paper=False):
     """
     K = check_K(K_per_s)
     rows = []
-    convention = (PAPER_CONVENTION if as_paper else
-                  "drop and rebound both to the bottom of the ball")
+    convention = PAPER_CONVENTION if as_paper else BOTTOM_CONVENTION
     for key, ball in standards.items():
         window = ball_epsilon(ball, as_paper=as_paper)
         eps = window.as_dict()
