@@ -199,7 +199,7 @@ def main(argv=None):
     ap.add_argument("--shared", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data"))
     args = ap.parse_args(argv)
     root = os.path.abspath(args.shared)
-    rows = []
+    rows, ses = [], {}
     # impact times
     for path in sorted(glob.glob(os.path.join(root, "realval", "giiulia", "*.csv"))):
         name = os.path.basename(path)
@@ -209,6 +209,7 @@ def main(argv=None):
         t = read_measurement(path).t_s
         indep = interval_ratio_epsilon(t, float(d.ball.mass_kg), float(d.ball.diameter_m))
         se = interval_ratio_se(t, indep)
+        ses[name] = se
         rows.append((name, "impacts", bounce_epsilon(d), indep, f"interval ratios, drag-corrected, +-{se:.3f}", d))
     # the golf ball's first rebound (Method 1) against its impact times from 110 cm (Method 2)
     table = os.path.join(root, "realval", "giiulia_method1", "golf_110cm_first_rebound.csv")
@@ -254,6 +255,9 @@ def main(argv=None):
             second = log_interval_epsilon(read_measurement(os.path.join(root, "realval", "giiulia", name)).t_s)
             print(f"  {name}: the authors' Method 2 on this run (log10 of the first 8 intervals against n, "
                   f"drag-free) gives {second:.3f}, {eps - second:+.3f} from discover")
+            u = recommended(d).uncertainty("epsilon")
+            print(f"  {name}: discover's +- {u:.3f}, the estimate's +- {ses[name]:.3f}: the difference is "
+                  f"{abs(eps - indep) / math.hypot(u, ses[name]):.2f} combined standard uncertainties")
     physical = all(not c.outside for r in rows for c in r[5].candidates if c.verdict.startswith("named"))
     print(f"every named effect inside its physical limits: {physical}")
 

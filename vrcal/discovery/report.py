@@ -208,8 +208,10 @@ def engine_advice(discovery):
     out = []
     if d.verdict == "suspect input":
         out.append("(check the input first: these values assume it is right)")
+    widened = (f"± with the bounces' scatter, {d.fit_epsilon_uncertainty:.2g} if the times' errors were independent"
+               if u > 1.5 * d.fit_epsilon_uncertainty else "")
     if not d.effects:
-        out.append(f"epsilon = {pm(eps, u)}")
+        out.append(f"epsilon = {pm(eps, u)}" + (f"  ({widened})" if widened else ""))
         shown = _systematic_lines(d, u)
         out.extend(shown)
         if not d.rounds:
@@ -230,7 +232,7 @@ def engine_advice(discovery):
                    f"(the speeds of this record);")
         out.append("choose the value at the impact speeds of your simulation.")
     else:
-        out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution)")
+        out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution" + (f"; {widened})" if widened else ")"))
     out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():

@@ -405,3 +405,45 @@ def drop_table_csv(runs):
     """CSV text of a drop table (``H (m),h (m)``, one trial per row) that the readers read back."""
     lines = ["H (m),h (m)"] + [f"{float(r.h_m[0]):.6g},{float(r.h_m[1]):.6g}" for r in runs.runs]
     return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- bounces that scatter
+
+
+def scattered_impact_times(seed, *, drop_height_m=0.45, epsilon=0.88, scatter=0.02, n_impacts=10,
+                           timing_sd_s=JITTER_S, release_time_s=1.0, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Impact times of a drag-free drop whose every bounce has its own restitution: a ball that hits
+    the floor at slightly different spots, with some spin, loses a little more or less each time.
+
+    Parameters
+    ----------
+    seed : int
+        seed of the random numbers
+    drop_height_m : float
+        height of the ball's bottom at release [m]
+    epsilon : float
+        the ball's restitution: bounce j has epsilon exp(scatter z_j), z_j standard normal
+    scatter : float
+        relative standard deviation of a bounce's epsilon (0.02: 2 %; the blue ball's phyphox runs
+        scatter by 0.3-7 %, median 1.5 %)
+    n_impacts : int
+        impact times, >= 2
+    timing_sd_s : float
+        standard deviation of the normal error of each time [s] (a phone's acoustic stopwatch)
+    release_time_s : float
+        time of release [s]
+    g_m_per_s2 : float
+        gravitational acceleration [m/s²]
+
+    Returns
+    -------
+    vrcal.measurements.ImpactTimes
+    """
+    from vrcal.measurements.types import ImpactTimes
+
+    rng = np.random.default_rng(seed)
+    speed = np.sqrt(2.0 * g_m_per_s2 * drop_height_m) * np.cumprod(
+        np.concatenate([[1.0], epsilon * np.exp(scatter * rng.standard_normal(n_impacts - 2))]))
+    flights = 2.0 * speed / g_m_per_s2
+    t = release_time_s + np.sqrt(2.0 * drop_height_m / g_m_per_s2) + np.concatenate([[0.0], np.cumsum(flights)])
+    return ImpactTimes(t + rng.normal(0.0, timing_sd_s, n_impacts), f"synthetic (scatter {scatter:g}, seed {seed})")
