@@ -511,6 +511,10 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
+@click.option("--drop-measured-to", type=opt.BALL_POINT, default="bottom", show_default=True,
+              help="Point of the ball the drop heights of a height table were measured to.")
+@click.option("--rebound-measured-to", type=opt.BALL_POINT, default="bottom", show_default=True,
+              help="Point of the ball the rebound heights were measured to (a ruler read at the ball's top: top).")
 @g_option(from_json=False)
 @click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
 @click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
@@ -521,7 +525,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @STANDARDS_OPTION
 @click.pass_context
 def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, floor_m, noise,
-             g_m_per_s2, details, json_file, report_dir, quiet):
+             drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir, quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
@@ -536,6 +540,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --details --json result.json --report out
       vrcal discover heights.csv --mass 0.0459 --diameter 0.0427
+      vrcal discover heights.csv --ball tennis --rebound-measured-to top   (rebounds read at the ball's top)
       vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
       vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
       vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
@@ -553,7 +558,9 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
                            g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
                            y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
-                           read_options={"progress": None if quiet else tracking_progress("discover")})
+                           read_options={"progress": None if quiet else tracking_progress("discover")},
+                           drop_measured_to=drop_measured_to.replace("center", "centre"),
+                           rebound_measured_to=rebound_measured_to.replace("center", "centre"))
     text = fit_report(result, details=details)
     for warning in result.warnings:
         click.echo(f"vrcal: warning: {warning}", err=True)

@@ -203,6 +203,10 @@ POSITIVE_COUNT = Count(1, None)
 #: line is parsed ("Path 'x.csv' does not exist"), before any work.
 INPUT_FILE = click.Path(exists=True, dir_okay=False)
 
+#: The points of a ball a height can be measured to (``--drop-measured-to``, ``--rebound-measured-to``; the
+#: keys of vrcal.model.restitution.POINT_OFFSET_DIAMETERS, and "center" for "centre").
+BALL_POINT = click.Choice(["bottom", "centre", "center", "top"])
+
 #: The measurement formats of ``--format`` (the keys of vrcal.measurements.reader.FORMATS, written out
 #: so that the CLI starts without importing the readers; a test keeps the two equal).
 MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "tracker", "phyphox-collision", "drops", "apexes",

@@ -3,6 +3,7 @@ over 4-6 heights with planted effects, the joint fit recovering shared parameter
 from the command line, and the odd-bounce cases rebuilt synthetically."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -330,3 +331,51 @@ def test_json_to_stdout_details_and_a_workbook_sheet(tmp_path):
     assert max(len(line) for line in detailed.output.splitlines()) <= 100
     missing = run("discover", book, "--sheet", "nope", "--ball", "golf", "--mass", "0.0415", "--diameter", "0.042")
     assert missing.exit_code == 2 and "no sheet 'nope'" in missing.output
+
+
+#: A class's table of a tennis ball (57 g, 67 mm; an independent simulator's: constant epsilon 0.75,
+#: C_d 0.47, five heights, four trials each, read to 0.5 cm): a speed law, air drag and a height
+#: offset fit it about as well.
+TENNIS_TABLE = ("trial,H (cm),h (cm)\n" + "".join(
+    f"{i + 1},{H},{h}\n" for H, hs in ((30, (17.0, 16.5, 17.0, 17.0)), (60, (33.0, 33.5, 34.0, 33.5)),
+                                        (100, (54.5, 54.0, 54.5, 55.0)), (150, (80.0, 81.0, 80.5, 80.5)),
+                                        (200, (106.5, 106.5, 107.0, 107.0)))
+    for i, h in enumerate(hs)))
+
+
+def test_the_json_epsilon_ranges_span_every_row_as_the_text_does(tmp_path):
+    """The rivals' and the split's epsilon over the bounces were taken from the first row alone (one
+    value for a speed law over five heights): the JSON said 0.7542 where the text said 0.7419 at
+    6.27 m/s and 0.7542 at 2.42 m/s."""
+    path = tmp_path / "table.csv"
+    path.write_text(TENNIS_TABLE)
+    res = run("discover", str(path), "--ball", "tennis", "--mass", "0.057", "--diameter", "0.067", "-q",
+              "--json", str(tmp_path / "d.json"))
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "d.json").read_text())
+    split = doc["prior_split"]
+    assert "velocity_dependent_restitution" in split["effects"], split
+    lo, hi = split["epsilon_range"]
+    assert hi - lo > 0.005, split
+    text = " ".join(res.output.split())
+    m = re.search(r"Most probable: .*?: epsilon (0\.\d+) at [\d.]+ m/s, (0\.\d+) at [\d.]+ m/s", text)
+    assert m, text
+    assert abs(float(m.group(1)) - lo) < 1e-3 and abs(float(m.group(2)) - hi) < 1e-3, (m.group(0), lo, hi)
+
+
+@pytest.mark.parametrize("effects, ambiguous, narrow", [
+    (["air_drag"], {"air_drag": ["velocity_dependent_restitution"]}, True),
+    (["velocity_dependent_restitution"], {"velocity_dependent_restitution": ["air_drag", "height_offset"]}, True),
+    (["air_drag", "velocity_dependent_restitution"], {}, False),       # both named: told apart
+    (["air_drag", "velocity_dependent_restitution"], {"air_drag": ["height_offset"]}, False),
+    (["air_drag"], {}, False),
+    (["velocity_dependent_restitution"], {"velocity_dependent_restitution": ["height_offset"]}, False),
+])
+def test_speeds_are_too_narrow_only_while_drag_and_the_speed_law_are_rivals(effects, ambiguous, narrow):
+    """With both named (each material on top of the other) the report said they could not be told
+    apart; the line and the JSON's ``speeds_too_narrow`` follow one property."""
+    from types import SimpleNamespace
+
+    from vrcal.discovery.ranking import Discovery
+
+    assert Discovery.speeds_too_narrow.fget(SimpleNamespace(effects=effects, ambiguous=ambiguous)) is narrow

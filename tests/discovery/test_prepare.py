@@ -77,3 +77,61 @@ def test_more_runs_than_a_joint_fit_takes_is_one_error(monkeypatch):
     with pytest.raises(DataError, match=r"drops.csv: 4 chains of consecutive bounces \(drops\) to fit jointly, "
                                         r"more than 3"):
         prep.prepare(data, TENNIS, 9.80665)
+
+
+# --------------------------------------------------------------------------- heights to the bottom
+
+
+@pytest.mark.parametrize("drop_to, rebound_to, shift", [
+    ("bottom", "top", (0.0, 0.067)), ("top", "top", (0.067, 0.067)), ("centre", "bottom", (0.0335, 0.0)),
+])
+def test_heights_measured_to_another_point_are_brought_to_the_bottom(drop_to, rebound_to, shift):
+    from vrcal.measurements import ApexHeights, Runs
+
+    row = ApexHeights(bounce=np.array([0, 1]), h_m=np.array([1.0, 0.6]), source="row")
+    table = Runs(runs=(row, row), source="table", labels=("row 1", "row 2"))
+    moved = prep.heights_to_bottom(table, 0.067, drop_to, rebound_to)
+    for run in moved.runs:
+        np.testing.assert_allclose(run.h_m, [1.0 - shift[0], 0.6 - shift[1]])
+    assert "brought to its bottom" in moved.notes[-1]
+    one = prep.heights_to_bottom(row, 0.067, drop_to, rebound_to)     # one drop's apexes: the same
+    np.testing.assert_allclose(one.h_m, moved.runs[0].h_m)
+    assert prep.heights_to_bottom(table, 0.067) is table
+
+
+def test_heights_to_the_bottom_refuse_other_data():
+    from vrcal.errors import UsageError
+    from vrcal.measurements import ImpactTimes
+
+    with pytest.raises(UsageError, match="apply to heights"):
+        prep.heights_to_bottom(ImpactTimes(np.array([0.3, 0.9, 1.4]), "t"), 0.067, "bottom", "top")
+
+
+def test_a_table_of_rebounds_read_at_the_balls_top_gives_the_planted_epsilon(tmp_path):
+    """A class reads each rebound at the top of a tennis ball against the ruler (one diameter, 67 mm,
+    more than the bottom the model's heights are): as read, epsilon comes out high; told so, it is the
+    planted one (an independent probe's table had a speed law p = 0.28 named on a constant epsilon)."""
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+    from vrcal.drop.synthetic import drop_table_case
+
+    runs, truth = drop_table_case(3, (), ball="tennis", n_heights=5, trials=3, noise=0.002)
+    D = 0.067
+    path = tmp_path / "top.csv"
+    path.write_text("H (m),h (m)\n" + "".join(f"{r.h_m[0]:.4f},{r.h_m[1] + D:.4f}\n" for r in runs.runs))
+    ball = ["--ball", "tennis", "--mass", "0.057", "--diameter", str(D), "-q", "--json"]
+    told = CliRunner().invoke(main, ["discover", str(path), *ball, str(tmp_path / "told.json"),
+                                     "--rebound-measured-to", "top"])
+    assert told.exit_code == 0, told.output
+    assert "heights measured to the ball's bottom (drops) and top (rebounds, -67.0 mm)" in " ".join(
+        told.output.split())
+    import json
+
+    doc = json.loads((tmp_path / "told.json").read_text())
+    assert abs(doc["epsilon"] - truth["epsilon"]) < max(3 * doc["epsilon_uncertainty"], 0.005), doc["epsilon"]
+    assert doc["reader"]["rebound_measured_to"] == "top"
+    as_read = CliRunner().invoke(main, ["discover", str(path), *ball, str(tmp_path / "read.json")])
+    wrong = json.loads((tmp_path / "read.json").read_text())
+    assert wrong["epsilon"] > truth["epsilon"] + 0.01 or wrong["effects"], wrong["epsilon"]
+    assert as_read.exit_code == 0

@@ -452,6 +452,51 @@ def _of_run(label, note):
     return f"{label}: {note}" if label else note
 
 
+def heights_to_bottom(data, diameter_m, drop_measured_to="bottom", rebound_measured_to="bottom"):
+    """Apex heights (one drop's, or the rows of a drop table) with each height brought to the ball's
+    bottom, which the model's heights are: a class that reads the top of the ball against a ruler
+    reads one diameter more (:func:`vrcal.model.restitution.height_to_bottom_m`).
+
+    Parameters
+    ----------
+    data : ApexHeights or Runs of ApexHeights
+        as read; bounce 0 of each run is the drop height, the others rebounds
+    diameter_m : float
+        ball diameter D [m]
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}
+        the point of the ball the drop heights and the rebound heights were measured to
+
+    Returns
+    -------
+    ApexHeights or Runs
+        ``data`` itself when both are "bottom", else a copy with the heights moved and a note
+    """
+    from vrcal.measurements.types import Runs
+    from vrcal.model.restitution import height_to_bottom_m
+
+    if drop_measured_to == rebound_measured_to == "bottom":
+        return data
+    runs = data.runs if isinstance(data, Runs) else (data,)
+    if runs[0].kind != "apexes":
+        raise UsageError(f"--drop-measured-to and --rebound-measured-to apply to heights (a drop table or the apex "
+                         f"heights of one drop), not to {runs[0].kind}: a trajectory's tracked point is found by "
+                         f"discover (height_offset)")
+    moved = []
+    for run in runs:
+        h = np.asarray(run.h_m, dtype=float)
+        first = np.asarray(run.bounce) == 0
+        to = np.where(first, height_to_bottom_m(h, drop_measured_to, diameter_m),
+                      height_to_bottom_m(h, rebound_measured_to, diameter_m))
+        moved.append(dataclasses.replace(run, h_m=to))
+    shift = {"bottom": "", "centre": f", -{diameter_m * 500:.1f} mm", "top": f", -{diameter_m * 1e3:.1f} mm"}
+    note = (f"heights measured to the ball's {drop_measured_to} (drops{shift[drop_measured_to]}) and "
+            f"{rebound_measured_to} (rebounds{shift[rebound_measured_to]}), brought to its bottom (D = "
+            f"{diameter_m * 1e3:.1f} mm)")
+    if isinstance(data, Runs):
+        return dataclasses.replace(data, runs=tuple(moved), notes=(*data.notes, note))
+    return dataclasses.replace(moved[0], notes=(*moved[0].notes, note))
+
+
 def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None, progress=None):
     """The runs to fit, with notes and warnings (see the module docstring).
 

@@ -75,7 +75,7 @@ import numpy as np
 
 from vrcal.discovery import residuals as res
 from vrcal.discovery.lsq import chi2_sf, f_sf
-from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced  # noqa: F401 (re-exported)
+from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced, heights_to_bottom  # noqa: F401 (re-exported)
 from vrcal.errors import UsageError
 from vrcal.measurements.cleanup import TIMING_SIGMA_S
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
@@ -352,7 +352,7 @@ class Discovery:
                     continue
                 seen.add((effect, param))
                 out.append((c, {"effect": effect, "parameter": param, "value": value, "limits": list(limits),
-                                "gap": c.fit.gap, "check": EFFECTS[effect].check}))
+                                "gap": c.fit.gap, "check": EFFECTS[effect].check_for(self.kind)}))
         return out
 
     def gap_per_bounce(self):
@@ -367,6 +367,30 @@ class Discovery:
             v = np.asarray(drops.impact_speeds_m_per_s)[0]
             speeds += list(v[:max(_record_bounces(run, drops), 1)])
         return float(min(speeds)), float(max(speeds))
+
+    @property
+    def all_notes(self):
+        """Every note, as the report prints them and the JSON holds them: the joint record's, each run's
+        as read (a note that not every run has is led by the run's label: which file of several, which
+        row of a table), then discover's."""
+        runs = self.runs
+        per_run = [list(getattr(run, "notes", ())) for run in runs]
+        common = set.intersection(*(set(n) for n in per_run)) if len(runs) > 1 else set()
+        labels = list(self.labels) if len(self.labels) == len(runs) else [f"run {r + 1}" for r in range(len(runs))]
+        read = [n if len(runs) == 1 or n in common else f"{label}: {n}"
+                for label, notes in zip(labels, per_run) for n in notes]
+        joint = list(getattr(self.data, "notes", ())) if len(runs) > 1 else []
+        return list(dict.fromkeys(joint + read + list(self.notes)))
+
+    @property
+    def speeds_too_narrow(self):
+        """Whether air drag and a speed-dependent ε both fit and these speeds cannot tell them apart:
+        one is named and the other is its ambiguous rival. Not when both are named: then each was
+        material on top of the other, and the data did tell them apart."""
+        pair = {"air_drag", "velocity_dependent_restitution"}
+        named = pair & set(self.effects)
+        rivals = pair & {r for v in self.ambiguous.values() for r in v}
+        return len(named) == 1 and bool(rivals - named)
 
     def epsilon_at(self, speeds_m_per_s, fit=None):
         """ε of the final model (or of ``fit``, e.g. ``split``) at these impact speeds [m/s] (the
@@ -401,7 +425,7 @@ class Discovery:
         if f is None:
             return None
         return {"effects": list(f.effects), "parameters": f.effect_values, "uncertainties": f.effect_uncertainties,
-                "epsilon": f.value("epsilon"), "epsilon_range": _epsilon_range(f, self.runs[0]),
+                "epsilon": f.value("epsilon"), "epsilon_range": _epsilon_range(f, self.runs),
                 "gap": f.gap, "prior_chi2": float(f.extra.get("prior_chi2", 0.0))}
 
     def _rivals(self):
@@ -430,7 +454,7 @@ class Discovery:
         contact's epsilon over the record's bounces had the rival been named instead (one value
         twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
         number an engine needs."""
-        return {name: {r: {"epsilon": _epsilon_range(c.fit, self.runs[0]),
+        return {name: {r: {"epsilon": _epsilon_range(c.fit, self.runs),
                            "parameters": dict(c.fit.effect_values.get(r, {}))} for r, c in rivals.items()}
                 for name, (_, rivals) in self._rivals().items()}
 
@@ -467,6 +491,7 @@ class Discovery:
             "epsilon_systematic": self.systematic,
             "epsilon_reference_speed_m_per_s": self.reference_speed,
             "impact_speed_range_m_per_s": [lo, hi],
+            "speeds_too_narrow": self.speeds_too_narrow,
             "baseline": self.baseline.baseline_values,
             "model": self.final.baseline_values,
             "runs": [{"source": str(run.source), "label": label, "kind": run.kind,
@@ -493,7 +518,7 @@ class Discovery:
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
                      "diameter_m": float(self.ball.diameter_m)},
             "g_m_per_s2": self.g_m_per_s2,
-            "notes": list(self.notes),
+            "notes": self.all_notes,
         }
 
 
@@ -507,10 +532,13 @@ def _record_bounces(run, drops):
     return drops.n_bounces
 
 
-def _epsilon_range(fit, run):
-    """[lowest, highest] ε of ``fit``'s model of ``run`` over the bounces the record holds."""
-    drops = fit.model()
-    eps = np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)]
+def _epsilon_range(fit, runs):
+    """[lowest, highest] ε of ``fit``'s model over the bounces the record holds, every run's (the
+    rows of a drop table, the files of a joint fit)."""
+    eps = []
+    for r, run in enumerate(runs):
+        drops = fit.model(run=r)
+        eps.extend(np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)])
     return [float(np.min(eps)), float(np.max(eps))]
 
 
@@ -1051,7 +1079,7 @@ def _odds(delta_score):
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
                   standards=None, scale_m_per_px=None, y_down=False, fs_hz=None, progress=None, floor_m=None,
-                  noise=None, sheet=None, read_options=None):
+                  noise=None, sheet=None, read_options=None, drop_measured_to="bottom", rebound_measured_to="bottom"):
     """Read measurement file(s) and run :func:`discover` on them (what ``vrcal discover`` calls).
 
     Parameters
@@ -1081,6 +1109,9 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     read_options : dict or None
         options of the sound and video readers (``roi``, ``color``, ``progress``, see
         :func:`vrcal.measurements.read_measurement`); a video's scale comes from the ball's diameter
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}
+        the point of the ball that drop and rebound heights were measured to
+        (:func:`vrcal.discovery.prepare.heights_to_bottom`; heights only)
 
     Returns
     -------
@@ -1100,7 +1131,9 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     if stages is not None:
         stages(0.0, f"reading {', '.join(map(str, paths))}")
     data = read_measurements(paths, fmt, **options, **recording)
+    data = heights_to_bottom(data, float(np.mean(props.diameter_m)), drop_measured_to, rebound_measured_to)
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
-    reader = {"files": [str(p) for p in paths], "format": fmt, **options}
+    reader = {"files": [str(p) for p in paths], "format": fmt, **options, "drop_measured_to": drop_measured_to,
+              "rebound_measured_to": rebound_measured_to}
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
                     y_down=turned, reader=reader, stages=stages)

@@ -320,8 +320,7 @@ def _speed_lines(d):
         speeds = np.linspace(lo, hi, 4)
         eps = d.epsilon_at(speeds)
         lines.append("  epsilon(v): " + ", ".join(f"{e:.4f} at {v:.2f} m/s" for v, e in zip(speeds, eps)))
-    names = set(d.effects) | {r for v in d.ambiguous.values() for r in v}
-    if {"air_drag", "velocity_dependent_restitution"} <= names:
+    if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")
         lines.append(_wrap(f"Air drag and a speed-dependent epsilon both fit: the speeds covered ({lo:.2f}-{hi:.2f} "
@@ -360,8 +359,7 @@ def fit_report(discovery, details=False):
         lines += ["", "Speeds"] + _speed_lines(d)
     if runs > 1:
         lines += ["", "Runs (one epsilon and one set of effects; a drop height each)", _runs_table(d).rstrip("\n")]
-    reader_notes = [n for run in d.runs for n in getattr(run, "notes", ())]
-    notes = list(dict.fromkeys(list(getattr(d.data, "notes", ()) if runs > 1 else []) + reader_notes + list(d.notes)))
+    notes = d.all_notes
     if notes:
         lines += ["", "Notes"] + [_wrap(n, "    ", "  - ") for n in notes]
     if details:

@@ -221,7 +221,8 @@ class Parameter:
 @dataclass(frozen=True)
 class Effect:
     """One named candidate effect (see the module docstring). ``check`` says what to check in
-    the input when the effect would fit only with an unphysical value."""
+    the input when the effect would fit only with an unphysical value; ``check_by_kind`` says it
+    for one data kind where that differs ({kind: text})."""
 
     name: str
     parameters: tuple
@@ -232,6 +233,12 @@ class Effect:
     null_values: dict
     function: object = field(default=None, compare=False, repr=False)
     check: str = ""
+    check_by_kind: dict = field(default_factory=dict, compare=False)
+
+    def check_for(self, kind):
+        """What to check in input of ``kind`` ("trajectory", "impacts", "apexes") when the effect would
+        fit only with an unphysical value."""
+        return self.check_by_kind.get(kind, self.check)
 
     @property
     def defaults(self):
@@ -647,6 +654,8 @@ EFFECTS = {
         null_values={"offset_m": 0.0},
         function=observed_height_m,
         check="check the floor line (--floor), the length scale, and for a bounce off something above the floor",
+        check_by_kind={"apexes": "check the point of the ball the heights were read to (a rebound read at the "
+                                 "ball's top is one diameter high: --rebound-measured-to top) and the length unit"},
     ),
     "buoyancy": Effect(
         name="buoyancy",
