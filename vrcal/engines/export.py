@@ -527,7 +527,7 @@ def _next_step(setup, rows):
     spring = f" --stiffness {best['stiffness_per_s2']:.4g}" if best["contact"] == "spring" else ""
     if best["dt_s"] >= setup.dt_s:
         return f"your step meets both: export with --dt {best['dt_s']:g}{spring}\n"
-    where = " (last row, found in MuJoCo below your step)" if best.get("suggested") else ""
+    where = " (last row: searched in MuJoCo)" if best.get("suggested") else ""
     return f"--dt {setup.dt_s:g} misses; the largest step that meets both: --dt {best['dt_s']:g}{spring}{where}\n"
 
 
