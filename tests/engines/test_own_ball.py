@@ -97,10 +97,10 @@ def test_without_the_engine_the_refusal_says_it_rests_on_the_bound(monkeypatch):
 def test_tables_take_a_users_ball_without_speeds_and_refuse_a_step_in_one_line():
     ball = dict(mass_kg=0.058, diameter_m=0.067, epsilon=0.75)
     text = export(None, "tables", **ball).text
-    assert "0.7500" in text and "slowest impact of the drop" not in text
+    assert "0.7500" in text and "bounce(s) from" not in text
     with_drop = export(None, "tables", drop_height_m=1.0, **ball)
     v_last = float(with_drop.setup.impact_speeds_m_per_s[-1])
-    assert f"slowest impact of the drop: {v_last:.3g} m/s" in with_drop.text
+    assert f"..{v_last:.3g} m/s: keep each bounce threshold below" in with_drop.text
     for extra in (["--dt", "1e-3"], ["--max-penetration", "0.01"]):
         result = run("export", "--mass", 0.058, "--diameter", 0.067, "--epsilon", 0.75, "--engine", "unity", *extra)
         assert result.exit_code == 2

@@ -32,6 +32,7 @@ from vrcal.engines.common import (
     RISE_M,
     DropRuns,
     DropSetup,
+    _round_up,
     check_dt,
     check_epsilon,
     check_positive,
@@ -427,11 +428,10 @@ def refuse_constant_for_law(setup, engine):
         return
     speeds = setup.impact_speeds_m_per_s
     raise UsageError(
-        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over the {setup.n_bounces} calibrated bounces (impact speeds "
-        f"{float(np.max(speeds)):.3g}..{float(np.min(speeds)):.3g} m/s); the contact of {engine} is one constant "
-        f"epsilon, which misses by at least {least:.4f} (half the spread), more than --tolerance "
-        f"{setup.tolerance:g}: give fewer --bounces or a narrower --impact-speed range, a --tolerance above "
-        f"{least:.3g}, or an engine that takes epsilon per impact (ode, bullet: their exports carry the speed law)")
+        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over {setup.n_bounces} bounces ({float(np.max(speeds)):.3g}.."
+        f"{float(np.min(speeds)):.3g} m/s); {engine}: one constant epsilon, off by at least {least:.4f} (half the "
+        f"spread) > --tolerance {setup.tolerance:g}: give fewer --bounces, a narrower --impact-speed, --tolerance "
+        f"{_round_up(least)}, or --engine ode or bullet (their exports carry the law)")
 
 
 def _contact_choice(setup, stiffness):

@@ -77,8 +77,8 @@ def format_table(setup, pair=None):
         head += "\n".join(textwrap.wrap(line, 100)) + "\n"
     if setup.drop_height_m is not None:
         v = setup.impact_speeds_m_per_s
-        head += (f"slowest impact of the drop: {float(v[-1]):.3g} m/s (bounce {len(v)}): keep each bounce threshold "
-                 "below it\n")
+        head += (f"{len(v)} bounce(s) from {setup.drop_height_m:.4g} m hit at {float(v[0]):.3g}..{float(v[-1]):.3g} "
+                 "m/s: keep each bounce threshold below your slowest impact\n")
     how = ["how:"]
     for r in rows:
         if r["body"] == setup.ball or r["combine"] == "custom":
