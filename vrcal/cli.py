@@ -755,7 +755,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     if output not in (None, "-"):
         check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:
-        setup, rows = run_trade_off(ball, engine, **options)
+        setup, rows = run_trade_off(ball, engine, against=against, stiffness=stiffness, **options)
         emit(format_trade_off(setup, rows) if form == "text" else
              dumps(machine_document({"engine": "mujoco", "ball": setup.ball, "target_epsilon": setup.epsilon,
                                      "rows": rows}), "json"), output)

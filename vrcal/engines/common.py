@@ -115,6 +115,8 @@ class DropSetup:
         time of release in a replayed record [s] (0 for a drop test)
     height_offset_m : float
         tracked point above the ball's bottom in a replayed record [m]
+    baseline_epsilon : float or None
+        the constant epsilon of a discover result's baseline (drag and eps(v) folded in), if any
     """
 
     ball: str
@@ -135,6 +137,7 @@ class DropSetup:
     integrator: str = None
     release_time_s: float = 0.0
     height_offset_m: float = 0.0
+    baseline_epsilon: float = None
 
     @property
     def penetration_limit_m(self):
@@ -509,6 +512,40 @@ def epsilon_spread(setup):
     eps = setup.epsilons
     lo, hi = float(np.min(eps)), float(np.max(eps))
     return lo, hi, 0.5 * (hi - lo)
+
+
+def constant_epsilon(setup):
+    """The one epsilon of an engine that takes a constant per material (Gazebo, PhysX, Unity, Box2D)
+    for the setup's ball/floor pair: the target, or for a speed-dependent epsilon the centre of its
+    spread over the setup's impacts (no constant is nearer all of them, :func:`epsilon_spread`)."""
+    if not setup.restitution_exponent:
+        return float(setup.epsilon)
+    lo, hi, _ = epsilon_spread(setup)
+    return 0.5 * (lo + hi)
+
+
+def constant_engine_notes(setup, engines, option=lambda name: f"--{name}"):
+    """What an engine with one epsilon per material and no air drag leaves out of a discover result:
+    one line per effect the setup carries (none without effects), each saying what to do.
+
+    ``option(name)`` writes an option's name (an XML comment may not hold two dashes).
+    """
+    lines = []
+    if setup.restitution_exponent:
+        lo, hi, least = epsilon_spread(setup)
+        v = setup.impact_speeds_m_per_s
+        lines.append(f"epsilon(v) spans {lo:.4f}..{hi:.4f} over the {setup.n_bounces} bounce(s) at "
+                     f"{float(np.max(v)):.3g}..{float(np.min(v)):.3g} m/s; {engines} take one restitution per "
+                     f"material: the value given is its centre, {constant_epsilon(setup):.4f}, off by up to "
+                     f"{least:.4f} at either end (choose the speeds with {option('impact-speed')} LO:HI)")
+    if setup.drag_coefficient:
+        what = (f"{engines} apply no air drag (the record's C_d {setup.drag_coefficient:.3g}): add the force "
+                f"F = -c|v|v, c = {drag_force_coefficient_kg_per_m(setup):.3g} kg/m, to the ball every step")
+        if setup.baseline_epsilon is not None:
+            what += (f", or export the discover baseline's constant, which folds drag into epsilon "
+                     f"({option('epsilon')} {setup.baseline_epsilon:.4f})")
+        lines.append(what)
+    return lines
 
 
 def drop_window_s(setup, drop_height_m, ratio=None, at_least=None):

@@ -30,7 +30,9 @@ from vrcal.engines.common import (
     N_BOUNCES,
     N_PHASES,
     RISE_M,
+    DropRuns,
     DropSetup,
+    _round_up,
     check_dt,
     check_epsilon,
     check_positive,
@@ -148,6 +150,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         max_penetration_m = check_positive(max_penetration_m, "--max-penetration")
     if integrator is not None and eng.name != "mujoco":
         raise UsageError(f"--integrator applies to MuJoCo only, not to {eng.name}")
+    if eng.name == "tables":
+        _refuse_for_tables(dt_s=dt_s, max_penetration_m=max_penetration_m)
     if drop_height_m is not None and impact_speed is not None:
         raise UsageError("give --drop-height or --impact-speed, not both")
     if drop_height_m is not None:
@@ -158,7 +162,11 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     notes = []
     g = body.gravity_m_per_s2(g_m_per_s2)
     drag = exponent = release = offset = 0.0
+    baseline = None
     if doc:
+        base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
+        baseline = base.get("epsilon", doc.get("epsilon_baseline"))
+        baseline = float(baseline) if isinstance(baseline, (int, float)) and 0 < baseline <= 1 else None
         params = doc["parameters"]
         effects = list(doc["effects"])
         if "air_drag" in effects:
@@ -207,6 +215,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         H = drop_height_m
     elif body.drop_height_m is not None:
         H = body.drop_height_m
+    elif eng.name == "tables":
+        H = None                                   # a material value needs no speeds
     else:
         raise UsageError("give the speeds to calibrate for: --drop-height M or --impact-speed LO[:HI] (m/s)")
     eps_floor, floor_name = 1.0, "rigid floor"
@@ -225,16 +235,27 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         if integrator not in INTEGRATORS:
             raise UsageError(f"unknown --integrator '{integrator}' (known: {', '.join(INTEGRATORS)})")
     setup = DropSetup(
-        ball=body.name, mass_kg=body.mass_kg, radius_m=body.radius_m, drop_height_m=float(H),
+        ball=body.name, mass_kg=body.mass_kg, radius_m=body.radius_m, drop_height_m=None if H is None else float(H),
         epsilon=check_epsilon(target), dt_s=dt, g_m_per_s2=g, ball_epsilon=eps_ball, floor_epsilon=eps_floor,
         notes=tuple(notes), n_bounces=n, drag_coefficient=drag, restitution_exponent=exponent,
         tolerance=tolerance, max_penetration_m=max_penetration_m, integrator=integrator,
-        release_time_s=release, height_offset_m=offset,
+        release_time_s=release, height_offset_m=offset, baseline_epsilon=baseline,
     )
     if impact_speed is not None:
         setup = _reach_lowest_speed(setup, lo, hi, n_bounces)
-    _check_bounces_reachable(setup)
+    if H is not None:
+        _check_bounces_reachable(setup)
     return setup
+
+
+def _refuse_for_tables(**given):
+    """One-line UsageError naming the options --engine tables cannot use (``dt_s``, ``max_penetration_m``)."""
+    flags = [flag for key, flag in (("dt_s", "--dt"), ("max_penetration_m", "--max-penetration"))
+             if given.get(key) is not None]
+    if flags:
+        raise UsageError(f"{' and '.join(flags)} {'does' if len(flags) == 1 else 'do'} not apply to --engine tables: "
+                         "PhysX, Unity and Box2D take epsilon as a material value and vrcal runs none of them, so "
+                         "no step or depth is checked (leave it out; --engine ode, bullet or mujoco check a step)")
 
 
 def _reach_lowest_speed(setup, lo, hi, n_bounces):
@@ -343,7 +364,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
     elif eng.name in ("ode", "bullet"):
-        check_step(setup, eng.name)
+        setup = _with_note(setup, check_step(setup, eng.name, n_phases=n_phases))
         data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
@@ -351,13 +372,22 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             data["pair"] = pair
         text = dumps(data, "json")
     elif eng.name == "gazebo":
-        check_step(setup, "gazebo")           # Gazebo runs ODE: the same limit
-        text = module.export_sdf(setup, pair, second)
+        refuse_constant_for_law(setup, "Gazebo")
+        checked = check_step(setup, "gazebo", n_phases=n_phases)             # Gazebo runs ODE
+        setup = _with_note(setup, checked)
+        text = module.export_sdf(setup, pair, second, checked)
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
+        if setup.drop_height_m is not None:
+            refuse_constant_for_law(setup, "PhysX, Unity and Box2D")
         data = {"engine": "tables", "rows": module.table(setup, pair)}
         text = module.format_table(setup, pair)
     return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
+
+
+def _with_note(setup, note):
+    """The setup with ``note`` appended to its notes (unchanged for None)."""
+    return setup if note is None else replace(setup, notes=setup.notes + (note,))
 
 
 def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
@@ -398,11 +428,10 @@ def refuse_constant_for_law(setup, engine):
         return
     speeds = setup.impact_speeds_m_per_s
     raise UsageError(
-        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over the {setup.n_bounces} calibrated bounces (impact speeds "
-        f"{float(np.max(speeds)):.3g}..{float(np.min(speeds)):.3g} m/s); {engine}'s contact is one constant "
-        f"epsilon, which misses by at least {least:.4f} (half the spread), more than --tolerance "
-        f"{setup.tolerance:g}: give fewer --bounces or a narrower --impact-speed range, a --tolerance above "
-        f"{least:.3g}, or an engine that takes epsilon per impact (ode, bullet: their exports carry the speed law)")
+        f"epsilon(v) spans {lo:.4f}..{hi:.4f} over {setup.n_bounces} bounces ({float(np.max(speeds)):.3g}.."
+        f"{float(np.min(speeds)):.3g} m/s); {engine}: one constant epsilon, off by at least {least:.4f} (half the "
+        f"spread) > --tolerance {setup.tolerance:g}: give fewer --bounces, a narrower --impact-speed, --tolerance "
+        f"{_round_up(least)}, or --engine ode or bullet (their exports carry the law)")
 
 
 def _contact_choice(setup, stiffness):
@@ -419,29 +448,50 @@ def _contact_choice(setup, stiffness):
     return "spring", math.sqrt(s / M.IMPEDANCE)
 
 
-def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, **options):
+def trade_off(ball=None, engine="mujoco", *, n_phases=N_PHASES, against=None, stiffness=None, **options):
     """The achievable (step, contact, stiffness, damping, errors, penetration, hover) of MuJoCo.
 
-    ``options`` as for :func:`build_setup`. Returns a list of dicts, one per calibration.
+    ``options`` as for :func:`build_setup`; ``against`` and ``stiffness`` are refused (the table
+    chooses the contact; a pair is exported without it). When no row at the step, half and a fifth
+    of it meets both limits, one more row: the largest smaller step that does, found by
+    calibrating in MuJoCo (:func:`vrcal.engines.mujoco.suggest_dt`), or none when no step down to
+    the run limit does.
+
+    Returns
+    -------
+    (DropSetup, list of dict)
+        the setup and one dict per calibration
     """
     eng = get_engine(engine)
     if eng.name != "mujoco":
         raise UsageError("--trade-off applies to MuJoCo (ODE and PyBullet take epsilon directly)")
+    given = [flag for flag, value in (("--against", against), ("--stiffness", stiffness)) if value is not None]
+    if given:
+        raise UsageError(f"{' and '.join(given)} cannot go with --trade-off, which lists the contacts to choose "
+                         "from for the ball on the floor: leave it out, then export the chosen row")
     from vrcal.engines import mujoco as M
 
     setup = build_setup(ball, "mujoco", **options)
+    refuse_constant_for_law(setup, "MuJoCo")
+    found = M.trade_off(setup, n_phases)
+    n_table = len(found)
+    if found and not any(not isinstance(cal, str) and cal.ok and dt >= setup.dt_s for dt, *_, cal in found):
+        dt_ok, cal = M.suggest_dt(setup, n_phases)         # as the refusal of export at this step names
+        passing = [dt for dt, *_, c in found if not isinstance(c, str) and c.ok]
+        if dt_ok is not None and dt_ok > max(passing, default=0.0):
+            found.append((dt_ok, cal.contact.kind, None, cal))
     rows = []
-    for dt, kind, w, cal in M.trade_off(setup, n_phases):
+    for i, (dt, kind, w, cal) in enumerate(found):
         if isinstance(cal, str):                     # 'no bounce' or 'too high'
             rows.append({"dt_s": dt, "contact": kind, "stiffness_per_s2": M.IMPEDANCE * w * w, "damping_per_s": None,
                          "margin_m": None, "worst_error": None, "median_error": None, "penetration_m": None,
-                         "hover_m": None, "ok": False, "failure": cal})
+                         "hover_m": None, "ok": False, "suggested": False, "failure": cal})
             continue
         c = cal.contact
         rows.append({"dt_s": dt, "contact": c.kind, "stiffness_per_s2": c.stiffness,
                      "damping_per_s": c.damping, "margin_m": c.margin_m, "worst_error": cal.worst_error,
                      "median_error": cal.median_error, "penetration_m": cal.penetration_m, "hover_m": cal.hover_m,
-                     "ok": bool(cal.ok)})
+                     "ok": bool(cal.ok), "suggested": i >= n_table})
     return setup, rows
 
 
@@ -464,7 +514,21 @@ def format_trade_off(setup, rows):
              for r in rows]
     body = table(cells, ["dt s", "contact", "S 1/s2", "D 1/s", "worst err", "median err", "pen mm", "hover mm",
                          "meets"])
-    return head + body + ("choose a row: --dt DT (and --stiffness S for a spring)\n" if rows else "")
+    return head + body + _next_step(setup, rows)
+
+
+def _next_step(setup, rows):
+    """The footer of the trade-off table: the options of the largest step that meets both limits."""
+    ok = [r for r in rows if r["ok"]]
+    if not ok:
+        return ("no step meets both, down to the run limit: raise --tolerance or --max-penetration, or give "
+                "fewer --bounces\n")
+    best = max(ok, key=lambda r: (r["dt_s"], r["contact"] == "damper", -r["worst_error"]))
+    spring = f" --stiffness {best['stiffness_per_s2']:.4g}" if best["contact"] == "spring" else ""
+    if best["dt_s"] >= setup.dt_s:
+        return f"your step meets both: export with --dt {best['dt_s']:g}{spring}\n"
+    where = " (last row: searched in MuJoCo)" if best.get("suggested") else ""
+    return f"--dt {setup.dt_s:g} misses; the largest step that meets both: --dt {best['dt_s']:g}{spring}{where}\n"
 
 
 #: How much faster than epsilon x the impact speed a ball leaves the floor in a step of dt, in units of
@@ -496,36 +560,77 @@ def step_bound(setup, engine="ode", n_bounces=None):
     return max(apex, velocity), float(np.max(speeds)) * setup.dt_s
 
 
-def check_step(setup, engine="ode", n_bounces=None):
-    """Refuse a time step at which ODE or Bullet may miss the tolerance or the penetration limit.
+def check_step(setup, engine="ode", n_phases=N_PHASES):
+    """Refuse a time step at which ODE or Bullet misses the tolerance or the penetration limit.
 
-    The message names a step that meets both: from :func:`step_bound`, then checked (and made
-    smaller until it passes) by running the engine when it is installed here.
+    A step whose :func:`step_bound` meets both limits passes without a run. Otherwise the drop test
+    runs in the engine at that step (Gazebo: in libode, the engine behind it): a step that passes
+    there is accepted and the measured numbers are returned as a note; a step that misses is
+    refused with the measured numbers and a step that meets both, checked in the engine. Only when
+    the engine is not installed here does the refusal rest on the bound (and says so).
+
+    Returns
+    -------
+    str or None
+        the note of a step that passed in the engine although the bound did not (None: the bound passed)
     """
-    bound, depth = step_bound(setup, engine, n_bounces)
+    bound, depth = step_bound(setup, engine)
     if bound <= setup.tolerance and depth <= setup.penetration_limit_m:
-        return
-    scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
-    dt_ok = round_down(setup.dt_s * scale)
-    checked = _check_in_engine(setup, engine, dt_ok)
-    if checked is not None:
-        dt_ok, runs = checked
-        how = (f"--dt {dt_ok:g} meets both (checked in {'ODE' if engine == 'gazebo' else engine}: "
-               f"error {runs.worst_error:.3g}, "
-               f"{runs.penetration_m * 1e3:.3g} mm)")
+        return None
+    label = "ODE" if engine in ("ode", "gazebo") else engine
+    runs = _run_in_engine(setup, engine, setup.dt_s, n_phases)
+    if isinstance(runs, DropRuns) and _meets(setup, runs):
+        return (f"step {setup.dt_s:g} s checked in {label} ({n_phases} phases x {setup.n_bounces} bounces): "
+                f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
+                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm)")
+    if isinstance(runs, DropRuns):
+        misses = []
+        if runs.worst_error > setup.tolerance:
+            misses.append(f"worst epsilon error {runs.worst_error:.3g} (tolerance {setup.tolerance:g})")
+        if _depth(runs) > setup.penetration_limit_m:
+            misses.append(f"the ball turns {_depth(runs) * 1e3:.3g} mm from the floor "
+                          f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+        what = f"measured in {label}, {n_phases} phases x {setup.n_bounces} bounces: {'; '.join(misses)}"
+        scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
+                    setup.penetration_limit_m / max(_depth(runs), 1e-12))
+    elif isinstance(runs, str):                  # no drop test: the ball did not bounce as asked, or too long a run
+        what = f"in {label}: {runs}"
+        scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
     else:
-        how = f"use --dt {dt_ok:g} or smaller"
-    what = f"its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor"
-    if depth > setup.penetration_limit_m:          # name every limit missed, in one line
-        what += f" (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)"
-    if bound > setup.tolerance:
-        what += f", which can move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})"
+        what = (f"not run here ({label} is not installed); by the step bound its contact acts only once the "
+                f"ball is up to {depth * 1e3:.3g} mm in the floor")
+        if depth > setup.penetration_limit_m:
+            what += f" (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)"
+        if bound > setup.tolerance:
+            what += f", which can move epsilon by up to {bound:.3g} (> tolerance {setup.tolerance:g})"
+        scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
+    dt_ok = round_down(setup.dt_s * min(0.95 * scale, 0.9))
+    checked = _check_in_engine(setup, engine, dt_ok, n_phases)
+    if checked is not None:
+        dt_ok, ok = checked
+        how = (f"--dt {dt_ok:g} meets both (checked in {label}: error {ok.worst_error:.3g}, "
+               f"{_depth(ok) * 1e3:.3g} mm)")
+    elif runs is None:
+        how = f"use --dt {dt_ok:g} or smaller (by the bound)"
+    else:
+        how = (f"no step down to {round_down(dt_ok * 0.8 ** 5):g} s met both in {label}: raise --tolerance or "
+               "--max-penetration")
     raise UsageError(f"time step {setup.dt_s:g} s is too large for {engine}: {what}; {how}")
 
 
-def _check_in_engine(setup, engine, dt_s, n_phases=N_PHASES, tries=6):
-    """(step, DropRuns) of the first of dt_s, 0.8 dt_s, ... that passes in the engine; None when the
-    engine is not installed here (or nothing passed)."""
+def _depth(runs):
+    """How far from the floor a run's contacts turned the ball [m]: penetration or hover."""
+    return max(runs.penetration_m, runs.hover_m)
+
+
+def _meets(setup, runs):
+    return runs.worst_error <= setup.tolerance and _depth(runs) <= setup.penetration_limit_m
+
+
+def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
+    """The drop test of ``setup`` at ``dt_s`` in ODE (also for Gazebo) or Bullet: a DropRuns; a str
+    saying why there is none (the ball did not bounce as asked, the run is too long); None when the
+    engine is not installed here."""
     from vrcal.engines import require_runtime
     from vrcal.engines.common import check_steps
     from vrcal.errors import EngineUnavailable
@@ -536,20 +641,30 @@ def _check_in_engine(setup, engine, dt_s, n_phases=N_PHASES, tries=6):
     except (EngineUnavailable, UsageError):
         return None
     module = load(name)
-    eng = get_engine(name)
+    trial = replace(setup, dt_s=dt_s)
+    try:
+        check_steps(trial, n_phases, name, get_engine(name).max_steps)
+    except UsageError as exc:
+        return str(exc)
+    params = module.export_params(trial, trial.n_bounces)
+    if engine == "gazebo" and params.pop("restitution_law", None):       # the SDF's one constant
+        from vrcal.engines.common import constant_epsilon
+
+        params["contact"]["bounce"] = constant_epsilon(trial)
+    try:
+        return module.drop_test(params, trial, trial.n_bounces, n_phases)
+    except DataError as exc:
+        return str(exc)
+
+
+def _check_in_engine(setup, engine, dt_s, n_phases=N_PHASES, tries=6):
+    """(step, DropRuns) of the first of dt_s, 0.8 dt_s, ... that passes in the engine; None when the
+    engine is not installed here (or nothing passed)."""
     for _ in range(tries):
-        trial = replace(setup, dt_s=dt_s)
-        try:
-            check_steps(trial, n_phases, name, eng.max_steps)
-        except UsageError:
+        runs = _run_in_engine(setup, engine, dt_s, n_phases)
+        if runs is None:
             return None
-        params = module.export_params(trial, trial.n_bounces)
-        try:
-            runs = module.drop_test(params, trial, trial.n_bounces, n_phases)
-        except DataError:
-            runs = None
-        if runs is not None and runs.worst_error <= setup.tolerance and \
-                max(runs.penetration_m, runs.hover_m) <= setup.penetration_limit_m:
+        if not isinstance(runs, str) and _meets(setup, runs):
             return dt_s, runs
         dt_s = round_down(0.8 * dt_s)
     return None

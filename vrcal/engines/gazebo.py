@@ -13,9 +13,10 @@ XML only; the ODE settings behind it are the ones verified in libode.
 
 from __future__ import annotations
 
+import textwrap
 import xml.etree.ElementTree as ET
 
-from vrcal.engines.common import step_note
+from vrcal.engines.common import constant_engine_notes, constant_epsilon, step_note
 from vrcal.engines.ode import BOUNCE_VEL_M_PER_S
 
 SDF_VERSION = "1.7"
@@ -60,13 +61,13 @@ def _sphere_model(world, name, setup, x_m):
         _sub(inertia, tag, 0.0)
     collision = _sub(link, "collision", name="collision")
     _sub(_sub(_sub(collision, "geometry"), "sphere"), "radius", R)
-    _surface(collision, setup.epsilon)      # the ball/floor value: the floor is 1 and min() picks this
+    _surface(collision, constant_epsilon(setup))   # the ball/floor value: the floor is 1 and min() picks this
     visual = _sub(link, "visual", name="visual")
     _sub(_sub(_sub(visual, "geometry"), "sphere"), "radius", R)
     return model
 
 
-def export_sdf(setup, pair=None, second=None):
+def export_sdf(setup, pair=None, second=None, checked=None):
     """An SDF world (ODE physics, ``max_step_size`` = dt) with the ball and a ground plane.
 
     Parameters
@@ -76,6 +77,8 @@ def export_sdf(setup, pair=None, second=None):
         pair values for ``--against`` (written as a comment: Gazebo's min rule cannot multiply)
     second : DropSetup, optional
         the second ball
+    checked : str, optional
+        the note of a step measured in libode (:func:`vrcal.engines.export.check_step`), for the header
 
     Returns
     -------
@@ -114,15 +117,16 @@ def export_sdf(setup, pair=None, second=None):
         "     Gazebo classic (ODE) uses bounce = min(ball, floor) and bounce_vel = min(thresholds):\n"
         "     the floor is set to 1 so the ball's coefficient is the one used; impacts slower than\n"
         f"     the threshold ({BOUNCE_VEL_M_PER_S} m/s) do not bounce (SDF's default 100000 m/s never bounces).\n"
-        f"     max_step_size: {step_note(setup, 'gazebo')}. -->\n"
+        f"     max_step_size: {step_note(setup, 'gazebo')}"
+        + ("".join(f".\n     {w}" if i == 0 else f"\n     {w}" for i, w in
+                   enumerate(textwrap.wrap(checked.replace("--", ""), 92))) if checked else ".")
+        + " -->\n"
     )
-    if setup.drag_coefficient or setup.restitution_exponent:
-        head += (
-            "<!-- from a discover result: Gazebo classic applies no air drag "
-            f"(C_d {setup.drag_coefficient:.4g}) and one\n"
-            "     restitution per surface: add them with a plugin, or export the baseline's effective epsilon\n"
-            "     (vrcal export --epsilon EPS_BASELINE) for an engine without drag. -->\n"
-        )
+    notes = constant_engine_notes(setup, "Gazebo classic surfaces", option=lambda name: f"the {name} option")
+    if notes:
+        lines = [w for line in notes for w in textwrap.wrap(line, 92)]
+        head += "<!-- from a discover result:\n" + "".join(f"     {w}\n" for w in lines[:-1]) + \
+            f"     {lines[-1]} -->\n"
     if pair:
         head += (
             f"<!-- pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.6f} = product of the two balls' values;\n"

@@ -11,11 +11,21 @@ No runtime of these engines is used; the numbers follow each engine's documented
 
 from __future__ import annotations
 
+from vrcal.engines.common import constant_engine_notes, constant_epsilon
+
+#: What these engines are called in notes.
+ENGINES_NAME = "PhysX, Unity and Box2D"
+
 
 def table(setup, pair=None):
     """Rows (engine, body, restitution, combine mode, threshold, how) as a list of dicts; the scene's
-    gravity is ``setup.g_m_per_s2`` [m/s^2] (the restitution itself does not depend on it)."""
-    e_ball = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
+    gravity is ``setup.g_m_per_s2`` [m/s^2] (the restitution itself does not depend on it).
+
+    A speed-dependent epsilon gets the constant nearest it over the setup's impacts
+    (:func:`vrcal.engines.common.constant_epsilon`): these engines take one value per material.
+    """
+    e_pair = constant_epsilon(setup) if setup.drop_height_m is not None else float(setup.epsilon)
+    e_ball = e_pair / setup.floor_epsilon
     rows = [
         {"engine": "PhysX", "body": setup.ball, "restitution": e_ball, "combine": "Multiply",
          "threshold_m_per_s": 0.01,
@@ -29,7 +39,7 @@ def table(setup, pair=None):
                 "Physics.bounceThreshold (default 2 m/s) below your slowest impact"},
         {"engine": "Unity", "body": "floor", "restitution": setup.floor_epsilon, "combine": "Multiply",
          "threshold_m_per_s": 0.01, "how": "floor material: bounciness 1, Multiply"},
-        {"engine": "Box2D", "body": setup.ball, "restitution": setup.epsilon, "combine": "max (built in)",
+        {"engine": "Box2D", "body": setup.ball, "restitution": e_pair, "combine": "max (built in)",
          "threshold_m_per_s": 0.01,
          "how": "b2FixtureDef.restitution (v2.4) / b2ShapeDef restitution (v3); floor restitution 0 so "
                 "max() gives the ball's value; b2_velocityThreshold / restitutionThreshold (1 m/s) lowered"},
@@ -63,9 +73,12 @@ def format_table(setup, pair=None):
     cells = [[r["engine"], r["body"], f"{r['restitution']:.4f}", r["combine"], f"{r['threshold_m_per_s']:g}"]
              for r in rows]
     body = text_table(cells, ["engine", "body", "restitution", "combine", "threshold m/s"])
-    if setup.drag_coefficient or setup.restitution_exponent:
-        head += ("these engines get no air drag and one restitution per material: add the drag force yourself, or\n"
-                 "use the discover baseline's effective epsilon (vrcal export --epsilon EPS_BASELINE)\n")
+    for line in constant_engine_notes(setup, ENGINES_NAME):
+        head += "\n".join(textwrap.wrap(line, 100)) + "\n"
+    if setup.drop_height_m is not None:
+        v = setup.impact_speeds_m_per_s
+        head += (f"{len(v)} bounce(s) from {setup.drop_height_m:.4g} m hit at {float(v[0]):.3g}..{float(v[-1]):.3g} "
+                 "m/s: keep each bounce threshold below your slowest impact\n")
     how = ["how:"]
     for r in rows:
         if r["body"] == setup.ball or r["combine"] == "custom":
