@@ -511,9 +511,10 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
                    "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
-@click.option("--drop-measured-to", type=opt.BALL_POINT, default="bottom", show_default=True,
-              help="Point of the ball the drop heights of a height table were measured to.")
-@click.option("--rebound-measured-to", type=opt.BALL_POINT, default="bottom", show_default=True,
+@click.option("--drop-measured-to", type=opt.BALL_POINT, default=None,
+              help="Point of the ball the drop heights were measured to (heights only) [default: not stated: the "
+                   "bottom, and a height offset is tried].")
+@click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None,
               help="Point of the ball the rebound heights were measured to (a ruler read at the ball's top: top).")
 @g_option(from_json=False)
 @click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
@@ -559,8 +560,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                            g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
                            y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
                            read_options={"progress": None if quiet else tracking_progress("discover")},
-                           drop_measured_to=drop_measured_to.replace("center", "centre"),
-                           rebound_measured_to=rebound_measured_to.replace("center", "centre"))
+                           drop_measured_to={"center": "centre"}.get(drop_measured_to, drop_measured_to),
+                           rebound_measured_to={"center": "centre"}.get(rebound_measured_to, rebound_measured_to))
     text = fit_report(result, details=details)
     for warning in result.warnings:
         click.echo(f"vrcal: warning: {warning}", err=True)

@@ -131,7 +131,9 @@ def test_a_table_of_rebounds_read_at_the_balls_top_gives_the_planted_epsilon(tmp
     doc = json.loads((tmp_path / "told.json").read_text())
     assert abs(doc["epsilon"] - truth["epsilon"]) < max(3 * doc["epsilon_uncertainty"], 0.005), doc["epsilon"]
     assert doc["reader"]["rebound_measured_to"] == "top"
+    assert all(c["name"] != "height_offset" for c in doc["candidates"])     # the point is given: no offset
     as_read = CliRunner().invoke(main, ["discover", str(path), *ball, str(tmp_path / "read.json")])
     wrong = json.loads((tmp_path / "read.json").read_text())
     assert wrong["epsilon"] > truth["epsilon"] + 0.01 or wrong["effects"], wrong["epsilon"]
     assert as_read.exit_code == 0
+    assert any(c["name"] == "height_offset" for c in wrong["candidates"])   # not stated: an offset is tried

@@ -452,7 +452,7 @@ def _of_run(label, note):
     return f"{label}: {note}" if label else note
 
 
-def heights_to_bottom(data, diameter_m, drop_measured_to="bottom", rebound_measured_to="bottom"):
+def heights_to_bottom(data, diameter_m, drop_measured_to=None, rebound_measured_to=None):
     """Apex heights (one drop's, or the rows of a drop table) with each height brought to the ball's
     bottom, which the model's heights are: a class that reads the top of the ball against a ruler
     reads one diameter more (:func:`vrcal.model.restitution.height_to_bottom_m`).
@@ -463,19 +463,22 @@ def heights_to_bottom(data, diameter_m, drop_measured_to="bottom", rebound_measu
         as read; bounce 0 of each run is the drop height, the others rebounds
     diameter_m : float
         ball diameter D [m]
-    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}
-        the point of the ball the drop heights and the rebound heights were measured to
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"} or None
+        the point of the ball the drop heights and the rebound heights were measured to; None: not
+        stated (taken as the bottom, and discover tries a height offset)
 
     Returns
     -------
     ApexHeights or Runs
-        ``data`` itself when both are "bottom", else a copy with the heights moved and a note
+        ``data`` itself when neither is stated, else a copy with the heights moved (when not at the
+        bottom) and a note
     """
     from vrcal.measurements.types import Runs
     from vrcal.model.restitution import height_to_bottom_m
 
-    if drop_measured_to == rebound_measured_to == "bottom":
+    if drop_measured_to is None and rebound_measured_to is None:
         return data
+    drop_to, rebound_to = drop_measured_to or "bottom", rebound_measured_to or "bottom"
     runs = data.runs if isinstance(data, Runs) else (data,)
     if runs[0].kind != "apexes":
         raise UsageError(f"--drop-measured-to and --rebound-measured-to apply to heights (a drop table or the apex "
@@ -485,13 +488,13 @@ def heights_to_bottom(data, diameter_m, drop_measured_to="bottom", rebound_measu
     for run in runs:
         h = np.asarray(run.h_m, dtype=float)
         first = np.asarray(run.bounce) == 0
-        to = np.where(first, height_to_bottom_m(h, drop_measured_to, diameter_m),
-                      height_to_bottom_m(h, rebound_measured_to, diameter_m))
+        to = np.where(first, height_to_bottom_m(h, drop_to, diameter_m), height_to_bottom_m(h, rebound_to, diameter_m))
         moved.append(dataclasses.replace(run, h_m=to))
     shift = {"bottom": "", "centre": f", -{diameter_m * 500:.1f} mm", "top": f", -{diameter_m * 1e3:.1f} mm"}
-    note = (f"heights measured to the ball's {drop_measured_to} (drops{shift[drop_measured_to]}) and "
-            f"{rebound_measured_to} (rebounds{shift[rebound_measured_to]}), brought to its bottom (D = "
-            f"{diameter_m * 1e3:.1f} mm)")
+    note = (f"heights measured to the ball's {drop_to} (drops{shift[drop_to]}) and {rebound_to} (rebounds"
+            f"{shift[rebound_to]})" + ("" if drop_to == rebound_to == "bottom" else
+                                       f", brought to its bottom (D = {diameter_m * 1e3:.1f} mm)") +
+            "; the point is given, so a height offset is not tried")
     if isinstance(data, Runs):
         return dataclasses.replace(data, runs=tuple(moved), notes=(*data.notes, note))
     return dataclasses.replace(moved[0], notes=(*moved[0].notes, note))

@@ -886,6 +886,10 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
     ambiguous = {k: v for k, v in ambiguous.items() if k in named}
+    if kind == "apexes" and "height_offset" in named:
+        notes.append("a height offset in heights says how they were read (the ball's top is one diameter above its "
+                     "bottom); if you know the point, give --drop-measured-to and --rebound-measured-to: no offset "
+                     "is then fitted (in a drop table one can stand in for the shape of epsilon(v) or for drag)")
     split = split_by_priors(problem, current, named, ambiguous, current.noise_sigma(sigma_floor))
     scatter = scatter_gap = None
     if kind == "impacts":
@@ -1079,7 +1083,7 @@ def _odds(delta_score):
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
                   standards=None, scale_m_per_px=None, y_down=False, fs_hz=None, progress=None, floor_m=None,
-                  noise=None, sheet=None, read_options=None, drop_measured_to="bottom", rebound_measured_to="bottom"):
+                  noise=None, sheet=None, read_options=None, drop_measured_to=None, rebound_measured_to=None):
     """Read measurement file(s) and run :func:`discover` on them (what ``vrcal discover`` calls).
 
     Parameters
@@ -1109,9 +1113,10 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     read_options : dict or None
         options of the sound and video readers (``roi``, ``color``, ``progress``, see
         :func:`vrcal.measurements.read_measurement`); a video's scale comes from the ball's diameter
-    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"} or None
         the point of the ball that drop and rebound heights were measured to
-        (:func:`vrcal.discovery.prepare.heights_to_bottom`; heights only)
+        (:func:`vrcal.discovery.prepare.heights_to_bottom`; heights only). Given, a height offset is
+        not tried: the point is known. None: not stated, the bottom, and a height offset is tried
 
     Returns
     -------
@@ -1135,5 +1140,7 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
     reader = {"files": [str(p) for p in paths], "format": fmt, **options, "drop_measured_to": drop_measured_to,
               "rebound_measured_to": rebound_measured_to}
+    stated = drop_measured_to is not None or rebound_measured_to is not None
+    candidates = [e for e in res.applicable_effects("apexes") if e != "height_offset"] if stated else None
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
-                    y_down=turned, reader=reader, stages=stages)
+                    y_down=turned, reader=reader, stages=stages, candidates=candidates)

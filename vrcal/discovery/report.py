@@ -266,8 +266,14 @@ def _systematic_lines(d, sigma):
     what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
             "contact_duration.contact_time_s": lambda v: f"a contact of the {v * 1e3:.2g} ms expected of this ball"}
     held = " and ".join(what[k](v) for k, v in sys_["held"].items())
-    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.4f}, {shift:+.4f}; "
-            f"a systematic uncertainty beside the ± above)"]
+    at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects else "")
+    tail = "a systematic uncertainty beside the ± above"
+    if "air_drag.drag_coefficient" in sys_["held"] and abs(shift) > max(0.01, 3 * (sigma or 0.0)):
+        # not a small correction: two answers, one for each kind of engine
+        tail = ("the contact's own restitution if the ball has that drag, for an engine that applies it; "
+                "the value above suits an engine without air drag")
+    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.4f}{at}, {shift:+.4f}; "
+            f"{tail})"]
 
 
 def _split_advice(d):
