@@ -6,10 +6,12 @@ import builtins
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from helpers import EXAMPLES, shared_file
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from vrcal.cli import main
 from vrcal.errors import DataError, UsageError, VrcalError
 from vrcal.measurements import (
     FORMATS,
@@ -277,7 +279,8 @@ def test_drop_tables_as_students_name_their_columns(tmp_path, header):
     assert [tuple(r.h_m) for r in data.runs] == [pytest.approx((a / 100, b / 100)) for a, b in zip(H, h)]
 
 
-@pytest.mark.parametrize("header", ["Versuch;Fallhöhe (cm);Rückprallhöhe (cm)", "Versuch;Fallhöhe in cm;Sprunghöhe in cm",
+@pytest.mark.parametrize("header", ["Versuch;Fallhöhe (cm);Rückprallhöhe (cm)",
+                                    "Versuch;Fallhöhe in cm;Sprunghöhe in cm",
                                     "Versuch;Fallhoehe (cm);Rueckprallhoehe (cm)",
                                     "Essai;Hauteur de chute (cm);Hauteur du rebond (cm)",
                                     "Intento;Altura de caída (cm);Altura de rebote (cm)",
@@ -297,10 +300,12 @@ def test_drop_tables_in_the_class_language_are_read(tmp_path, header):
 
 def test_a_table_of_heights_whose_names_are_not_known_says_how_to_name_them(tmp_path):
     p = write(tmp_path, "x.csv", "Versuch;Höhe A (cm);Höhe B (cm)\n1;30;17\n2;60;34\n")
-    with pytest.raises(DataError, match=r"x.csv:1: cannot tell the layout from the header .*: a table of heights\? "
-                                        r"a drop table needs a drop-height column \('H', 'drop'.*and a rebound "
-                                        r"column \('h', 'rebound'.*\(known formats: "):
+    with pytest.raises(DataError, match=r"x.csv:1: cannot tell the layout from the header .*: for drop and rebound "
+                                        r"heights, a drop table needs a drop-height column \('H', 'drop'.*and a "
+                                        r"rebound column \('h', 'rebound'.*\(other layouts: see --format\)"):
         read_measurement(p)
+    result = CliRunner().invoke(main, ["discover", str(p), "--ball", "tennis"])
+    assert result.exit_code == 1 and "characters]" not in result.output   # one line, not cut
     with pytest.raises(DataError, match=r"x.csv:1: a drop table needs a drop-height column"):
         read_measurement(p, "drops")
     p = write(tmp_path, "y.csv", "a,b\n1,2\n")   # no heights: no drop-table hint

@@ -70,9 +70,9 @@ _MORE = re.compile(r"^h\s*(\d+)$")
 DROP_WORDS = ("drop", "releas", "initial", "fall", "abwurf", "starth", "ausgangsh", "chute", "lach", "caid",
               "inicial", "cadut", "inizial", "queda", "soltur")
 #: Word beginnings that mark a rebound column: English (``Bounced to``), German (``Rückprallhöhe``,
-#: ``Rueckprallhoehe``, ``Sprunghöhe``, ``Rücksprunghöhe``, ``Abprallhöhe``, ``Steighöhe``), French (``hauteur du rebond``),
-#: Spanish and Portuguese (``altura de rebote``, ``altura do ressalto``, ``quique``), Italian (``altezza di
-#: rimbalzo``).
+#: ``Rueckprallhoehe``, ``Sprunghöhe``, ``Rücksprunghöhe``, ``Abprallhöhe``, ``Steighöhe``), French
+#: (``hauteur du rebond``), Spanish and Portuguese (``altura de rebote``, ``altura do ressalto``, ``quique``),
+#: Italian (``altezza di rimbalzo``).
 REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "ruckprall", "rueckprall", "rucksprung", "ruecksprung",
                  "abprall", "sprung", "steigh", "rebond", "rebot", "ressalt", "quique", "rimbalz")
 #: What a drop table's header must name (the error of a table whose columns are not recognised).

@@ -146,8 +146,10 @@ def _detect(text, below=None):
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
-    hint = f": a table of heights? {drops.NAMING}" if drops.looks_like_heights(below or text) else ""
-    fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r}{hint} "
+    if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
+        fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r}: for drop and rebound "
+                            f"heights, {drops.NAMING} (other layouts: see --format)")
+    fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r} "
           f"(known formats: {', '.join(FORMATS)}; see --format)")
 
 
@@ -256,9 +258,9 @@ def _detect_below_title(text):
     """(text, format, title): the format of ``text``, or of the text below its title lines (a class's sheet
     starts with 'Ball bounce lab - group 3' above its header): each format in :data:`FORMATS` order tries
     the text below the title, then the whole text (a Tracker export's first line, its track's name, looks
-    like a title, and the Tracker format reads it). Title lines are those of :func:`_title_lines`, or else one line above a
-    header no format reads as it is ('Golf ball, 1 m, group 3' above 't,y'); title is [(lineno, line)]
-    or None."""
+    like a title, and the Tracker format reads it). Title lines are those of :func:`_title_lines`, or else
+    one line above a header no format reads as it is ('Golf ball, 1 m, group 3' above 't,y'); title is
+    [(lineno, line)] or None."""
     k = _title_lines(text)
     if k:
         found, name = _detect(text, dataclasses.replace(text, lines=text.lines[k:]))
