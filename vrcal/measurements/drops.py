@@ -76,8 +76,8 @@ DROP_WORDS = ("drop", "releas", "initial", "fall", "abwurf", "starth", "ausgangs
 REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "ruckprall", "rueckprall", "rucksprung", "ruecksprung",
                  "abprall", "sprung", "steigh", "rebond", "rebot", "ressalt", "quique", "rimbalz")
 #: What a drop table's header must name (the error of a table whose columns are not recognised).
-NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'hauteur de chute', 'altura de "
-          "caída') and a rebound column ('h', 'rebound', 'Rückprallhöhe', 'hauteur du rebond', 'altura de rebote')")
+NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'hauteur de chute') and a rebound "
+          "column ('h', 'rebound', 'Rückprallhöhe', 'hauteur du rebond')")
 #: Words of a height column in any of the languages above (a table of heights the names do not say more of).
 _HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "apex")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
