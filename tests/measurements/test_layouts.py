@@ -6,10 +6,12 @@ import builtins
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from helpers import EXAMPLES, shared_file
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from vrcal.cli import main
 from vrcal.errors import DataError, UsageError, VrcalError
 from vrcal.measurements import (
     FORMATS,
@@ -277,6 +279,108 @@ def test_drop_tables_as_students_name_their_columns(tmp_path, header):
     assert [tuple(r.h_m) for r in data.runs] == [pytest.approx((a / 100, b / 100)) for a, b in zip(H, h)]
 
 
+@pytest.mark.parametrize("header", ["Versuch;Fallhöhe (cm);Rückprallhöhe (cm)",
+                                    "Versuch;Fallhöhe in cm;Sprunghöhe in cm",
+                                    "Versuch;Fallhoehe (cm);Rueckprallhoehe (cm)",
+                                    "Essai;Hauteur de chute (cm);Hauteur du rebond (cm)",
+                                    "Intento;Altura de caída (cm);Altura de rebote (cm)",
+                                    "Intento;Altura de caida [cm];Altura de rebote [cm]",
+                                    "Prova;Altezza di caduta (cm);Altezza di rimbalzo (cm)",
+                                    "Ensaio;Altura de queda (cm);Altura do ressalto (cm)"])
+def test_drop_tables_in_the_class_language_are_read(tmp_path, header):
+    """A German, French, Spanish, Italian or Portuguese class names its columns in its own language, writes
+    decimal commas and ';' (accents optional, 'in cm' as well as '(cm)'): 'cannot tell the layout' before."""
+    rows = [(30, "17,0"), (30, "16,5"), (100, "55,0"), (200, "107,0")]
+    p = write(tmp_path, "de.csv", header + "\n" + "".join(f"{i};{H};{h}\n" for i, (H, h) in enumerate(rows, 1)))
+    assert detect_format(p) == "drops"
+    data = read_measurement(p)
+    assert [tuple(r.h_m) for r in data.runs] == [pytest.approx((0.30, 0.17)), pytest.approx((0.30, 0.165)),
+                                                 pytest.approx((1.00, 0.55)), pytest.approx((2.00, 1.07))]
+
+
+def test_a_table_of_heights_whose_names_are_not_known_says_how_to_name_them(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    p = write(tmp_path, "x.csv", "Versuch;Höhe A (cm);Höhe B (cm)\n1;30;17\n2;60;34\n")
+    with pytest.raises(DataError, match=r"x.csv:1: cannot tell the layout from the header .*: for drop and rebound "
+                                        r"heights, a drop table needs a drop-height column \('H', 'drop'.*and a "
+                                        r"rebound column \('h', 'rebound'.*\(other layouts: see --format\)"):
+        read_measurement(p)
+    result = CliRunner().invoke(main, ["discover", "x.csv", "--ball", "tennis"])
+    assert result.exit_code == 1 and "characters]" not in result.output   # one line, not cut
+    with pytest.raises(DataError, match=r"x.csv:1: a drop table needs a drop-height column"):
+        read_measurement(p, "drops")
+    p = write(tmp_path, "y.csv", "a,b\n1,2\n")   # no heights: no drop-table hint
+    with pytest.raises(DataError, match=r"cannot tell the layout from the header 'a,b' \(known formats"):
+        read_measurement(p)
+
+
+@pytest.mark.parametrize("header,factor", [("trial,H (in),h (in)", 0.0254), ("Drop height (inches),Rebound height "
+                                           "(inches)", 0.0254), ("drop_inch,rebound_inch", 0.0254),
+                                           ("Drop height in inches,Rebound height in inches", 0.0254),
+                                           ("H [ft],h [ft]", 0.3048)])
+def test_a_drop_table_in_inches_or_feet(tmp_path, header, factor):
+    """A US class measures in inches: 'no time column: give the frame rate with --fs HZ' before."""
+    rows = [(40, 29), (40, 28), (20, 15)]
+    trial = header.startswith("trial")
+    text = header + "\n" + "".join((f"{i}," if trial else "") + f"{H},{h}\n" for i, (H, h) in enumerate(rows))
+    data = read_measurement(write(tmp_path, "in.csv", text))
+    assert isinstance(data, Runs)
+    np.testing.assert_allclose([r.h_m for r in data.runs], np.array(rows) * factor)
+
+
+def test_inches_and_feet_are_read_wherever_metres_are(tmp_path):
+    t, y = fall()
+    traj = read_measurement(write(tmp_path, "t.csv", "t (s),y (in)\n" + "".join(f"{a},{b / 0.0254}\n"
+                                                                                 for a, b in zip(t, y))))
+    np.testing.assert_allclose(traj.y_m, y, atol=1e-12)
+    apex = read_measurement(write(tmp_path, "a.csv", "bounce,h (ft)\n0,4\n1,3\n2,2.25\n"))
+    np.testing.assert_allclose(apex.h_m, np.array([4, 3, 2.25]) * 0.3048)
+
+
+@pytest.mark.parametrize("text", ["trial,H (yd),h (yd)\n1,40,29\n2,40,28\n", "t (s),y (yd)\n0,1\n0.01,0.99\n",
+                                  "bounce,h (yd)\n0,1\n1,0.8\n2,0.6\n"])
+def test_an_unknown_length_unit_is_named_with_the_known_ones(tmp_path, text):
+    with pytest.raises(DataError, match=r"unknown length unit 'yd' of column '.*' \(known: m, cm, mm, in, .*ft"):
+        read_measurement(write(tmp_path, "yd.csv", text))
+
+
+@pytest.mark.parametrize("title,first", [(["Ball bounce lab - group 3"], 3),
+                                         (["Ball bounce lab", "Group 3; 12 May"], 4),
+                                         (["Golf ball, 1 m, group 3"], 3)])
+def test_title_lines_above_the_header_are_skipped_with_a_note(tmp_path, title, first):
+    """A class's sheet starts with a title: 'is not a number (column ...)' or '3 cells but the header names 1
+    columns' before."""
+    text = "\n".join(title) + "\nTrial,Drop height (cm),Rebound height (cm)\n1,100,72.5\n2,100,73\n1,50,37.5\n"
+    data = read_measurement(write(tmp_path, "title.csv", text))
+    assert isinstance(data, Runs) and len(data.runs) == 3 and data.labels[0] == f"row 1 (line {first})"
+    assert data.notes[0].startswith("line 1 " if len(title) == 1 else "lines 1-2 (")
+    assert "a title: skipped" in data.notes[0] and repr(title[-1]) in data.notes[0]
+
+
+def test_a_title_cell_above_a_workbooks_table_is_skipped(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws["A1"] = "Ball bounce lab - group 3"
+    ws.append([])
+    for row in [["Trial", "Drop height (cm)", "Rebound height (cm)"], [1, 30, 17], [2, 30, 16.5], [1, 100, 55]]:
+        ws.append(row)
+    path = tmp_path / "class.xlsx"
+    wb.save(path)
+    data = read_measurement(path)
+    assert len(data.runs) == 3 and "line 1 'Ball bounce lab - group 3' is a title: skipped" in data.notes
+    np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.55])
+
+
+@pytest.mark.parametrize("text,said", [
+    ('{\n  "schema_version": 1,\n  "verdict": "explained",\n  "epsilon": 0.85\n}\n', "a JSON document"),
+    ("<mujoco>\n<option timestep='0.001'/>\n</mujoco>\n", "an XML or HTML document"),
+    ("Lab notes\nwe dropped the ball, then\n1,2\n", r"doc.txt:2: 'we dropped the ball, then' is not a number")])
+def test_documents_and_prose_are_not_tables_below_a_title(tmp_path, text, said):
+    with pytest.raises(DataError, match=said):
+        read_measurement(write(tmp_path, "doc.txt", text))
+
+
 def test_trials_side_by_side_are_one_run_each_and_the_average_is_not_read(tmp_path):
     text = ("Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)\n"
             "50,32.0,33.1,,32.6\n100,64.2,63.0,65.1,64.1\n")
@@ -517,7 +621,8 @@ def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
 
 CELLS = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**6, 10**6).map(str),
                   st.sampled_from(["t", "y", "h", "H", "bounce", "time (ms)", "y (px)", "drop", "rebound", "",
-                                   "nan", "1,5", "-", "x", "#", '"', "mass_A", "0.0687", "84.1"]))
+                                   "nan", "1,5", "-", "x", "#", '"', "mass_A", "0.0687", "84.1", "Fallhöhe (cm)",
+                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3"]))
 LINES = st.lists(st.lists(CELLS, min_size=1, max_size=4).map(lambda cs: st.sampled_from([",", ";", "\t", " "]).map(
     lambda sep: sep.join(cs))), min_size=0, max_size=30)
 

@@ -208,11 +208,27 @@ def test_drop_table_rows_with_a_rebound_above_the_drop():
     runs = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r), "t.csv") for r in rows), "t.csv",
                 labels=tuple(f"row {i + 1}" for i in range(4)))
     checked = check(runs, 0.04)
-    assert len(checked.data.runs) == 3 and any("row 2" in n for n in checked.notes)
+    assert len(checked.data.runs) == 3 and checked.warnings == (
+        "1 of 4 trials left out: a rebound higher than its drop is impossible for a ball (a misread or swapped "
+        "entry?): row 2 1.2 m from 1 m",)
     swapped = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r[::-1]), "t.csv") for r in rows), "t.csv",
                    labels=runs.labels)
     with pytest.raises(DataError, match="columns swapped"):
         check(swapped, 0.04)
+
+
+def test_a_drop_table_with_rebounds_above_their_drop_is_suspect_input_naming_their_lines(tmp_path):
+    """Three 30 cm trials rebounding above 30 cm were left out quietly (verdict 'explained')."""
+    path = tmp_path / "t.csv"
+    path.write_text("trial,H (cm),h (cm)\n1,100,72\n2,100,73\n1,50,37\n2,50,36\n1,30,35\n2,30,36\n3,30,22\n")
+    out = tmp_path / "r.json"
+    result = run("discover", path, "--ball", "table_tennis", "-q", "--json", out)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text())
+    assert doc["verdict"] == "suspect input"
+    assert [w for w in doc["warnings"] if "2 of 7 trials left out" in w and "row 5 (line 6) 0.35 m from 0.3 m; "
+            "row 6 (line 7) 0.36 m from 0.3 m" in w]
+    assert "vrcal: warning: 2 of 7 trials left out" in result.output
 
 
 def test_a_drop_smaller_than_the_ball_is_suspect(tmp_path):

@@ -3,13 +3,16 @@
 The header names which column is which (case matters only for ``H`` and ``h``):
 
 * the drop height: ``H``, ``H0``, ``h0``, ``drop``, ``drop height``, ``release height``,
-  ``initial height``, or any name with a word starting ``drop``, ``releas``, ``initial`` or
-  ``fall`` (``Height dropped (m)``, ``Dropped from (cm)``, ``drop_cm``);
+  ``initial height``, or any name with a word starting as one of :data:`DROP_WORDS`
+  (``Height dropped (m)``, ``Dropped from (cm)``, ``drop_cm``; in a class's own language
+  ``Fallhöhe``, ``hauteur de chute``, ``altura de caída``, ``altezza di caduta``, ``altura de queda``);
 * the first rebound: ``h``, ``h1``, ``rebound``, ``rebound height``, ``bounce height``,
-  ``first rebound``, or any name with a word starting ``rebound``, ``bounc``, ``return`` or
-  ``reach`` (``Height bounced (m)``, ``Bounced to (cm)``; a ``bounce`` column with a length unit
-  is a height, not a bounce number); further rebounds of the same trial may follow as ``h2``,
-  ``h3``, ...;
+  ``first rebound``, or any name with a word starting as one of :data:`REBOUND_WORDS`
+  (``Height bounced (m)``, ``Bounced to (cm)``; ``Rückprallhöhe``, ``Sprunghöhe``, ``hauteur du
+  rebond``, ``altura de rebote``, ``altezza di rimbalzo``, ``altura do ressalto``; a ``bounce``
+  column with a length unit is a height, not a bounce number); further rebounds of the same trial
+  may follow as ``h2``, ``h3``, ...; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
+  ``caida``);
 * **trials side by side**: a drop height and several rebound columns numbered by trial
   (``Trial 1 (cm)``, ``Trial 2 (cm)``, ``Run 3``, ``Try 2``), the classroom table with one row per
   drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... are trials when their values
@@ -17,7 +20,9 @@ The header names which column is which (case matters only for ``H`` and ``h``):
   when each is clearly below the one before; the notes say which;
 * other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are ignored.
 
-Units in brackets (``H (cm)``, ``h [mm]``; m when none). A height column without a unit takes
+Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
+``drop_cm``): any length unit of :data:`vrcal.measurements.table.LENGTH_UNITS` (m, cm, mm, inches,
+feet; m when none); another unit is an error naming the known ones. A height column without a unit takes
 the unit of the other height columns when they agree on one (with a note). Every row is a
 run of its own (its own drop); :class:`vrcal.measurements.types.Runs` of
 :class:`vrcal.measurements.types.ApexHeights` (bounce 0 = the drop height) are fitted jointly
@@ -29,20 +34,27 @@ epsilon apart.
 from __future__ import annotations
 
 import re
+import unicodedata
 from typing import NamedTuple
 
 import numpy as np
 
+from vrcal.errors import UsageError
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     LENGTH_UNITS,
     TIME_NAMES,
+    TIME_UNITS,
     column_values,
     fail,
     find_column,
     header_columns,
+    known_units,
     parse_table,
     row_lines,
+    sniff,
+    split_cells,
+    to_float,
 )
 from vrcal.measurements.types import ApexHeights, Runs
 
@@ -51,9 +63,23 @@ DROP_NAMES = ("h0", "h 0", "drop", "drop height", "release height", "initial hei
 REBOUND_NAMES = ("h1", "h 1", "rebound", "rebound height", "bounce height", "first rebound", "hrebound",
                  "h rebound", "return height", "rebound h")
 _MORE = re.compile(r"^h\s*(\d+)$")
-#: Word beginnings that mark a drop-height or a rebound column (``Height dropped``, ``Bounced to``).
-_DROP_WORDS = ("drop", "releas", "initial", "fall")
-_REBOUND_WORDS = ("rebound", "bounc", "return", "reach")
+#: Word beginnings (lower case, accents off: :func:`_folded`) that mark a drop-height column: English
+#: (``Height dropped``), German (``Fallhöhe``, ``Abwurfhöhe``, ``Starthöhe``, ``Ausgangshöhe``), French
+#: (``hauteur de chute``, ``de lâcher``), Spanish (``altura de caída``, ``inicial``), Italian (``altezza di
+#: caduta``, ``iniziale``), Portuguese (``altura de queda``).
+DROP_WORDS = ("drop", "releas", "initial", "fall", "abwurf", "starth", "ausgangsh", "chute", "lach", "caid",
+              "inicial", "cadut", "inizial", "queda", "soltur")
+#: Word beginnings that mark a rebound column: English (``Bounced to``), German (``Rückprallhöhe``,
+#: ``Rueckprallhoehe``, ``Sprunghöhe``, ``Rücksprunghöhe``, ``Abprallhöhe``, ``Steighöhe``), French
+#: (``hauteur du rebond``), Spanish and Portuguese (``altura de rebote``, ``altura do ressalto``, ``quique``),
+#: Italian (``altezza di rimbalzo``).
+REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "ruckprall", "rueckprall", "rucksprung", "ruecksprung",
+                 "abprall", "sprung", "steigh", "rebond", "rebot", "ressalt", "quique", "rimbalz")
+#: What a drop table's header must name (the error of a table whose columns are not recognised).
+NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'hauteur de chute') and a rebound "
+          "column ('h', 'rebound', 'Rückprallhöhe', 'hauteur du rebond')")
+#: Words of a height column in any of the languages above (a table of heights the names do not say more of).
+_HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "apex")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
 _TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
@@ -61,11 +87,19 @@ _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s
 
 
 def _length_unit(c):
-    return c.unit == "" or c.unit in LENGTH_UNITS
+    """True for a column that may hold heights: no unit, a length unit, or a unit of letters that is no
+    time unit (``H (yd)``: the parser then names it with the known ones)."""
+    return c.unit == "" or c.unit in LENGTH_UNITS or (c.unit.isalpha() and c.unit not in TIME_UNITS)
+
+
+def _folded(name):
+    """``name`` in lower case without accents (``Rückprallhöhe`` -> ``ruckprallhohe``, ``caída`` -> ``caida``)."""
+    decomposed = unicodedata.normalize("NFKD", name.lower().replace("ß", "ss"))
+    return "".join(ch for ch in decomposed if not unicodedata.combining(ch))
 
 
 def _has_word(name, starts):
-    return any(word.startswith(starts) for word in re.split(r"[\s/_-]+", name))
+    return any(word.startswith(starts) for word in re.split(r"[\s/_'-]+", _folded(name)))
 
 
 class DropColumns(NamedTuple):
@@ -82,7 +116,7 @@ def _height_columns(cols):
     """:class:`DropColumns` of a drop table, or None when the columns are not one."""
     heights = [c for c in cols if _length_unit(c)]
     drop = next((c for c in heights if c.raw in ("H", "H0", "H 0")), None) or find_column(heights, DROP_NAMES) \
-        or next((c for c in heights if _has_word(c.name, _DROP_WORDS) and not _has_word(c.name, _REBOUND_WORDS)),
+        or next((c for c in heights if _has_word(c.name, DROP_WORDS) and not _has_word(c.name, REBOUND_WORDS)),
                 None)
     if drop is None:
         return None
@@ -95,8 +129,8 @@ def _height_columns(cols):
         numbered.sort(key=lambda c: int(_NUMBERED.match(c.name).group(1)))
         return DropColumns(drop, [], numbered)
     rebound = find_column(rest, REBOUND_NAMES) or next((c for c in rest if c.raw == "h"), None) \
-        or next((c for c in rest if _has_word(c.name, _REBOUND_WORDS) and c.unit), None) \
-        or next((c for c in rest if _has_word(c.name, _REBOUND_WORDS) and c.name not in BOUNCE_NAMES), None)
+        or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.unit), None) \
+        or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.name not in BOUNCE_NAMES), None)
     if rebound is None:
         return None
     out = {1: rebound}
@@ -136,6 +170,22 @@ def detect(text):
     return _height_columns(cols) is not None
 
 
+def looks_like_heights(text):
+    """True when the header names two or more columns of heights (a length unit, or a word of a height,
+    a drop or a rebound in a language above) and no time, over a row of numbers there: a drop table
+    whose names are not recognised (the error then says how to name them, :data:`NAMING`)."""
+    cols = header_columns(text)
+    if not cols or len(text.lines) < 2 or find_column(cols, TIME_NAMES) is not None:
+        return False
+    heights = [c for c in cols if (c.unit and _length_unit(c))
+               or _has_word(c.name, _HEIGHT_WORDS + DROP_WORDS + REBOUND_WORDS)]
+    if len(heights) < 2:
+        return False
+    sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
+    cells = split_cells(text.lines[1][1], sep)
+    return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
+
+
 def _unit_factors(path, table, columns, scale_m_per_px, notes):
     """{column index: factor to m} of the height columns (a column without a unit takes the others')."""
     units = {c.unit for c in columns if c.unit}
@@ -145,8 +195,11 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
         if not unit and len(units) == 1:
             unit = next(iter(units))
             notes.append(f"column '{c.raw}' has no unit: taken as {unit} like the other heights")
-        if unit not in LENGTH_UNITS or LENGTH_UNITS[unit] is None:
-            fail(path, table.header_line, f"unknown length unit '{unit}' of column '{c.raw}' (known: m, cm, mm)")
+        if unit not in LENGTH_UNITS:
+            fail(path, table.header_line, f"unknown length unit '{unit}' of column '{c.raw}' "
+                                          f"(known: {known_units(LENGTH_UNITS)})")
+        if LENGTH_UNITS[unit] is None and scale_m_per_px is None:
+            raise UsageError(f"{path}: column '{c.raw}' is in pixels: give --scale M_PER_PX")
         factors[c.index] = LENGTH_UNITS[unit]
     if scale_m_per_px is not None:
         notes.append(f"heights scaled by --scale {scale_m_per_px:g} m per file unit")
@@ -161,8 +214,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     table = parse_table(text)
     found = _height_columns(table.cols)
     if found is None:
-        fail(path, table.header_line, "a drop table needs a drop-height column ('H', 'drop') and a rebound "
-              "column ('h', 'rebound')")
+        fail(path, table.header_line, NAMING)
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     columns = [found.drop] + found.numbered + [c for trial in found.trials for c in trial.values()]

@@ -22,6 +22,9 @@ The checks (each a function below):
   heights and times (mm read as m give 1000 g) and the frame rate (:func:`flight_gravity`);
 * the bounces shrink: the impact intervals of a bouncing ball shrink (epsilon <= 1), its
   apexes fall, a rebound stays below its drop (:func:`check_impact_times`, :func:`check_apexes`);
+  in a drop table (:class:`vrcal.measurements.types.Runs` of apexes) a trial whose rebound is
+  above its drop is left out with a warning naming its line, and most trials so are an error
+  (the columns swapped) (:func:`check`);
 * the ball's size against the record's scale: drop heights between half a ball diameter and
   :data:`MAX_DROP_M` (a drop table in cm read as m has drops of 110 m).
 """
@@ -325,7 +328,8 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
     Returns
     -------
     Checked
-        the record (runs or apexes that cannot be physical left out, with a note) and the findings
+        the record (runs or apexes that cannot be physical left out, with a note; trials of a drop table
+        so, with a warning) and the findings
 
     Raises
     ------
@@ -339,7 +343,9 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
         dropped = []
         for run, label in zip(data.runs, data.labels or [f"run {i + 1}" for i in range(len(data.runs))]):
             if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] > run.h_m[0]:
-                dropped.append(label)
+                lines = getattr(run, "lines", None)
+                at = f" (line {int(lines[1])})" if lines is not None and "(line " not in label else ""
+                dropped.append(f"{label}{at} {run.h_m[1]:.4g} m from {run.h_m[0]:.4g} m")
                 continue
             checked = _check_one(run, diameter_m, g_m_per_s2, y_down, sigma_m, label)
             runs.append(checked.data)
@@ -349,8 +355,9 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
             if len(dropped) * 2 > len(data.runs):
                 _fail(data.source, f"the rebound is higher than the drop in {len(dropped)} of {len(data.runs)} "
                                    f"trials: are the drop and rebound columns swapped?")
-            findings.append(Finding("note", f"left out (rebound higher than the drop, impossible): "
-                                            f"{', '.join(dropped)}"))
+            findings.append(Finding("warning", f"{len(dropped)} of {len(data.runs)} trials left out: a rebound "
+                                               f"higher than its drop is impossible for a ball (a misread or "
+                                               f"swapped entry?): {'; '.join(dropped)}"))
         return Checked(replace(data, runs=tuple(runs), labels=tuple(labels)), tuple(findings))
     return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "")
 

@@ -91,12 +91,12 @@ def format_help():
 
 
 def detect_format(path):
-    """Name of the first format in :data:`FORMATS` whose detector accepts the file."""
+    """Name of the first format in :data:`FORMATS` whose detector accepts the file (or the table below
+    its title lines)."""
     name = _detect_recording(path)
     if name is not None:
         return name
-    text = load_text(path)
-    return _detect(text)
+    return _detect_below_title(load_text(path))[1]
 
 
 def _detect_recording(path):
@@ -120,21 +120,58 @@ _DOCUMENTS = {"{": "a JSON document (a 'vrcal discover --json' result, an export
               "[": "a JSON document", "<": "an XML or HTML document (a MuJoCo or Gazebo export, a web page?)"}
 
 
-def _detect(text):
+#: Most title lines above a table's header (a class's sheet: the experiment, the group, the date).
+MAX_TITLE_LINES = 5
+
+
+def _detect(text, below=None):
+    """(text, name): the first format of :data:`FORMATS` whose detector accepts ``below`` (the text under
+    its title lines, when given) or, tried next by the same format, ``text``; an error naming the header
+    otherwise."""
     no, line = text.lines[0]
     what = _DOCUMENTS.get(line.lstrip()[:1])
     if what is not None:
         fail(text.path, no, f"{what}, not a measurement: give the measured file (a table of times, "
                             f"heights or positions, a sound or a video; docs/measurements.md)")
     for name, fmt in FORMATS.items():
-        if not fmt.recording and fmt.detector(text):
-            return name
+        if fmt.recording:
+            continue
+        if below is not None and fmt.detector(below):
+            return below, name
+        if fmt.detector(text):
+            return text, name
+    if below is not None:
+        no, line = below.lines[0]
     cells = loose_cells(line)
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
+    if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
+        fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r}: for drop and rebound "
+                            f"heights, {drops.NAMING} (other layouts: see --format)")
     fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r} "
           f"(known formats: {', '.join(FORMATS)}; see --format)")
+
+
+def _has_number(line):
+    return any(is_numeric_row([cell]) for cell in loose_cells(line))
+
+
+def _title_lines(text):
+    """How many lines (up to :data:`MAX_TITLE_LINES`) above the header are a title: each with fewer cells
+    than the header and no number in it, the header with two or more cells (none a number), and a
+    number in the line below it. 0 when the file does not start so (a JSON or XML document never does)."""
+    lines = text.lines
+    if lines[0][1].lstrip()[:1] in _DOCUMENTS:
+        return 0
+    for k in range(1, min(MAX_TITLE_LINES, len(lines) - 2) + 1):
+        if _has_number(lines[k - 1][1]):
+            return 0
+        header = loose_cells(lines[k][1])
+        if len(header) >= 2 and not _has_number(lines[k][1]) and _has_number(lines[k + 1][1]) \
+                and all(len(loose_cells(s)) < len(header) for _, s in lines[:k]):
+            return k
+    return 0
 
 
 def read_measurement(path, fmt=None, **options):
@@ -205,17 +242,31 @@ def read_measurement(path, fmt=None, **options):
             f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
             f"and this file holds {kind}",))
     if title is not None:
-        data = dataclasses.replace(data, notes=(f"line {title[0]} {title[1].strip()!r} is a title: skipped",)
-                                   + tuple(data.notes))
+        data = dataclasses.replace(data, notes=(_title_note(title),) + tuple(data.notes))
     return data
 
 
+def _title_note(title):
+    """The note of the title lines ``[(lineno, line)]`` skipped above a table's header."""
+    said = ", ".join(repr(line.strip()) for _, line in title)
+    if len(title) == 1:
+        return f"line {title[0][0]} {said} is a title: skipped"
+    return f"lines {title[0][0]}-{title[-1][0]} ({said}) are a title: skipped"
+
+
 def _detect_below_title(text):
-    """(text, format, title): the format of ``text``, or of the text below a title line that no format
-    reads (a class's sheet starts with 'Golf ball, 1 m, group 3' above its header); title is
-    (lineno, line) or None."""
+    """(text, format, title): the format of ``text``, or of the text below its title lines (a class's sheet
+    starts with 'Ball bounce lab - group 3' above its header): each format in :data:`FORMATS` order tries
+    the text below the title, then the whole text (a Tracker export's first line, its track's name, looks
+    like a title, and the Tracker format reads it). Title lines are those of :func:`_title_lines`, or else
+    one line above a header no format reads as it is ('Golf ball, 1 m, group 3' above 't,y'); title is
+    [(lineno, line)] or None."""
+    k = _title_lines(text)
+    if k:
+        found, name = _detect(text, dataclasses.replace(text, lines=text.lines[k:]))
+        return found, name, (text.lines[:k] if found is not text else None)
     try:
-        return text, _detect(text), None
+        return (*_detect(text), None)
     except DataError:
         if len(text.lines) < 3 or text.lines[0][1].lstrip()[:1] in _DOCUMENTS:
             raise
@@ -223,7 +274,7 @@ def _detect_below_title(text):
             raise
         below = dataclasses.replace(text, lines=text.lines[1:])
         try:
-            return below, _detect(below), text.lines[0]
+            return (*_detect(below), text.lines[:1])
         except DataError:
             pass
         raise

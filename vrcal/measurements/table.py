@@ -35,12 +35,21 @@ X_NAMES = ("x",)
 BOUNCE_NAMES = ("bounce", "n", "bounce number")
 H_NAMES = ("h", "height", "apex", "apex height")
 TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3}
-LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "px": None, "pixel": None, "pixels": None}
+#: Length units [m per unit], the one table every reader takes them from: metric, and the inches and feet
+#: a US class measures in; pixels (None) need ``--scale``.
+LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "inch": 0.0254, "inches": 0.0254,
+                "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "px": None, "pixel": None, "pixels": None}
+
+
+def known_units(units):
+    """The units of a unit table for an error message (``m, cm, mm, in, ...``)."""
+    return ", ".join(u for u in units if u)
 
 #: A unit written after the name instead of in brackets: ``t_s``, ``y_cm``, ``t/s`` (quantity / unit,
-#: ISO 80000-1), ``height in mm``; only a unit of the tables above counts (``bounce_no`` keeps its name).
+#: ISO 80000-1), ``height in mm``; only a unit of the tables above counts (``bounce_no`` keeps its name),
+#: and not ``in`` (``y_in`` keeps its name: inches are ``y (in)``, ``y_inch``, ``height in inches``).
 _SUFFIX_UNIT = re.compile(r"^(?P<name>.*?[^\s_/])(?:\s*/\s*|_|\s+in\s+)(?P<unit>[A-Za-z]+)$")
-_SUFFIX_UNITS = {u for u in (*TIME_UNITS, *LENGTH_UNITS) if u}
+_SUFFIX_UNITS = {u for u in (*TIME_UNITS, *LENGTH_UNITS) if u} - {"in"}
 
 #: The data set's name before a column's in a Vernier (Logger Pro, Graphical Analysis) export:
 #: ``Run 1: Time (s)``, ``Latest: Position (m)``.
@@ -371,7 +380,7 @@ def column_values(path, table, col, *, what, allow_empty=False):
 def unit_factor(path, table, col, units, kind):
     if col.unit not in units:
         fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.name}' "
-              f"(known: {', '.join(u for u in units if u)})")
+              f"(known: {known_units(units)})")
     return units[col.unit]
 
 

@@ -15,13 +15,17 @@ import dataclasses
 import re
 
 from vrcal.measurements import trajectory
-from vrcal.measurements.table import fail, is_numeric_row
+from vrcal.measurements.table import LENGTH_UNITS, TIME_UNITS, fail, is_numeric_row
 
 #: Units spelled out as Vernier's sketches print them, and their symbols.
 SPELLED_UNITS = {"seconds": "s", "second": "s", "sec": "s", "milliseconds": "ms", "meters": "m", "metres": "m",
                  "meter": "m", "metre": "m", "centimeters": "cm", "centimetres": "cm", "millimeters": "mm",
                  "millimetres": "mm"}
-_UNIT_CELL = re.compile(r"^(s|ms|m|cm|mm|m/s|m/s\^?2|m/s²|deg|n|kg|)$")
+#: A cell of the units line: a time or length unit the readers know (:mod:`vrcal.measurements.table`), or
+#: the unit of another of Logger Pro's columns (a velocity, an acceleration, an angle, a force, a mass).
+_UNIT_CELL = re.compile(r"^(" + "|".join(re.escape(u) for u in sorted({*TIME_UNITS, *LENGTH_UNITS}, key=len,
+                                                                        reverse=True))
+                        + r"|m/s|m/s\^?2|m/s²|ft/s|ft/s\^?2|ft/s²|deg|n|kg)$")
 
 
 def detect(text):
