@@ -354,7 +354,8 @@ def fit_report(discovery, details=False):
     if d.decimation > 1:
         what += f": every {d.decimation}th of {d.n_read:,} read"
     elif d.n_read and d.n_read > n_data:
-        count, what = f"{n_data} of {d.n_read}", f"{what} fitted; see the notes"
+        see = "the verdict and the notes" if d.warnings else "the notes"
+        count, what = f"{n_data} of {d.n_read}", f"{what} fitted; see {see}"
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
