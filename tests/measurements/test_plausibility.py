@@ -217,6 +217,18 @@ def test_drop_table_rows_with_a_rebound_above_the_drop():
         check(swapped, 0.04)
 
 
+def test_a_rebound_as_high_as_its_drop_is_left_out_with_a_warning():
+    """A rebound written equal to its drop (epsilon 1: the drop height typed twice) was fitted, and the
+    table came out 'unexplained'."""
+    rows = [(0.5, 0.4), (1.0, 1.0), (1.5, 1.2), (2.0, 1.6)]
+    runs = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r), "t.csv") for r in rows), "t.csv",
+                labels=tuple(f"row {i + 1}" for i in range(4)))
+    checked = check(runs, 0.04)
+    assert len(checked.data.runs) == 3
+    assert checked.warnings == ("1 of 4 trials left out: a rebound as high as its drop or higher (epsilon >= 1) is "
+                                "impossible for a ball (a misread or swapped entry?): row 2 1 m from 1 m",)
+
+
 def test_a_drop_table_with_rebounds_above_their_drop_is_suspect_input_naming_their_lines(tmp_path):
     """Three 30 cm trials rebounding above 30 cm were left out quietly (verdict 'explained')."""
     path = tmp_path / "t.csv"

@@ -340,9 +340,10 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
 
     if isinstance(data, Runs):
         runs, labels, findings = [], [], []
-        dropped = []
+        dropped, equal = [], False
         for run, label in zip(data.runs, data.labels or [f"run {i + 1}" for i in range(len(data.runs))]):
-            if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] > run.h_m[0]:
+            if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] >= run.h_m[0]:
+                equal = equal or run.h_m[1] == run.h_m[0]   # epsilon 1: the drop written twice?
                 lines = getattr(run, "lines", None)
                 at = f" (line {int(lines[1])})" if lines is not None and "(line " not in label else ""
                 dropped.append(f"{label}{at} {run.h_m[1]:.4g} m from {run.h_m[0]:.4g} m")
@@ -352,11 +353,13 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
             labels.append(label)
             findings += checked.findings
         if dropped:
+            higher = "as high as the drop or higher" if equal else "higher than the drop"
             if len(dropped) * 2 > len(data.runs):
-                _fail(data.source, f"the rebound is higher than the drop in {len(dropped)} of {len(data.runs)} "
+                _fail(data.source, f"the rebound is {higher} in {len(dropped)} of {len(data.runs)} "
                                    f"trials: are the drop and rebound columns swapped?")
+            higher = "as high as its drop or higher (epsilon >= 1)" if equal else "higher than its drop"
             findings.append(Finding("warning", f"{len(dropped)} of {len(data.runs)} trials left out: a rebound "
-                                               f"higher than its drop is impossible for a ball (a misread or "
+                                               f"{higher} is impossible for a ball (a misread or "
                                                f"swapped entry?): {'; '.join(dropped)}"))
         return Checked(replace(data, runs=tuple(runs), labels=tuple(labels)), tuple(findings))
     return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "")
