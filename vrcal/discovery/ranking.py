@@ -53,7 +53,8 @@ cannot see contact durations. When the winner has a material rival in its
 ``Thresholds.indistinguishable_bic`` of its evidence, the winner is named but the rival is
 listed in ``Discovery.ambiguous`` and the report says so, instead of pretending the data
 chose. A rival the data reject (a χ² 9 or more above the winner's) is not listed, however
-close the group.
+close the group; nor is one whose posterior odds are decisively lower
+(``Thresholds.decisive_two_ln_odds``).
 
 References
 ----------
@@ -142,6 +143,11 @@ class Thresholds:
     #: sigma: the data cannot reject it), however the priors weigh the two; the chi-square is at the noise floor, or
     #: at the winner's residual variance when that is larger
     indistinguishable_chi2: float = 9.0
+    #: ... unless its posterior odds against the rival are decisive (2 ln 100: Jeffreys' "decisive", [2]):
+    #: a speed law that fits only with p near 0, where its prior has no mass, is the absence of the effect,
+    #: and sharing by the priors would invent one (golf impact times with drag alone: p 0.01 at odds
+    #: 9,100:1, and the shared epsilon 0.0017 low, 14 times its +-)
+    decisive_two_ln_odds: float = 9.2
 
 
 @dataclass
@@ -371,14 +377,16 @@ class Discovery:
     @property
     def all_notes(self):
         """Every note, as the report prints them and the JSON holds them: the joint record's, each run's
-        as read (a note that not every run has is led by the run's label: which file of several, which
-        row of a table), then discover's."""
+        as read (of several files, a note that not every file has is led by its file's name; the pieces
+        of one file around a bounce left out share its notes), then discover's."""
+        import os
+
         runs = self.runs
         per_run = [list(getattr(run, "notes", ())) for run in runs]
+        files = [os.path.basename(str(run.source)) for run in runs]
         common = set.intersection(*(set(n) for n in per_run)) if len(runs) > 1 else set()
-        labels = list(self.labels) if len(self.labels) == len(runs) else [f"run {r + 1}" for r in range(len(runs))]
-        read = [n if len(runs) == 1 or n in common else f"{label}: {n}"
-                for label, notes in zip(labels, per_run) for n in notes]
+        one_file = len(set(files)) == 1
+        read = [n if one_file or n in common else f"{name}: {n}" for name, notes in zip(files, per_run) for n in notes]
         joint = list(getattr(self.data, "notes", ())) if len(runs) > 1 else []
         return list(dict.fromkeys(joint + read + list(self.notes)))
 
@@ -867,7 +875,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         var = win.fit.noise_sigma(sigma_floor) ** 2
         rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
             c.score - win.score < th.indistinguishable_bic
-            or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2))]
+            or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2
+                and c.score - win.score < th.decisive_two_ln_odds))]
         close = [c.name for c in rivals]
         if close:
             ambiguous[win.name] = close
@@ -904,10 +913,14 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             scatter_gap = res.scatter_gap(current, scatter)
         # a bounce's scatter moves every later time of its run: errors taken as independent understate
         # the +- (60 seeds each of 8 and 12 impacts, bounces scattering by 0.5-3 %: the fit's own +-
-        # covered 7-12 % of the truths, this one 65-77 %; benchmarks/coverage_scatter.py). Its size is
-        # the RMS, not the robust one: an odd bounce makes epsilon uncertain too, and the RMS of a few
-        # ratios is the less noisy (the robust one covered 58-70 %)
-        own = [res.bounce_scatter(run.t_s, sigma_floor) for run in problem.runs]
+        # covered 7-12 % of the truths; benchmarks/coverage_scatter.py). The scatter is what the changes
+        # of successive ratios hold beyond the final model's and the timing noise (a test at 5 %)
+        own, start = [], 0
+        for run in problem.runs:
+            t = np.asarray(run.t_s, dtype=float)
+            model_t = t - current.residuals[start:start + t.size]
+            start += t.size
+            own.append(res.bounce_scatter(t, sigma_floor, model_t))
         own = [v for v in own if v is not None]
         if own and np.median(own) > 0:
             wide = res.scatter_uncertainties(current, float(np.median(own)),

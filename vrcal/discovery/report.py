@@ -129,6 +129,14 @@ def _noise_text(d):
     return f"noise is {noise}"
 
 
+#: What would leave something to test an effect with, per data kind (a record with as many data as parameters).
+MORE_DATA = {"trajectory": "a longer record (more bounces)",
+             "impacts": "more impact times (a quieter room, the phone nearer the floor), or several drops at once",
+             "apexes": "a third apex, or drops from several heights (a drop table)"}
+#: What a record holds, per data kind, as a phrase.
+RECORD_OF_KIND = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
+
+
 def answer(discovery):
     """The answer in plain words: the first paragraph of the report (one string, not wrapped)."""
     d = discovery
@@ -147,9 +155,8 @@ def answer(discovery):
         parts.append(f"With {it} the gap falls from {before} to {after}; {_noise_text(d)}.")
         if any(name in d.ambiguous for name in d.effects):
             rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
-            what = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
             drops = "drops over a wider range of heights" if len(d.runs) > 1 else "drops from several heights"
-            parts.append(f"But {_effects_phrase(rivals)} would explain {what[d.kind]} about as well "
+            parts.append(f"But {_effects_phrase(rivals)} would explain {RECORD_OF_KIND[d.kind]} about as well "
                          f"(ambiguous; {'a trajectory or ' if d.kind != 'trajectory' else ''}{drops} tell them "
                          f"apart).")
             if d.split is not None:
@@ -159,7 +166,9 @@ def answer(discovery):
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
                      f"{pm(d.epsilon, d.final.uncertainty('epsilon'))} and nothing is left to test an effect "
-                     f"with; a third apex, or drops from several heights (a drop table), would.")
+                     f"with; {MORE_DATA[d.kind]} would.")
+        if v == "unexplained":
+            parts.append(f"Yet it leaves a gap of {after} ({_noise_text(d)}): it does not reproduce this record.")
         if d.kind == "apexes":
             parts.append(f"With a sphere's air drag (C_d = 0.47) the same heights give epsilon = "
                          f"{_epsilon_with_typical_drag(d):.4f}.")
@@ -214,8 +223,8 @@ def engine_advice(discovery):
         out.append(f"epsilon = {pm(eps, u)}" + (f"  ({widened})" if widened else ""))
         shown = _systematic_lines(d, u)
         out.extend(shown)
-        if not d.rounds:
-            out.append("(nothing tested: an engine without air drag reproduces these heights with it)")
+        if not d.rounds and d.verdict != "unexplained":
+            out.append(f"(nothing tested: an engine without air drag reproduces {RECORD_OF_KIND[d.kind]} with it)")
         elif d.verdict == "explained" and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
             out.append("The baseline suffices: this constant epsilon reproduces the record in an engine without "
                        "air drag (with drag, the value above).")

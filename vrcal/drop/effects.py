@@ -598,6 +598,7 @@ EFFECTS = {
         null_values={"drag_coefficient": 0.0},
         function=drag_constant_per_m,
         check="check the ball's mass and diameter, the length scale and the frame rate",
+        check_by_kind={"impacts": "check the ball's mass and diameter and the time unit of the file"},
     ),
     "velocity_dependent_restitution": Effect(
         name="velocity_dependent_restitution",
@@ -635,6 +636,8 @@ EFFECTS = {
         null_values={"contact_time_s": 0.0},
         function=liftoff_time_s,
         check="check the frame rate or time scale, and the ball's mass and diameter",
+        check_by_kind={"impacts": "check the time unit of the file, for impacts missed or heard twice, and the "
+                                  "ball's mass and diameter"},
     ),
     "height_offset": Effect(
         name="height_offset",
