@@ -137,3 +137,30 @@ def test_a_table_of_rebounds_read_at_the_balls_top_gives_the_planted_epsilon(tmp
     assert wrong["epsilon"] > truth["epsilon"] + 0.01 or wrong["effects"], wrong["epsilon"]
     assert as_read.exit_code == 0
     assert any(c["name"] == "height_offset" for c in wrong["candidates"])   # not stated: an offset is tried
+
+
+def test_rebounds_a_ball_cannot_reach_through_air_are_suspect_input():
+    """Heights in inches with no unit in the header are read as metres: drops of 20-40 m, from which
+    air drag keeps any ball far lower than these rebounds; the verdict was 'explained' with impact
+    speeds of 20-28 m/s (an independent probe's table)."""
+    from vrcal.measurements import ApexHeights, Runs
+    from vrcal.model.standards import get_ball
+
+    tennis = BallProperties.from_ball(get_ball("tennis"))
+    rows = [(40.0, 29.0), (40.0, 28.5), (20.0, 15.0), (0.5, 0.37)]
+    runs = tuple(ApexHeights(np.array([0, 1]), np.array(r), "t.csv") for r in rows)
+    warnings = prep.rebounds_beyond_drag(runs, tennis)
+    assert len(warnings) == 1 and warnings[0].startswith("2 of 4 drops rebound higher than air lets") and \
+        "'H (in)'" in warnings[0]
+    d = discover(Runs(runs, "t.csv", labels=("1", "2", "3", "4")), tennis)
+    assert d.verdict == "suspect input"
+    real = read_measurement_of("examples/data/drop-table.csv")
+    assert prep.rebounds_beyond_drag(real.runs, BallProperties.from_ball(get_ball("table_tennis"))) == []
+
+
+def read_measurement_of(relpath):
+    from helpers import ROOT
+
+    from vrcal.measurements import read_measurement
+
+    return read_measurement(str(ROOT / relpath))

@@ -127,7 +127,7 @@ def test_the_advice_leads_to_the_prior_split_when_rivals_are_ambiguous():
     d, _ = case("impacts", ("air_drag", "velocity_dependent_restitution"), seed=2)
     assert d.split is not None
     advice = " ".join(" ".join(engine_advice(d)).split())
-    lo, hi = d.speed_range()
+    lo, hi = d.speed_range(d.split)      # its own speeds: its drag differs from the named model's
     e_lo, e_hi = d.epsilon_at([lo, hi], fit=d.split)
     assert "Most probable: a speed-dependent epsilon and air drag together" in advice
     assert f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s" in advice

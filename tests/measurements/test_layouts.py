@@ -328,6 +328,19 @@ def test_a_drop_table_in_inches_or_feet(tmp_path, header, factor):
     np.testing.assert_allclose([r.h_m for r in data.runs], np.array(rows) * factor)
 
 
+@pytest.mark.parametrize("header,factor", [("Drop height (meters),Bounce height (meters)", 1.0),
+                                           ("Drop height in centimetres,Rebound height in centimetres", 0.01),
+                                           ("Fallhöhe [Zentimeter],Rückprallhöhe [Zentimeter]", 0.01),
+                                           ("Drop Height (in.),Bounce Height (in.)", 0.0254),
+                                           ("Drop height (cm.),Bounce height (cm.)", 0.01)])
+def test_units_written_out_or_with_a_full_stop(tmp_path, header, factor):
+    """'(meters)', '[Zentimeter]' were 'unknown length unit'; '(in.)' could not tell the layout; 'in
+    centimetres' was told to write its unit (an independent probe's tables)."""
+    rows = [(1.0, 0.7), (0.5, 0.36)] if factor == 1.0 else [(100, 70), (50, 36)]
+    data = read_measurement(write(tmp_path, "u.csv", header + "\n" + "".join(f"{H},{h}\n" for H, h in rows)))
+    np.testing.assert_allclose([r.h_m for r in data.runs], np.array(rows) * factor)
+
+
 def test_inches_and_feet_are_read_wherever_metres_are(tmp_path):
     t, y = fall()
     traj = read_measurement(write(tmp_path, "t.csv", "t (s),y (in)\n" + "".join(f"{a},{b / 0.0254}\n"

@@ -210,7 +210,7 @@ def test_drop_table_rows_with_a_rebound_above_the_drop():
     checked = check(runs, 0.04)
     assert len(checked.data.runs) == 3 and checked.warnings == (
         "1 of 4 trials left out: a rebound higher than its drop is impossible for a ball (a misread or swapped "
-        "entry?): row 2 1.2 m from 1 m",)
+        "entry? read at the ball's top: --rebound-measured-to top): row 2 1.2 m from 1 m",)
     swapped = Runs(tuple(ApexHeights(np.array([0, 1]), np.array(r[::-1]), "t.csv") for r in rows), "t.csv",
                    labels=runs.labels)
     with pytest.raises(DataError, match="columns swapped"):
@@ -226,7 +226,8 @@ def test_a_rebound_as_high_as_its_drop_is_left_out_with_a_warning():
     checked = check(runs, 0.04)
     assert len(checked.data.runs) == 3
     assert checked.warnings == ("1 of 4 trials left out: a rebound as high as its drop or higher (epsilon >= 1) is "
-                                "impossible for a ball (a misread or swapped entry?): row 2 1 m from 1 m",)
+                                "impossible for a ball (a misread or swapped entry? read at the ball's top: "
+                                "--rebound-measured-to top): row 2 1 m from 1 m",)
 
 
 def test_a_drop_table_with_rebounds_above_their_drop_is_suspect_input_naming_their_lines(tmp_path):

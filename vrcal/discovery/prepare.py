@@ -452,6 +452,50 @@ def _of_run(label, note):
     return f"{label}: {note}" if label else note
 
 
+#: The least drag coefficient of a ball (a smooth sphere below the drag crisis is 0.4-0.5; the registry's
+#: physical lower limit): a rebound above what a ball of epsilon 1 reaches with it cannot be in metres.
+LEAST_DRAG_COEFFICIENT = 0.2
+#: Drops above this [m] are no class's (a stairwell at most), and are checked against air drag: below it a
+#: drag-free simulation of a light ball (a ping-pong ball from 2 m, epsilon 0.97) must pass.
+HIGHEST_LAB_DROP_M = 5.0
+
+
+def rebounds_beyond_drag(runs, ball):
+    """Warnings for apex heights a ball cannot reach through air: from a drop above
+    :data:`HIGHEST_LAB_DROP_M`, a first rebound above what epsilon 1 gives with the least drag a ball
+    has (:data:`LEAST_DRAG_COEFFICIENT`). In metres, heights written in inches or centimetres
+    without a unit are drops of tens of metres, from which air drag keeps any ball far lower (a
+    tennis ball's 40 "m" drop and 29 "m" rebound needs epsilon 1.09).
+
+    Parameters
+    ----------
+    runs : sequence of ApexHeights
+        bounce 0 the drop height [m], then the rebounds
+    ball : BallProperties
+
+    Returns
+    -------
+    list of str
+        one warning naming the first such run, and how many there are; [] when none
+    """
+    from vrcal.drop.effects import drag_constant_per_m, epsilon_from_heights_with_drag
+
+    k = float(drag_constant_per_m(LEAST_DRAG_COEFFICIENT, float(np.mean(ball.diameter_m)),
+                                  float(np.mean(ball.mass_kg))))
+    bad = []
+    for i, run in enumerate(runs):
+        h = np.asarray(run.h_m, dtype=float)
+        if h.size >= 2 and h[0] > max(h[1], HIGHEST_LAB_DROP_M) and h[1] > 0 and \
+                float(epsilon_from_heights_with_drag(h[1], h[0], k)) > 1.0:
+            bad.append((i, h[0], h[1]))
+    if not bad:
+        return []
+    i, H, h = bad[0]
+    return [f"{len(bad)} of {len(runs)} drops rebound higher than air lets a ball of epsilon 1 (from {H:.3g} m, "
+            f"{h:.3g} m; drag of a smooth sphere at least): are the heights in metres? Write the unit in the "
+            f"header, e.g. 'H (in)', 'H (cm)'"]
+
+
 def heights_to_bottom(data, diameter_m, drop_measured_to=None, rebound_measured_to=None):
     """Apex heights (one drop's, or the rows of a drop table) with each height brought to the ball's
     bottom, which the model's heights are: a class that reads the top of the ball against a ruler
@@ -554,6 +598,8 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     record = checked.data
     runs = list(record.runs) if isinstance(record, Runs) else [record]
     labels = list(record.labels) if isinstance(record, Runs) else [""]
+    if runs[0].kind == "apexes":
+        warnings += rebounds_beyond_drag(runs, ball)
     out = []
     for run, label in zip(runs, labels):
         if run.kind == "impacts":

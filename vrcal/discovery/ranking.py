@@ -365,11 +365,13 @@ class Discovery:
         """RMS residual per flight (trajectory) or per datum (impacts, apexes): (before, after)."""
         return gap_per_bounce(self.baseline, self.final)
 
-    def speed_range(self):
-        """(lowest, highest) impact speed [m/s] of the final model over every run's bounces."""
+    def speed_range(self, fit=None):
+        """(lowest, highest) impact speed [m/s] of the final model (or of ``fit``, e.g. ``split``, whose
+        drag may differ) over every run's bounces."""
+        fit = self.final if fit is None else fit
         speeds = []
         for r, run in enumerate(self.runs):
-            drops = self.final.model(run=r)
+            drops = fit.model(run=r)
             v = np.asarray(drops.impact_speeds_m_per_s)[0]
             speeds += list(v[:max(_record_bounces(run, drops), 1)])
         return float(min(speeds)), float(max(speeds))

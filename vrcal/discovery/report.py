@@ -294,7 +294,7 @@ def _split_advice(d):
     params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
                        for e in shown for p in EFFECTS[e].parameters)
     if "velocity_dependent_restitution" in f.effects:
-        lo, hi = d.speed_range()
+        lo, hi = d.speed_range(f)     # the split's own speeds: its drag may differ from the named model's
         e_lo, e_hi = d.epsilon_at([lo, hi], fit=f)
         eps = f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s"
     else:

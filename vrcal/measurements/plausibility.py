@@ -360,7 +360,8 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
             higher = "as high as its drop or higher (epsilon >= 1)" if equal else "higher than its drop"
             findings.append(Finding("warning", f"{len(dropped)} of {len(data.runs)} trials left out: a rebound "
                                                f"{higher} is impossible for a ball (a misread or "
-                                               f"swapped entry?): {'; '.join(dropped)}"))
+                                               f"swapped entry? read at the ball's top: --rebound-measured-to "
+                                               f"top): {'; '.join(dropped)}"))
         return Checked(replace(data, runs=tuple(runs), labels=tuple(labels)), tuple(findings))
     return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "")
 

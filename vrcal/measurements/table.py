@@ -41,6 +41,27 @@ LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "inch":
                 "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "px": None, "pixel": None, "pixels": None}
 
 
+#: Units written out, in English, German or French, and their symbol (``Drop height in centimetres``,
+#: ``h [Zentimeter]``); a trailing full stop is dropped too (``(in.)``, ``(cm.)``).
+UNIT_SPELLINGS = {
+    **dict.fromkeys(("meter", "meters", "metre", "metres", "mètre", "mètres"), "m"),
+    **dict.fromkeys(("centimeter", "centimeters", "centimetre", "centimetres", "zentimeter", "centimètre",
+                     "centimètres"), "cm"),
+    **dict.fromkeys(("millimeter", "millimeters", "millimetre", "millimetres", "millimètre", "millimètres"), "mm"),
+    **dict.fromkeys(("second", "seconds", "sekunde", "sekunden", "seconde", "secondes", "secs"), "s"),
+    **dict.fromkeys(("millisecond", "milliseconds", "millisekunde", "millisekunden", "milliseconde",
+                     "millisecondes"), "ms"),
+    "zoll": "in", "pouce": "in", "pouces": "in",
+}
+
+
+def unit_symbol(unit):
+    """The symbol of a unit as written (lower case): ``centimetres`` -> ``cm``, ``in.`` -> ``in``."""
+    unit = unit.strip().lower()
+    unit = unit[:-1] if unit.endswith(".") and len(unit) > 1 else unit
+    return UNIT_SPELLINGS.get(unit, unit)
+
+
 def known_units(units):
     """The units of a unit table for an error message (``m, cm, mm, in, ...``)."""
     return ", ".join(u for u in units if u)
@@ -49,7 +70,7 @@ def known_units(units):
 #: ISO 80000-1), ``height in mm``; only a unit of the tables above counts (``bounce_no`` keeps its name),
 #: and not ``in`` (``y_in`` keeps its name: inches are ``y (in)``, ``y_inch``, ``height in inches``).
 _SUFFIX_UNIT = re.compile(r"^(?P<name>.*?[^\s_/])(?:\s*/\s*|_|\s+in\s+)(?P<unit>[A-Za-z]+)$")
-_SUFFIX_UNITS = {u for u in (*TIME_UNITS, *LENGTH_UNITS) if u} - {"in"}
+_SUFFIX_UNITS = ({u for u in (*TIME_UNITS, *LENGTH_UNITS) if u} | set(UNIT_SPELLINGS)) - {"in"}
 
 #: The data set's name before a column's in a Vernier (Logger Pro, Graphical Analysis) export:
 #: ``Run 1: Time (s)``, ``Latest: Position (m)``.
@@ -209,10 +230,10 @@ def columns(cells):
         data_set = _DATA_SET.match(cell.strip())
         m = _NAME_UNIT.match(cell.strip()[data_set.end() if data_set else 0:])
         name = (m.group("name") or "").strip()
-        unit = (m.group("unit") or "").strip().lower()
+        unit = unit_symbol(m.group("unit") or "")
         suffix = _SUFFIX_UNIT.match(name) if not unit else None
         if suffix and suffix.group("unit").lower() in _SUFFIX_UNITS:
-            name, unit = suffix.group("name"), suffix.group("unit").lower()
+            name, unit = suffix.group("name"), unit_symbol(suffix.group("unit"))
         raw = re.sub(r"[\s_]+", " ", name).strip()
         cols.append(Column(i, raw.lower(), unit, raw, data_set.group("set").strip() if data_set else ""))
     return cols
