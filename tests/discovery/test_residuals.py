@@ -300,3 +300,21 @@ def test_bounce_scatter_is_found_where_planted_and_not_in_timing_noise():
     assert np.mean(found > 0) > 0.95
     assert 0.8 < np.sqrt(np.mean(found**2)) / 0.02 < 1.2
     assert bounce_scatter(t0[:5], 2e-4) is None
+
+
+def test_qn_scale_is_a_standard_deviation_that_bears_an_odd_value():
+    """Rousseeuw and Croux's Qn: unbiased for a normal sample of any size (the small-sample factors),
+    unmoved by one odd value, and less often far below the truth than the median absolute deviation
+    (which put a scatter below half its size in a quarter of 8-impact records: a false 'unexplained')."""
+    from vrcal.discovery.residuals import qn_scale
+
+    for n in (5, 8, 11, 40):
+        mean = np.mean([qn_scale(np.random.default_rng(k).normal(0.0, 2.0, n)) for k in range(1500)])
+        assert abs(mean / 2.0 - 1.0) < 0.04, (n, mean)
+    x = np.random.default_rng(1).normal(0.0, 1.0, 9)
+    assert qn_scale(np.append(x, 1e6)) < 3.0 * qn_scale(x)
+    samples = [np.random.default_rng(k).normal(0.0, 1.0, 6) for k in range(2000)]
+    mad = np.array([1.4826 * np.median(np.abs(s - np.median(s))) for s in samples])
+    qn = np.array([qn_scale(s) for s in samples])
+    assert np.mean(qn < 0.5) < np.mean(mad < 0.5)
+    assert qn_scale(np.random.default_rng(2).normal(0.0, 1.0, 5000)) == pytest.approx(1.0, abs=0.05)   # MAD

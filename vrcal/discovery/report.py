@@ -125,7 +125,7 @@ def _noise_text(d):
     noise = f"{_fmt_gap(d.noise_floor, unit)} ({src})" if d.noise_floor else "unknown"
     if d.scatter_gap and d.scatter_gap > (d.noise_floor or 0):
         return (f"the record's own scatter leaves {_fmt_gap(d.scatter_gap, unit)} (its impact intervals vary by "
-                f"{100 * d.scatter:.2g} % from bounce to bounce; timing noise {noise})")
+                f"{number(100 * d.scatter, 2)} % from bounce to bounce; timing noise {noise})")
     return f"noise is {noise}"
 
 
