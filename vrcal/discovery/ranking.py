@@ -922,7 +922,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
             t = np.asarray(run.t_s, dtype=float)
             model_t = t - current.residuals[start:start + t.size]
             start += t.size
-            own.append(res.bounce_scatter(t, sigma_floor, model_t))
+            own.append(res.bounce_scatter(t, sigma_floor, model_t, timing_known=problem.noise_known))
         own = [v for v in own if v is not None]
         if own and np.median(own) > 0:
             wide = res.scatter_uncertainties(current, float(np.median(own)),
