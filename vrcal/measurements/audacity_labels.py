@@ -10,7 +10,9 @@ range in Hz), which is skipped. Audacity writes a decimal point; a decimal comma
 The **start** of each label is read as the impact time: *Label Sounds* starts a region where the
 sound rises above its threshold, which is the impact; a region marked by hand starts there too. The
 events then go through :func:`vrcal.measurements.impacts.impact_times_from_events` like any list of
-impact times (echoes and bounces that do not belong are named by their label and line).
+impact times (echoes and bounces that do not belong are named by their label and line). A file that
+starts as a label export but has a bad line further down is an error naming that line and its bad
+cell (:func:`explain`, which the layout detection calls before giving up).
 """
 
 from __future__ import annotations

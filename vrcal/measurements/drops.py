@@ -21,8 +21,9 @@ The header names which column is which (case matters only for ``H`` and ``h``):
 * other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are ignored.
 
 Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
-``drop_cm``): any length unit of :data:`vrcal.measurements.table.LENGTH_UNITS` (m, cm, mm, inches,
-feet; m when none); another unit is an error naming the known ones. A height column without a unit takes
+``drop_cm``; ``drop_in``, ``H_in``: inches, with a note, where a trajectory's ``y_in`` keeps its name,
+:func:`_inch_columns`): any length unit of :data:`vrcal.measurements.table.LENGTH_UNITS` (m, cm, mm,
+inches, feet; m when none); another unit is an error naming the known ones. A height column without a unit takes
 the unit of the other height columns when they agree on one (with a note). Every row is a
 run of its own (its own drop); :class:`vrcal.measurements.types.Runs` of
 :class:`vrcal.measurements.types.ApexHeights` (bounce 0 = the drop height) are fitted jointly
