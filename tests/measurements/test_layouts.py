@@ -252,6 +252,24 @@ def test_an_echo_in_a_label_file_is_named_by_its_label_and_line(tmp_path):
     assert any("label 5 'b5' (line 5)" in n for n in d.notes)
 
 
+@pytest.mark.parametrize("bad,said", [("1.71\tx\tb2", "the end 'x' is not a time in s"),
+                                      ("1.71\t1.70\tb2", "the end 1.7 s is before the start 1.71 s"),
+                                      ("1.71 1.71 b2", "1 tab-separated cells, not 2 or 3")])
+@pytest.mark.parametrize("n", [2, 5])
+def test_a_bad_line_of_a_label_file_is_named_with_its_cell(tmp_path, bad, said, n):
+    """A label file with a bad line 2 said "cannot tell the layout from the header '0.95\\t0.95\\tb1'"."""
+    lines = ["0.95\t0.95\tb1", bad] + [f"{2 + k * 0.3:.2f}\t{2 + k * 0.3:.2f}\tb{k + 3}" for k in range(n - 2)]
+    p = write(tmp_path, "labels_bad.txt", "\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=rf"labels_bad.txt:2: not an Audacity label line .*: {said}"):
+        read_measurement(p)
+
+
+def test_labels_out_of_order_are_named_not_taken_for_a_title(tmp_path):
+    p = write(tmp_path, "l.txt", "0.5\t0.5\tb1\n0.4\t0.4\tb2\n0.9\t0.9\tb3\n1.2\t1.2\tb4\n")
+    with pytest.raises(DataError, match=r"l.txt:2: label start not increasing \(0.4 after 0.5\)"):
+        read_measurement(p)
+
+
 def test_a_headerless_trajectory_is_not_a_label_file(tmp_path):
     t, y = fall()
     p = write(tmp_path, "fall.txt", "".join(f"{a:.4f}\t{b:.4f}\n" for a, b in zip(t, y)))
@@ -350,6 +368,19 @@ def test_inches_and_feet_are_read_wherever_metres_are(tmp_path):
     np.testing.assert_allclose(apex.h_m, np.array([4, 3, 2.25]) * 0.3048)
 
 
+@pytest.mark.parametrize("header,said", [("trial,drop_in,rebound_in", "'drop_in', 'rebound_in'"),
+                                         ("trial,H_in,h_in", "'H_in', 'h_in'"), ("H_in,h", "'H_in'")])
+def test_in_after_a_drop_tables_height_names_is_inches(tmp_path, header, said):
+    """``drop_in`` was read as metres (drops of 20-40 m) and ``H_in,h_in`` could not tell the layout; a
+    trajectory's ``y_in`` still keeps its name (``test_a_name_ending_in_no_unit_keeps_its_name``)."""
+    data = read_measurement(write(tmp_path, "in.csv", header + "\n" + "".join(
+        (f"{k},{H},{h}\n" if header.count(",") == 2 else f"{H},{h}\n")
+        for k, (H, h) in enumerate([(40, 29), (20, 15)], start=1))))
+    assert isinstance(data, Runs)
+    np.testing.assert_allclose([r.h_m for r in data.runs], np.array([[40, 29], [20, 15]]) * 0.0254)
+    assert any(n.startswith(f"column(s) {said}: the 'in' after the name read as inches") for n in data.notes)
+
+
 @pytest.mark.parametrize("text", ["trial,H (yd),h (yd)\n1,40,29\n2,40,28\n", "t (s),y (yd)\n0,1\n0.01,0.99\n",
                                   "bounce,h (yd)\n0,1\n1,0.8\n2,0.6\n"])
 def test_an_unknown_length_unit_is_named_with_the_known_ones(tmp_path, text):
@@ -383,6 +414,28 @@ def test_a_title_cell_above_a_workbooks_table_is_skipped(tmp_path):
     data = read_measurement(path)
     assert len(data.runs) == 3 and "line 1 'Ball bounce lab - group 3' is a title: skipped" in data.notes
     np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.55])
+
+
+@pytest.mark.parametrize("title,header", [("Tennis ball drop 100 cm", '"Event time (s)"'),
+                                          ("Ball lab, group 3", "t"), ("Golf ball\nGroup 3", "Time (ms)")])
+def test_a_title_above_a_one_column_impact_file_is_skipped(tmp_path, title, header):
+    """A one-column file cannot have a title with fewer cells than its header: a line with no number above one
+    naming a time column over numbers is the title ("'Event time (s)' is not a number (column 'tennis ball
+    drop 100 cm')" before)."""
+    t = impact_times(H=1.0, eps=0.8, n=6)
+    scale = 1e3 if "ms" in header else 1.0
+    p = write(tmp_path, "b_title.csv", f"{title}\n{header}\n" + "".join(f"{v * scale:.6f}\n" for v in t))
+    assert detect_format(p) == "impacts"
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-6)
+    assert "a title: skipped" in data.notes[0] and repr(title.split("\n")[-1]) in data.notes[0]
+
+
+def test_a_one_column_file_whose_header_is_no_time_name_keeps_its_header(tmp_path):
+    """Only a time column's name marks the line above as a title: 'Event 1' over 't_impact' is not read
+    as a title over a header (the one column is read whatever its name, its header being 'Event 1')."""
+    with pytest.raises(DataError, match=r"b.csv:2: 't_impact' is not a number"):
+        read_measurement(write(tmp_path, "b.csv", "Event 1\nt_impact\n0.45\n1.22\n1.87\n"))
 
 
 @pytest.mark.parametrize("text,said", [
@@ -613,6 +666,38 @@ def test_a_written_workbook_is_a_table_like_any_other(tmp_path):
     data = read_measurement(path)
     assert isinstance(data, Runs) and len(data.runs) == 3
     np.testing.assert_allclose(data.runs[1].h_m, [1.0, 0.8])
+
+
+@pytest.mark.parametrize("name,content,said", [
+    ("fake.xlsx", b"not a workbook\n", r"it is text .*rename it to .csv, or give --format"),
+    ("t.xls", b"t\n0.45\n1.22\n1.87\n", r"it is text .*rename it to .csv"),
+    ("page.xls", b"<html><table><tr><td>t</td></tr></table></html>\n", "it is an HTML or XML document"),
+    ("zip.xls", b"PK\x03\x04" + bytes(40), r"it is a zip archive \(an .xlsx workbook named .xls"),
+    ("empty.xlsx", b"", "it is empty")])
+def test_a_file_named_as_a_workbook_that_is_none_says_what_it_is(tmp_path, name, content, said):
+    """A text file named .xlsx said "fake.xlsx:1: header but no data rows"."""
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(DataError, match=rf"{name}: not an Excel workbook: {said}"):
+        read_measurement(path)
+    with pytest.raises(DataError, match="not an Excel workbook"):
+        detect_format(path)
+
+
+def test_a_text_table_named_xlsx_is_read_with_format(tmp_path):
+    t = impact_times(n=5)
+    path = tmp_path / "t.xlsx"
+    path.write_text("t\n" + "".join(f"{v}\n" for v in t))
+    np.testing.assert_allclose(read_measurement(path, fmt="impacts").t_s, t)
+
+
+def test_detect_format_reads_a_workbooks_sheet(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    for row in [["H (cm)", "h (cm)"], [50, 41], [100, 80]]:
+        wb.active.append(row)
+    wb.save(tmp_path / "d.xlsx")
+    assert detect_format(tmp_path / "d.xlsx") == "drops"
 
 
 def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):

@@ -244,6 +244,26 @@ def test_a_drop_table_with_rebounds_above_their_drop_is_suspect_input_naming_the
     assert "vrcal: warning: 2 of 7 trials left out" in result.output
 
 
+@pytest.mark.parametrize("option,said", [("--drop-measured-to", "the drop of line 2: -1.7 cm"),
+                                         ("--rebound-measured-to", "the rebound of line 2: -4.7 cm")])
+def test_heights_below_the_balls_size_measured_to_its_top_are_named_not_swapped_columns(tmp_path, option, said):
+    """Drops of 5-10 cm 'measured to the top' of a 6.7 cm tennis ball were blamed on swapped columns (the
+    drop -1.7 cm below the floor once brought to the ball's bottom, the rebound above it)."""
+    path = tmp_path / "tiny.csv"
+    path.write_text("H (cm),h (cm)\n5,2.0\n5,2.1\n10,5.5\n")
+    result = run("discover", path, "--ball", "tennis", option, "top", "-q")
+    assert result.exit_code == 1 and "swapped" not in result.output
+    assert f"heights lie at or below the floor once brought to the ball's bottom ({said})" in result.output
+    assert "a height measured to the ball's top cannot be less than its diameter (6.7 cm)" in result.output
+    assert run("discover", path, "--ball", "tennis", "-q").exit_code == 0
+
+
+def test_one_drops_apexes_below_the_floor_are_an_error():
+    data = ApexHeights(np.array([0, 1, 2]), np.array([0.3, -0.01, -0.02]), "a.csv", lines=np.array([2, 3, 4]))
+    with pytest.raises(DataError, match=r"2 of 3 heights lie at or below the floor .*the rebound of line 3: -1 cm"):
+        check(data, 0.04)
+
+
 def test_a_drop_smaller_than_the_ball_is_suspect(tmp_path):
     path = tmp_path / "tiny.csv"
     path.write_text("bounce,h (cm)\n0,1.1\n1,0.8\n2,0.6\n3,0.45\n")

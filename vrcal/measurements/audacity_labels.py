@@ -10,7 +10,9 @@ range in Hz), which is skipped. Audacity writes a decimal point; a decimal comma
 The **start** of each label is read as the impact time: *Label Sounds* starts a region where the
 sound rises above its threshold, which is the impact; a region marked by hand starts there too. The
 events then go through :func:`vrcal.measurements.impacts.impact_times_from_events` like any list of
-impact times (echoes and bounces that do not belong are named by their label and line).
+impact times (echoes and bounces that do not belong are named by their label and line). A file that
+starts as a label export but has a bad line further down is an error naming that line and its bad
+cell (:func:`explain`, which the layout detection calls before giving up).
 """
 
 from __future__ import annotations
@@ -25,8 +27,8 @@ _MAX_LINES_CHECKED = 200
 
 
 def _label_rows(text, limit=None):
-    """([(line, start, end, label)], None) of a label file, or (rows so far, the first line that is no
-    label line).
+    """``(rows, bad)``: ``rows`` = [(line, start, end, label)] of a label file; ``bad`` = None, or
+    (the first line that is no label line, what is wrong with it).
 
     Every line but the spectral ones (first cell ``\\``) must be ``start<TAB>end[<TAB>text]`` with two
     numbers, ``end >= start``; the label text may hold anything but a tab.
@@ -36,15 +38,55 @@ def _label_rows(text, limit=None):
         cells = line.rstrip("\r\n").split("\t")
         if cells[0].strip() == "\\":
             if len(cells) != 3 or any(to_float(c.strip(), True) is None for c in cells[1:]):
-                return rows, no
+                return rows, (no, "a spectral line is '\\<TAB>low<TAB>high' (Hz)")
             continue
         if len(cells) not in (2, 3):
-            return rows, no
+            return rows, (no, f"{len(cells)} tab-separated cells, not 2 or 3")
         start, end = (to_float(c.strip(), "," in c and "." not in c) for c in cells[:2])
-        if start is None or end is None or not (np.isfinite(start) and np.isfinite(end)) or end < start:
-            return rows, no
+        for value, cell, what in ((start, cells[0], "start"), (end, cells[1], "end")):
+            if value is None or not np.isfinite(value):
+                return rows, (no, f"the {what} {cell.strip()!r} is not a time in s")
+        if end < start:
+            return rows, (no, f"the end {end:g} s is before the start {start:g} s")
         rows.append((no, start, end, cells[2].strip() if len(cells) == 3 else ""))
     return rows, None
+
+
+def starts_as_labels(text):
+    """True when the first line of ``text`` is a label line ``start<TAB>end<TAB>text`` whose text is no
+    number (a headerless table of numbers never is one, nor is a title line)."""
+    cells = text.lines[0][1].rstrip("\r\n").split("\t")
+    if len(cells) != 3 or not cells[2].strip() or to_float(cells[2].strip(), True) is not None:
+        return False
+    rows, _ = _label_rows(text, 1)
+    return bool(rows)
+
+
+def explain(text):
+    """Fail naming the first bad line of a file that starts as a label export (its first line
+    ``start<TAB>end<TAB>text`` with a text that is no number, which a headerless table of numbers never
+    has) but is not one through to the end: the detector turned it down, and "cannot tell the layout
+    from the header" would blame the good first line. Returns None for a file that does not start so."""
+    if not starts_as_labels(text):
+        return
+    rows, bad = _label_rows(text)
+    if bad is not None:
+        fail(text.path, bad[0], f"{_NOT_A_LABEL}: {bad[1]}")
+    _check_order(text.path, rows)
+
+
+#: What a label line must be (the errors' start).
+_NOT_A_LABEL = "not an Audacity label line ('start<TAB>end<TAB>text', times in s, end >= start)"
+
+
+def _check_order(path, rows):
+    """Fail naming the first label that starts before the one above it."""
+    t = np.array([r[1] for r in rows], dtype=float)
+    order_ok = np.diff(t) > 0
+    if not np.all(order_ok):
+        k = int(np.argmin(order_ok)) + 1
+        fail(path, rows[k][0], f"label start not increasing ({t[k]:g} after {t[k - 1]:g}): sort the labels "
+                               f"by time in Audacity's Labels editor")
 
 
 def detect(text):
@@ -63,16 +105,12 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     rows, bad = _label_rows(text)
     if bad is not None:
-        fail(path, bad, "not an Audacity label line ('start<TAB>end<TAB>text', times in s, end >= start)")
+        fail(path, bad[0], f"{_NOT_A_LABEL}: {bad[1]}")
     if not rows:
         fail(path, 0, "no labels (only spectral-selection lines)")
+    _check_order(path, rows)
     t = np.array([r[1] for r in rows], dtype=float)
     lines = np.array([r[0] for r in rows], dtype=int)
-    order_ok = np.diff(t) > 0
-    if not np.all(order_ok):
-        k = int(np.argmin(order_ok)) + 1
-        fail(path, int(lines[k]), f"label start not increasing ({t[k]:g} after {t[k - 1]:g}): sort the labels "
-                                  f"by time in Audacity's Labels editor")
     regions = sum(r[2] > r[1] for r in rows)
     notes = [f"format: Audacity label export ({len(rows)} labels"
              + (f", {regions} of them regions" if regions else "") + "): impact time = start of each label"]

@@ -21,8 +21,9 @@ The header names which column is which (case matters only for ``H`` and ``h``):
 * other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are ignored.
 
 Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
-``drop_cm``): any length unit of :data:`vrcal.measurements.table.LENGTH_UNITS` (m, cm, mm, inches,
-feet; m when none); another unit is an error naming the known ones. A height column without a unit takes
+``drop_cm``; ``drop_in``, ``H_in``: inches, with a note, where a trajectory's ``y_in`` keeps its name,
+:func:`_inch_columns`): any length unit of :data:`vrcal.measurements.table.LENGTH_UNITS` (m, cm, mm,
+inches, feet; m when none); another unit is an error naming the known ones. A height column without a unit takes
 the unit of the other height columns when they agree on one (with a note). Every row is a
 run of its own (its own drop); :class:`vrcal.measurements.types.Runs` of
 :class:`vrcal.measurements.types.ApexHeights` (bounce 0 = the drop height) are fitted jointly
@@ -141,6 +142,23 @@ def _height_columns(cols):
     return DropColumns(drop, [out], [])
 
 
+def _inch_columns(cols):
+    """``(cols, renamed)``: the columns with a name ending in ``in`` after ``_`` or a blank and no unit
+    (``drop_in``, ``H_in``, ``rebound in``) read as inches (``drop (in)``) when the columns so read are a
+    drop table whose heights include them; ``renamed`` holds their indices. Else ``(cols, ())``: only a
+    drop or rebound column reads ``_in`` so (a trajectory's ``y_in`` keeps its name,
+    :data:`vrcal.measurements.table._SUFFIX_UNIT`)."""
+    inches = [c._replace(name=c.name[:-3].rstrip(), raw=c.raw[:-3].rstrip(), unit="in")
+              if not c.unit and len(c.name) > 3 and c.name.endswith(" in") else c for c in cols]
+    renamed = [c.index for c, d in zip(cols, inches) if c is not d]
+    found = _height_columns(inches) if renamed else None
+    if found is None:
+        return cols, ()
+    used = {c.index for c in [found.drop, *found.numbered, *(c for t in found.trials for c in t.values())]}
+    renamed = tuple(i for i in renamed if i in used)
+    return (inches, renamed) if renamed else (cols, ())
+
+
 def _trials_or_rebounds(path, line, values, columns):
     """Numbered rebound columns as trials ([{1: c}, ...]) when their values agree row by row (each
     within 25 % of the first), as successive rebounds of one drop ([{1: c1, 2: c2, ...}]) when every
@@ -167,7 +185,7 @@ def detect(text):
     number = find_column(cols, BOUNCE_NAMES)
     if number is not None and not (number.unit and number.unit in LENGTH_UNITS):
         return False   # a bounce-number column: an apex file
-    return _height_columns(cols) is not None
+    return _height_columns(_inch_columns(cols)[0]) is not None
 
 
 def looks_like_heights(text):
@@ -212,13 +230,18 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     table = parse_table(text)
-    found = _height_columns(table.cols)
+    cols, renamed = _inch_columns(table.cols)
+    found = _height_columns(cols)
     if found is None:
         fail(path, table.header_line, NAMING)
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     columns = [found.drop] + found.numbered + [c for trial in found.trials for c in trial.values()]
     notes = []
+    if renamed:
+        header = split_cells(next(s for no, s in text.lines if no == table.header_line), table.sep)
+        notes.append(f"column(s) {', '.join(repr(header[i]) for i in renamed)}: the 'in' after the name read as "
+                     f"inches (write the unit in brackets to say so: 'H (in)', 'H (cm)')")
     factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
     values = {c.index: column_values(path, table, c, what="height", allow_empty=c.index != found.drop.index)
               * factors[c.index] for c in columns}

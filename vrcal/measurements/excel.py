@@ -124,6 +124,46 @@ def load_sheet_text(path, sheet=None):
     raise DataError(f"{path}: no sheet holds a table (sheets: {', '.join(repr(n.strip()) for n in names)})")
 
 
+#: Names of workbook files (a file so named that is no workbook is refused with what it is).
+WORKBOOK_SUFFIXES = (".xlsx", ".xlsm", ".xls")
+
+
+def _looks_like(head):
+    """What a file's first bytes show it to be, for the error of a file named as a workbook that is none."""
+    if head.startswith(_XLSX_MAGIC):
+        return "it is a zip archive (an .xlsx workbook named .xls? rename it to .xlsx)"
+    if not head.strip():
+        return "it is empty"
+    if b"\x00" in head:
+        return "it is a binary file of another kind (save the sheet from the spreadsheet program as .xlsx or .csv)"
+    if head.lstrip()[:1] == b"<":
+        return ("it is an HTML or XML document (a web page saved as .xls?): open it in a spreadsheet "
+                "program and save it as .xlsx or .csv")
+    return "it is text (a CSV or text table named as a workbook?): rename it to .csv, or give --format (e.g. --format " \
+           "impacts)"
+
+
+def check_workbook_name(path):
+    """Refuse a file named as a workbook (``.xlsx``, ``.xls``) whose bytes are no workbook, saying what it
+    looks like and how to read it; a workbook, or a file named otherwise, passes.
+
+    Raises
+    ------
+    DataError
+        "FILE: not an Excel workbook: it is text (...): rename it to .csv, or give --format"
+    """
+    if not str(path).lower().endswith(WORKBOOK_SUFFIXES) or is_spreadsheet(path):
+        return
+    if os.path.exists(path) and not os.path.isfile(path):
+        return  # a FIFO or a device: read once, by the text reader
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return  # the text reader names the problem
+    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head)}")
+
+
 def is_spreadsheet(path):
     """True for an .xlsx or .xls workbook (by its first bytes)."""
     return spreadsheet_kind(Path(path)) is not None

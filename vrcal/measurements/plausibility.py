@@ -279,6 +279,27 @@ def _drop_scale(h_m, diameter_m, source, label=""):
     return None
 
 
+def _check_above_floor(runs, source, diameter_m):
+    """A height at or below the floor is impossible: the readers refuse one as written, so it comes from
+    bringing heights measured to the ball's top or centre down to its bottom
+    (:func:`vrcal.model.restitution.height_to_bottom_m`, ``--drop-measured-to``). DataError naming the
+    first such height, its line, and how many; a rebound above such a drop is not blamed on swapped
+    columns."""
+    low = [(run, k) for run in runs if run.kind == "apexes" for k in np.flatnonzero(np.asarray(run.h_m) <= 0)]
+    if not low:
+        return
+    run, k = low[0]
+    lines = getattr(run, "lines", None)
+    at = f" of line {int(lines[k])}" if lines is not None else ""
+    what = {0: "drop", 1: "rebound"}.get(int(run.bounce[k]), f"apex {int(run.bounce[k])}")
+    size = f" ({diameter_m * 100:.3g} cm)" if diameter_m else ""
+    n = sum(len(run.h_m) for run in runs)
+    _fail(source, f"{len(low)} of {n} heights lie at or below the floor once brought to the ball's bottom (the "
+                  f"{what}{at}: {run.h_m[k] * 100:.3g} cm): a height measured to the ball's top cannot be less than "
+                  f"its diameter{size}, nor one to its centre less than its radius: were they measured to the "
+                  f"bottom? (--drop-measured-to, --rebound-measured-to)")
+
+
 def check_apexes(data, diameter_m=None, label=""):
     """One drop's apex heights: the rebound below the drop and the apexes falling.
 
@@ -286,6 +307,7 @@ def check_apexes(data, diameter_m=None, label=""):
     DataError when the first rebound is above the drop or the drop is out of scale.
     """
     findings = []
+    _check_above_floor((data,), data.source, diameter_m)
     h = np.asarray(data.h_m, dtype=float)
     warn = _drop_scale(h, diameter_m, data.source, label)
     if warn:
@@ -341,6 +363,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
     if isinstance(data, Runs):
         runs, labels, findings = [], [], []
         dropped, equal = [], False
+        _check_above_floor(data.runs, data.source, diameter_m)
         for run, label in zip(data.runs, data.labels or [f"run {i + 1}" for i in range(len(data.runs))]):
             if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] >= run.h_m[0]:
                 equal = equal or run.h_m[1] == run.h_m[0]   # epsilon 1: the drop written twice?

@@ -26,7 +26,16 @@ from vrcal.measurements import (
     vernier,
     video,
 )
-from vrcal.measurements.table import fail, is_numeric_row, load_text, loose_cells
+from vrcal.measurements.table import (
+    TIME_NAMES,
+    columns,
+    fail,
+    find_column,
+    is_numeric_row,
+    load_text,
+    loose_cells,
+    strip_cell,
+)
 from vrcal.measurements.types import Runs
 
 # --------------------------------------------------------------------------- registry and entry point
@@ -96,7 +105,8 @@ def detect_format(path):
     name = _detect_recording(path)
     if name is not None:
         return name
-    return _detect_below_title(load_text(path))[1]
+    excel.check_workbook_name(path)
+    return _detect_below_title(excel.load_sheet_text(path) if excel.is_spreadsheet(path) else load_text(path))[1]
 
 
 def _detect_recording(path):
@@ -140,6 +150,7 @@ def _detect(text, below=None):
             return below, name
         if fmt.detector(text):
             return text, name
+    audacity_labels.explain(below or text)   # a label export with a bad line: name that line
     if below is not None:
         no, line = below.lines[0]
     cells = loose_cells(line)
@@ -158,9 +169,11 @@ def _has_number(line):
 
 
 def _title_lines(text):
-    """How many lines (up to :data:`MAX_TITLE_LINES`) above the header are a title: each with fewer cells
-    than the header and no number in it, the header with two or more cells (none a number), and a
-    number in the line below it. 0 when the file does not start so (a JSON or XML document never does)."""
+    """How many lines (up to :data:`MAX_TITLE_LINES`) above the header are a title: each with no number in
+    it, above a header with no number and a number in the line below it; the header has two or more cells
+    and each title line fewer, or the header is one cell naming a time column (``"Event time (s)"``: a
+    one-column file of impact times, whose title cannot have fewer cells). 0 when the file does not start
+    so (a JSON or XML document never does)."""
     lines = text.lines
     if lines[0][1].lstrip()[:1] in _DOCUMENTS:
         return 0
@@ -168,10 +181,19 @@ def _title_lines(text):
         if _has_number(lines[k - 1][1]):
             return 0
         header = loose_cells(lines[k][1])
-        if len(header) >= 2 and not _has_number(lines[k][1]) and _has_number(lines[k + 1][1]) \
-                and all(len(loose_cells(s)) < len(header) for _, s in lines[:k]):
+        if _has_number(lines[k][1]) or not _has_number(lines[k + 1][1]):
+            continue
+        if len(header) >= 2 and all(len(loose_cells(s)) < len(header) for _, s in lines[:k]):
+            return k
+        if len(header) == 1 and _names_time(lines[k][1]):
             return k
     return 0
+
+
+def _names_time(line):
+    """True when ``line`` is one header cell naming a time column (``t``, ``time``, ``Event time (s)``)."""
+    cols = columns([strip_cell(line)])
+    return find_column(cols, TIME_NAMES, contains="time") is not None
 
 
 def read_measurement(path, fmt=None, **options):
@@ -222,6 +244,8 @@ def read_measurement(path, fmt=None, **options):
     for key in RECORDING_OPTIONS:
         options.pop(key, None)
     sheet = options.pop("sheet", None)
+    if fmt is None:
+        excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
     if excel.is_spreadsheet(path):
         text = excel.load_sheet_text(path, sheet)
     else:
@@ -270,7 +294,8 @@ def _detect_below_title(text):
     except DataError:
         if len(text.lines) < 3 or text.lines[0][1].lstrip()[:1] in _DOCUMENTS:
             raise
-        if is_numeric_row(loose_cells(text.lines[0][1])) or is_numeric_row(loose_cells(text.lines[1][1])):
+        if is_numeric_row(loose_cells(text.lines[0][1])) or is_numeric_row(loose_cells(text.lines[1][1])) \
+                or audacity_labels.starts_as_labels(text):   # a label line is no title
             raise
         below = dataclasses.replace(text, lines=text.lines[1:])
         try:
