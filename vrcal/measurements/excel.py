@@ -139,8 +139,8 @@ def _looks_like(head):
     if head.lstrip()[:1] == b"<":
         return ("it is an HTML or XML document (a web page saved as .xls?): open it in a spreadsheet "
                 "program and save it as .xlsx or .csv")
-    return "it is text (a CSV or text table named as a workbook?): rename it to .csv, or give --format (e.g. --format " \
-           "impacts)"
+    return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give --format "
+            "(e.g. --format impacts)")
 
 
 def check_workbook_name(path):
