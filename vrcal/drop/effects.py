@@ -658,7 +658,8 @@ EFFECTS = {
         function=observed_height_m,
         check="check the floor line (--floor), the length scale, and for a bounce off something above the floor",
         check_by_kind={"apexes": "check the point of the ball the heights were read to (a rebound read at the "
-                                 "ball's top is one diameter high: --rebound-measured-to top) and the length unit"},
+                                 "ball's top is one diameter high, at its centre half one: --rebound-measured-to "
+                                 "top or centre) and the length unit"},
     ),
     "buoyancy": Effect(
         name="buoyancy",
