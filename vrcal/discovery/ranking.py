@@ -368,13 +368,8 @@ class Discovery:
     def speed_range(self, fit=None):
         """(lowest, highest) impact speed [m/s] of the final model (or of ``fit``, e.g. ``split``, whose
         drag may differ) over every run's bounces."""
-        fit = self.final if fit is None else fit
-        speeds = []
-        for r, run in enumerate(self.runs):
-            drops = fit.model(run=r)
-            v = np.asarray(drops.impact_speeds_m_per_s)[0]
-            speeds += list(v[:max(_record_bounces(run, drops), 1)])
-        return float(min(speeds)), float(max(speeds))
+        speeds = _over_record_bounces(self.final if fit is None else fit, self.runs, "impact_speeds_m_per_s")
+        return float(np.min(speeds)), float(np.max(speeds))
 
     @property
     def all_notes(self):
@@ -542,13 +537,20 @@ def _record_bounces(run, drops):
     return drops.n_bounces
 
 
-def _epsilon_range(fit, runs):
-    """[lowest, highest] ε of ``fit``'s model over the bounces the record holds, every run's (the
-    rows of a drop table, the files of a joint fit)."""
-    eps = []
+def _over_record_bounces(fit, runs, quantity):
+    """``quantity`` (an attribute of :class:`vrcal.drop.simulate.Drops` per bounce, e.g.
+    ``"epsilons"``) of ``fit``'s model at every bounce the record holds, every run's (the rows of a
+    drop table, the files of a joint fit), as one array."""
+    out = []
     for r, run in enumerate(runs):
         drops = fit.model(run=r)
-        eps.extend(np.asarray(drops.epsilons, dtype=float)[0][:max(_record_bounces(run, drops), 1)])
+        out.append(np.asarray(getattr(drops, quantity), dtype=float)[0][:max(_record_bounces(run, drops), 1)])
+    return np.concatenate(out)
+
+
+def _epsilon_range(fit, runs):
+    """[lowest, highest] ε of ``fit``'s model over the bounces the record holds, every run's."""
+    eps = _over_record_bounces(fit, runs, "epsilons")
     return [float(np.min(eps)), float(np.max(eps))]
 
 

@@ -305,7 +305,7 @@ def qn_scale(x):
     return 2.2219 * c * float(np.partition(pairs, h * (h - 1) // 2 - 1)[h * (h - 1) // 2 - 1])
 
 
-def ratio_scatter(t_s, timing_sigma_s=0.0):
+def ratio_scatter(t_s):
     """Bounce-to-bounce scatter of a series of impact times: the robust standard deviation
     (:func:`qn_scale`) of the change of ln(dt_{i+1} / dt_i) from one ratio to the next, divided by
     sqrt(2) (dimensionless; 0.006 = the interval ratios scatter by 0.6 %), or None with fewer than
@@ -314,47 +314,32 @@ def ratio_scatter(t_s, timing_sigma_s=0.0):
     A slow trend of the ratios (air drag, a speed-dependent epsilon, a contact time) hardly
     changes successive ratios; a ball that hits the floor at slightly different spots, with
     some spin or drifting sideways, changes each one at random. This is the scatter a
-    constant law cannot follow, whatever its effects.
-
-    ``timing_sigma_s`` [s]: the timing noise of each time. Its share is taken out (in quadrature):
-    the change of successive ratios is d = M e for timing errors e (M from the intervals), so
-    timing alone scatters d by ``timing_sigma_s`` times the median row norm of M. It matters for
-    times on a coarse grid (a 30 fps video: 9.6 ms on intervals of a few tenths of a second) and
-    for a timing noise the user gives (300 simulated regular series of 8-15 impacts with 1 ms
-    jitter: median scatter 1.2 % as it is, 0 with the timing's share out; 90th percentile 3.7 %
-    and 2.0 %).
+    constant law cannot follow, whatever its effects. It includes the timing noise's share: with
+    a known timing noise, :func:`bounce_scatter` gives the bounces' own.
     """
     t = np.asarray(t_s, dtype=float)
     if t.size < 6:
         return None
-    dt = np.diff(t)
-    d = np.diff(np.log(dt[1:] / dt[:-1]))
-    scatter = qn_scale(d) / math.sqrt(2.0)
-    if timing_sigma_s > 0:
-        scatter = math.sqrt(max(scatter**2 - timing_share(t, timing_sigma_s) ** 2, 0.0))
-    return scatter
+    return qn_scale(_ratio_change_values(t)) / math.sqrt(2.0)
+
+
+def _ratio_change_values(t_s):
+    """The changes of successive ratios ln(dt_{i+1} / dt_i) of a series of impact times (the second
+    differences of ln dt)."""
+    return np.diff(np.log(np.diff(np.asarray(t_s, dtype=float))), n=2)
 
 
 def _ratio_changes(t_s):
-    """(d, M) of a series of impact times: the changes d of successive ratios ln(dt_{i+1} / dt_i)
-    (the second differences of ln dt) and, to first order, the matrix M with d = M e for errors e of
-    the times (d ln dt_j = (e_{j+1} - e_j) / dt_j)."""
+    """(d, M) of a series of impact times: the changes d of successive ratios
+    (:func:`_ratio_change_values`) and, to first order, the matrix M with d = M e for errors e of the
+    times (d ln dt_j = (e_{j+1} - e_j) / dt_j)."""
     t = np.asarray(t_s, dtype=float)
     dt = np.diff(t)
     n = t.size
     D = np.zeros((n - 1, n))
     D[np.arange(n - 1), np.arange(n - 1)] = -1.0 / dt
     D[np.arange(n - 1), np.arange(1, n)] = 1.0 / dt
-    return np.diff(np.log(dt), n=2), np.diff(D, n=2, axis=0)
-
-
-def timing_share(t_s, timing_sigma_s):
-    """The part of :func:`ratio_scatter` that a timing noise ``timing_sigma_s`` [s] of each time
-    alone gives (dimensionless): timing alone scatters the changes of successive ratios d = M e
-    (:func:`_ratio_changes`) by ``timing_sigma_s`` times the median row norm of M (over sqrt(2),
-    as the scatter)."""
-    _, M = _ratio_changes(t_s)
-    return float(timing_sigma_s) * math.sqrt(float(np.median(np.sum(M * M, axis=1)))) / math.sqrt(2.0)
+    return _ratio_change_values(t), np.diff(D, n=2, axis=0)
 
 
 #: How much larger than assumed a stopwatch's timing noise may be (a phone's acoustic onsets: 0.05-1 ms
@@ -404,30 +389,28 @@ def bounce_scatter(t_s, timing_sigma_s, t_model_s=None, alpha=0.05, timing_known
         return None
     d, M = _ratio_changes(t)
     if t_model_s is not None:
-        d = d - _ratio_changes(t_model_s)[0]
+        d = d - _ratio_change_values(t_model_s)
     m = d.size
     dof = m - 1
     sigma2 = float(timing_sigma_s) ** 2
     full = m <= FULL_COVARIANCE_CHANGES
-    C0 = sigma2 * (M @ M.T if full else np.sum(M * M, axis=1))
+    MMt = M @ M.T if full else np.sum(M * M, axis=1)
+    C0 = sigma2 * MMt
     T = (2.0 * np.eye(m) - np.eye(m, k=1) - np.eye(m, k=-1)) if full else np.full(m, 2.0)
-    X = np.ones((m, 1))
 
     def q(s2):   # generalized least squares of d on its mean: the chi-square
-        C = s2 * T + C0
-        W = np.linalg.solve(C, np.column_stack([d, X])) if full else np.column_stack([d, X]) / C[:, None]
-        beta = np.linalg.solve(X.T @ W[:, 1:], X.T @ W[:, 0])
-        r = d - X @ beta
-        return float(r @ (W[:, 0] - W[:, 1:] @ beta))
+        return _gls_about_mean(d, s2 * T + C0, full)[0]
 
-    if sigma2 > 0 and chi2_sf(q(0.0), dof) >= alpha:
-        return 0.0
-    if not timing_known and chi2_sf(_gls_chi2(d, UNKNOWN_TIMING_FACTOR**2 * C0, full), dof) >= alpha and full:
-        # beyond the assumed noise, not beyond a timing UNKNOWN_TIMING_FACTOR times worse: the shape of the
-        # changes shares them out (the maximum of the restricted likelihood, significant or not)
-        return _scatter_by_reml(d, M @ M.T, T, alpha=1.0)
     if sigma2 == 0:   # no timing noise: all of it is the bounces'
         return math.sqrt(q(1.0) / dof)
+    q0 = q(0.0)
+    if chi2_sf(q0, dof) >= alpha:
+        return 0.0
+    if not timing_known and full and chi2_sf(q0 / UNKNOWN_TIMING_FACTOR**2, dof) >= alpha:
+        # beyond the assumed noise, not beyond a timing UNKNOWN_TIMING_FACTOR times worse (the chi-square
+        # scales as 1 / sigma^2): the shape of the changes shares them out (the maximum of the restricted
+        # likelihood, significant or not)
+        return _scatter_by_reml(d, MMt, T, alpha=1.0)
     lo, hi = 0.0, max(float(np.mean((d - d.mean()) ** 2)), 1e-12)
     while q(hi) > dof:
         hi *= 4.0
@@ -437,13 +420,13 @@ def bounce_scatter(t_s, timing_sigma_s, t_model_s=None, alpha=0.05, timing_known
     return math.sqrt(0.5 * (lo + hi))
 
 
-def _gls_chi2(d, C, full):
-    """The generalized chi-square of ``d`` about its weighted mean under covariance ``C`` (a matrix, or
-    its diagonal when not ``full``)."""
+def _gls_about_mean(d, C, full=True):
+    """(chi-square, 1^T C^-1 1): the generalized chi-square of ``d`` about its weighted mean under
+    covariance ``C`` (a matrix, or its diagonal when not ``full``), and the weight of that mean."""
     one = np.ones(d.size)
     w = np.linalg.solve(C, np.column_stack([d, one])) if full else np.column_stack([d, one]) / C[:, None]
     mu = float(one @ w[:, 0]) / float(one @ w[:, 1])
-    return float((d - mu) @ (w[:, 0] - mu * w[:, 1]))
+    return float((d - mu) @ (w[:, 0] - mu * w[:, 1])), float(one @ w[:, 1])
 
 
 def _scatter_by_reml(d, MMt, T, alpha, shares=np.linspace(0.0, 1.0, 41)):
@@ -455,18 +438,15 @@ def _scatter_by_reml(d, MMt, T, alpha, shares=np.linspace(0.0, 1.0, 41)):
 
     m = d.size
     K = MMt * (np.trace(T) / np.trace(MMt))
-    one = np.ones(m)
 
     def nll(f):
         B = (1.0 - f) * T + f * K
         sign, logdet = np.linalg.slogdet(B)
         if sign <= 0:
             return math.inf, 0.0
-        w = np.linalg.solve(B, np.column_stack([d, one]))
-        mu = float(one @ w[:, 0]) / float(one @ w[:, 1])
-        q = float((d - mu) @ (w[:, 0] - mu * w[:, 1]))
+        q, weight = _gls_about_mean(d, B)
         v = q / (m - 1)
-        return 0.5 * ((m - 1) * math.log(max(v, 1e-300)) + logdet + math.log(float(one @ w[:, 1]))), v
+        return 0.5 * ((m - 1) * math.log(max(v, 1e-300)) + logdet + math.log(weight)), v
 
     fits = [(*nll(f), f) for f in shares]
     best, v, f = min(fits)
