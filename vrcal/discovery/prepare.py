@@ -525,9 +525,10 @@ def heights_to_bottom(data, diameter_m, drop_measured_to=None, rebound_measured_
     drop_to, rebound_to = drop_measured_to or "bottom", rebound_measured_to or "bottom"
     runs = data.runs if isinstance(data, Runs) else (data,)
     if runs[0].kind != "apexes":
+        why = (": a trajectory's tracked point is found by discover (height_offset)" if runs[0].kind == "trajectory"
+               else " (impact times hold no heights)")
         raise UsageError(f"--drop-measured-to and --rebound-measured-to apply to heights (a drop table or the apex "
-                         f"heights of one drop), not to {runs[0].kind}: a trajectory's tracked point is found by "
-                         f"discover (height_offset)")
+                         f"heights of one drop), not to {runs[0].kind}{why}")
     moved = []
     for run in runs:
         h = np.asarray(run.h_m, dtype=float)
