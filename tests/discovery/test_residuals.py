@@ -302,6 +302,53 @@ def test_bounce_scatter_is_found_where_planted_and_not_in_timing_noise():
     assert bounce_scatter(t0[:5], 2e-4) is None
 
 
+def test_scatter_weights_whiten_the_times_covariance_run_by_run():
+    """W Sigma W^T = sigma_t^2 I for Sigma = s^2 A A^T + sigma_t^2 I of each run (a bounce's scatter moves
+    every later time of its run, not of another run); None where there is nothing to weigh."""
+    from vrcal.discovery.residuals import MOST_WEIGHTED, scatter_weights
+    from vrcal.measurements import Runs
+
+    golf = BallProperties(0.0459, 0.0427, "golf")
+    runs = [ImpactTimes(np.asarray(simulate_drops(h, 0.85, n, golf, release_time_s=0.3).impact_times_s)[0], f"r{h}")
+            for h, n in ((1.0, 9), (0.6, 7))]
+    problem = res.make_problem(Runs(tuple(runs), "two runs"), golf)
+    W = scatter_weights(problem, 0.02, 2e-4)
+    blocks = []
+    for run in runs:
+        t = np.asarray(run.t_s)
+        A = np.tril(t[:, None] - t[None, :], -1)
+        blocks.append(0.02**2 * A @ A.T + 2e-4**2 * np.eye(t.size))
+    sigma = np.block([[blocks[0], np.zeros((9, 7))], [np.zeros((7, 9)), blocks[1]]])
+    np.testing.assert_allclose(W @ sigma @ W.T, 2e-4**2 * np.eye(16), atol=1e-14)
+    assert np.all(W[:9, 9:] == 0) and np.all(W[9:, :9] == 0)
+    one = res.make_problem(runs[0], golf)
+    assert scatter_weights(one, 0.0, 2e-4) is None and scatter_weights(one, 0.02, 0.0) is None
+    assert scatter_weights(one, None, 2e-4) is None
+    many = ImpactTimes(np.cumsum(np.full(MOST_WEIGHTED + 1, 0.01)), "many")
+    assert scatter_weights(res.Problem(many, golf), 0.02, 2e-4) is None
+
+
+def test_a_weighted_fit_minimises_the_weighted_residuals_and_shows_the_plain_ones():
+    """With weights every statistic is of W r (rss, chi-square, BIC); the gap a user sees is data - model."""
+    from dataclasses import replace
+
+    from vrcal.discovery.residuals import scatter_weights
+    from vrcal.drop.synthetic import scattered_impact_times
+
+    data = scattered_impact_times(3, scatter=0.02, n_impacts=12)
+    problem = res.make_problem(data, BallProperties(0.020, 0.040, "blue"), noise=2e-4)
+    W = scatter_weights(problem, 0.02, 2e-4)
+    fit = res.fit_model(replace(problem, weights=W))
+    plain = res.fit_model(problem)
+    assert fit.rss == pytest.approx(float(np.sum((W @ fit.residuals) ** 2)), rel=1e-6)
+    assert fit.judged_gap == pytest.approx(math.sqrt(fit.rss / fit.n))
+    assert fit.gap == pytest.approx(float(np.sqrt(np.mean(fit.residuals**2))))
+    assert fit.gap >= plain.gap * (1 - 1e-9)               # least squares minimises the plain gap
+    assert plain.judged_gap == plain.gap
+    # generalized least squares: the uncertainty holds the scatter (the plain fit's does not)
+    assert fit.uncertainty("epsilon") > 3 * plain.uncertainty("epsilon")
+
+
 def test_qn_scale_is_a_standard_deviation_that_bears_an_odd_value():
     """Rousseeuw and Croux's Qn: unbiased for a normal sample of any size (the small-sample factors),
     unmoved by one odd value, and less often far below the truth than the median absolute deviation

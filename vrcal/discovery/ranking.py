@@ -214,6 +214,9 @@ class Discovery:
     split: res.FitResult | None = None  # named effects and their ambiguous rivals at the posterior mode
     nuisance: tuple = ()              # effects in every model that are not named: the floor's level, when
                                       # the record has no floor (``height_offset``)
+    # (baseline, final) by generalized least squares, when the effects were judged so (impact times whose
+    # bounces scatter: :func:`vrcal.discovery.residuals.scatter_weights`); the candidates are of the same kind
+    judged: tuple | None = None
 
     @property
     def unit(self):
@@ -287,6 +290,16 @@ class Discovery:
         return float(own[[p.key for p in self.final.layout].index("epsilon")])
 
     @property
+    def judged_baseline(self):
+        """The baseline as the candidates were judged against it (:attr:`judged`, else :attr:`baseline`)."""
+        return self.baseline if self.judged is None else self.judged[0]
+
+    @property
+    def judged_final(self):
+        """The final model as the candidates were judged against it (:attr:`judged`, else :attr:`final`)."""
+        return self.final if self.judged is None else self.judged[1]
+
+    @property
     def epsilon_baseline(self):
         """ε of the baseline: the constant that best mimics the record in a model without the effects."""
         return self.baseline.baseline_values["epsilon"]
@@ -327,14 +340,15 @@ class Discovery:
         named effects are then stand-ins for one that needs an unphysical value, and the input
         (mass, diameter, length scale, frame rate) is the first suspect."""
         th = self.thresholds
-        sigma2 = self.final.noise_sigma(self.noise_floor) ** 2
+        final = self.judged_final
+        sigma2 = final.noise_sigma(self.noise_floor) ** 2
         out = []
         for c, entry in self._unphysical():
-            drop = (self.final.rss - c.fit.rss) / sigma2
-            extra = c.fit.k - self.final.k
+            drop = (final.rss - c.fit.rss) / sigma2
+            extra = c.fit.k - final.k
             # as for naming an effect: the gap it removes must be a share of the noise, not only many
             # samples' worth of a sliver of it (a noise-free simulation is fitted far below its noise)
-            removed = math.sqrt(max(self.gap_after**2 - c.fit.gap**2, 0.0))
+            removed = math.sqrt(max(final.judged_gap**2 - c.fit.judged_gap**2, 0.0))
             if removed < th.removed_noise_fraction * (self.noise_floor or 0.0):
                 continue
             if (extra <= 0 and drop > th.indistinguishable_chi2) or (
@@ -358,7 +372,7 @@ class Discovery:
                     continue
                 seen.add((effect, param))
                 out.append((c, {"effect": effect, "parameter": param, "value": value, "limits": list(limits),
-                                "gap": c.fit.gap, "check": EFFECTS[effect].check_for(self.kind)}))
+                                "gap": c.fit.judged_gap, "check": EFFECTS[effect].check_for(self.kind)}))
         return out
 
     def gap_per_bounce(self):
@@ -453,15 +467,26 @@ class Discovery:
         return {name: {r: math.exp(min(c.score - win.score, 1400.0) / 2.0) for r, c in rivals.items()}
                 for name, (win, rivals) in self._rivals().items()}
 
-    @property
+    @functools.cached_property
     def ambiguous_epsilon(self):
         """``{named effect: {rival: {"epsilon": [lowest, highest], "parameters": {...}}}}``: the
         contact's epsilon over the record's bounces had the rival been named instead (one value
         twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
         number an engine needs."""
-        return {name: {r: {"epsilon": _epsilon_range(c.fit, self.runs),
-                           "parameters": dict(c.fit.effect_values.get(r, {}))} for r, c in rivals.items()}
+        return {name: {r: {"epsilon": _epsilon_range(self._as_final(c.fit), self.runs),
+                           "parameters": dict(self._as_final(c.fit).effect_values.get(r, {}))}
+                       for r, c in rivals.items()}
                 for name, (_, rivals) in self._rivals().items()}
+
+    def _as_final(self, fit):
+        """A candidate's fit as the final model is fitted: by least squares when the candidates were
+        judged by generalized least squares (:attr:`judged`), else the fit itself (cached)."""
+        if self.judged is None:
+            return fit
+        cache = self.__dict__.setdefault("_plain_fits", {})
+        if id(fit) not in cache:
+            cache[id(fit)] = res.fit_model(self.final.problem, fit.effects, start=_start_from(fit))
+        return cache[id(fit)]
 
     def as_dict(self):
         """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader."""
@@ -508,6 +533,8 @@ class Discovery:
             "scatter": self.scatter,
             "scatter_gap": self.scatter_gap,
             "statistic": "-2 ln evidence (Laplace, registry priors)",
+            "judged_by": ("generalized least squares (the bounces' scatter)" if self.judged is not None
+                          else "least squares"),
             "candidates": [
                 {"name": c.name, "round": c.round, "gap": c.gap, "score": c.score, "bic": c.fit.bic,
                  "delta_bic": c.delta_bic, "two_ln_bayes_factor": c.two_ln_bayes,
@@ -603,7 +630,7 @@ def _stand_in_reason(d, u):
     (p,) = [p for p in EFFECTS[u["effect"]].parameters if p.name == u["parameter"]]
     named = " and ".join(d.effects) if d.effects else "the constant-epsilon model"
     return (f"{u['effect']} fits far better than {named} (gap {u['gap'] * 1e3:.3g} against "
-            f"{d.gap_after * 1e3:.3g} {'mm' if d.unit == 'm' else 'ms'}) but only with {u['parameter']} "
+            f"{d.judged_final.judged_gap * 1e3:.3g} {'mm' if d.unit == 'm' else 'ms'}) but only with {u['parameter']} "
             f"{u['value']:.3g} (physical: {u['limits'][0]:.3g} to {u['limits'][1]:.3g}): {u['check']}")
 
 
@@ -728,8 +755,8 @@ def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0):
     cand.delta_bic = current.bic - fit.bic
     cand.outside = [(m, *o) for m in cand.members for o in fit.outside_limits(m)]
     cand.in_prior = not cand.outside
-    removed = math.sqrt(max(current.gap**2 - fit.gap**2, 0.0))
-    cand.gap_ok = (fit.gap <= th.gap_factor * current.gap) or (
+    removed = math.sqrt(max(current.judged_gap**2 - fit.judged_gap**2, 0.0))
+    cand.gap_ok = (fit.judged_gap <= th.gap_factor * current.judged_gap) or (
         sigma_floor is not None and removed >= th.removed_noise_fraction * sigma_floor)
     reasons = []
     if cand.delta_bic < th.delta_bic:
@@ -747,6 +774,95 @@ def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0):
     cand.material = not reasons
     cand.verdict = "material" if cand.material else "not material: " + "; ".join(reasons)
     return cand
+
+
+def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects, progress):
+    """Forward selection with a backward check from ``baseline``: (final fit, named effects (the
+    nuisances first), rounds of candidates, ambiguous namings, notes)."""
+    from vrcal.drop.effects import EFFECTS
+
+    kind = problem.runs[0].kind
+    spread = res.drop_height_spread(problem)
+    current, named, rounds, ambiguous, notes = baseline, list(nuisance), [], {}, []
+    pool = list(pool)
+    while pool and len(named) - len(nuisance) < max_effects:
+        rnd = len(rounds) + 1
+        cands = []
+        n_data = current.n
+        fits_in = [n for n in pool if n_data - current.k - len(EFFECTS[n].parameters) >= 2]
+        if len(fits_in) < len(pool):
+            notes.append(f"round {rnd}: {n_data} data are too few to try "
+                         f"{', '.join(n for n in pool if n not in fits_in)} on top of {current.k} parameters")
+            pool = fits_in
+            if not pool:
+                break
+        for i, name in enumerate(pool):
+            if progress is not None:
+                progress(rnd, i + 1, len(pool), name)
+            fit = _fit_candidate(problem, named, (name,), current)
+            cand = Candidate(name, rnd, fit, 0.0, 0.0, 1.0, False, False)
+            cands.append(_judge(cand, current, sigma_floor, th, floor_sd))
+        material = [c for c in cands if c.material]
+        if not material and len(named) - len(nuisance) + 2 <= max_effects:
+            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd)
+            material = [c for c in cands if c.material]
+        rank_by_evidence(cands, current, sigma_floor)
+        cands.sort(key=lambda c: c.score)
+        material.sort(key=lambda c: c.score)
+        rounds.append(cands)
+        if not material:
+            break
+        win = material[0]
+        # drops from several heights (a drop table, several files) separate what one drop cannot
+        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
+        # the noise a rival is judged against: the floor, or what the winner leaves when that is more (a
+        # record's own scatter from bounce to bounce)
+        var = win.fit.noise_sigma(sigma_floor) ** 2
+        rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
+            c.score - win.score < th.indistinguishable_bic
+            or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2
+                and c.score - win.score < th.decisive_two_ln_odds))]
+        close = [c.name for c in rivals]
+        if close:
+            ambiguous[win.name] = close
+            odds = ", ".join(f"{c.name} {_odds(c.score - win.score)}" for c in rivals)
+            notes.append(f"round {rnd}: {win.name} is named (highest evidence) but {', '.join(close)} also "
+                         f"explain(s) the {kind} data (posterior odds for {win.name} with the registry's priors: "
+                         f"{odds}); {kind} data cannot reliably tell them apart"
+                         + ("" if kind == "trajectory" else " (a trajectory can)"))
+        win.verdict = "named" + (f" (ambiguous with {', '.join(close)})" if close else "")
+        named.extend(win.members)
+        current = win.fit
+        pool = [n for n in pool if n not in win.members]
+        before = list(named)
+        named, current = _backward(problem, named, win.members, current, th, rnd, notes, keep=nuisance)
+        for c in (c for r in rounds for c in r):
+            if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
+                c.verdict = f"named, dropped in round {rnd}"
+    ambiguous = {k: v for k, v in ambiguous.items() if k in named}
+    return current, named, rounds, ambiguous, notes
+
+
+#: The effects of impact times are judged again by generalized least squares when the bounces' scatter is
+#: found at this level (a test at 5 % widens the +-): found in noise alone, it costs an effect its
+#: power (a speed law planted in 6 impacts was lost in 1 of 12 records when the share of an assumed timing
+#: noise was not tested).
+JUDGE_SCATTER_ALPHA = 0.01
+
+
+def _bounce_scatter(problem, fit, sigma_floor, alpha=0.05, share_alpha=1.0):
+    """The median over the runs of the bounces' own scatter beyond ``fit``'s model and the timing noise
+    (:func:`vrcal.discovery.residuals.bounce_scatter`, tested at ``alpha`` and ``share_alpha``; 0 when
+    none is found), or None (too few impacts)."""
+    own, start = [], 0
+    for run in problem.runs:
+        t = np.asarray(run.t_s, dtype=float)
+        model_t = t - fit.residuals[start:start + t.size]
+        start += t.size
+        own.append(res.bounce_scatter(t, sigma_floor, model_t, alpha=alpha, timing_known=problem.noise_known,
+                                      share_alpha=share_alpha))
+    own = [v for v in own if v is not None]
+    return float(np.median(own)) if own else None
 
 
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
@@ -831,11 +947,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         nuisance = ("height_offset",)
         pool = [n for n in pool if n not in nuisance]
     problem = res.make_problem(fitted, ball, g_m_per_s2, noise=sigma_floor, noise_known=noise_known(noise_source))
-    spread = res.drop_height_spread(problem)
     if stages is not None:
         stages(1.0, f"fitting {problem_size(problem):,} data")
     baseline = res.fit_model(problem, nuisance)
-    current, named, rounds, ambiguous = baseline, list(nuisance), [], {}
     if nuisance:
         level = float(baseline.effect_values["height_offset"]["offset_m"])
         notes.append(f"the floor is not in the record: the contact's level is fitted with every model (the "
@@ -844,61 +958,29 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     skipped = sorted(set(res.applicable_effects(kind)) ^ set(EFFECTS))
     if skipped:
         notes.append(f"not tried ({kind} data cannot show them): {', '.join(skipped)}")
-    while pool and len(named) - len(nuisance) < max_effects:
-        rnd = len(rounds) + 1
-        cands = []
-        n_data = current.n
-        fits_in = [n for n in pool if n_data - current.k - len(EFFECTS[n].parameters) >= 2]
-        if len(fits_in) < len(pool):
-            notes.append(f"round {rnd}: {n_data} data are too few to try "
-                         f"{', '.join(n for n in pool if n not in fits_in)} on top of {current.k} parameters")
-            pool = fits_in
-            if not pool:
-                break
-        for i, name in enumerate(pool):
-            if progress is not None:
-                progress(rnd, i + 1, len(pool), name)
-            fit = _fit_candidate(problem, named, (name,), current)
-            cand = Candidate(name, rnd, fit, 0.0, 0.0, 1.0, False, False)
-            cands.append(_judge(cand, current, sigma_floor, th, floor_sd))
-        material = [c for c in cands if c.material]
-        if not material and len(named) - len(nuisance) + 2 <= max_effects:
-            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd)
-            material = [c for c in cands if c.material]
-        rank_by_evidence(cands, current, sigma_floor)
-        cands.sort(key=lambda c: c.score)
-        material.sort(key=lambda c: c.score)
-        rounds.append(cands)
-        if not material:
-            break
-        win = material[0]
-        # drops from several heights (a drop table, several files) separate what one drop cannot
-        groups = [g for g in CONFUSABLE[kind] if set(win.members) & g] if spread < SPREAD_SEPARATES else []
-        # the noise a rival is judged against: the floor, or what the winner leaves when that is more (a
-        # record's own scatter from bounce to bounce)
-        var = win.fit.noise_sigma(sigma_floor) ** 2
-        rivals = [c for c in material[1:] if len(c.members) == 1 and c.name not in win.members and (
-            c.score - win.score < th.indistinguishable_bic
-            or (any(c.name in g for g in groups) and (c.fit.rss - win.fit.rss) / var < th.indistinguishable_chi2
-                and c.score - win.score < th.decisive_two_ln_odds))]
-        close = [c.name for c in rivals]
-        if close:
-            ambiguous[win.name] = close
-            odds = ", ".join(f"{c.name} {_odds(c.score - win.score)}" for c in rivals)
-            notes.append(f"round {rnd}: {win.name} is named (highest evidence) but {', '.join(close)} also "
-                         f"explain(s) the {kind} data (posterior odds for {win.name} with the registry's priors: "
-                         f"{odds}); {kind} data cannot reliably tell them apart"
-                         + ("" if kind == "trajectory" else " (a trajectory can)"))
-        win.verdict = "named" + (f" (ambiguous with {', '.join(close)})" if close else "")
-        named.extend(win.members)
-        current = win.fit
-        pool = [n for n in pool if n not in win.members]
-        before = list(named)
-        named, current = _backward(problem, named, win.members, current, th, rnd, notes, keep=nuisance)
-        for c in (c for r in rounds for c in r):
-            if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
-                c.verdict = f"named, dropped in round {rnd}"
-    ambiguous = {k: v for k, v in ambiguous.items() if k in named}
+    selection = _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects, progress)
+    judged = None
+    if kind == "impacts":
+        # the bounces' own scatter beyond the selected model's changes of ratio and the timing noise; when
+        # there is one, the times' errors are not independent and every model is judged again by
+        # generalized least squares under their covariance (res.scatter_weights)
+        own = _bounce_scatter(problem, selection[0], sigma_floor, JUDGE_SCATTER_ALPHA, JUDGE_SCATTER_ALPHA)
+        weights = res.scatter_weights(problem, own, sigma_floor)
+        if weights is not None:
+            weighted = replace(problem, weights=weights)
+            judged_baseline = res.fit_model(weighted, nuisance)
+            selection = _select(weighted, judged_baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects,
+                                progress)
+            judged = (judged_baseline, selection[0])
+            notes.append(f"the bounces scatter by {100 * own:.2g} % (each bounce's epsilon, beyond the timing "
+                         f"noise): a low one shortens every later flight, so the times' errors are not "
+                         f"independent; the effects were judged by generalized least squares under their "
+                         f"covariance, the values fitted by least squares")
+    current, named, rounds, ambiguous, round_notes = selection
+    notes.extend(round_notes)
+    if judged is not None:
+        # the values of the named model by least squares (as a record without scatter): every time alike
+        current = res.fit_model(problem, tuple(named), start=_start_from(current))
     if kind == "apexes" and "height_offset" in named:
         notes.append("a height offset in heights says how they were read (the ball's top is one diameter above its "
                      "bottom); if you know the point, give --drop-measured-to and --rebound-measured-to: no offset "
@@ -911,18 +993,12 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         # assumed): a bounce's scatter moves every later time of its run, and errors taken as independent
         # understate the +- (60 seeds each of 8 and 12 impacts, bounces scattering by 0.5-3 %: the fit's own
         # +- covered 7-12 % of the truths; benchmarks/coverage_scatter.py)
-        own, start = [], 0
-        for run in problem.runs:
-            t = np.asarray(run.t_s, dtype=float)
-            model_t = t - current.residuals[start:start + t.size]
-            start += t.size
-            own.append(res.bounce_scatter(t, sigma_floor, model_t, timing_known=problem.noise_known))
-        own = [v for v in own if v is not None]
+        own = _bounce_scatter(problem, current, sigma_floor)
         if problem.noise_known:
             # a known timing noise (the user's --noise, a grid of the times): the same estimate judges the
             # record. Times printed to 0.01 s with no scatter said "vary by 3.0 %" (the grid's share taken out
             # by a typical row, which the short late intervals exceed) and let the gap be 3.7 times larger
-            values = own
+            values = [] if own is None else [own]
         else:
             # the assumed stopwatch noise: a phone's is often far below it, and taking out more than the
             # timing's share hides the ball's; the record's own robust scatter (Qn) judges it
@@ -930,9 +1006,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if values:
             scatter = float(np.median(values))
             scatter_gap = res.scatter_gap(current, scatter)
-        if own and np.median(own) > 0:
-            wide = res.scatter_uncertainties(current, float(np.median(own)),
-                                             sigma_floor if problem.noise_known else 0.0)
+        if own:
+            wide = res.scatter_uncertainties(current, own, sigma_floor if problem.noise_known else 0.0)
             current = replace(current, uncertainties=np.maximum(current.uncertainties, wide),
                               extra=dict(current.extra, fit_uncertainties=current.uncertainties))
     n_read = sum(int(res.observed_values(run).size) for run in res._runs_of(data))
@@ -940,7 +1015,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      [n for n in named if n not in nuisance], rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                      dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
-                     prepared.decimation, n_read, split, nuisance)
+                     prepared.decimation, n_read, split, nuisance, judged)
 
 
 def chosen_noise(data, prepared, noise=None):

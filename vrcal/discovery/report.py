@@ -184,14 +184,18 @@ def answer(discovery):
         ratio = d.gap_after / d.reference_gap if d.reference_gap else math.inf
         parts.append(f"Something else remains: {after} is {ratio:.1f} times the noise, structure that no candidate "
                      f"of the registry removes.")
-    for need in [n for n in d.unphysical if n["gap"] < d.gap_after][:1]:
+    final_gap = d.judged_final.judged_gap   # what the candidates' gaps compare with (weighted when judged so)
+    for need in [n for n in d.unphysical if n["gap"] < final_gap][:1]:
         lo, hi = need["limits"]
         from vrcal.drop.effects import EFFECTS
 
         p = EFFECTS[need["effect"]].parameter(need["parameter"])
         factor, shown = _si_scale(p.unit)
-        parts.append(f"{PHRASES[need['effect']][0][0].upper() + PHRASES[need['effect']][0][1:]} would shrink the gap "
-                     f"to {_fmt_gap(need['gap'], unit)} but only with {PHRASES[need['effect']][1]} = "
+        better = (f"would shrink the gap to {_fmt_gap(need['gap'], unit)}" if d.judged is None else
+                  f"would fit better (gap weighted by the scatter {_fmt_gap(need['gap'], unit)} against "
+                  f"{_fmt_gap(final_gap, unit)})")
+        parts.append(f"{PHRASES[need['effect']][0][0].upper() + PHRASES[need['effect']][0][1:]} {better} "
+                     f"but only with {PHRASES[need['effect']][1]} = "
                      f"{number(need['value'] * factor, 3)}{' ' + shown if shown else ''} (physical: "
                      f"{_limits_text(lo, hi, p.unit)}): {need['check']}.")
     return " ".join(parts)
@@ -398,11 +402,15 @@ def details_lines(d):
     scale, uname = _UNIT_SCALE[unit]
     sigma = reference_sigma(d)
     th = d.thresholds
-    b = d.baseline
-    out = ["Statistics (--details)",
-           _wrap(f"Baseline (the paper's model: constant epsilon, g = {d.g_m_per_s2:.6g} m/s^2 known): gap "
-                 f"{_fmt_gap(b.gap, unit)}, chi2 = {b.rss / sigma**2:.1f} at sigma = {_fmt_gap(sigma, unit)}, "
-                 f"AIC = {b.aic:.1f}, BIC = {b.bic:.1f} (n = {b.n}, k = {b.k}).", "  "),
+    b = d.judged_baseline
+    out = ["Statistics (--details)"]
+    if d.judged is not None:
+        out.append(_wrap("Judged by generalized least squares (the bounces scatter, see the notes): gaps, chi2, AIC "
+                         "and BIC of the residuals weighted by the times' covariance, in the data's unit at the "
+                         "timing noise.", "  "))
+    out += [_wrap(f"Baseline (the paper's model: constant epsilon, g = {d.g_m_per_s2:.6g} m/s^2 known): gap "
+                  f"{_fmt_gap(b.judged_gap, unit)}, chi2 = {b.rss / sigma**2:.1f} at sigma = {_fmt_gap(sigma, unit)}, "
+                  f"AIC = {b.aic:.1f}, BIC = {b.bic:.1f} (n = {b.n}, k = {b.k}).", "  "),
            _wrap(f"A candidate is material when dBIC >= {th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test), "
                  f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}, or by "
                  f"{th.removed_noise_fraction:g} noise sigma); of the material ones the highest evidence Z "
@@ -416,7 +424,7 @@ def details_lines(d):
         f = c.fit
         name = "+".join(SHORT[m] for m in c.members)
         verdict = "named" if c.verdict.startswith("named") else ("material" if c.material else "no")
-        rows.append([str(c.round), name, str(f.k), number(f.gap * scale, 4), number(f.rss / sigma**2, 4),
+        rows.append([str(c.round), name, str(f.k), number(f.judged_gap * scale, 4), number(f.rss / sigma**2, 4),
                      f"{f.aic:.1f}", f"{f.bic:.1f}", f"{c.delta_bic:.1f}", f"{c.p_value:.2g}",
                      f"{c.score - best[c.round]:.1f}", verdict])
         if not c.material and not c.verdict.startswith("named"):
