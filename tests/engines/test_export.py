@@ -1,6 +1,7 @@
 """export/verify as library functions and through the CLI; tables; the registry; bad input."""
 
 import json
+import math
 import sys
 
 import pytest
@@ -91,6 +92,50 @@ def test_compliant_floor_enters_through_eq6():
     setup = build_setup("basketball", "bullet", epsilon=0.8, floor="x=0.01,v=0.05")   # T = 0.1 s, K = 4
     assert setup.floor_epsilon == pytest.approx(0.67032, abs=1e-5)
     assert setup.epsilon == pytest.approx(0.8 * setup.floor_epsilon)
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "ode", "bullet", "gazebo", "tables"])
+@pytest.mark.parametrize("floor", [None, "rigid", "volleyball"])
+def test_K_that_would_change_nothing_is_refused_naming_where_it_applies(engine, floor):
+    """--K was accepted and ignored: the ball's epsilon, a ball as floor and the pair's product
+    do not depend on K; only a virtual-body floor 'x=..,v=..' turns K into an epsilon (Eq. 7)."""
+    with pytest.raises(UsageError, match=r"--K applies only with --floor x=DEPTH,v=SPEED"):
+        build_setup("basketball", engine, floor=floor, K_per_s=8.0)
+
+
+def test_K_sets_a_virtual_body_floors_epsilon():
+    floor = "x=0.01,v=0.05"                                          # T = x/(2v) = 0.1 s
+    for K in (4.0, 8.0):
+        setup = build_setup("basketball", "tables", epsilon=0.8, floor=floor, K_per_s=K)
+        assert setup.floor_epsilon == pytest.approx(math.exp(-K * 0.1))
+        assert setup.epsilon == pytest.approx(0.8 * math.exp(-K * 0.1))
+    assert build_setup("basketball", "tables", floor=floor).floor_epsilon == pytest.approx(math.exp(-0.4))
+
+
+def test_K_is_refused_with_a_discover_result_and_in_the_cli_of_export_and_verify(write_discover, tmp_path):
+    path = write_discover()
+    with pytest.raises(UsageError, match="--K applies only"):
+        build_setup(None, "ode", from_json=path, K_per_s=8.0)
+    for args in (["export", "basketball", "--engine", "mujoco", "--K", "8", "-o", tmp_path / "b.xml"],
+                 ["export", "basketball", "--engine", "tables", "--against", "volleyball", "--K", "8"],
+                 ["export", "tennis", "--engine", "mujoco", "--trade-off", "--K", "8"],
+                 ["verify", "basketball", "--engine", "ode", "--K", "8"]):
+        result = run(*args)
+        assert result.exit_code == 2, result.output
+        assert result.output.startswith("vrcal: error: --K applies only") and len(result.output.splitlines()) == 1
+    assert not (tmp_path / "b.xml").exists()
+    with_K = run("export", "basketball", "--engine", "tables", "--floor", "x=0.002,v=0.5", "--K", "8")
+    without = run("export", "basketball", "--engine", "tables", "--floor", "x=0.002,v=0.5")
+    assert with_K.exit_code == without.exit_code == 0
+    assert "0.9841" in with_K.output and "0.9920" in without.output          # exp(-K 0.002 s): K = 8, 4
+
+
+def test_verify_takes_K_for_a_virtual_body_floor():
+    require_engine("ode")
+    result = verify("basketball", "ode", floor="x=0.002,v=0.5", K_per_s=8.0, n_phases=1, n_bounces=1)
+    assert result.target == pytest.approx(build_setup("basketball", "ode", floor="x=0.002,v=0.5",
+                                                      K_per_s=8.0).epsilon)
+    assert result.target == pytest.approx(ball_epsilon(get_ball("basketball")).nominal * math.exp(-8 * 0.002))
 
 
 def test_the_discover_result_sets_body_drop_drag_and_release(write_discover):

@@ -40,9 +40,10 @@ from vrcal.engines.common import (
 )
 from vrcal.errors import DataError, UsageError
 from vrcal.fileio import dumps
-from vrcal.inverse import DEFAULT_K_PER_S, parse_body
+from vrcal.inverse import DEFAULT_K_PER_S, depends_on_K, parse_body
 from vrcal.model import restitution as eq
 from vrcal.model.body import describe_body
+from vrcal.model.restitution import check_K
 from vrcal.model.standards import ball_epsilon, get_ball
 
 #: Effects of a discover result that an engine file carries; the others are named in the notes.
@@ -98,7 +99,7 @@ def parse_impact_speed(text):
 
 
 def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None, standards=None,
-                K_per_s=DEFAULT_K_PER_S, *, mass_kg=None, diameter_m=None, drop_height_m=None,
+                K_per_s=None, *, mass_kg=None, diameter_m=None, drop_height_m=None,
                 impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
                 tolerance=DEFAULT_TOLERANCE, max_penetration_m=None, n_bounces=None):
     """The :class:`DropSetup` of a body for an engine, from what a user types.
@@ -118,8 +119,9 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     floor : str or None
         'rigid' (default), or a body spec (ball key, 'x=..,v=..') for a compliant floor
     standards : dict or None
-    K_per_s : float
-        rate constant K [1/s] of Eq. 6 (the pair value does not depend on it)
+    K_per_s : float or None
+        rate constant K [1/s] of Eq. 7 for a virtual-body ``floor`` 'x=..,v=..' (None: 4 1/s);
+        refused otherwise, where no epsilon depends on it (:func:`floor_K`)
     mass_kg, diameter_m : float or None
         the body's mass [kg] and diameter [m] (``--mass``, ``--diameter``)
     drop_height_m : float or None
@@ -144,6 +146,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     DropSetup
     """
     eng = get_engine(engine)
+    K_per_s = floor_K(floor, K_per_s)
     body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
     tolerance = check_positive(tolerance, "--tolerance")
     if max_penetration_m is not None:
@@ -248,6 +251,19 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     return setup
 
 
+def floor_K(floor, K_per_s):
+    """K [1/s] of Eq. 7 for the floor's epsilon: 4 1/s for None; a given K only with a virtual-body
+    floor 'x=..,v=..', the one body of an export whose epsilon depends on K (UsageError otherwise:
+    the ball's epsilon, a ball or discover result as floor and the pair's product of Eq. 6 do not)."""
+    if K_per_s is None:
+        return DEFAULT_K_PER_S
+    if floor is None or not depends_on_K(floor):
+        raise UsageError("--K applies only with --floor x=DEPTH,v=SPEED (that floor's epsilon is exp(-K x/(2v)), "
+                         "Eq. 7): the ball's epsilon, a ball or from=FILE as --floor and the --against pair (a "
+                         "product, Eq. 6) do not depend on K")
+    return check_K(K_per_s)
+
+
 def _refuse_for_tables(**given):
     """One-line UsageError naming the options --engine tables cannot use (``dt_s``, ``max_penetration_m``)."""
     flags = [flag for key, flag in (("dt_s", "--dt"), ("max_penetration_m", "--max-penetration"))
@@ -302,7 +318,7 @@ def _check_bounces_reachable(setup):
 
 
 def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
-           K_per_s=DEFAULT_K_PER_S, tolerance=DEFAULT_TOLERANCE, mass_kg=None, diameter_m=None,
+           K_per_s=None, tolerance=DEFAULT_TOLERANCE, mass_kg=None, diameter_m=None,
            drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
            max_penetration_m=None, stiffness=None, n_phases=N_PHASES, n_bounces=None):
     """Export a body's calibrated drop for ``engine``.
@@ -345,7 +361,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     if against is not None:
         b2 = get_ball(against, standards)
         eps2 = ball_epsilon(b2).nominal
-        eps_pair = float(combine_epsilons(setup.ball_epsilon, eps2, K_per_s))
+        eps_pair = float(combine_epsilons(setup.ball_epsilon, eps2))            # the product, at any K
         pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2, "epsilon": eps_pair,
                 "equation": "Eq. 6: T = T_A + T_B, epsilon = exp(-K T) = epsilon_A * epsilon_B"}
         second = DropSetup(ball=b2.key, mass_kg=b2.mass_kg.nominal, radius_m=b2.radius_m,
