@@ -691,7 +691,8 @@ def _engine_options(f):
         click.option("--stiffness", type=opt.STIFFNESS, default=None,
                      help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
         click.option("--tolerance", type=opt.TOLERANCE, default=None, show_default="0.01; verify --file: the file's",
-                     help="Largest accepted |achieved - target| epsilon."),
+                     help="Largest accepted |achieved - target| epsilon (--engine tables: only against a "
+                          "speed-dependent epsilon, which its one constant must stay within)."),
         click.option("--max-penetration", "max_penetration_m", type=opt.PENETRATION_M, default=None,
                      help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
                           "about what a real ball deforms at drop-test speed]."),
@@ -739,7 +740,6 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal export tennis --engine ode --epsilon 0.3 --drop-height 0.05 --dt 1e-4 --bounces 1
       vrcal export basketball --engine tables --against volleyball
     """
-    from vrcal.engines.common import DEFAULT_TOLERANCE
     from vrcal.engines.export import export, format_trade_off
     from vrcal.engines.export import trade_off as run_trade_off
     from vrcal.fileio import check_writable, dumps
@@ -749,8 +749,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                    K_per_s=K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
                    from_json=from_json, integrator=integrator,
-                   tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance,
-                   max_penetration_m=max_penetration_m, n_bounces=n_bounces)
+                   tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
     form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
         check_writable(output)                     # before the calibration, which takes seconds

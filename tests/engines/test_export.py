@@ -156,6 +156,37 @@ def test_tables_name_the_combine_modes_in_100_columns():
     assert max(len(line) for line in text.splitlines()) <= 100
 
 
+def test_tables_refuse_a_tolerance_they_cannot_apply_to_a_constant_epsilon():
+    """--tolerance was accepted and ignored by --engine tables for a constant epsilon (the value
+    typed in is the target; no engine is run): refused in one line naming where it applies."""
+    for ball, options in (("basketball", {}), (None, dict(mass_kg=0.058, diameter_m=0.067, epsilon=0.75)),
+                          (None, dict(mass_kg=0.058, diameter_m=0.067, epsilon=0.75, drop_height_m=1.0))):
+        with pytest.raises(UsageError, match=r"--tolerance does not apply to this --engine tables export.*"
+                                             r"speed-dependent epsilon"):
+            build_setup(ball, "tables", tolerance=0.001, **options)
+        assert export(ball, "tables", **options).text                  # without it: the table
+    result = run("export", "basketball", "--engine", "physx", "--tolerance", "0.5")
+    assert result.exit_code == 2 and len(result.output.splitlines()) == 1
+    assert result.output.startswith("vrcal: error: --tolerance does not apply")
+
+
+def test_tables_bound_a_speed_dependent_epsilons_constant_by_the_tolerance(write_discover):
+    path = write_discover(effects={"velocity_dependent_restitution": {"exponent": 0.4}}, epsilon=0.75)
+    setup = build_setup(None, "tables", from_json=path, tolerance=1.0)
+    from vrcal.engines.common import epsilon_spread
+
+    least = epsilon_spread(setup)[2]                                   # the constant's error at either end
+    assert least > 0.001
+    with pytest.raises(UsageError, match=r"off by at least .* > --tolerance"):
+        export(None, "tables", from_json=path, tolerance=0.9 * least)
+    assert export(None, "tables", from_json=path, tolerance=1.1 * least).data["rows"]
+
+
+def test_tables_say_the_floor_a_compliant_floor_gives():
+    text = export("basketball", "tables", floor="x=0.002,v=0.5").text
+    assert "on a rigid floor" not in text and "x floor 0.9920" in text.splitlines()[0]
+
+
 def test_unknown_engine_names_the_known_ones():
     with pytest.raises(UsageError, match="known: mujoco, ode, bullet"):
         get_engine("havok")

@@ -101,7 +101,7 @@ def parse_impact_speed(text):
 def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None, standards=None,
                 K_per_s=None, *, mass_kg=None, diameter_m=None, drop_height_m=None,
                 impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
-                tolerance=DEFAULT_TOLERANCE, max_penetration_m=None, n_bounces=None):
+                tolerance=None, max_penetration_m=None, n_bounces=None):
     """The :class:`DropSetup` of a body for an engine, from what a user types.
 
     Parameters
@@ -134,8 +134,10 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         a ``vrcal discover --json`` result (``--from``)
     integrator : str or None
         MuJoCo's integrator (euler, implicit, implicitfast, rk4; default euler)
-    tolerance : float
-        largest accepted |achieved - target| epsilon, > 0
+    tolerance : float or None
+        largest accepted |achieved - target| epsilon, > 0 (None: 0.01). For ``tables`` it bounds
+        the one constant's error against a speed-dependent epsilon over the impacts, and is refused
+        for a constant one (:func:`_refuse_tolerance_for_tables`)
     max_penetration_m : float or None
         largest accepted penetration (or hover) [m]; default a quarter of the radius
     n_bounces : int or None
@@ -148,7 +150,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     eng = get_engine(engine)
     K_per_s = floor_K(floor, K_per_s)
     body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
-    tolerance = check_positive(tolerance, "--tolerance")
+    tolerance_given = tolerance is not None
+    tolerance = DEFAULT_TOLERANCE if tolerance is None else check_positive(tolerance, "--tolerance")
     if max_penetration_m is not None:
         max_penetration_m = check_positive(max_penetration_m, "--max-penetration")
     if integrator is not None and eng.name != "mujoco":
@@ -222,6 +225,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         H = None                                   # a material value needs no speeds
     else:
         raise UsageError("give the speeds to calibrate for: --drop-height M or --impact-speed LO[:HI] (m/s)")
+    if eng.name == "tables" and tolerance_given and not (exponent and H is not None):
+        _refuse_tolerance_for_tables()
     eps_floor, floor_name = 1.0, "rigid floor"
     if floor is not None and str(floor).strip().lower() not in ("rigid", "floor", "steel"):
         floor_name, _, eps_floor = parse_body(floor, K_per_s, standards)
@@ -274,6 +279,15 @@ def _refuse_for_tables(**given):
                          "no step or depth is checked (leave it out; --engine ode, bullet or mujoco check a step)")
 
 
+def _refuse_tolerance_for_tables():
+    """One-line UsageError for ``--tolerance`` with --engine tables and a constant epsilon: the value
+    typed in is the target itself, and no engine is run whose error it could bound."""
+    raise UsageError("--tolerance does not apply to this --engine tables export: the restitution typed in is the "
+                     "target epsilon itself and vrcal runs none of PhysX, Unity and Box2D; it applies only to a "
+                     "speed-dependent epsilon (--from a discover result naming velocity_dependent_restitution), "
+                     "where it bounds the one constant's error over the impacts")
+
+
 def _reach_lowest_speed(setup, lo, hi, n_bounces):
     """The setup with as many bounces as reach down to ``lo`` [m/s] (``--bounces`` not given; each
     must still rise :data:`RISE_M`), and its ``impact speeds`` note saying where the bounces end."""
@@ -318,7 +332,7 @@ def _check_bounces_reachable(setup):
 
 
 def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
-           K_per_s=None, tolerance=DEFAULT_TOLERANCE, mass_kg=None, diameter_m=None,
+           K_per_s=None, tolerance=None, mass_kg=None, diameter_m=None,
            drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
            max_penetration_m=None, stiffness=None, n_phases=N_PHASES, n_bounces=None):
     """Export a body's calibrated drop for ``engine``.
