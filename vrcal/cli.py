@@ -691,7 +691,8 @@ def _engine_options(f):
         click.option("--stiffness", type=opt.STIFFNESS, default=None,
                      help="MuJoCo contact stiffness S [1/s^2]; 0 = the one-step damper (see --trade-off)."),
         click.option("--tolerance", type=opt.TOLERANCE, default=None, show_default="0.01; verify --file: the file's",
-                     help="Largest accepted |achieved - target| epsilon."),
+                     help="Largest accepted |achieved - target| epsilon (--engine tables: only against a "
+                          "speed-dependent epsilon, which its one constant must stay within)."),
         click.option("--max-penetration", "max_penetration_m", type=opt.PENETRATION_M, default=None,
                      help="Largest accepted penetration (or hover) [m] [default: a quarter of the radius, "
                           "about what a real ball deforms at drop-test speed]."),
@@ -739,19 +740,16 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal export tennis --engine ode --epsilon 0.3 --drop-height 0.05 --dt 1e-4 --bounces 1
       vrcal export basketball --engine tables --against volleyball
     """
-    from vrcal.engines.common import DEFAULT_TOLERANCE
     from vrcal.engines.export import export, format_trade_off
     from vrcal.engines.export import trade_off as run_trade_off
     from vrcal.fileio import check_writable, dumps
-    from vrcal.inverse import DEFAULT_K_PER_S
     from vrcal.textout import choose_format, machine_document
 
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
-                   K_per_s=DEFAULT_K_PER_S if K is None else K, mass_kg=mass_kg, diameter_m=diameter_m,
+                   K_per_s=K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
                    from_json=from_json, integrator=integrator,
-                   tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance,
-                   max_penetration_m=max_penetration_m, n_bounces=n_bounces)
+                   tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
     form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
         check_writable(output)                     # before the calibration, which takes seconds
@@ -795,12 +793,13 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               help="Bounces per drop (1-50).")
 @click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
               help="Drops with the impact moved across one time step (1-64).")
+@K_OPTION
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION
 @click.pass_context
 def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
                dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, file, against, data_fmt, fs_hz,
-               scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, fmt):
+               scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, K, fmt):
     """Load the exported settings into the real engine and run the drop test (or replay a record).
 
     Drops the ball --phases times with the impact moved across one time step and compares
@@ -861,7 +860,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                     tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text,
                     mass_kg=mass_kg, diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                     g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
-                    max_penetration_m=max_penetration_m, stiffness=stiffness)
+                    max_penetration_m=max_penetration_m, stiffness=stiffness, K_per_s=K)
     emit(format_report(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
     if not result.passed:
         why = (f"epsilon error {result.error:.4g} exceeds the tolerance {result.tolerance:g}"
@@ -876,7 +875,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 #: verify's options a replay (--from with --against) takes from the discover result or does not run.
 _NOT_IN_REPLAY = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diameter"), ("epsilon", "--epsilon"),
                   ("drop_height_m", "--drop-height"), ("impact_speed", "--impact-speed"), ("g_m_per_s2", "--g"),
-                  ("floor", "--floor"), ("n_bounces", "--bounces"), ("n_phases", "--phases"))
+                  ("floor", "--floor"), ("n_bounces", "--bounces"), ("n_phases", "--phases"), ("K", "--K"))
 
 
 def _refuse_in_replay(ctx, file):

@@ -345,6 +345,14 @@ def parse_body(spec, K_per_s, standards=None, as_paper=False):
     return body.name, vb, eps
 
 
+def depends_on_K(spec):
+    """Whether the epsilon :func:`parse_body` gives ``spec`` depends on K: only a virtual body
+    'x=..,v=..' (epsilon = exp(-K x/(2v)), Eqs. 10 and 7). A ball, 'from=FILE' and the rigid
+    floor carry their epsilon itself; K only places their virtual body."""
+    text = str(spec).strip().lower()
+    return "=" in text and not text.startswith("from=")
+
+
 def ball_virtual_body(body, K_per_s, as_paper=False):
     """The virtual body a ball is given in a pair or a scene: depth x = R/2, v = x/(2T) (Eq. 10).
 

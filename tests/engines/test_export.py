@@ -1,6 +1,7 @@
 """export/verify as library functions and through the CLI; tables; the registry; bad input."""
 
 import json
+import math
 import sys
 
 import pytest
@@ -93,6 +94,50 @@ def test_compliant_floor_enters_through_eq6():
     assert setup.epsilon == pytest.approx(0.8 * setup.floor_epsilon)
 
 
+@pytest.mark.parametrize("engine", ["mujoco", "ode", "bullet", "gazebo", "tables"])
+@pytest.mark.parametrize("floor", [None, "rigid", "volleyball"])
+def test_K_that_would_change_nothing_is_refused_naming_where_it_applies(engine, floor):
+    """--K was accepted and ignored: the ball's epsilon, a ball as floor and the pair's product
+    do not depend on K; only a virtual-body floor 'x=..,v=..' turns K into an epsilon (Eq. 7)."""
+    with pytest.raises(UsageError, match=r"--K applies only with --floor x=DEPTH,v=SPEED"):
+        build_setup("basketball", engine, floor=floor, K_per_s=8.0)
+
+
+def test_K_sets_a_virtual_body_floors_epsilon():
+    floor = "x=0.01,v=0.05"                                          # T = x/(2v) = 0.1 s
+    for K in (4.0, 8.0):
+        setup = build_setup("basketball", "tables", epsilon=0.8, floor=floor, K_per_s=K)
+        assert setup.floor_epsilon == pytest.approx(math.exp(-K * 0.1))
+        assert setup.epsilon == pytest.approx(0.8 * math.exp(-K * 0.1))
+    assert build_setup("basketball", "tables", floor=floor).floor_epsilon == pytest.approx(math.exp(-0.4))
+
+
+def test_K_is_refused_with_a_discover_result_and_in_the_cli_of_export_and_verify(write_discover, tmp_path):
+    path = write_discover()
+    with pytest.raises(UsageError, match="--K applies only"):
+        build_setup(None, "ode", from_json=path, K_per_s=8.0)
+    for args in (["export", "basketball", "--engine", "mujoco", "--K", "8", "-o", tmp_path / "b.xml"],
+                 ["export", "basketball", "--engine", "tables", "--against", "volleyball", "--K", "8"],
+                 ["export", "tennis", "--engine", "mujoco", "--trade-off", "--K", "8"],
+                 ["verify", "basketball", "--engine", "ode", "--K", "8"]):
+        result = run(*args)
+        assert result.exit_code == 2, result.output
+        assert result.output.startswith("vrcal: error: --K applies only") and len(result.output.splitlines()) == 1
+    assert not (tmp_path / "b.xml").exists()
+    with_K = run("export", "basketball", "--engine", "tables", "--floor", "x=0.002,v=0.5", "--K", "8")
+    without = run("export", "basketball", "--engine", "tables", "--floor", "x=0.002,v=0.5")
+    assert with_K.exit_code == without.exit_code == 0
+    assert "0.9841" in with_K.output and "0.9920" in without.output          # exp(-K 0.002 s): K = 8, 4
+
+
+def test_verify_takes_K_for_a_virtual_body_floor():
+    require_engine("ode")
+    result = verify("basketball", "ode", floor="x=0.002,v=0.5", K_per_s=8.0, n_phases=1, n_bounces=1)
+    assert result.target == pytest.approx(build_setup("basketball", "ode", floor="x=0.002,v=0.5",
+                                                      K_per_s=8.0).epsilon)
+    assert result.target == pytest.approx(ball_epsilon(get_ball("basketball")).nominal * math.exp(-8 * 0.002))
+
+
 def test_the_discover_result_sets_body_drop_drag_and_release(write_discover):
     path = write_discover(effects={"air_drag": {"drag_coefficient": 0.38}, "height_offset": {"offset_m": -0.007},
                                    "contact_duration": {"contact_time_s": 0.001}}, drop_height_m=2.65)
@@ -109,6 +154,37 @@ def test_tables_name_the_combine_modes_in_100_columns():
     for word in ("PhysX", "Unity", "Box2D", "Multiply", "b2MixRestitution"):
         assert word in text
     assert max(len(line) for line in text.splitlines()) <= 100
+
+
+def test_tables_refuse_a_tolerance_they_cannot_apply_to_a_constant_epsilon():
+    """--tolerance was accepted and ignored by --engine tables for a constant epsilon (the value
+    typed in is the target; no engine is run): refused in one line naming where it applies."""
+    for ball, options in (("basketball", {}), (None, dict(mass_kg=0.058, diameter_m=0.067, epsilon=0.75)),
+                          (None, dict(mass_kg=0.058, diameter_m=0.067, epsilon=0.75, drop_height_m=1.0))):
+        with pytest.raises(UsageError, match=r"--tolerance does not apply to this --engine tables export.*"
+                                             r"speed-dependent epsilon"):
+            build_setup(ball, "tables", tolerance=0.001, **options)
+        assert export(ball, "tables", **options).text                  # without it: the table
+    result = run("export", "basketball", "--engine", "physx", "--tolerance", "0.5")
+    assert result.exit_code == 2 and len(result.output.splitlines()) == 1
+    assert result.output.startswith("vrcal: error: --tolerance does not apply")
+
+
+def test_tables_bound_a_speed_dependent_epsilons_constant_by_the_tolerance(write_discover):
+    path = write_discover(effects={"velocity_dependent_restitution": {"exponent": 0.4}}, epsilon=0.75)
+    setup = build_setup(None, "tables", from_json=path, tolerance=1.0)
+    from vrcal.engines.common import epsilon_spread
+
+    least = epsilon_spread(setup)[2]                                   # the constant's error at either end
+    assert least > 0.001
+    with pytest.raises(UsageError, match=r"off by at least .* > --tolerance"):
+        export(None, "tables", from_json=path, tolerance=0.9 * least)
+    assert export(None, "tables", from_json=path, tolerance=1.1 * least).data["rows"]
+
+
+def test_tables_say_the_floor_a_compliant_floor_gives():
+    text = export("basketball", "tables", floor="x=0.002,v=0.5").text
+    assert "on a rigid floor" not in text and "x floor 0.9920" in text.splitlines()[0]
 
 
 def test_unknown_engine_names_the_known_ones():

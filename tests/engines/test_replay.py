@@ -100,7 +100,7 @@ def test_a_replay_runs_the_users_file_and_fails_when_its_apexes_miss(pingpong, t
     assert "measured ones: no" in result.output
     assert result.output.strip().splitlines()[-1].startswith("vrcal: error: the engine's rebound")
     for extra in (["--epsilon", "0.3"], ["--bounces", "2"], ["--phases", "4"], ["--drop-height", "1"],
-                  ["--g", "9.8"], ["--file", str(good), "--stiffness", "0"]):
+                  ["--g", "9.8"], ["--file", str(good), "--stiffness", "0"], ["--K", "8"]):
         result = CliRunner().invoke(main, replay_args + extra)
         assert result.exit_code == 2, (extra, result.output)
         assert "not apply to a replay" in result.output and len(result.output.strip().splitlines()) == 1

@@ -67,8 +67,11 @@ def format_table(setup, pair=None):
     from vrcal.textout import table as text_table
 
     rows = table(setup, pair)
-    head = (f"{setup.ball}: target epsilon {setup.epsilon:.4f} on a rigid floor; Eq. 6: a pair's epsilon is the "
-            "product\nof the bodies' (same K), so Multiply carries the calibration. No runtime was run.\n"
+    floor = ("on a rigid floor" if setup.floor_epsilon == 1 else
+             f"with its floor ({setup.ball_epsilon:.4f} x floor {setup.floor_epsilon:.4f})")
+    head = ("\n".join(textwrap.wrap(f"{setup.ball}: target epsilon {setup.epsilon:.4f} {floor}; Eq. 6: a pair's "
+                                    "epsilon is the product of the bodies' (same K), so Multiply carries the "
+                                    "calibration. No runtime was run.", 100)) + "\n"
             f"Set the scene's gravity to (0, -{setup.g_m_per_s2:g}, 0) m/s^2 (Box2D: (0, -{setup.g_m_per_s2:g})).\n")
     cells = [[r["engine"], r["body"], f"{r['restitution']:.4f}", r["combine"], f"{r['threshold_m_per_s']:g}"]
              for r in rows]

@@ -33,13 +33,13 @@ DEFAULT_PHASES = N_PHASES
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
            tolerance=None, n_bounces=None, n_phases=N_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
-           from_json=None, integrator=None, max_penetration_m=None, stiffness=None):
+           from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
 
     Parameters
     ----------
     ball, epsilon, dt_s, floor, standards, mass_kg, diameter_m, drop_height_m, impact_speed,
-    g_m_per_s2, from_json, integrator, max_penetration_m, stiffness
+    g_m_per_s2, from_json, integrator, max_penetration_m, stiffness, K_per_s
         as for :func:`vrcal.engines.export.export`
     engine : str
         mujoco, ode or bullet (pybullet)
@@ -68,7 +68,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards, mass_kg=mass_kg,
                    diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
-                   max_penetration_m=max_penetration_m)
+                   max_penetration_m=max_penetration_m, K_per_s=K_per_s)
     if exported_text is not None:
         loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
                                              dict(options, stiffness=stiffness, tolerance=tolerance))
@@ -78,7 +78,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
 
         tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
         export_tolerance = max(tolerance, DEFAULT_TOLERANCE)   # a tight tolerance fails the test, not the export
-        pre = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, tolerance=export_tolerance,
+        pre = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, K_per_s, tolerance=export_tolerance,
                           mass_kg=mass_kg,
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
@@ -111,7 +111,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
 #: Options whose value an exported file fixes (option key, as typed): verify --file refuses them.
 FIXED_BY_FILE = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diameter"), ("from_json", "--from"),
                  ("integrator", "--integrator"), ("stiffness", "--stiffness"), ("floor", "--floor"),
-                 ("impact_speed", "--impact-speed"))
+                 ("impact_speed", "--impact-speed"), ("K_per_s", "--K"))
 
 #: What applies with --file (named in the refusal).
 APPLY_TO_FILE = "--dt, --g, --drop-height, --epsilon, --tolerance, --max-penetration, --bounces and --phases"
