@@ -567,6 +567,30 @@ def test_long_records_whose_bounces_scatter_are_judged_with_correlated_errors():
     assert clean.judged is None and clean.as_dict()["judged_by"] == "least squares"
 
 
+def test_a_scatter_hidden_by_coarse_times_still_widens_the_epsilon_uncertainty():
+    """Golf-ball impact times printed to 0.01 s (2.9 ms of noise) of bounces scattering by 2 %: the grid
+    hides the scatter in half the records, and the fit's own +- (the grid's noise alone) put the truth
+    up to 12 +- away. Where the times cannot see a scatter as large as real balls have (the 95 % upper
+    limit beyond TYPICAL_BOUNCE_SCATTER), the +- is given with that typical scatter, and a note says so."""
+    from vrcal.discovery.ranking import TYPICAL_BOUNCE_SCATTER
+
+    golf = BallProperties(0.0459, 0.0427, "golf")
+    pulls, own, hidden = [], [], 0
+    for seed in range(12):
+        t = scattered_impact_times(seed, drop_height_m=0.5, epsilon=0.85, scatter=0.02, n_impacts=10).t_s
+        d = discover(ImpactTimes(np.round(t, 2), "grid", timing_sd_s=0.01 / np.sqrt(12)), golf)
+        pulls.append((d.epsilon - 0.85) / d.final.uncertainty("epsilon"))
+        own.append((d.epsilon - 0.85) / d.fit_epsilon_uncertainty)
+        if d.scatter_limit is not None:
+            assert d.scatter_limit > TYPICAL_BOUNCE_SCATTER
+            assert any("cannot see a bounce-to-bounce scatter" in n for n in d.notes)
+            assert d.as_dict()["scatter_upper_limit"] == d.scatter_limit
+            hidden += 1
+    assert hidden >= 4, hidden
+    assert np.mean(np.abs(pulls) < 2) >= 0.75, np.round(pulls, 1)
+    assert np.mean(np.abs(own) < 2) < 0.6, np.round(own, 1)
+
+
 def test_timing_jitter_alone_does_not_widen_the_epsilon_uncertainty():
     """A golf ball's impact times with 0.2 ms jitter and no scatter of the bounces: the jitter's share
     of the ratios' scatter is not the bounces', and the +- stays the fit's own (counting it made the

@@ -217,6 +217,7 @@ class Discovery:
     # (baseline, final) by generalized least squares, when the effects were judged so (impact times whose
     # bounces scatter: :func:`vrcal.discovery.residuals.scatter_weights`); the candidates are of the same kind
     judged: tuple | None = None
+    scatter_limit: float | None = None   # impact times with no scatter found: the largest they allow (95 %)
 
     @property
     def unit(self):
@@ -532,6 +533,7 @@ class Discovery:
             "noise_source": self.noise_source,
             "scatter": self.scatter,
             "scatter_gap": self.scatter_gap,
+            "scatter_upper_limit": self.scatter_limit,
             "statistic": "-2 ln evidence (Laplace, registry priors)",
             "judged_by": ("generalized least squares (the bounces' scatter)" if self.judged is not None
                           else "least squares"),
@@ -854,15 +856,27 @@ def _bounce_scatter(problem, fit, sigma_floor, alpha=0.05, share_alpha=1.0):
     """The median over the runs of the bounces' own scatter beyond ``fit``'s model and the timing noise
     (:func:`vrcal.discovery.residuals.bounce_scatter`, tested at ``alpha`` and ``share_alpha``; 0 when
     none is found), or None (too few impacts)."""
-    own, start = [], 0
+    return _over_runs(problem, fit, lambda t, model_t: res.bounce_scatter(
+        t, sigma_floor, model_t, alpha=alpha, timing_known=problem.noise_known, share_alpha=share_alpha))
+
+
+def _over_runs(problem, fit, quantity):
+    """The median over the runs of ``quantity(t, model_t)`` (the run's impact times and ``fit``'s model
+    times [s]), its None values left out; None when all are."""
+    values, start = [], 0
     for run in problem.runs:
         t = np.asarray(run.t_s, dtype=float)
         model_t = t - fit.residuals[start:start + t.size]
         start += t.size
-        own.append(res.bounce_scatter(t, sigma_floor, model_t, alpha=alpha, timing_known=problem.noise_known,
-                                      share_alpha=share_alpha))
-    own = [v for v in own if v is not None]
-    return float(np.median(own)) if own else None
+        values.append(quantity(t, model_t))
+    values = [v for v in values if v is not None]
+    return float(np.median(values)) if values else None
+
+
+#: A bounce-to-bounce scatter real balls have: the median of the blue ball's phyphox runs (0.3-7 %).
+#: When the times cannot see one this large (their timing noise hides it: times printed to 0.01 s),
+#: the +- of epsilon is given with it, not with none.
+TYPICAL_BOUNCE_SCATTER = 0.015
 
 
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
@@ -986,7 +1000,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      "bottom); if you know the point, give --drop-measured-to and --rebound-measured-to: no offset "
                      "is then fitted (in a drop table one can stand in for the shape of epsilon(v) or for drag)")
     split = split_by_priors(problem, current, named, ambiguous, current.noise_sigma(sigma_floor))
-    scatter = scatter_gap = None
+    scatter = scatter_gap = scatter_limit = None
     if kind == "impacts":
         # the bounces' own scatter, beyond the final model's changes of ratio and the timing noise (a test
         # at 5 %, then a moment estimate; the timing's share by the changes' shape when the noise is only
@@ -1006,6 +1020,17 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if values:
             scatter = float(np.median(values))
             scatter_gap = res.scatter_gap(current, scatter)
+        if own == 0.0:
+            # none found: but a coarse timing can hide a scatter that real balls have (times printed to
+            # 0.01 s of 12 golf-ball impacts scattering by 2 %: the fit's own +- put the truth 12 +- away)
+            scatter_limit = _over_runs(problem, current, lambda t, model_t: res.scatter_upper_limit(
+                t, sigma_floor, model_t))
+            if scatter_limit is not None and scatter_limit > TYPICAL_BOUNCE_SCATTER:
+                own = TYPICAL_BOUNCE_SCATTER
+                notes.append(f"these times cannot see a bounce-to-bounce scatter up to {100 * scatter_limit:.2g} % "
+                             f"(95 % upper limit at their timing noise), and real balls scatter by 0.3-7 % "
+                             f"(median {100 * TYPICAL_BOUNCE_SCATTER:.2g} %): the ± of epsilon is given with "
+                             f"{100 * TYPICAL_BOUNCE_SCATTER:.2g} %")
         if own:
             wide = res.scatter_uncertainties(current, own, sigma_floor if problem.noise_known else 0.0)
             current = replace(current, uncertainties=np.maximum(current.uncertainties, wide),
@@ -1015,7 +1040,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      [n for n in named if n not in nuisance], rounds, th, notes,
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                      dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
-                     prepared.decimation, n_read, split, nuisance, judged)
+                     prepared.decimation, n_read, split, nuisance, judged, scatter_limit)
 
 
 def chosen_noise(data, prepared, noise=None):
