@@ -561,7 +561,8 @@ class ScatterWhitening:
             a = 1.0 / dt
             diag = np.concatenate([[1.0], a])
             sub = -np.concatenate([a[:1], a[1:] + a[:-1]])             # K[k+1, k]
-            K = sparse.diags([diag, sub, a[:-1]], [0, -1, -2], shape=(t.size, t.size), format="csr")
+            bands = [diag, sub, a[:-1]][:t.size]                      # a run of one or two times: fewer
+            K = sparse.diags(bands, [0, -1, -2][:t.size], shape=(t.size, t.size), format="csr")
             B = self.sigma**2 * (K @ K.T) + float(scatter) ** 2 * sparse.diags(np.r_[0.0, np.ones(t.size - 1)])
             lower = np.zeros((3, t.size))
             for o in range(min(3, t.size)):
