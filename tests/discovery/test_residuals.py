@@ -305,14 +305,14 @@ def test_bounce_scatter_is_found_where_planted_and_not_in_timing_noise():
 def test_scatter_weights_whiten_the_times_covariance_run_by_run():
     """W Sigma W^T = sigma_t^2 I for Sigma = s^2 A A^T + sigma_t^2 I of each run (a bounce's scatter moves
     every later time of its run, not of another run); None where there is nothing to weigh."""
-    from vrcal.discovery.residuals import MOST_WEIGHTED, scatter_weights
+    from vrcal.discovery.residuals import scatter_weights
     from vrcal.measurements import Runs
 
     golf = BallProperties(0.0459, 0.0427, "golf")
     runs = [ImpactTimes(np.asarray(simulate_drops(h, 0.85, n, golf, release_time_s=0.3).impact_times_s)[0], f"r{h}")
             for h, n in ((1.0, 9), (0.6, 7))]
     problem = res.make_problem(Runs(tuple(runs), "two runs"), golf)
-    W = scatter_weights(problem, 0.02, 2e-4)
+    W = scatter_weights(problem, 0.02, 2e-4).matrix()
     blocks = []
     for run in runs:
         t = np.asarray(run.t_s)
@@ -324,8 +324,6 @@ def test_scatter_weights_whiten_the_times_covariance_run_by_run():
     one = res.make_problem(runs[0], golf)
     assert scatter_weights(one, 0.0, 2e-4) is None and scatter_weights(one, 0.02, 0.0) is None
     assert scatter_weights(one, None, 2e-4) is None
-    many = ImpactTimes(np.cumsum(np.full(MOST_WEIGHTED + 1, 0.01)), "many")
-    assert scatter_weights(res.Problem(many, golf), 0.02, 2e-4) is None
 
 
 def test_a_weighted_fit_minimises_the_weighted_residuals_and_shows_the_plain_ones():
@@ -340,13 +338,186 @@ def test_a_weighted_fit_minimises_the_weighted_residuals_and_shows_the_plain_one
     W = scatter_weights(problem, 0.02, 2e-4)
     fit = res.fit_model(replace(problem, weights=W))
     plain = res.fit_model(problem)
-    assert fit.rss == pytest.approx(float(np.sum((W @ fit.residuals) ** 2)), rel=1e-6)
+    assert fit.rss == pytest.approx(float(np.sum(W(fit.residuals) ** 2)), rel=1e-6)
     assert fit.judged_gap == pytest.approx(math.sqrt(fit.rss / fit.n))
     assert fit.gap == pytest.approx(float(np.sqrt(np.mean(fit.residuals**2))))
     assert fit.gap >= plain.gap * (1 - 1e-9)               # least squares minimises the plain gap
     assert plain.judged_gap == plain.gap
     # generalized least squares: the uncertainty holds the scatter (the plain fit's does not)
     assert fit.uncertainty("epsilon") > 3 * plain.uncertainty("epsilon")
+
+
+# --------------------------------------------------------------------------- the scatter's covariance in O(n)
+
+
+def _random_runs(seed, sizes):
+    """[(slice, t)] of runs of random increasing times (intervals 0.02-0.8 s, shrinking on average)."""
+    rng = np.random.default_rng(seed)
+    out, start = [], 0
+    for k in sizes:
+        t = rng.uniform(0.0, 5.0) + np.cumsum(rng.uniform(0.02, 0.8, k) * np.linspace(1.0, 0.3, k))
+        out.append((slice(start, start + k), t))
+        start += k
+    return out
+
+
+def _dense_scatter_sensitivity(runs):
+    """The dense form of the scatter's sensitivity: A[k, j] = t_k - t_j for j < k within a run (n, n)."""
+    n = sum(t.size for _sl, t in runs)
+    A = np.zeros((n, n))
+    for sl, t in runs:
+        A[sl, sl] = np.tril(t[:, None] - t[None, :], -1)
+    return A
+
+
+def _dense_whitening(runs, scatter, sigma):
+    """sigma L^-1 with L L^T = scatter^2 A A^T + sigma^2 I per run: the dense whitening."""
+    A = _dense_scatter_sensitivity(runs)
+    W = np.zeros_like(A)
+    for sl, t in runs:
+        L = np.linalg.cholesky(scatter**2 * A[sl, sl] @ A[sl, sl].T + sigma**2 * np.eye(t.size))
+        W[sl, sl] = np.linalg.solve(L, sigma * np.eye(t.size))
+    return W
+
+
+def _relative(a, b):
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return float(np.max(np.abs(a - b)) / max(float(np.max(np.abs(b))), 1e-300))
+
+
+@pytest.mark.parametrize("sizes", [(1,), (15,), (9, 14, 6)])
+def test_the_scatters_sensitivity_is_used_without_its_dense_matrix(sizes):
+    """A^T X from reverse cumulative sums and ||A||_F^2 from running sums are the dense products."""
+    runs = _random_runs(sum(sizes), sizes)
+    A = _dense_scatter_sensitivity(runs)
+    X = np.random.default_rng(1).normal(size=(A.shape[0], 4))
+    if A.any():
+        assert _relative(res._scatter_transpose_product(runs, X), A.T @ X) < 1e-12
+        assert res._scatter_frobenius2(runs) == pytest.approx(float(np.sum(A * A)), rel=1e-12)
+    else:
+        assert not res._scatter_transpose_product(runs, X).any() and res._scatter_frobenius2(runs) == 0.0
+
+
+@pytest.mark.parametrize("sizes", [(15,), (9, 14, 6), (1, 2, 3)])
+def test_the_banded_whitening_is_the_dense_choleskys(sizes):
+    """W r through the random walk's banded precision equals sigma L^-1 r of the dense Cholesky."""
+    runs = _random_runs(7 * len(sizes), sizes)
+    dense = _dense_whitening(runs, 0.02, 2e-4)
+    w = res.ScatterWhitening(runs, 0.02, 2e-4)
+    r = np.random.default_rng(2).normal(0.0, 1e-3, size=(6, dense.shape[0]))
+    assert _relative(w(r), r @ dense.T) < 1e-10
+    assert _relative(w(r[0]), dense @ r[0]) < 1e-10         # one row as a vector
+    assert _relative(w.matrix(), dense) < 1e-10
+    with pytest.raises(DataError, match="increase"):                   # the walk needs flights of some length
+        res.ScatterWhitening([(slice(0, 3), np.array([1.0, 1.0, 1.5]))], 0.02, 2e-4)
+
+
+def _dense_ratio_band(t_s):
+    """The band of d(changes of ratios)/d(times) cut from the dense matrix: M = diff(D, 2), D the
+    (n - 1, n) matrix of d ln dt (the form before the band)."""
+    t = np.asarray(t_s, dtype=float)
+    dt, n = np.diff(t), t.size
+    D = np.zeros((n - 1, n))
+    D[np.arange(n - 1), np.arange(n - 1)] = -1.0 / dt
+    D[np.arange(n - 1), np.arange(1, n)] = 1.0 / dt
+    M = np.diff(D, n=2, axis=0)
+    band = np.column_stack([np.diagonal(M, c) for c in range(4)])
+    assert np.array_equal(res._band_matrix(band, n).toarray(), M)   # nothing outside the band
+    return band
+
+
+def test_bounce_scatter_from_the_band_is_the_dense_ones(monkeypatch):
+    """bounce_scatter on 200 series (6-40 impacts: the full covariance, timing known or shared by REML;
+    and 320-400 impacts: each change alone) is the same with M's band as with the dense M."""
+    from vrcal.drop.synthetic import scattered_impact_times
+
+    rng = np.random.default_rng(11)
+    cases = []
+    for k in range(200):
+        if k % 20 == 0:
+            data = scattered_impact_times(k, drop_height_m=2.0, epsilon=0.99, scatter=rng.uniform(0.0, 0.02),
+                                          n_impacts=int(rng.integers(320, 401)))
+        else:
+            data = scattered_impact_times(k, scatter=rng.uniform(0.0, 0.03), n_impacts=int(rng.integers(6, 41)))
+        t = np.asarray(data.t_s)
+        known = bool(k % 2) if k % 20 else bool(k % 40)       # the long series alternate too
+        cases.append((t, 2e-4, None if k % 3 else t - rng.normal(0.0, 1e-4, t.size), known))
+    for t, *_ in cases:
+        d, band = res._ratio_changes(t)
+        assert _relative(band, _dense_ratio_band(t)) < 1e-12
+    banded = [res.bounce_scatter(t, s, tm, timing_known=known) for t, s, tm, known in cases]
+    monkeypatch.setattr(res, "_ratio_changes", lambda t: (res._ratio_change_values(t), _dense_ratio_band(t)))
+    dense = [res.bounce_scatter(t, s, tm, timing_known=known) for t, s, tm, known in cases]
+    assert sum(v > 0 for v in dense) > 40 and sum(v == 0 for v in dense) > 15   # both outcomes are tested
+    np.testing.assert_allclose(banded, dense, rtol=1e-10, atol=0.0)
+
+
+@pytest.mark.parametrize("n_runs", [1, 3])
+def test_scatter_gap_and_uncertainties_are_the_dense_formulas(n_runs):
+    """scatter_gap = sqrt(s^2 ||(I - P) A||_F^2 / (n - k)) and the sandwich (J^T J)^-1 J^T Sigma J (J^T J)^-1,
+    computed in O(n k), are the dense formulas' numbers; so is the whitened fit's RSS."""
+    from dataclasses import replace
+
+    from vrcal.drop.synthetic import scattered_impact_times
+    from vrcal.measurements import Runs
+
+    runs = [scattered_impact_times(40 + r, drop_height_m=0.45 + 0.2 * r, scatter=0.02, n_impacts=12 + 3 * r)
+            for r in range(n_runs)]
+    data = runs[0] if n_runs == 1 else Runs(tuple(runs), "three drops")
+    problem = res.make_problem(data, BallProperties(0.020, 0.040, "blue"), noise=2e-4)
+    fit = res.fit_model(problem)
+    J, times = res._scatter_design(fit)
+    A = _dense_scatter_sensitivity(times)
+    Q, _ = np.linalg.qr(J)
+    R = A - Q @ (Q.T @ A)
+    gap = math.sqrt(0.02**2 * float(np.sum(R * R)) / (J.shape[0] - J.shape[1]))
+    assert res.scatter_gap(fit, 0.02) == pytest.approx(gap, rel=1e-10)
+    S = 0.02**2 * (A @ A.T) + 2e-4**2 * np.eye(J.shape[0])
+    B = np.linalg.pinv(J.T @ J)
+    sandwich = np.sqrt(np.diag(B @ (J.T @ S @ J) @ B))
+    np.testing.assert_allclose(res.scatter_uncertainties(fit, 0.02, 2e-4), sandwich, rtol=1e-10)
+    W = res.scatter_weights(problem, 0.02, 2e-4)
+    dense = _dense_whitening(times, 0.02, 2e-4)
+    assert _relative(W(fit.residuals), dense @ fit.residuals) < 1e-10
+    banded = res.fit_model(replace(problem, weights=W))
+    with_dense = res.fit_model(replace(problem, weights=lambda r: r @ dense.T))
+    assert banded.value("epsilon") == pytest.approx(with_dense.value("epsilon"), rel=1e-9)
+    assert banded.rss == pytest.approx(with_dense.rss, rel=1e-8)
+
+
+def test_a_record_of_20000_impacts_has_its_scatter_in_little_memory():
+    """20,000 impacts (the most the impact reader takes), 10 drops of 2000: the bounces' scatter, its gap,
+    its sandwich +- and the whitening of a Jacobian's batch of residual rows run without an (n, n) array
+    (the dense A alone was 3.2 GB)."""
+    import tracemalloc
+
+    from vrcal.drop.synthetic import scattered_impact_times
+    from vrcal.measurements import Runs
+
+    runs = tuple(scattered_impact_times(i, drop_height_m=2.0 - 0.1 * i, epsilon=0.998, scatter=0.01, n_impacts=2000)
+                 for i in range(10))
+    problem = res.make_problem(Runs(runs, "10 drops"), BallProperties(0.020, 0.040, "steel"), noise=2e-4)
+    start = res.initial_values(problem)
+    layout = res.parameter_layout(problem.data)
+    values = np.array([start[p.key] for p in layout])
+    fit = res.FitResult((), layout, values, np.zeros(values.size), res.residuals(values[None], layout, problem)[0],
+                        problem)
+    tracemalloc.start()
+    try:
+        own = [res.bounce_scatter(run.t_s, 2e-4) for run in runs]
+        gap = res.scatter_gap(fit, 0.01)
+        wide = res.scatter_uncertainties(fit, 0.01, 2e-4)
+        W = res.scatter_weights(problem, 0.01, 2e-4)
+        white = W(np.tile(fit.residuals, (len(layout) + 1, 1)))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1e9, peak
+    assert 0.007 < float(np.median(own)) < 0.013           # the planted 1 %
+    assert math.isfinite(gap) and gap > 0
+    assert np.all(np.isfinite(wide)) and np.all(wide > 0)
+    assert white.shape == (len(layout) + 1, 20000) and np.all(np.isfinite(white))
+    assert np.allclose(white[0], white[-1])
 
 
 def test_qn_scale_is_a_standard_deviation_that_bears_an_odd_value():

@@ -330,16 +330,25 @@ def _ratio_change_values(t_s):
 
 
 def _ratio_changes(t_s):
-    """(d, M) of a series of impact times: the changes d of successive ratios
-    (:func:`_ratio_change_values`) and, to first order, the matrix M with d = M e for errors e of the
-    times (d ln dt_j = (e_{j+1} - e_j) / dt_j)."""
+    """(d, M) of a series of n impact times: the m = n - 3 changes d of successive ratios
+    (:func:`_ratio_change_values`) and, to first order, the matrix M with d = M e for errors e [s] of the
+    times (d ln dt_j = (e_{j+1} - e_j) / dt_j), as its band: M is (m, n) and row j touches only the
+    times j .. j + 3, so it is held as an (m, 4) array [1/s] with ``M[j, j + c] = band[j, c]``
+    (:func:`_band_matrix` gives the matrix). With a = 1/dt the row is
+    (-a_j, a_j + 2 a_{j+1}, -2 a_{j+1} - a_{j+2}, a_{j+2}): the second difference of the rows
+    (-a_i, a_i) of d ln dt."""
     t = np.asarray(t_s, dtype=float)
-    dt = np.diff(t)
-    n = t.size
-    D = np.zeros((n - 1, n))
-    D[np.arange(n - 1), np.arange(n - 1)] = -1.0 / dt
-    D[np.arange(n - 1), np.arange(1, n)] = 1.0 / dt
-    return _ratio_change_values(t), np.diff(D, n=2, axis=0)
+    a = 1.0 / np.diff(t)
+    band = np.column_stack([-a[:-2], a[:-2] + 2.0 * a[1:-1], -2.0 * a[1:-1] - a[2:], a[2:]])
+    return _ratio_change_values(t), band
+
+
+def _band_matrix(band, n, offsets=(0, 1, 2, 3)):
+    """The sparse (m, n) matrix (scipy.sparse) whose row j holds ``band[j, c]`` in column j + offsets[c]
+    (m = band.shape[0]; :func:`_ratio_changes`)."""
+    from scipy import sparse
+
+    return sparse.diags([band[:, c] for c in range(band.shape[1])], list(offsets), shape=(band.shape[0], n))
 
 
 #: How much larger than assumed a stopwatch's timing noise may be (a phone's acoustic onsets: 0.05-1 ms
@@ -362,7 +371,8 @@ def bounce_scatter(t_s, timing_sigma_s, t_model_s=None, alpha=0.05, timing_known
     ``timing_sigma_s``): covariance C(s) = s^2 T + sigma_t^2 M M^T, T = tridiag(-1, 2, -1). With s = 0
     the generalized chi-square q = r^T C^-1 r of d about its weighted mean has m - 1 degrees of
     freedom; s is 0 unless q is beyond its ``alpha`` quantile, else the s at which q = m - 1 (a
-    moment estimate). Beyond :data:`FULL_COVARIANCE_CHANGES` changes each is weighed alone.
+    moment estimate). Beyond :data:`FULL_COVARIANCE_CHANGES` changes each is weighed alone (C's
+    diagonal; M is held as its band of four times a row, so a long series costs O(n) memory and time).
     Measured: noise-only times of 10-14 impacts (0.2 ms, the model's times given) have a scatter
     in 5.0-5.8 % of 400 series; planted scatters of 0.5-3 % are found in 98-100 % of 300 series of
     8-12 impacts, RMS of the estimate 0.99-1.02 times the planted one.
@@ -410,12 +420,16 @@ def _scatter_chi2(t_s, timing_sigma_s, t_model_s=None):
     t = np.asarray(t_s, dtype=float)
     if t.size < 6:
         return None
-    d, M = _ratio_changes(t)
+    d, band = _ratio_changes(t)
     if t_model_s is not None:
         d = d - _ratio_change_values(t_model_s)
     m = d.size
     full = m <= FULL_COVARIANCE_CHANGES
-    MMt = M @ M.T if full else np.sum(M * M, axis=1)
+    if full:   # at most FULL_COVARIANCE_CHANGES x (FULL_COVARIANCE_CHANGES + 3): dense is cheap
+        M = _band_matrix(band, t.size).toarray()
+        MMt = M @ M.T
+    else:      # each change alone: the diagonal of M M^T, the rows' sums of squares
+        MMt = np.sum(band * band, axis=1)
     C0 = float(timing_sigma_s) ** 2 * MMt
     T = (2.0 * np.eye(m) - np.eye(m, k=1) - np.eye(m, k=-1)) if full else np.full(m, 2.0)
 
@@ -510,41 +524,141 @@ def _scatter_by_reml(d, MMt, T, alpha, shares=np.linspace(0.0, 1.0, 41)):
     return math.sqrt(v * (1.0 - f))
 
 
+def _run_times(problem):
+    """[(slice, t)] of a problem's impact times: each run's slice of the residuals and its times [s]."""
+    out, start = [], 0
+    for run in problem.runs:
+        t = np.asarray(run.t_s, dtype=float)
+        out.append((slice(start, start + t.size), t))
+        start += t.size
+    return out
+
+
 def _scatter_design(fit):
-    """(J, A) of a fit of impact times: its Jacobian at the fitted values and the sensitivity
-    ``A[k, j] = t_k - t_j`` (j < k, within each run) of impact k to a change d ln(eps_j) at bounce j
-    (a change of bounce j's epsilon stretches every later flight of its run by the same factor)."""
+    """(J, runs) of a fit of impact times: its Jacobian J (n, k) at the fitted values and
+    :func:`_run_times`, the runs' slices and times, which define the sensitivity A (n, n) of impact k
+    to a change d ln(eps_j) at bounce j: ``A[k, j] = t_k - t_j`` [s] for j < k within a run, else 0 (a
+    change of bounce j's epsilon stretches every later flight of its run by the same factor). A is
+    never formed: :func:`_scatter_transpose_product` and :func:`_scatter_frobenius2` give what the
+    statistics need of it in O(n k)."""
     from dataclasses import replace
 
     obj = _Objective(fit.layout, replace(fit.problem, weights=None), _scales(fit.layout, fit.values))
     J = obj.jac(np.asarray(fit.values, dtype=float).copy())
-    A = np.zeros((J.shape[0], J.shape[0]))
-    start = 0
-    for run in fit.problem.runs:
-        t = np.asarray(run.t_s, dtype=float)
-        A[start:start + t.size, start:start + t.size] = np.tril(t[:, None] - t[None, :], -1)
-        start += t.size
-    return J, A
+    return J, _run_times(fit.problem)
 
 
-#: Most impact times :func:`scatter_weights` whitens (an (n, n) matrix; beyond, least squares alone).
-MOST_WEIGHTED = 2000
+def _scatter_transpose_product(runs, X):
+    """A^T X (n, p) for the scatter's sensitivity A of :func:`_scatter_design` (``runs`` its
+    :func:`_run_times`) and X (n, p), in X's unit times seconds, without forming A.
+
+    Row j within a run is ``sum_{k>j} (t_k - t_j) X_k``. With t_k - t_j = sum_{i=j}^{k-1} dt_i it is
+    ``sum_{i>=j} dt_i H_i``, H_i = sum_{k>i} X_k: two reverse cumulative sums, O(n p), and no
+    difference of large times (the dense form's A @ ... would cost O(n^2 p) and an (n, n) array)."""
+    X = np.asarray(X, dtype=float)
+    out = np.zeros_like(X)
+    for sl, t in runs:
+        if t.size < 2:
+            continue
+        x = X[sl]
+        after = np.cumsum(x[::-1], axis=0)[::-1][1:]           # H_i = sum_{k>i} X_k, i = 0 .. n-2
+        out[sl][:-1] = np.cumsum((np.diff(t)[:, None] * after)[::-1], axis=0)[::-1]
+    return out
+
+
+def _scatter_frobenius2(runs):
+    """||A||_F^2 [s^2] of the scatter's sensitivity A (:func:`_scatter_design`): the sum over the pairs
+    j < k of a run of (t_k - t_j)^2, O(n). With c_k = sum_{j<k} (t_k - t_j) and q_k = sum_{j<k}
+    (t_k - t_j)^2: c_{k+1} = c_k + (k + 1) dt_k and q_{k+1} = q_k + 2 dt_k c_k + (k + 1) dt_k^2, sums of
+    positive terms (no cancellation)."""
+    total = 0.0
+    for _sl, t in runs:
+        if t.size < 2:
+            continue
+        dt = np.diff(t)
+        k1 = np.arange(1, t.size, dtype=float)                  # k + 1 for k = 0 .. n-2
+        c = np.concatenate([[0.0], np.cumsum(k1 * dt)])[:-1]    # c_k, k = 0 .. n-2
+        total += float(np.sum(np.cumsum(2.0 * dt * c + k1 * dt * dt)))   # sum of q_1 .. q_{n-1}
+    return total
+
+
+class ScatterWhitening:
+    """The whitening ``W = sigma_t L^-1`` of impact times whose bounces scatter (:func:`scatter_weights`),
+    applied without forming W: ``w(r)`` maps residual rows r (..., n) [s] to W r^T row by row [s], as
+    ``r @ W.T`` did, in O(n) per row.
+
+    Per run, Sigma = s^2 A A^T + sigma_t^2 I (A of :func:`_scatter_design`). The scatter's part of the
+    times is an integrated random walk: with z_j the bounces' deviates, p = A z has p_0 = 0 and
+    (p_{k+1} - p_k) / dt_k = z_0 + ... + z_k, so the banded lower-triangular K of the divided
+    differences (row 0 picks p_0; row 1 is (p_1 - p_0) / dt_0; row k + 1 the change of the slopes,
+    (p_{k+1} - p_k) / dt_k - (p_k - p_{k-1}) / dt_{k-1}) gives K A = the shift that drops z_{n-1}, and
+    ``K Sigma K^T = s^2 diag(0, 1, ..., 1) + sigma_t^2 K K^T`` =: B, pentadiagonal. With B = L_B L_B^T
+    (banded Cholesky, scipy.linalg.cholesky_banded), L = K^-1 L_B is lower triangular with a positive
+    diagonal and L L^T = Sigma: it is THE Cholesky factor, so ``W r = sigma_t L_B^-1 (K r)`` (a banded
+    product and a banded triangular solve, LAPACK dtbtrs) equals the dense ``sigma_t L^-1 r`` -- the
+    innovations of a Kalman filter of the walk, standardised. The dense form needed an (n, n) Cholesky
+    (O(n^3)) and W (n, n); it was refused beyond 2000 times.
+    """
+
+    def __init__(self, runs, scatter, timing_sigma_s):
+        from scipy import sparse
+        from scipy.linalg import cholesky_banded
+
+        self.sigma = float(timing_sigma_s)
+        self.n = sum(t.size for _sl, t in runs)
+        self.blocks = []
+        for sl, t in runs:
+            dt = np.diff(t)
+            if np.any(~(dt > 0)):
+                raise DataError("impact times to weigh must increase within a run")
+            a = 1.0 / dt
+            diag = np.concatenate([[1.0], a])
+            sub = -np.concatenate([a[:1], a[1:] + a[:-1]])             # K[k+1, k]
+            bands = [diag, sub, a[:-1]][:t.size]                      # a run of one or two times: fewer
+            K = sparse.diags(bands, [0, -1, -2][:t.size], shape=(t.size, t.size), format="csr")
+            B = self.sigma**2 * (K @ K.T) + float(scatter) ** 2 * sparse.diags(np.r_[0.0, np.ones(t.size - 1)])
+            lower = np.zeros((3, t.size))
+            for o in range(min(3, t.size)):
+                lower[o, :t.size - o] = B.diagonal(-o)
+            self.blocks.append((sl, K, cholesky_banded(lower, lower=True)))
+
+    def __call__(self, r):
+        from scipy.linalg.lapack import dtbtrs
+
+        r = np.asarray(r, dtype=float)
+        rows = r.reshape(-1, r.shape[-1])
+        out = np.empty_like(rows)
+        for sl, K, LB in self.blocks:
+            x, info = dtbtrs(LB, np.asfortranarray(K @ rows[:, sl].T), uplo="L")
+            if info != 0:
+                raise DataError(f"the whitening of the impact times failed (LAPACK dtbtrs info {info})")
+            out[:, sl] = self.sigma * x.T
+        return out.reshape(r.shape)
+
+    def matrix(self):
+        """W as a dense (n, n) array (for a small problem: what the callable applies)."""
+        return self(np.eye(self.n)).T
 
 
 def scatter_weights(problem, scatter, timing_sigma_s):
-    """The whitening W (n, n) of a problem of impact times whose bounces scatter: fits that minimise
-    ``|W r|^2`` are generalized least squares under the covariance of the times
-    ``Sigma = s^2 A A^T + sigma_t^2 I`` (:func:`_scatter_design`'s A: a bounce's scatter shifts every
-    later time of its run; each run a block), with ``W = sigma_t L^-1``, ``Sigma = L L^T``: the
-    weighted residuals are in the data's unit at the timing noise, so that the noise floor
-    ``timing_sigma_s`` still judges them. None when there is nothing to weigh (no scatter or no
-    timing noise) or more than :data:`MOST_WEIGHTED` times.
+    """The whitening W of a problem of impact times whose bounces scatter, as a
+    :class:`ScatterWhitening` (``W(r)`` maps residual rows to W r): fits that minimise ``|W r|^2`` are
+    generalized least squares under the covariance of the times ``Sigma = s^2 A A^T + sigma_t^2 I``
+    (:func:`_scatter_design`'s A: a bounce's scatter shifts every later time of its run; each run a
+    block), with ``W = sigma_t L^-1``, ``Sigma = L L^T``: the weighted residuals are in the data's unit
+    at the timing noise, so that the noise floor ``timing_sigma_s`` still judges them. None when there
+    is nothing to weigh (no scatter or no timing noise).
 
     Least squares takes the times' errors as independent. They are not when the bounces scatter: a
     low epsilon at one bounce shortens every later flight, so the late residuals share a trend that a
     drag or a speed law can follow. Judged as independent, a tennis ball's phone times with bounces
     scattering by 1 % named a speed law in 3 of 30 records, and records of 100-200 impacts were
     "suspect input" (drag "fitting far better", at C_d 3).
+
+    W is applied in O(n) memory and time per residual row through the banded structure of Sigma^-1
+    (:class:`ScatterWhitening`), with the same numbers as the dense Cholesky; the dense form was
+    refused beyond 2000 times (an (n, n) matrix and an O(n^3) factorisation), which left the long
+    records judged by least squares.
 
     Parameters
     ----------
@@ -556,19 +670,10 @@ def scatter_weights(problem, scatter, timing_sigma_s):
         standard deviation of one impact time [s], > 0
     """
     runs = problem.runs
-    n = sum(len(run.t_s) for run in runs)
     s, sigma = float(scatter or 0.0), float(timing_sigma_s or 0.0)
-    if runs[0].kind != "impacts" or s <= 0 or sigma <= 0 or n > MOST_WEIGHTED:
+    if runs[0].kind != "impacts" or s <= 0 or sigma <= 0:
         return None
-    W = np.zeros((n, n))
-    start = 0
-    for run in runs:
-        t = np.asarray(run.t_s, dtype=float)
-        A = np.tril(t[:, None] - t[None, :], -1)
-        L = np.linalg.cholesky(s**2 * (A @ A.T) + sigma**2 * np.eye(t.size))
-        W[start:start + t.size, start:start + t.size] = np.linalg.solve(L, sigma * np.eye(t.size))
-        start += t.size
-    return W
+    return ScatterWhitening(_run_times(problem), s, sigma)
 
 
 def scatter_gap(fit, scatter):
@@ -576,15 +681,17 @@ def scatter_gap(fit, scatter):
     by the relative standard deviation ``scatter`` (:func:`ratio_scatter`).
 
     The times' covariance is s^2 A A^T (A from :func:`_scatter_design`). The fit absorbs the part in
-    the span of its Jacobian J; the expected residual sum of squares is ``trace((I - P) s^2 A A^T)``,
-    P the projection on J.
+    the span of its Jacobian J; the expected residual sum of squares is ``trace((I - P) s^2 A A^T)`` =
+    ``s^2 ||(I - P) A||_F^2``, P = Q Q^T the projection on J (Q from J's QR). Computed as
+    ``s^2 (||A||_F^2 - ||A^T Q||_F^2)`` (:func:`_scatter_frobenius2`, :func:`_scatter_transpose_product`):
+    O(n k), where the dense ``A - Q (Q^T A)`` needed (n, n) arrays and O(n^2 k).
     """
     if scatter is None or fit.problem.runs[0].kind != "impacts":
         return None
-    J, A = _scatter_design(fit)
+    J, runs = _scatter_design(fit)
     Q, _ = np.linalg.qr(J)
-    R = A - Q @ (Q.T @ A)
-    expected = scatter**2 * float(np.sum(R * R))
+    AtQ = _scatter_transpose_product(runs, Q)
+    expected = scatter**2 * max(_scatter_frobenius2(runs) - float(np.sum(AtQ * AtQ)), 0.0)
     dof = max(J.shape[0] - J.shape[1], 1)
     return math.sqrt(expected / dof)
 
@@ -601,11 +708,15 @@ def scatter_uncertainties(fit, scatter, timing_sigma_s=0.0):
     *Nonlinear Regression*, 2003, section 2.1.4). (J^T J)^-1 RSS/(n-k) alone understates it: the
     blue ball's phyphox run blue_25cm_L3 (ratios scattering by 3.1 %) gave epsilon +- 0.0029 where
     two methods on the same times differ by 0.02; the sandwich gives +- 0.009.
+
+    J^T Sigma J = s^2 (A^T J)^T (A^T J) + sigma_t^2 J^T J, with A^T J from reverse cumulative sums
+    (:func:`_scatter_transpose_product`): O(n k), where the dense Sigma was (n, n) and O(n^3) to form.
     """
-    J, A = _scatter_design(fit)
-    S = float(scatter) ** 2 * (A @ A.T) + float(timing_sigma_s) ** 2 * np.eye(J.shape[0])
+    J, runs = _scatter_design(fit)
+    AtJ = _scatter_transpose_product(runs, J)
+    middle = float(scatter) ** 2 * (AtJ.T @ AtJ) + float(timing_sigma_s) ** 2 * (J.T @ J)
     B = np.linalg.pinv(J.T @ J)
-    cov = B @ (J.T @ S @ J) @ B
+    cov = B @ middle @ B
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
@@ -700,9 +811,9 @@ class Problem:
     reference_speed_m_per_s: float | None = None
     noise: float | None = None   # noise of one datum [data unit], for uncertainties without degrees of freedom
     noise_known: bool = False    # the noise was given or measured (not assumed): a floor of the uncertainties
-    # (n, n) whitening W: fits minimise |W (data - model)|^2 (the bounces' scatter, :func:`scatter_weights`);
-    # None: least squares
-    weights: np.ndarray | None = field(default=None, compare=False)
+    # whitening W, a callable on residual rows (..., n) -> W r: fits minimise |W (data - model)|^2 (the
+    # bounces' scatter, :func:`scatter_weights`, a :class:`ScatterWhitening`); None: least squares
+    weights: object | None = field(default=None, compare=False)
 
     @property
     def runs(self):
@@ -1105,7 +1216,7 @@ class _Objective:
         r = self.y[None, :] - predict(thetas, self.layout, self.problem)
         r = np.where(np.isfinite(r), r, 1e3)
         if self.problem.weights is not None:
-            r = r @ self.problem.weights.T
+            r = self.problem.weights(r)
         if self.prior is None:
             return r
         deviate, sigma = self.prior
