@@ -386,7 +386,7 @@ def bounce_scatter(t_s, timing_sigma_s, t_model_s=None, alpha=0.05, timing_known
     ball's 10 impact times with 1 ms jitter, the noise assumed 0.2 ms, had a "scatter" in 30 of 30
     records and their +- 21 times too wide; now the +- is widened in 12 of 30 (median ratio 1.0,
     within 1 / 2 +-: 0.73 / 0.90). The price: a planted 0.5 % scatter over 8 impacts, which 1 ms of
-    timing would also explain, is covered within 1 +- in 44 % (coverage_scatter.py).
+    timing would also explain, is covered within 1 +- in about half the records (coverage_scatter.py).
 
     Taken as the plain mean square of d less a typical timing share, the trend of a ping-pong ball's
     ratios (its drag) and the short late intervals counted as scatter: 34-38 % of noise-only series
