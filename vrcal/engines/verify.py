@@ -15,9 +15,9 @@ import numpy as np
 
 from vrcal.engines import get_engine, load, require_runtime
 from vrcal.engines.common import (
+    CONFIRM_PHASES,
     DEFAULT_TOLERANCE,
     N_BOUNCES,
-    N_PHASES,
     DropSetup,
     VerifyResult,
     check_counts,
@@ -27,11 +27,12 @@ from vrcal.engines.common import (
 from vrcal.engines.export import export, parse_exported
 from vrcal.errors import DataError, UsageError
 
-DEFAULT_PHASES = N_PHASES
+#: Contact phases of ``vrcal verify`` unless ``--phases``: as many as an export confirms a step with.
+DEFAULT_PHASES = CONFIRM_PHASES
 
 
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
-           tolerance=None, n_bounces=None, n_phases=N_PHASES, exported_text=None,
+           tolerance=None, n_bounces=None, n_phases=DEFAULT_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
            from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
