@@ -715,8 +715,8 @@ def header_lines(setup, cal):
         f"{integrator_name(setup)}",
         step_note(setup, "mujoco"),
         f"contact {how}",
-        f"calibrated in MuJoCo: {cal.runs.apex_ratios.shape[0]} phases x {setup.n_bounces} bounces, "
-        f"{cal.evaluations} runs",
+        f"calibrated in MuJoCo ({cal.evaluations} runs); drop test {cal.runs.apex_ratios.shape[0]} phases x "
+        f"{setup.n_bounces} bounces",
         f"worst eps error {cal.worst_error:.4f}, median {cal.median_error:.4f} "
         f"(tolerance {setup.tolerance:g})",
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "

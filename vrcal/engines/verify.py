@@ -276,8 +276,10 @@ def _settings(engine, loaded, setup):
         out.update({k: f"{c[k]:g}" for k in ("soft_erp", "soft_cfm") if k in c})
         out.update({f"world {k}": f"{w[k]:g}" for k in ("erp", "cfm") if k in w})
         return out
+    slop = loaded["setPhysicsEngineParameter"].get("contactSlop")
     return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
-            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}"}
+            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}",
+            "contactSlop": "1e-05 (PyBullet's default)" if slop is None else f"{slop:g}"}
 
 
 def _range(values, digits=4):
