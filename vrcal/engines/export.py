@@ -531,8 +531,9 @@ def format_trade_off(setup, rows):
     from vrcal.textout import number, table
 
     head = (f"MuJoCo trade-off: {setup.ball}, target epsilon {setup.epsilon:.4f}, {setup.integrator}, "
-            f"{N_PHASES} phases x {setup.n_bounces} bounces (a row that meets both: {CONFIRM_PHASES} phases)\n"
-            f"limits: tolerance {setup.tolerance:g}, penetration {setup.penetration_limit_m * 1e3:.3g} mm\n")
+            f"{N_PHASES} phases x {setup.n_bounces} bounces\n"
+            f"limits: tolerance {setup.tolerance:g}, penetration {setup.penetration_limit_m * 1e3:.3g} mm "
+            f"(a row that meets both: rerun over {CONFIRM_PHASES} phases)\n")
     def num(value, fmt):
         return "-" if value is None else format(value, fmt)
 
