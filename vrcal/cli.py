@@ -791,8 +791,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
               show_default="3, or as --impact-speed needs",
               help="Bounces per drop (1-50).")
-@click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=4, show_default=True,
-              help="Drops with the impact moved across one time step (1-64).")
+@click.option("--phases", "n_phases", type=opt.POSITIVE_COUNT, default=16, show_default=True,
+              help="Drops with the impact moved across one time step (1-64; export confirms a step with 16).")
 @K_OPTION
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @STANDARDS_OPTION

@@ -247,3 +247,19 @@ def test_the_ball_has_mujocos_default_friction_and_rolls():
     assert data.qvel[4] * R == pytest.approx(data.qvel[0], rel=0.05)
     frictionless = M.drop_test(ex.text.replace('condim="3"', 'condim="1"'), ex.setup, 2, 2)
     assert M.drop_test(ex.text, ex.setup, 2, 2).worst_error == pytest.approx(frictionless.worst_error, abs=1e-4)
+
+
+def test_a_calibration_that_passes_at_4_phases_is_confirmed_with_16():
+    """A soft ball of one's own (200 g, 70 mm, epsilon 0.45 from 0.5 m) at 0.47 ms: the contact
+    calibrated over 4 contact phases met 0.01 there (0.0062) and missed over 16 (0.0105, as over
+    64). The calibration now reports and is judged by 16 phases of the contact it chose."""
+    require_engine("mujoco")
+    from vrcal.engines.common import CONFIRM_PHASES
+
+    setup = build_setup(None, "mujoco", dt_s=4.7e-4, mass_kg=0.2, diameter_m=0.07, epsilon=0.45,
+                        drop_height_m=0.5)
+    cal = M.calibrate(setup, 4)
+    assert cal.runs.apex_ratios.shape[0] == CONFIRM_PHASES
+    rerun = M.drop_test(M.model_xml(setup, cal.contact), setup, 3, CONFIRM_PHASES)
+    assert cal.worst_error == pytest.approx(rerun.worst_error)
+    assert not cal.ok and cal.worst_error > 0.01

@@ -209,3 +209,23 @@ def test_the_compiled_speed_law_callback_bounces_by_the_relative_normal_speed(wr
     # eps(v) = 1 - 0.41 (v / 4.43)^0.6 < 0 above 19.5 m/s: thrown down at 25 m/s the ball stays down
     apexes = _compiled_drop(tmp_path, params, "dBodySetLinearVel(ball, 0, 0, -25.0);")
     assert apexes.size == 0 or apexes[0] < 0.01
+
+
+def test_a_step_that_passes_at_4_phases_is_confirmed_with_16():
+    """A soft ball of one's own (200 g, 70 mm, epsilon 0.45 from 0.5 m) at 1 ms: ODE's worst error
+    was 0.0099 over 4 contact phases, 0.0204 over 16 and 0.0229 over 64. The export ran 4 phases
+    and accepted the step; it now confirms a pass with 16, refuses naming them, and the step it
+    names passes over 16 phases when run."""
+    require_engine("ode")
+    import re
+
+    from vrcal.engines.common import CONFIRM_PHASES
+    from vrcal.engines.export import _run_in_engine, build_setup
+
+    soft = dict(mass_kg=0.2, diameter_m=0.07, epsilon=0.45, drop_height_m=0.5)
+    setup = build_setup(None, "ode", dt_s=1e-3, **soft)
+    assert _run_in_engine(setup, "ode", 1e-3, 4).worst_error <= 0.01
+    with pytest.raises(UsageError, match=r"^ODE at --dt 0\.001 s misses \(16 phases x 3 bounces\)") as info:
+        export(None, "ode", dt_s=1e-3, **soft)
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
+    assert _run_in_engine(setup, "ode", dt_ok, CONFIRM_PHASES).worst_error <= 0.01

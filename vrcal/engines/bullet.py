@@ -3,8 +3,10 @@
 Bullet combines the two bodies' ``restitution`` by their product and never bounces below
 ``restitutionVelocityThreshold`` (default 0.2 m/s). Its defaults are wrong for a drop test:
 contacts are created before touch (``contactProcessingThreshold``) and the solver subtracts
-the gap over dt, ERP adds energy on the way out, and bodies carry hidden linear/angular
-damping. The exported settings switch all of that off; then the ball's restitution is its
+the gap over dt, ERP adds energy on the way out, the contact slop (``contactSlop``, PyBullet's
+1e-5 m) counts a ball less than that deep as a gap and takes the gap over dt off its rebound,
+and bodies carry hidden linear/angular damping. The exported settings switch all of that off;
+then the ball's restitution is its
 epsilon and the floor's is 1 (rigid floor, Eq. 10 of [1]); a pair of balls then gets
 ``eps_A * eps_B`` by Bullet's own product rule -- exactly Eq. (6) of [1] for bodies
 calibrated at the same K.
@@ -22,8 +24,19 @@ from vrcal.engines.common import metadata, step_note, stepped_drop_test
 from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError
 
-#: Bounce threshold [m/s] (Bullet's default 0.2).
+#: Bounce threshold [m/s] (Bullet's default 0.2): a contact whose normal speed is below it gets no
+#: restitution (``restitutionCurve`` in Bullet's constraint solvers).
 RESTITUTION_VELOCITY_THRESHOLD = 0.01
+
+#: Contact slop [m] (``setPhysicsEngineParameter(contactSlop=...)``, Bullet's ``m_linearSlop``).
+#: PyBullet sets 1e-5 m (PhysicsServerCommandProcessor); Bullet's multibody solver adds it to the
+#: contact's distance, so a ball found less than the slop deep counts as still apart and leaves
+#: slower by (slop - depth) / dt: up to ``slop / (v dt)`` off epsilon, which grows as the step
+#: shrinks (measured: a 0.63 m/s impact lost 0.11 of epsilon 0.45 at 0.1 ms, a table-tennis ball
+#: 0.04 at 0.1 ms; benchmarks/bench_bullet_slop.py). Bullet's own note when it exposed the
+#: parameter: "Set it to zero, to avoid issues with restitution" (bullet3 pull request #1701).
+CONTACT_SLOP_M = 0.0
+PYBULLET_CONTACT_SLOP_M = 1e-5
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -35,6 +48,7 @@ def export_params(setup, n_bounces=None, pair=None):
         raise UsageError(f"restitution threshold {RESTITUTION_VELOCITY_THRESHOLD} m/s is not below the last "
                          f"impact speed {v_last:.3g} m/s")
     ball_eps = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
+    slop = PYBULLET_CONTACT_SLOP_M
     out = {
         "engine": "bullet",
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
@@ -48,7 +62,7 @@ def export_params(setup, n_bounces=None, pair=None):
         },
         "setPhysicsEngineParameter": {
             "fixedTimeStep": setup.dt_s, "numSubSteps": 0, "contactERP": 0.0,
-            "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD,
+            "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD, "contactSlop": CONTACT_SLOP_M,
         },
         "setGravity": [0.0, 0.0, -setup.g_m_per_s2],
         "notes": [
@@ -60,6 +74,9 @@ def export_params(setup, n_bounces=None, pair=None):
             "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
             "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
+            f"contactSlop {CONTACT_SLOP_M:g}: with PyBullet's default {slop:g} m a ball found less deep than "
+            f"that leaves up to {slop:g} m / dt too slowly (at this step {slop / setup.dt_s:.3g} m/s, up to "
+            f"{slop / (setup.dt_s * v_last):.2g} off epsilon at the last verified impact)",
             "friction is not set by vrcal: lateralFriction 0 makes the ball frictionless (it slides, never "
             "rolls); a vertical drop ignores it: set lateralFriction on the ball and the floor to yours",
         ],

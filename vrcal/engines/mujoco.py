@@ -46,6 +46,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from vrcal.engines.common import (
+    CONFIRM_PHASES,
     N_PHASES,
     DropRuns,
     RunsSummary,
@@ -535,7 +536,7 @@ def calibrate(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
                          "RK4 takes a spring (give --stiffness)")
     check_steps(setup, n_phases, "MuJoCo", MAX_STEPS, "the calibration's drop test")
     if kind == "spring":
-        return _calibrate_at(setup, n_phases, kind, omega_per_s or spring_omega(setup), 0.0)
+        return _confirmed(_calibrate_at(setup, n_phases, kind, omega_per_s or spring_omega(setup), 0.0), n_phases)
     # the damper: the ball turns between margin - v dt and margin; the slow late bounces (low
     # apexes) want a margin of their own half step, the fast first one half of its step
     speeds = setup.impact_speeds_m_per_s
@@ -547,7 +548,26 @@ def calibrate(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
             best = cal
         if best.excess <= 0.5:
             break
-    return best
+    return _confirmed(best, n_phases)
+
+
+def _confirmed(cal, n_phases):
+    """A calibration that meets both limits at ``n_phases``, run again with :data:`CONFIRM_PHASES`
+    contact phases (when more, and within the run limit): those runs are the ones it reports and
+    is judged by (4 phases under-sample a slow last bounce: a 200 g, 70 mm ball of epsilon 0.45
+    from 0.5 m at 0.47 ms, 0.0062 with 4 phases, 0.0105 with 16 and with 64)."""
+    setup = cal.setup
+    if not cal.ok or n_phases >= CONFIRM_PHASES:
+        return cal
+    try:
+        check_steps(setup, CONFIRM_PHASES, "MuJoCo", MAX_STEPS)
+    except UsageError:
+        return cal
+    targets = setup.epsilons
+    at_least = float(np.max(targets)) if np.ptp(targets) > 0 else None
+    model = load_model(model_xml(setup, cal.contact))
+    runs = drop_test(model, setup, setup.n_bounces, CONFIRM_PHASES, at_least=at_least)
+    return replace(cal, runs=runs, evaluations=cal.evaluations + 1)
 
 
 def _calibrate_at(setup, n_phases, kind, w, margin):
@@ -695,8 +715,8 @@ def header_lines(setup, cal):
         f"{integrator_name(setup)}",
         step_note(setup, "mujoco"),
         f"contact {how}",
-        f"calibrated in MuJoCo: {cal.runs.apex_ratios.shape[0]} phases x {setup.n_bounces} bounces, "
-        f"{cal.evaluations} runs",
+        f"calibrated in MuJoCo ({cal.evaluations} runs); drop test {cal.runs.apex_ratios.shape[0]} phases x "
+        f"{setup.n_bounces} bounces",
         f"worst eps error {cal.worst_error:.4f}, median {cal.median_error:.4f} "
         f"(tolerance {setup.tolerance:g})",
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "

@@ -15,9 +15,9 @@ import numpy as np
 
 from vrcal.engines import get_engine, load, require_runtime
 from vrcal.engines.common import (
+    CONFIRM_PHASES,
     DEFAULT_TOLERANCE,
     N_BOUNCES,
-    N_PHASES,
     DropSetup,
     VerifyResult,
     check_counts,
@@ -27,11 +27,12 @@ from vrcal.engines.common import (
 from vrcal.engines.export import export, parse_exported
 from vrcal.errors import DataError, UsageError
 
-DEFAULT_PHASES = N_PHASES
+#: Contact phases of ``vrcal verify`` unless ``--phases``: as many as an export confirms a step with.
+DEFAULT_PHASES = CONFIRM_PHASES
 
 
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
-           tolerance=None, n_bounces=None, n_phases=N_PHASES, exported_text=None,
+           tolerance=None, n_bounces=None, n_phases=DEFAULT_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
            from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
@@ -275,8 +276,10 @@ def _settings(engine, loaded, setup):
         out.update({k: f"{c[k]:g}" for k in ("soft_erp", "soft_cfm") if k in c})
         out.update({f"world {k}": f"{w[k]:g}" for k in ("erp", "cfm") if k in w})
         return out
+    slop = loaded["setPhysicsEngineParameter"].get("contactSlop")
     return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
-            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}"}
+            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}",
+            "contactSlop": "1e-05 (PyBullet's default)" if slop is None else f"{slop:g}"}
 
 
 def _range(values, digits=4):
