@@ -480,20 +480,18 @@ class Discovery:
         contact's epsilon over the record's bounces had the rival been named instead (one value
         twice for a constant epsilon), and the rival's parameters: what the ambiguity means for the
         number an engine needs."""
-        return {name: {r: {"epsilon": _epsilon_range(self._as_final(c.fit), self.runs),
-                           "parameters": dict(self._as_final(c.fit).effect_values.get(r, {}))}
-                       for r, c in rivals.items()}
+        def entry(rival, fit):
+            return {"epsilon": _epsilon_range(fit, self.runs), "parameters": dict(fit.effect_values.get(rival, {}))}
+
+        return {name: {r: entry(r, self._as_final(c.fit)) for r, c in rivals.items()}
                 for name, (_, rivals) in self._rivals().items()}
 
     def _as_final(self, fit):
         """A candidate's fit as the final model is fitted: by least squares when the candidates were
-        judged by generalized least squares (:attr:`judged`), else the fit itself (cached)."""
+        judged by generalized least squares (:attr:`judged`), else the fit itself."""
         if self.judged is None:
             return fit
-        cache = self.__dict__.setdefault("_plain_fits", {})
-        if id(fit) not in cache:
-            cache[id(fit)] = res.fit_model(self.final.problem, fit.effects, start=_start_from(fit))
-        return cache[id(fit)]
+        return res.fit_model(self.final.problem, fit.effects, start=_start_from(fit))
 
     def as_dict(self):
         """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader."""
@@ -631,8 +629,6 @@ def verdict_reason(d):
     if (d.scatter_gap or 0) > (d.noise_floor or 0):
         what = "the gap a typical bounce-to-bounce scatter leaves" if d.scatter_assumed else \
             "the bounce-to-bounce scatter's gap"
-    if v == "explained":
-        return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
     return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
 
 
@@ -874,12 +870,10 @@ def _bounce_scatter(problem, fit, sigma_floor, alpha=0.05, share_alpha=1.0):
 def _over_runs(problem, fit, quantity):
     """The median over the runs of ``quantity(t, model_t)`` (the run's impact times and ``fit``'s model
     times [s]), its None values left out; None when all are."""
-    values, start = [], 0
-    for run in problem.runs:
+    values = []
+    for run, sl in zip(problem.runs, fit.run_slices()):
         t = np.asarray(run.t_s, dtype=float)
-        model_t = t - fit.residuals[start:start + t.size]
-        start += t.size
-        values.append(quantity(t, model_t))
+        values.append(quantity(t, t - fit.residuals[sl]))
     values = [v for v in values if v is not None]
     return float(np.median(values)) if values else None
 
