@@ -279,6 +279,16 @@ def test_cli_verify_passes_and_fails_on_the_tolerance():
     assert "FAILED" in result.output and "exceeds the tolerance" in result.output
 
 
+def test_cli_verify_runs_the_confirmation_phases_by_default():
+    """The CLI's --phases default is the phase count export confirms a step with (the CLI keeps its
+    start-up light and writes the number itself)."""
+    from vrcal.engines.common import CONFIRM_PHASES
+    from vrcal.engines.verify import DEFAULT_PHASES
+
+    option = next(p for p in main.commands["verify"].params if p.name == "n_phases")
+    assert option.default == DEFAULT_PHASES == CONFIRM_PHASES
+
+
 def test_cli_verify_json_is_a_machine_document():
     require_engine("mujoco")
     result = run("verify", "tennis", "--engine", "mujoco", "--phases", "2", "--format", "json")
