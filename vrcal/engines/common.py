@@ -11,11 +11,14 @@ impacts, closed-form flights, with the air drag and the speed-dependent epsilon 
   apex ratio (epsilon itself without drag);
 * velocity ratio ``v_out / v_in`` of each contact, each speed taken from the last free-flight
   sample before and the first after the contact and carried to floor level, so the step at
-  which the engine happens to detect the contact does not enter. The carry uses the energy
-  that the engine's integrator conserves exactly: ``v^2 + 2 g z`` for an exact flight
-  (MuJoCo's RK4), ``v^2 + 2 g z - g v dt`` for semi-implicit Euler (ODE, Bullet, MuJoCo's
-  Euler/implicit/implicitfast: velocity first, then position). Its target is the model's
-  epsilon at that impact speed.
+  which the engine happens to detect the contact does not enter. Each speed is that of the
+  parabola the sampled positions lie on, where it crosses z = 0 (:func:`floor_speed_m_per_s`):
+  for semi-implicit Euler (ODE, Bullet, MuJoCo's Euler/implicit/implicitfast: velocity first,
+  then position) the stored velocity is half a step behind the positions, and the carry
+  takes that into account; for an exact flight (MuJoCo's RK4) the sample's own velocity is
+  carried. So ``v_out / v_in`` is the ratio of the flights' speeds at floor level, which is
+  also the ratio sqrt(h'/h) of the flights' own apexes (the sampled apex falls up to
+  ``g dt^2/8`` below its flight's). Its target is the model's epsilon at that impact speed.
 
 The *error* is the largest |achieved - target| over both ratios, all bounces and contact
 phases. The *penetration* is the deepest the ball's bottom went below the floor, the
@@ -364,7 +367,10 @@ def flight_mask(v_m_per_s, dt_s, g_m_per_s2, rtol=1e-6, atol=1e-12):
 
 
 def floor_speed_m_per_s(z_m, v_m_per_s, g_m_per_s2, dt_s, semi_implicit):
-    """Speed at floor level of a free flight through the sample (z, v) [m/s].
+    """Speed at floor level of the free flight through the sample (z, v) [m/s].
+
+    The flight is the parabola on which the sampled positions lie, and its speed where it
+    crosses z = 0 (the speed of which epsilon is the ratio, Eq. 1 of [1]).
 
     Parameters
     ----------
@@ -373,20 +379,31 @@ def floor_speed_m_per_s(z_m, v_m_per_s, g_m_per_s2, dt_s, semi_implicit):
     g_m_per_s2, dt_s : float
         gravity [m/s^2] and time step [s]
     semi_implicit : bool
-        the flight is semi-implicit Euler; its conserved energy is ``v^2 + 2 g z - g v dt``
-        (exact flights: ``v^2 + 2 g z``)
+        the flight is semi-implicit Euler (velocity first, then position: ``z[n] - z[n-1] =
+        v[n] dt``). Its stored velocity is then the mean over the step just taken, the parabola's
+        velocity half a step earlier; the parabola's own velocity at the sample is ``v - g dt/2``
+        and ``(v - g dt/2)^2 + 2 g z = v^2 + 2 g z - g v dt + g^2 dt^2/4`` is its conserved energy.
+        False: an exact flight (MuJoCo's RK4), whose samples hold the parabola's own velocity:
+        ``v^2 + 2 g z``.
 
     Returns
     -------
     float
-        the speed with which that flight crosses z = 0 (going the sample's way)
+        ``sqrt(v^2 + 2 g z - g v dt + (g dt/2)^2)`` (semi-implicit), ``sqrt(v^2 + 2 g z)``
+        (exact): the same both ways, so a flight that rises as high as it fell has the ratio 1
+
+    Notes
+    -----
+    Not an equation of [1]. Earlier vrcal returned the *stored* velocity a sample at z = 0
+    would hold, ``(root +- g dt)/2`` with ``root`` twice the value above: half a step off, so
+    ``v_out / v_in`` read high by about ``(1 + epsilon) g dt / (2 v)`` (ODE at epsilon 1: 1.020
+    at dt = 5 ms, v = 2.4 m/s, while its apex ratio and its contact step were exactly 1).
     """
-    if not semi_implicit:
-        return math.sqrt(max(v_m_per_s * v_m_per_s + 2.0 * g_m_per_s2 * z_m, 0.0))
-    e = v_m_per_s * v_m_per_s + 2.0 * g_m_per_s2 * z_m - g_m_per_s2 * v_m_per_s * dt_s
-    gdt = g_m_per_s2 * dt_s
-    root = math.sqrt(max(gdt * gdt + 4.0 * e, 0.0))
-    return 0.5 * (root + gdt) if v_m_per_s > 0 else 0.5 * (root - gdt)
+    e = v_m_per_s * v_m_per_s + 2.0 * g_m_per_s2 * z_m
+    if semi_implicit:
+        gdt = g_m_per_s2 * dt_s
+        e += 0.25 * gdt * gdt - gdt * v_m_per_s
+    return math.sqrt(max(e, 0.0))
 
 
 class StillBouncing(DataError):
