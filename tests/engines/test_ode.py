@@ -9,6 +9,7 @@ from helpers import EPSILONS, require_engine
 from vrcal.engines import ode as E
 from vrcal.engines.export import export, parse_exported
 from vrcal.errors import DataError, UsageError
+from vrcal.model.standards import get_ball
 
 
 @pytest.mark.parametrize("eps", EPSILONS)
@@ -132,7 +133,7 @@ int dInitODE2(unsigned); dWorldID dWorldCreate(void); dSpaceID dHashSpaceCreate(
 dJointGroupID dJointGroupCreate(int); dBodyID dBodyCreate(dWorldID);
 void dMassSetSphereTotal(dMass *, dReal, dReal); void dBodySetMass(dBodyID, const dMass *);
 dGeomID dCreateSphere(dSpaceID, dReal); void dGeomSetBody(dGeomID, dBodyID);
-dGeomID dCreatePlane(dSpaceID, dReal, dReal, dReal, dReal); void dBodySetPosition(dBodyID, dReal, dReal, dReal);
+void dGeomSetPosition(dGeomID, dReal, dReal, dReal); dGeomID dCreatePlane(dSpaceID, dReal, dReal, dReal, dReal); void dBodySetPosition(dBodyID, dReal, dReal, dReal);
 int dCollide(dGeomID, dGeomID, int, dContactGeom *, int);
 dJointID dJointCreateContact(dWorldID, dJointGroupID, const dContact *);
 void dJointAttach(dJointID, dBodyID, dBodyID); dBodyID dGeomGetBody(dGeomID);
@@ -166,7 +167,7 @@ def _compiled_drop(tmp_path, params, setup_c):
 #include <math.h>
 {ODE_DECLARATIONS}
 static dWorldID world; static dSpaceID space; static dJointGroupID contact_group;
-static dGeomID ball_geom; static dBodyID ball;
+static dGeomID ball_geom, ball2_geom; static dBodyID ball;
 static void your_near_callback(void *data, dGeomID o1, dGeomID o2) {{ (void)data; (void)o1; (void)o2; }}
 {callback}
 int main(void) {{
@@ -209,6 +210,26 @@ def test_the_compiled_speed_law_callback_bounces_by_the_relative_normal_speed(wr
     # eps(v) = 1 - 0.41 (v / 4.43)^0.6 < 0 above 19.5 m/s: thrown down at 25 m/s the ball stays down
     apexes = _compiled_drop(tmp_path, params, "dBodySetLinearVel(ball, 0, 0, -25.0);")
     assert apexes.size == 0 or apexes[0] < 0.01
+
+
+def test_the_compiled_pair_callback_gives_each_pair_its_own_epsilon(tmp_path):
+    """``--against``: pasted as it is, the near callback bounces the basketball off a (fixed) tennis
+    ball with the pair's 0.5707 of Eq. 6, not the basketball's 0.7662 (an earlier snippet set that on
+    every contact of ball_geom), the basketball off the floor with its own, the tennis ball with its own."""
+    require_engine("ode")
+    params = json.loads(export("basketball", "ode", against="tennis").text)
+    pairs, H = params["pairs"], params["ball"]["drop_height_m"]
+    R2, top = get_ball("tennis").radius_m, 0.5
+    on_ball2 = _compiled_drop(tmp_path, params, f"ball2_geom = dCreateSphere(space, {R2}); "
+                                                f"dGeomSetPosition(ball2_geom, 0, 0, {top - R2});") - top
+    assert np.sqrt(on_ball2[0] / (H - top)) == pytest.approx(pairs["basketball/tennis"], abs=0.005)
+    on_floor = _compiled_drop(tmp_path, params, f"ball2_geom = dCreateSphere(space, {R2}); "
+                                                "dGeomSetPosition(ball2_geom, 5, 5, 5);")
+    assert np.sqrt(on_floor[0] / H) == pytest.approx(pairs["basketball/floor"], abs=0.005)
+    # the dropped body as the second ball (the callback's ball_geom parked far away)
+    as_ball2 = _compiled_drop(tmp_path, params, "ball2_geom = ball_geom; ball_geom = dCreateSphere(space, 0.01); "
+                                                "dGeomSetPosition(ball_geom, 5, 5, 5);")
+    assert np.sqrt(as_ball2[0] / H) == pytest.approx(pairs["tennis/floor"], abs=0.005)
 
 
 def test_a_step_that_passes_at_4_phases_is_confirmed_with_16():

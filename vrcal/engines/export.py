@@ -398,9 +398,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         setup = _with_note(setup, check_step(setup, eng.name, n_phases=n_phases))
         data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
-        data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         if pair:
             data["pair"] = pair
+        data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, "Gazebo")

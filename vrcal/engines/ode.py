@@ -114,8 +114,9 @@ def export_params(setup, n_bounces=None, pair=None):
             f"{setup.ball}/{pair['ball2']}": pair["epsilon"],
         }
         out["notes"].append(
-            "ODE has no mixing rule: in the near callback set contact.surface.bounce to the PAIR's value "
-            "from 'pairs' (Eq. 6: the product of the two bodies' epsilons)"
+            f"ODE has no mixing rule: the snippet's near callback sets each contact's bounce to its pair's value "
+            f"from 'pairs' (ball_geom: your {setup.ball}, ball2_geom: your {pair['ball2']}; both balls: Eq. 6, "
+            "the product of the two bodies' epsilons)"
         )
     return out
 
@@ -234,15 +235,11 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
 {{
     dContact c[4];
     int i, n;
-    if (o1 != ball_geom && o2 != ball_geom) {{   /* ball_geom: your ball's sphere */
-        your_near_callback(data, o1, o2);       /* every other pair: your own contacts */
-        return;
-    }}
-    n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
+{choose}    n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
     for (i = 0; i < n; i++) {{
         c[i].surface.mode = {mode};
         c[i].surface.mu = {mu};             /* frictionless: your mu here (a drop ignores it) */
-        c[i].surface.bounce = {bounce};    /* epsilon ({ball}) */
+        c[i].surface.bounce = {bounce}
 {law}        c[i].surface.bounce_vel = {bounce_vel};    /* m/s: slower impacts do not bounce */
         c[i].surface.soft_erp = {soft_erp};       /* this contact only: no ERP push-out */
         c[i].surface.soft_cfm = {soft_cfm};     /* this contact only: rigid */
@@ -258,9 +255,31 @@ dWorldStep(world, {dt});
 dJointGroupEmpty(contact_group);
 """
 
+#: The start of the near callback for one ball: its epsilon on every contact of ``ball_geom``.
+ONE_BALL_C = """\
+    if (o1 != ball_geom && o2 != ball_geom) {{   /* ball_geom: your ball's sphere */
+        your_near_callback(data, o1, o2);       /* every other pair: your own contacts */
+        return;
+    }}
+"""
+
+#: The start of the near callback for ``--against``: each pair's own epsilon (Eq. 6 for the two balls).
+PAIR_C = """\
+    int a = (o1 == ball_geom || o2 == ball_geom);     /* ball_geom: your {ball}'s sphere */
+    int b = (o1 == ball2_geom || o2 == ball2_geom);   /* ball2_geom: your {ball2}'s sphere */
+    dReal bounce;
+    if (!a && !b) {{
+        your_near_callback(data, o1, o2);       /* every other pair: your own contacts */
+        return;
+    }}
+    bounce = a && b ? {pair}   /* {ball}/{ball2}: Eq. 6, the product */
+           : a ? {eps_a}         /* {ball} on the floor (and on anything else) */
+           : {eps_b};            /* {ball2} on the floor (and on anything else) */
+"""
+
 LAW_C = """\
-        {{  /* epsilon at this impact: eps(v) = 1 - (1 - eps_1)(v / v_1)^p, clamped to [0, 1], v = the
-               normal speed of one body relative to the other at the contact point */
+        {guard}{{  /* epsilon at this impact: eps(v) = 1 - (1 - eps_1)(v / v_1)^p, clamped to [0, 1],
+               v = the normal speed of one body relative to the other at the contact point */
             dVector3 v1 = {{0, 0, 0}}, v2 = {{0, 0, 0}};
             const dReal *q = c[i].geom.pos, *nrm = c[i].geom.normal;
             dReal vn, e;
@@ -282,15 +301,30 @@ DRAG_C = """\
 
 
 def c_snippet(params):
-    """The near callback, the per-step drag force and the world settings in C for an exported parameter set."""
-    law, drag = params.get("restitution_law"), params.get("drag")
+    """The near callback, the per-step drag force and the world settings in C for an exported parameter set.
+
+    With ``pairs`` (``--against``) the callback also takes the second ball's contacts
+    (``ball2_geom``) and sets each contact's bounce to its pair's value: ball/ball2 the product of
+    Eq. 6, each ball against anything else its own epsilon; a speed law applies to the first ball's
+    own contacts only.
+    """
+    law, drag, pairs = params.get("restitution_law"), params.get("drag"), params.get("pairs")
     law_c = LAW_C.format(eps_ref=f"{law['epsilon_ref']:.6f}", v_ref=f"{law['reference_speed_m_per_s']:.6g}",
-                         p=f"{law['exponent']:.6g}") if law else ""
+                         p=f"{law['exponent']:.6g}", guard="if (a && !b)   /* the law: the first ball's own contacts */\n        " if pairs else "") if law else ""
     drag_c = DRAG_C.format(c=f"{drag['force_coefficient_kg_per_m']:.6g}") if drag else ""
     contact, world = params["contact"], params["world"]
+    ball = params["ball"]["name"]
+    if pairs:
+        ball2 = params["pair"]["ball2"]
+        choose = PAIR_C.format(ball=ball, ball2=ball2, pair=f"{pairs[f'{ball}/{ball2}']:.6f}",
+                               eps_a=f"{pairs[f'{ball}/floor']:.6f}", eps_b=f"{pairs[f'{ball2}/floor']:.6f}")
+        bounce = "bounce;      /* this pair's epsilon (above) */"
+    else:
+        choose = ONE_BALL_C.format()
+        bounce = f"{contact['bounce']:.6f};    /* epsilon ({ball}) */"
     gx, gy, gz = (float(x) for x in world["gravity"])
-    return C_SNIPPET.format(mode=" | ".join(contact["mode"]), mu=contact["mu"], bounce=f"{contact['bounce']:.6f}",
-                            ball=params["ball"]["name"], law=law_c, bounce_vel=contact["bounce_vel"],
+    return C_SNIPPET.format(choose=choose, mode=" | ".join(contact["mode"]), mu=contact["mu"], bounce=bounce,
+                            law=law_c, bounce_vel=contact["bounce_vel"],
                             soft_erp=contact.get("soft_erp", CONTACT_SOFT_ERP),
                             soft_cfm=contact.get("soft_cfm", CONTACT_SOFT_CFM), gx=repr(gx), gy=repr(gy), gz=repr(gz),
                             dt=world["dt"], drag=drag_c)
