@@ -91,6 +91,38 @@ def test_without_the_engine_the_refusal_says_it_rests_on_the_bound(monkeypatch):
         export(None, "ode", dt_s=1e-2, **OWN)
 
 
+@pytest.mark.parametrize("engine, out", [("ode", "t.json"), ("bullet", "t.json"), ("gazebo", "t.sdf")])
+def test_without_the_engine_an_export_says_plainly_it_was_not_run(engine, out, monkeypatch, tmp_path):
+    """libode or PyBullet absent: the export is still written (its values need no engine) at a step the
+    bound passes, exit 0, but the file and the command say 'not run ... not installed', never 'checked'
+    (an earlier export wrote 'checked at step 0.001 s only' although nothing ran)."""
+    import vrcal.engines as engines
+
+    def absent(name):
+        raise EngineUnavailable(f"{name} is not installed")
+
+    monkeypatch.setattr(engines, "require_runtime", absent)
+    path = tmp_path / out
+    result = run("export", "tennis", "--engine", engine, "--dt", "0.001", "-o", str(path))
+    name = "PyBullet" if engine == "bullet" else "ODE"
+    install = "pip install pybullet" if engine == "bullet" else "apt-get install libode8"
+    assert result.exit_code == 0
+    assert result.stderr.startswith(f"not run: {name} is not installed here ({install}") and "step bound" in result.stderr
+    text = path.read_text()
+    assert not re.search(r"(?<!NOT )checked (at step|in)", text)
+    assert f"NOT checked at step 0.001 s: not run, {name} is not installed here" in text
+    if engine != "gazebo":
+        data = json.loads(text)
+        assert data["notes"][0].startswith("NOT checked") and data["how_chosen"][-1].startswith("not run: ")
+
+
+def test_with_the_engine_an_export_says_what_it_checked(tmp_path):
+    require_engine("ode")
+    data = json.loads(export("tennis", "ode", dt_s=1e-3).text)
+    assert data["notes"][0].startswith("checked at step 0.001 s only")
+    assert data["how_chosen"][-1].startswith("step 0.001 s checked in ODE (16 phases")
+
+
 # --------------------------------------------------------------------------- tables
 
 

@@ -70,13 +70,13 @@ def export_params(setup, n_bounces=None, pair=None):
             "Bullet multiplies the two bodies' restitution: ball x floor = "
             f"{ball_eps:.6g} x {setup.floor_epsilon:.6g} = {setup.epsilon:.6g}",
             f"no bounce below restitutionVelocityThreshold (Bullet's default 0.2 m/s; set here to "
-            f"{RESTITUTION_VELOCITY_THRESHOLD} m/s; last verified impact {v_last:.3g} m/s)",
+            f"{RESTITUTION_VELOCITY_THRESHOLD} m/s; drop test's last impact {v_last:.3g} m/s)",
             "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
             "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
             f"contactSlop {CONTACT_SLOP_M:g}: with PyBullet's default {slop:g} m a ball found less deep than "
             f"that leaves up to {slop:g} m / dt too slowly (at this step {slop / setup.dt_s:.3g} m/s, up to "
-            f"{slop / (setup.dt_s * v_last):.2g} off epsilon at the last verified impact)",
+            f"{slop / (setup.dt_s * v_last):.2g} off epsilon at the drop test's last impact)",
             "friction is not set by vrcal: lateralFriction 0 makes the ball frictionless (it slides, never "
             "rolls); a vertical drop ignores it: set lateralFriction on the ball and the floor to yours",
         ],

@@ -239,6 +239,16 @@ def metadata(setup):
     }
 
 
+#: How the note of an ODE, PyBullet or Gazebo export that did not run in its engine starts (the engine
+#: is not installed here: :func:`vrcal.engines.export.check_step`); :func:`step_note` then says so.
+NOT_RUN = "not run"
+
+
+def engine_label(engine):
+    """How a note names the engine that runs ``engine``'s file: ODE (also Gazebo's), PyBullet, MuJoCo."""
+    return {"ode": "ODE", "gazebo": "ODE", "bullet": "PyBullet", "mujoco": "MuJoCo"}.get(engine, engine)
+
+
 def step_note(setup, engine):
     """The line every exported file carries: the time step its numbers hold for (< 100 columns).
 
@@ -246,11 +256,15 @@ def step_note(setup, engine):
     ``v dt/2``, or a spring calibrated at dt): at another step the bounce is another one. ODE's
     and Bullet's bounce is epsilon at any step, but the depth and the epsilon error were checked
     at this step only, and a smaller step can miss where this one passed (measured:
-    ``benchmarks/bench_step_monotonic.py``). The MuJoCo and Gazebo lines go into XML comments, which may not hold two
-    dashes: they name no option.
+    ``benchmarks/bench_step_monotonic.py``); where the engine is not installed (a note of the
+    setup starts with :data:`NOT_RUN`) nothing was checked, and the line says so. The MuJoCo and
+    Gazebo lines go into XML comments, which may not hold two dashes: they name no option.
     """
     if engine == "mujoco":
         return f"valid at timestep {setup.dt_s:g} s only (the contact is tuned to it): export again for another"
+    if any(note.startswith(NOT_RUN) for note in setup.notes):
+        line = f"NOT checked at step {setup.dt_s:g} s: not run, {engine_label(engine)} is not installed here"
+        return line if engine == "gazebo" else line + "; vrcal verify --file F runs it"
     line = f"checked at step {setup.dt_s:g} s only (another, even a smaller one, can miss)"
     return line if engine == "gazebo" else line + "; vrcal verify --file F --dt DT runs it at DT"
 

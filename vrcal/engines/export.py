@@ -37,6 +37,8 @@ from vrcal.engines.common import (
     check_dt,
     check_epsilon,
     check_positive,
+    NOT_RUN,
+    engine_label,
     round_down,
 )
 from vrcal.errors import DataError, UsageError
@@ -395,7 +397,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
     elif eng.name in ("ode", "bullet"):
-        setup = _with_note(setup, check_step(setup, eng.name, n_phases=n_phases))
+        checked = check_step(setup, eng.name, n_phases=n_phases)
+        setup = _with_note(setup, checked)
+        summary = _not_run(checked)
         data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
         if pair:
@@ -406,6 +410,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         refuse_constant_for_law(setup, "Gazebo")
         checked = check_step(setup, "gazebo", n_phases=n_phases)             # Gazebo runs ODE
         setup = _with_note(setup, checked)
+        summary = _not_run(checked)
         text = module.export_sdf(setup, pair, second, checked)
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
@@ -414,6 +419,11 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data = {"engine": "tables", "rows": module.table(setup, pair)}
         text = module.format_table(setup, pair)
     return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
+
+
+def _not_run(note):
+    """The note of :func:`check_step` when the engine did not run (printed by the CLI), else ''."""
+    return note if note.startswith(NOT_RUN) else ""
 
 
 def _with_note(setup, note):
@@ -617,15 +627,22 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
 
     Returns
     -------
-    str or None
-        the note of the step measured in the engine (None: not installed here, and the bound passed)
+    str
+        the note of the step measured in the engine, or, when the engine is not installed here and
+        the bound passed, a note starting :data:`vrcal.engines.common.NOT_RUN` that says so
     """
     bound, depth = step_bound(setup, engine)
     within = bound <= setup.tolerance and depth <= setup.penetration_limit_m
     label = "ODE" if engine in ("ode", "gazebo") else engine
     runs = _run_confirmed(setup, engine, setup.dt_s, n_phases)
     if within and runs is None:
-        return None
+        name = engine_label(engine)
+        later = ("export again where it is: the export runs the SDF's contact in libode" if engine == "gazebo" else
+                 f"vrcal verify --file F runs the drop test where {name} is installed")
+        return (f"{NOT_RUN}: {name} is not installed here ({get_engine('ode' if engine == 'gazebo' else engine).install}"
+                f"); by the step bound alone, step {setup.dt_s:g} s moves epsilon by up to {bound:.3g} and the ball "
+                f"sinks up to {depth * 1e3:.3g} mm (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} "
+                f"mm); {later}")
     if isinstance(runs, DropRuns) and _meets(setup, runs):
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "

@@ -91,7 +91,7 @@ def export_params(setup, n_bounces=None, pair=None):
         "notes": [
             step_note(setup, "ode"),
             f"impacts slower than bounce_vel = {BOUNCE_VEL_M_PER_S} m/s do not bounce "
-            f"(the last verified impact is at {v_last:.3g} m/s)",
+            f"(the drop test's last impact is at {v_last:.3g} m/s)",
             "soft_erp = 0 on the ball's contacts only (dContactSoftERP; the world ERP stays yours, for your "
             "joints): a contact leaves at max(bounce speed, erp*depth/dt), so ERP 0.2 throws a deep ball out "
             "faster than epsilon allows",
