@@ -80,6 +80,31 @@ def test_the_issue_cases_are_one_line_errors(args, message):
     assert len(result.output.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("args, message", [
+    (["export", "tennis", "--engine", "ode", "--dt", "2"], "got 2; --dt is in s: 2 ms = 0.002"),
+    (["export", "tennis", "--engine", "ode", "--dt", "1/0"], "or a fraction such as 1/240, got '1/0'"),
+    (["export", "tennis", "--engine", "ode", "--drop-height", "254"],
+     "--drop-height must be at most 100 m (a drop of 254 m hits at 70.6 m/s; faster impacts: --impact-speed), "
+     "got 254; --drop-height is in m: 254 cm = 2.54"),
+    (["export", "tennis", "--engine", "ode", "--against", "x=0.01,v=0.17"],
+     "--against takes a second ball of the standards (a virtual body x=DEPTH,v=SPEED is a --floor): unknown ball"),
+    (["verify", "tennis", "--engine", "gazebo"],
+     "vrcal export --engine gazebo runs the SDF's bounce in libode (its note says what it measured): vrcal verify "
+     "--engine ode runs that drop test"),
+])
+def test_unit_slips_and_wrong_engines_are_named_in_one_line(args, message):
+    """The probe's cases: ms typed for s, cm for m, a virtual body for --against, gazebo for verify."""
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and message in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("text, value", [("1/240", 1 / 240), (" 1 / 1000 ", 1e-3), ("0.002", 0.002)])
+def test_a_time_step_takes_a_fraction_as_help_writes_bullets_default(text, value):
+    assert opt.TIME_STEP_S.convert(text, None, None) == pytest.approx(value, rel=1e-15)
+    assert "bullet 1/240" in CliRunner().invoke(main, ["export", "--help"]).output
+
+
 def test_real_range_text():
     assert opt.Real(0, 1, min_open=True).range_text() == "in (0, 1]"
     assert opt.Real(0, unit="m").range_text() == ">= 0 [m]"

@@ -770,8 +770,10 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 
 @main.command("verify")
 @click.argument("ball", required=False)
-@click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet"], case_sensitive=False),
-              required=True, help="Engine to run the drop test in.")
+@click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet", "gazebo"],
+                                                     case_sensitive=False),
+              required=True, help="Engine to run the drop test in (gazebo: its SDF's bounce is ODE's, run it "
+                                  "with --engine ode).")
 @_engine_options
 @click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "

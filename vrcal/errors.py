@@ -4,7 +4,10 @@
 (unknown ball, K <= 0, an option out of range).
 ``DataError`` (exit 1): a file or table holds something wrong (malformed YAML, h > H,
 a missing field, a measurement file that cannot be read).
+:func:`unit_hint` names the likely unit slip of a value out of range, for those messages.
 """
+
+import math
 
 
 class VrcalError(Exception):
@@ -29,3 +32,27 @@ class EngineUnavailable(VrcalError, RuntimeError):
     """An optional physics engine is not installed; the message names the package."""
 
     exit_code = 1
+
+
+def unit_hint(value, maximum, option, unit, small_unit, factor):
+    """The likely unit slip of a value above ``maximum``, for a refusal: ``'; --dt is in s: 2 ms =
+    0.002'`` when ``value / factor`` lies in range (``small_unit`` typed for ``unit``), else ''.
+
+    Parameters
+    ----------
+    value : float or str
+        what was given
+    maximum : float
+        the largest value accepted, in ``unit``
+    option, unit, small_unit : str
+        the option's name, its unit, and the smaller unit it was probably given in
+    factor : float
+        ``small_unit`` per ``unit`` (1000 for ms per s, 100 for cm per m)
+    """
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return ""
+    if math.isfinite(x) and maximum < x <= factor * maximum:
+        return f"; {option} is in {unit}: {x:g} {small_unit} = {x / factor:g}"
+    return ""

@@ -20,6 +20,8 @@ import math
 
 import click
 
+from vrcal.errors import unit_hint
+
 
 def _range_text(lo, hi, lo_open=False, hi_open=False, unit=""):
     """'> 0', 'in (0, 1]', 'between 1e-06 and 1e+06 [1/s]', '>= 1' ('' without bounds)."""
@@ -81,6 +83,28 @@ class Real(click.ParamType):
         return f"Real({self.range_text()})"
 
 
+class TimeStep(Real):
+    """A time step [s]: a :class:`Real` that also takes a fraction such as ``1/240``, and whose
+    refusal of a step above the range names the likely slip (milliseconds typed for seconds)."""
+
+    def convert(self, value, param, ctx):
+        text = str(value).strip()
+        if not isinstance(value, (int, float)) and text.count("/") == 1:
+            num, _, den = text.partition("/")
+            try:
+                value = float(num) / float(den)
+            except (ValueError, ZeroDivisionError, OverflowError):
+                _fail(param, ctx, f"must be a number {self.range_text()} or a fraction such as 1/240, "
+                                  f"got {_brief(text)!r}")
+        try:
+            return super().convert(value, param, ctx)
+        except click.UsageError as exc:
+            hint = unit_hint(value, self.maximum, _name(param), "s", "ms", 1000)
+            if hint:
+                raise click.UsageError(f"{exc.message}{hint}", ctx) from None
+            raise
+
+
 class Count(click.ParamType):
     """A whole number in [minimum, maximum] (None: no bound on that side)."""
 
@@ -118,12 +142,15 @@ class Count(click.ParamType):
         return f"Count({self.range_text()})"
 
 
-def _fail(param, ctx, message):
-    """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2); NAME is the
-    option's first long name (``--drop`` of ``--drop/--drop-height``)."""
+def _name(param):
+    """The option's first long name (``--drop`` of ``--drop/--drop-height``)."""
     opts = list(param.opts) if param is not None else []
-    name = next((o for o in opts if o.startswith("--")), max(opts, key=len, default="value"))
-    raise click.UsageError(f"{name} {message}", ctx)
+    return next((o for o in opts if o.startswith("--")), max(opts, key=len, default="value"))
+
+
+def _fail(param, ctx, message):
+    """Refuse an option's value: ``--NAME must be ...`` (a usage error, exit status 2), NAME of :func:`_name`."""
+    raise click.UsageError(f"{_name(param)} {message}", ctx)
 
 
 def _brief(value, limit=40):
@@ -187,9 +214,9 @@ DATA_NOISE = Real(1e-9, 1e3)
 GRAVITY_M_PER_S2 = Real(1e-2, 1e3, unit="m/s^2")
 #: A physics engine's time step [s]: the range of vrcal.engines.common.check_dt (below 1e-7 s no run
 #: ends in reasonable time; above 0.1 s no bounce is resolved).
-TIME_STEP_S = Real(1e-7, 0.1, unit="s")
+TIME_STEP_S = TimeStep(1e-7, 0.1, unit="s")
 #: ODE's time step in a scene [s].
-ODE_TIME_STEP_S = Real(1e-7, 0.1, unit="s")
+ODE_TIME_STEP_S = TimeStep(1e-7, 0.1, unit="s")
 #: Largest accepted |achieved - target| epsilon.
 TOLERANCE = Real(1e-9, 1)
 #: MuJoCo's contact stiffness [1/s^2]; 0 is the one-step damper.

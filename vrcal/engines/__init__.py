@@ -78,7 +78,10 @@ def require_runtime(name):
     engine = get_engine(name)
     if not engine.runs:
         runnable = ", ".join(k for k, e in ENGINES.items() if e.runs)
-        raise UsageError(f"vrcal cannot run {engine.name} (export only); verify works with: {runnable}")
+        why = ("; Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce in libode "
+               "(its note says what it measured): vrcal verify --engine ode runs that drop test"
+               if engine.name == "gazebo" else "")
+        raise UsageError(f"vrcal cannot run {engine.name} (export only); verify works with: {runnable}{why}")
     return load(engine.name).version()
 
 

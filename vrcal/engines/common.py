@@ -41,7 +41,7 @@ from functools import cached_property
 
 import numpy as np
 
-from vrcal.errors import DataError, UsageError
+from vrcal.errors import DataError, UsageError, unit_hint
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2, check_epsilon  # noqa: F401 (engines use it)
 
 #: Gravity of every exported engine file unless ``--g`` [m/s^2] (the same in every command).
@@ -296,7 +296,8 @@ def check_dt(dt_s, what="--dt"):
     except (TypeError, ValueError):
         raise UsageError(f"{what} must be a number between {MIN_DT_S:g} and {MAX_DT_S:g} [s], got {dt_s!r}") from None
     if not (math.isfinite(dt) and MIN_DT_S <= dt <= MAX_DT_S):
-        raise UsageError(f"{what} must be a number between {MIN_DT_S:g} and {MAX_DT_S:g} [s], got {dt:g}")
+        raise UsageError(f"{what} must be a number between {MIN_DT_S:g} and {MAX_DT_S:g} [s], got {dt:g}"
+                         + unit_hint(dt, MAX_DT_S, what, "s", "ms", 1000))
     return dt
 
 

@@ -164,9 +164,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if drop_height_m is not None and impact_speed is not None:
         raise UsageError("give --drop-height or --impact-speed, not both")
     if drop_height_m is not None:
-        drop_height_m = check_positive(drop_height_m, "--drop-height")
-        if drop_height_m > 1000:
-            raise UsageError(f"--drop-height must be at most 1000 m, got {drop_height_m:g}")
+        drop_height_m = check_drop_height(drop_height_m)
     doc = body.discovered
     notes = []
     g = body.gravity_m_per_s2(g_m_per_s2)
@@ -257,6 +255,24 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if H is not None:
         _check_bounces_reachable(setup)
     return setup
+
+
+#: Highest ``--drop-height`` [m] of an export or a verify: a 100 m drop hits at 44 m/s (no drag), beyond
+#: any drop test; faster impacts are given as speeds (``--impact-speed``, up to 1000 m/s).
+MAX_DROP_HEIGHT_M = 100.0
+
+
+def check_drop_height(drop_height_m):
+    """``--drop-height`` as a float in (0, :data:`MAX_DROP_HEIGHT_M`] [m]; a UsageError otherwise, naming
+    the likely slip above it (centimetres typed for metres)."""
+    from vrcal.errors import unit_hint
+
+    h = check_positive(drop_height_m, "--drop-height")
+    if h > MAX_DROP_HEIGHT_M:
+        raise UsageError(f"--drop-height must be at most {MAX_DROP_HEIGHT_M:g} m (a drop of {h:g} m hits at "
+                         f"{float(eq.impact_speed_m_per_s(h)):.3g} m/s; faster impacts: --impact-speed), got {h:g}"
+                         + unit_hint(h, MAX_DROP_HEIGHT_M, "--drop-height", "m", "cm", 100))
+    return h
 
 
 def floor_K(floor, K_per_s):
@@ -376,7 +392,11 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         raise UsageError(f"--stiffness applies to MuJoCo only, not to {eng.name}")
     pair = second = None
     if against is not None:
-        b2 = get_ball(against, standards)
+        try:
+            b2 = get_ball(against, standards)
+        except UsageError as exc:
+            floor_too = " (a virtual body x=DEPTH,v=SPEED is a --floor)" if "=" in str(against) else ""
+            raise UsageError(f"--against takes a second ball of the standards{floor_too}: {exc}") from None
         eps2 = ball_epsilon(b2).nominal
         eps_pair = float(combine_epsilons(setup.ball_epsilon, eps2))            # the product, at any K
         pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2, "epsilon": eps_pair,

@@ -24,7 +24,7 @@ from vrcal.engines.common import (
     check_positive,
     check_steps,
 )
-from vrcal.engines.export import export, parse_exported
+from vrcal.engines.export import check_drop_height, export, parse_exported
 from vrcal.errors import DataError, UsageError
 
 #: Contact phases of ``vrcal verify`` unless ``--phases``: as many as an export confirms a step with.
@@ -184,7 +184,7 @@ def _load_file(engine, text, ball, options):
     else:
         eps = check_epsilon(target["epsilon"], "the file's epsilon")
         notes.insert(0, f"target epsilon {eps:.4f} from the file")
-    H = target.get("drop_height_m") if options["drop_height_m"] is None else float(options["drop_height_m"])
+    H = target.get("drop_height_m") if options["drop_height_m"] is None else check_drop_height(options["drop_height_m"])
     if H is None or not H > 0:
         raise DataError("the file carries no drop height: give --drop-height")
     if options["drop_height_m"] is not None and H != target.get("drop_height_m"):
