@@ -237,7 +237,7 @@ def test_the_ball_has_mujocos_default_friction_and_rolls():
     import mujoco
 
     ex = export("basketball", "mujoco", n_bounces=2, n_phases=2)
-    assert 'condim="3" friction="1 1 0.005 0.0001 0.0001"' in ex.text and "not set by vrcal" in ex.text
+    assert 'condim="3" friction="1 1 0.005 0.0001 0.0001"' in ex.text and "friction mu 1, MuJoCo's default" in ex.text
     model = M.load_model(ex.text)
     data = mujoco.MjData(model)
     R = ex.setup.radius_m
@@ -247,6 +247,44 @@ def test_the_ball_has_mujocos_default_friction_and_rolls():
     assert data.qvel[4] * R == pytest.approx(data.qvel[0], rel=0.05)
     frictionless = M.drop_test(ex.text.replace('condim="3"', 'condim="1"'), ex.setup, 2, 2)
     assert M.drop_test(ex.text, ex.setup, 2, 2).worst_error == pytest.approx(frictionless.worst_error, abs=1e-4)
+
+
+def _oblique(mjcf, vx):
+    """Drop the exported ball with a sideways speed vx [m/s]: (rebound apex [m], vx and spin x R just
+    after the first bounce [m/s])."""
+    import mujoco
+
+    model = M.load_model(mjcf)
+    data = mujoco.MjData(model)
+    R = float(model.geom_size[model.geom("ball").id][0])
+    data.qvel[0] = vx
+    z, v, after = [], [], None
+    for _ in range(int(3.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+        if v and v[-1] < 0 <= data.qvel[2] and after is None:
+            after = []
+        if after is not None and len(after) < 4:
+            after.append((float(data.qvel[0]), float(data.qvel[4]) * R))
+        z.append(float(data.qpos[2]) - R)
+        v.append(float(data.qvel[2]))
+    first_up = next(i for i in range(1, len(v)) if v[i - 1] < 0 <= v[i])
+    return max(z[first_up:]), after[-1]
+
+
+def test_the_dampers_friction_reverses_a_slip_and_the_elliptic_cone_stops_it_as_the_file_says():
+    """The header's numbers: a tennis ball at 1 m/s sideways leaves at 0.42..0.55 m/s spinning at
+    1.2..1.3 m/s / R (solref's damping on the pyramidal friction rows reverses the slip); with
+    cone="elliptic" and solreffriction="0 -1/dt" it leaves about rolling (5/7 of 1 m/s), bounce the same."""
+    require_engine("mujoco")
+    ex = export("tennis", "mujoco", n_bounces=1, n_phases=1)
+    assert "sliding ball's slip is reversed" in ex.text and 'solreffriction="0 -500"' in ex.text
+    apex, (vx, spin) = _oblique(ex.text, 1.0)
+    assert 0.42 <= vx <= 0.56 and 1.2 <= spin <= 1.3                     # slip +1 m/s became about -0.7
+    rough = ex.text.replace('integrator="Euler"', 'integrator="Euler" cone="elliptic"').replace(
+        'solimp=', 'solreffriction="0 -500" solimp=', 1)
+    apex_rough, (vx, spin) = _oblique(rough, 1.0)
+    assert vx == pytest.approx(5 / 7, abs=0.035) and spin == pytest.approx(vx, abs=0.08)
+    assert apex_rough == pytest.approx(apex, rel=1e-6)
 
 
 def test_a_calibration_that_passes_at_4_phases_is_confirmed_with_16():

@@ -79,7 +79,8 @@ SEMI_IMPLICIT = ("euler", "implicit", "implicitfast")
 
 #: A pair's friction (tangent 1, tangent 2, torsion, rolling 1, rolling 2): MuJoCo's default. vrcal
 #: calibrates the vertical bounce only, which it does not move (condim 3 against 1: the same drop
-#: test to 4 decimals); with it a sliding ball rolls (5/7 of a 2 m/s slide, spin = v/R).
+#: test to 4 decimals); with it a ball sliding on the floor ends rolling (5/7 of a 2 m/s slide, spin
+#: = v/R). In an impact the contact's damping acts on the slip too: :func:`friction_lines`.
 PAIR_FRICTION = "1 1 0.005 0.0001 0.0001"
 
 #: Most MuJoCo steps of one drop test (all contact phases together).
@@ -728,13 +729,34 @@ def header_lines(setup, cal):
                      f"constant, {cal.best_constant:.4f}")
         lines.append(f"no constant is nearer eps(v) than {least:.4f} (half its spread); "
                      "ODE, PyBullet carry the law")
-    lines.append("friction: MuJoCo's default (condim 3, mu 1), not set by vrcal (the bounce ignores it);")
-    lines.append("  your surface's: friction=\"MU MU 0.005 0.0001 0.0001\" on the pair (5 numbers)")
+    lines += friction_lines(setup, cal.contact)
     if setup.drag_coefficient:
         lines.append(f"air drag C_d {setup.drag_coefficient:.4g}: MuJoCo's fluid model, blunt drag = C_d/2")
     if setup.release_time_s:
         lines.append(f"release state: bottom at {setup.drop_height_m:.4f} m, at rest; the record's release "
                      f"was at t = {setup.release_time_s:.4f} s")
+    return lines
+
+
+def friction_lines(setup, contact):
+    """The header's lines on friction (< 100 columns, no two dashes): what the contact's damping does to it.
+
+    MuJoCo's pyramidal friction cone (its default) mixes the normal and the friction rows, so
+    solref's damping D acts on the slip too: the damper (``D dt = 1 + eps``) reverses a sliding
+    ball's slip instead of stopping it (measured at 2 ms over 8 contact phases: a tennis ball at 1
+    m/s sideways leaves at vx 0.42..0.55 m/s spinning at 1.2..1.3 m/s / R; rolling would be 5/7 =
+    0.71). With the elliptic cone the friction rows take ``solreffriction`` instead: ``0 -1/dt``
+    stops the slip in one step (vx 0.67..0.74, spin 0.69..0.75 m/s / R: about rolling) and leaves
+    the bounce as it is (tests/engines/test_mujoco.py).
+    """
+    lines = ["friction mu 1, MuJoCo's default (yours: friction=\"MU MU 0.005 0.0001 0.0001\" on the",
+             "pair); solref's damping acts on the friction rows too (pyramidal cone, MuJoCo's default):"]
+    if contact.kind == "damper":
+        lines += ["a sliding ball's slip is reversed, not stopped (a tennis ball at 1 m/s sideways leaves at",
+                  "0.42..0.55 m/s, spin 1.2..1.3 m/s / R); to stop it at rolling, bounce unchanged:",
+                  f"cone=\"elliptic\" on option, solreffriction=\"0 {-1.0 / setup.dt_s:.6g}\" (D = 1/dt) on the pair"]
+    else:
+        lines.append("the spring's, not a friction of vrcal's choice (cone=\"elliptic\": solreffriction)")
     return lines
 
 
