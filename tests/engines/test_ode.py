@@ -133,7 +133,8 @@ int dInitODE2(unsigned); dWorldID dWorldCreate(void); dSpaceID dHashSpaceCreate(
 dJointGroupID dJointGroupCreate(int); dBodyID dBodyCreate(dWorldID);
 void dMassSetSphereTotal(dMass *, dReal, dReal); void dBodySetMass(dBodyID, const dMass *);
 dGeomID dCreateSphere(dSpaceID, dReal); void dGeomSetBody(dGeomID, dBodyID);
-void dGeomSetPosition(dGeomID, dReal, dReal, dReal); dGeomID dCreatePlane(dSpaceID, dReal, dReal, dReal, dReal); void dBodySetPosition(dBodyID, dReal, dReal, dReal);
+void dGeomSetPosition(dGeomID, dReal, dReal, dReal);
+dGeomID dCreatePlane(dSpaceID, dReal, dReal, dReal, dReal); void dBodySetPosition(dBodyID, dReal, dReal, dReal);
 int dCollide(dGeomID, dGeomID, int, dContactGeom *, int);
 dJointID dJointCreateContact(dWorldID, dJointGroupID, const dContact *);
 void dJointAttach(dJointID, dBodyID, dBodyID); dBodyID dGeomGetBody(dGeomID);

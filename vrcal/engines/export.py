@@ -30,6 +30,7 @@ from vrcal.engines.common import (
     MAX_BOUNCES,
     N_BOUNCES,
     N_PHASES,
+    NOT_RUN,
     RISE_M,
     DropRuns,
     DropSetup,
@@ -37,7 +38,6 @@ from vrcal.engines.common import (
     check_dt,
     check_epsilon,
     check_positive,
-    NOT_RUN,
     engine_label,
     round_down,
 )
@@ -669,10 +669,10 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         name = engine_label(engine)
         later = ("export again where it is: the export runs the SDF's contact in libode" if engine == "gazebo" else
                  f"vrcal verify --file F runs the drop test where {name} is installed")
-        return (f"{NOT_RUN}: {name} is not installed here ({get_engine('ode' if engine == 'gazebo' else engine).install}"
-                f"); by the step bound alone, step {setup.dt_s:g} s moves epsilon by up to {bound:.3g} and the ball "
-                f"sinks up to {depth * 1e3:.3g} mm (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} "
-                f"mm); {later}")
+        install = get_engine("ode" if engine == "gazebo" else engine).install
+        return (f"{NOT_RUN}: {name} is not installed here ({install}); by the step bound alone, step "
+                f"{setup.dt_s:g} s moves epsilon by up to {bound:.3g} and the ball sinks up to {depth * 1e3:.3g} mm "
+                f"(limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm); {later}")
     if isinstance(runs, DropRuns) and _meets(setup, runs):
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
@@ -694,7 +694,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
                           f"(tolerance {setup.tolerance:g})")
         if _depth(runs) > setup.penetration_limit_m:
-            misses.append(f"the ball turns {_above(_depth(runs) * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
+            depth_mm = _above(_depth(runs) * 1e3, setup.penetration_limit_m * 1e3)
+            misses.append(f"the ball turns {depth_mm} mm from the floor "
                           f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
         what = f"{_phases(runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),

@@ -309,8 +309,9 @@ def c_snippet(params):
     own contacts only.
     """
     law, drag, pairs = params.get("restitution_law"), params.get("drag"), params.get("pairs")
+    guard = "if (a && !b)   /* the law: the first ball's own contacts */\n        " if pairs else ""
     law_c = LAW_C.format(eps_ref=f"{law['epsilon_ref']:.6f}", v_ref=f"{law['reference_speed_m_per_s']:.6g}",
-                         p=f"{law['exponent']:.6g}", guard="if (a && !b)   /* the law: the first ball's own contacts */\n        " if pairs else "") if law else ""
+                         p=f"{law['exponent']:.6g}", guard=guard) if law else ""
     drag_c = DRAG_C.format(c=f"{drag['force_coefficient_kg_per_m']:.6g}") if drag else ""
     contact, world = params["contact"], params["world"]
     ball = params["ball"]["name"]
