@@ -249,6 +249,17 @@ def test_the_ball_has_mujocos_default_friction_and_rolls():
     assert M.drop_test(ex.text, ex.setup, 2, 2).worst_error == pytest.approx(frictionless.worst_error, abs=1e-4)
 
 
+def test_the_damper_calibrated_for_epsilon_one_is_the_exact_reversal():
+    """D = (1 + eps)/dt reverses the velocity in one step; at epsilon 1 the calibration must find
+    D = 2/dt = 1000 at 2 ms, apexes unchanged (it wrote 997.99, apex ratio 0.9960, while v_out/v_in
+    was read half a step off)."""
+    require_engine("mujoco")
+    setup = build_setup(None, "mujoco", mass_kg=0.0027, diameter_m=0.04, epsilon=1.0, drop_height_m=0.305)
+    cal = M.calibrate(setup, 4)
+    assert cal.contact.damping == pytest.approx(2.0 / setup.dt_s, rel=1e-4)
+    assert np.allclose(cal.runs.apex_ratios, 1.0, atol=1e-4) and cal.worst_error < 1e-4
+
+
 def _oblique(mjcf, vx):
     """Drop the exported ball with a sideways speed vx [m/s]: (rebound apex [m], vx and spin x R just
     after the first bounce [m/s])."""

@@ -88,6 +88,19 @@ def test_a_time_step_too_large_is_refused():
         export("basketball", "ode", epsilon=0.5, dt_s=4e-3)
 
 
+def test_odes_bounce_one_reads_one_at_a_coarse_step():
+    """The probe's case: epsilon 1, a 2.7 g, 40 mm ball from 0.305 m at dt = 5 ms. ODE's contact sets the
+    velocity to minus the one before, its apexes stay put; v_out/v_in read 1.020 (FAILED) when vrcal
+    carried the stored velocity instead of the flight's."""
+    require_engine("ode")
+    from vrcal.engines.verify import verify
+
+    r = verify(None, "ode", mass_kg=0.0027, diameter_m=0.04, epsilon=1.0, drop_height_m=0.305, dt_s=5e-3,
+               max_penetration_m=0.015, n_phases=4)
+    assert np.allclose(r.velocity_ratios, 1.0, atol=1e-6) and np.allclose(r.apex_ratios, 1.0, atol=1e-4)
+    assert r.passed
+
+
 def test_pair_values_follow_eq6():
     data = json.loads(export("basketball", "ode", against="volleyball").text)
     pairs = data["pairs"]
