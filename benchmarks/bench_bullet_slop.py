@@ -50,7 +50,7 @@ def main():
                   + " ".join(f"{x:.4f}" for x in new))
     setup = replace(build_setup(None, "bullet", **SOFT), dt_s=1e-3, n_bounces=6)
     print("soft 200 g (own), 6 impacts at " + " ".join(f"{v:.2f}" for v in setup.impact_speeds_m_per_s[:6])
-          + " m/s, dt 1 ms, 1 phase: v_out / v_in")
+          + " m/s, dt 1 ms, 1 phase: stored velocity after / before the contact step")
     for threshold in (0.2, E.RESTITUTION_VELOCITY_THRESHOLD):
         params = E.export_params(replace(setup, n_bounces=3))
         params["setPhysicsEngineParameter"]["restitutionVelocityThreshold"] = threshold

@@ -61,9 +61,9 @@ N_PHASES = 4
 #: Contact phases a step is confirmed with before an export accepts or names it, and the default of
 #: ``vrcal verify``: a search runs N_PHASES phases per step, a step that passes there is run again
 #: with these. Measured (benchmarks/bench_step_monotonic.py, worst error over 4 / 16 / 64 phases):
-#: a 200 g, 70 mm ball of epsilon 0.45 dropped 0.5 m, 0.0069 / 0.0167 / 0.0167 in PyBullet at
-#: 0.77 ms, 0.0099 / 0.0204 / 0.0229 in ODE at 1 ms, 0.0062 / 0.0105 / 0.0105 in MuJoCo at 0.47 ms;
-#: 16 phases came within 12 % of 64 at every step measured; 4 phases were up to 59 % below.
+#: a 200 g, 70 mm ball of epsilon 0.45 dropped 0.5 m, 0.0069 / 0.0127 / 0.0127 in PyBullet at
+#: 0.77 ms, 0.0099 / 0.0204 / 0.0229 in ODE at 1 ms, 0.0047 / 0.0119 / 0.0119 in MuJoCo at 0.7 ms;
+#: 16 phases came within 15 % of 64 at every step measured; 4 phases were up to 67 % below.
 CONFIRM_PHASES = 16
 
 #: Most bounces a drop test may ask for (each one more is a longer run and a smaller rebound).

@@ -636,8 +636,8 @@ STEP_RATIO, STEP_TRIES = 0.9, 12
 
 #: What a refusal says of the steps ODE and Bullet pass: measured (benchmarks/bench_step_monotonic.py),
 #: their epsilon error is not monotonic in the step (a ball of 200 g, 70 mm, epsilon 0.45 from
-#: 0.5 m passes in Bullet at 0.60 ms and misses at 0.53 ms over 4 phases; in ODE at 0.71 ms and
-#: misses at 0.67 ... 0.50 ms).
+#: 0.5 m passes in Bullet at 1.15 ms and misses at 0.96 and 0.80 ms over 4 phases; in ODE at 0.96 ms
+#: and misses at 8 smaller steps of the grid, 0.91, 0.85, 0.80, 0.76 ms, ...
 NOT_MONOTONIC = "the error is not monotonic in the step: another, even a smaller one, can miss"
 
 def check_step(setup, engine="ode", n_phases=N_PHASES):

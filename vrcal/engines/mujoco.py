@@ -556,7 +556,7 @@ def _confirmed(cal, n_phases):
     """A calibration that meets both limits at ``n_phases``, run again with :data:`CONFIRM_PHASES`
     contact phases (when more, and within the run limit): those runs are the ones it reports and
     is judged by (4 phases under-sample a slow last bounce: a 200 g, 70 mm ball of epsilon 0.45
-    from 0.5 m at 0.47 ms, 0.0062 with 4 phases, 0.0105 with 16 and with 64)."""
+    from 0.5 m at 0.7 ms, 0.0047 with 4 phases, 0.0119 with 16 and with 64)."""
     setup = cal.setup
     if not cal.ok or n_phases >= CONFIRM_PHASES:
         return cal
