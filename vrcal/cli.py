@@ -46,6 +46,9 @@ class VrcalGroup(click.Group):
             if signalled:  # a SIGTERM that landed where Python swallows exceptions (a weakref callback)
                 click.echo("vrcal: terminated", err=True)
                 sys.exit(143)
+        except _NO_ARGS_IS_HELP as exc:   # click >= 8.2: `vrcal` alone (or `vrcal plot`) shows the help
+            click.echo(exc.format_message())
+            sys.exit(0)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
@@ -71,6 +74,8 @@ class VrcalGroup(click.Group):
             ctx.exit(130)
 
 
+#: click >= 8.2 raises this for a group called without a command (8.1 printed the help itself).
+_NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 #: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
 _NUMPY_WARNINGS = r"(overflow|invalid value|divide by zero|underflow) encountered"
 #: Longest error message printed; a longer one (a huge value quoted) keeps its start and end.
