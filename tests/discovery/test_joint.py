@@ -5,12 +5,14 @@ from the command line, and the odd-bounce cases rebuilt synthetically."""
 import json
 import re
 
+import math
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from vrcal.cli import main
-from vrcal.discovery.ranking import discover
+from vrcal.discovery.ranking import discover, discover_file
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
 from vrcal.drop.synthetic import drop_table_case, drop_table_csv
 from vrcal.measurements import ImpactTimes, Runs, Trajectory, read_measurement
@@ -169,9 +171,30 @@ def test_a_class_table_read_by_eye_to_whole_cm_names_the_drag(seed, tmp_path):
     path.write_text("H (cm),h (cm)\n" + "".join(f"{int(round(100 * H))},{int(round(100 * x))}\n"
                                                  for H, x in zip([0.5, 1.0, 1.5, 2.0, 2.5], h)))
     d = discover(read_measurement(path), TT)
-    assert d.noise_source.startswith("assumed (written to whole cm") and 0.005 < d.noise_floor < 0.012
+    assert d.noise_source.startswith("assumed (written to 1 cm: read by eye") and 0.005 < d.noise_floor < 0.012
     assert d.effects == ["air_drag"] and d.verdict == "explained"
     assert d.epsilon == pytest.approx(0.90, abs=0.025)
+
+
+def test_the_noise_of_a_hand_read_table_is_that_of_the_step_the_file_wrote(tmp_path):
+    """The same drop written in whole cm, whole inches and tenths of a foot: the assumed noise follows the
+    step written in the file's own unit (whole inches are coarser than whole cm), and not the decimals of
+    the heights once converted to metres (40 in = 1.016 m had looked like 0.1 mm steps: the inch table got
+    2 mm and a third of the cm table's +-) nor those after a shift to the ball's bottom."""
+    def noise(name, text, **kw):
+        path = tmp_path / name
+        path.write_text(text)
+        return discover_file(str(path), "tennis", **kw).noise_floor
+
+    cm = noise("cm.csv", "H (cm),h (cm)\n100,55\n100,58\n50,28\n")
+    inch = noise("in.csv", "H (in),h (in)\n40,22\n40,23\n20,11\n")
+    feet = noise("ft.csv", "H (ft),h (ft)\n4,2.2\n4,2.3\n2,1.1\n")
+    assert cm == pytest.approx(0.01 * 0.55)                       # 1 % of the median rebound
+    assert inch == pytest.approx(0.0254 / math.sqrt(12.0))         # the inch's step over sqrt(12)
+    assert feet == pytest.approx(0.03048 / math.sqrt(12.0))        # tenths of a foot
+    top = noise("cm.csv", "H (cm),h (cm)\n100,55\n100,58\n50,28\n", rebound_measured_to="top")
+    assert top > 0.004                                             # still read by eye, not 2 mm
+
 
 # --------------------------------------------------------------------------- bounces that do not belong
 

@@ -1159,9 +1159,11 @@ READING_FRACTION = 0.01
 
 def reading_noise(data):
     """Assumed noise of one apex height [m], and its source: the largest of :data:`ASSUMED_NOISE`
-    (2 mm) and the resolution the heights are written to over sqrt(12); heights written to whole
-    centimetres or coarser were read by eye against a ruler, good to about
-    :data:`READING_FRACTION` of the rebound (the median rebound is taken).
+    (2 mm) and the step the file wrote the heights to over sqrt(12) (``resolution_m`` of the runs: the
+    file's own unit, so whole inches are 25.4 mm); heights written to whole centimetres or coarser were
+    read by eye against a ruler, good to about :data:`READING_FRACTION` of the rebound (the median
+    rebound is taken). Taken from the heights in metres, whole inches had looked like 0.1 mm steps and
+    the same drop in inches was judged with a third of the noise of it in centimetres.
 
     Judged at a flat 2 mm, a class's table of rebounds of 0.4-1.3 m written to whole centimetres
     (read to about 1 cm) was 'unexplained' with epsilon 0.16 low: the drag it hides was rejected by
@@ -1182,12 +1184,15 @@ def reading_noise(data):
     rebounds = np.concatenate([np.asarray(r.h_m, dtype=float)[np.asarray(r.bounce) >= 1] for r in runs])
     heights = np.concatenate([np.asarray(r.h_m, dtype=float) for r in runs])
     parts = {"2 mm": ASSUMED_NOISE["apexes"]}
-    step = printed_resolution(heights, max_decimals=6)
+    written = [r.resolution_m for r in runs if getattr(r, "resolution_m", None) is not None]
+    # the step the file wrote (whole inches: 25.4 mm), not that of the heights in metres (1.016 m for
+    # 40 in has four decimals: 0.1 mm), nor after a shift to the ball's bottom (--rebound-measured-to)
+    step = max(written) if written else printed_resolution(heights, max_decimals=6)
     if step is not None:
-        parts[f"heights written to {step * 100:g} cm, / sqrt(12)"] = step / math.sqrt(12.0)
+        parts[f"heights written to {step * 100:.3g} cm, / sqrt(12)"] = step / math.sqrt(12.0)
         if step >= 0.01 - 1e-12 and rebounds.size:
-            parts[f"written to whole cm: read by eye, {100 * READING_FRACTION:g} % of the median rebound"] = (
-                READING_FRACTION * float(np.median(rebounds)))
+            parts[f"written to {step * 100:.3g} cm: read by eye, {100 * READING_FRACTION:g} % of the median "
+                  "rebound"] = READING_FRACTION * float(np.median(rebounds))
     why, sigma = max(parts.items(), key=lambda kv: kv[1])
     return float(sigma), f"assumed ({why}); give --noise to change it"
 
