@@ -82,6 +82,24 @@ def test_repeated_trials_measure_the_noise_and_name_no_effect_that_is_not_there(
     assert named <= 1
 
 
+def test_repeated_trials_that_agree_to_the_written_step_are_judged_at_that_step(tmp_path):
+    """Three trials per height typed to whole cm agree exactly (17, 17, 17): their pooled scatter is 0,
+    which made the gap 'inf times the noise floor' and the +- 6 times too small. The noise is at least
+    the written step over sqrt(12), still counted as measured."""
+    from vrcal.discovery.ranking import REPLICATE_SOURCE, noise_known
+
+    H = np.array([0.3, 0.5, 0.8, 1.0, 1.5])
+    h = simulate_drops(H, 0.75, 1, TENNIS).observed_apex_heights_m[:, 1]
+    rows = "".join(f"{int(round(100 * a))},{int(round(100 * b))}\n" for a, b in zip(H, h) for _ in range(3))
+    path = tmp_path / "class.csv"
+    path.write_text("H (cm),h (cm)\n" + rows)
+    d = discover(read_measurement(path), TENNIS)
+    assert d.noise_source.startswith(REPLICATE_SOURCE) and noise_known(d.noise_source)
+    assert d.noise_floor == pytest.approx(0.01 / math.sqrt(12.0))
+    assert d.verdict == "explained" and not d.effects
+    assert abs(d.epsilon - 0.75) < 3 * d.final.uncertainty("epsilon")
+
+
 def test_repeated_trials_still_show_a_strong_drag(tmp_path):
     """A ping-pong ball from 0.3-2 m read to 0.5 %: drag is far beyond the trials' scatter."""
     path = tmp_path / "tt.csv"
