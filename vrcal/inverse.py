@@ -222,7 +222,7 @@ def fit_text(result):
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [
             ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9)"],
-            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
             ["H [m]", *(number(H, 4) for _ in levels), "drop height"],
             ["h [m]", *(number(h[k], 4) for k in levels), "rebound height"],
         ]
@@ -232,7 +232,7 @@ def fit_text(result):
         shown = f"{eps['nominal']:.{places}f}" + (f" ± {u:.{places}f}" if u else "")
         rows = [
             ["ε", shown, r["epsilon_source"]],
-            ["T [ms]", _ms_or_inf(T["nominal"]), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", _ms_or_inf(T["nominal"]), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
         ]
         if r.get("drop_height_m") is not None:
             rows.append(["H [m]", number(r["drop_height_m"], 4), "drop height of the discover result"])
