@@ -514,8 +514,8 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
-              help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
-                   "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
+              help="Noise of one datum, in m for heights or s for impact times, whatever unit the file uses "
+                   "(5 mm: 0.005) [default: estimated from a trajectory; 0.2 ms for impacts, 2 mm for apexes].")
 @click.option("--drop-measured-to", type=opt.BALL_POINT, default=None,
               help="Point of the ball the drop heights were measured to (heights only) [default: not stated: the "
                    "bottom, and a height offset is tried].")

@@ -997,6 +997,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
     given_kind = res._runs_of(data)[0].kind
+    if noise is not None:
+        _check_noise_scale(data, noise)
     prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,
                        sigma_m=noise if given_kind == "trajectory" else None, progress=stages)
     fitted = prepared.data
@@ -1092,6 +1094,27 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                      dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
                      prepared.decimation, n_read, split, nuisance, judged, scatter_limit)
+
+
+def _check_noise_scale(data, noise):
+    """A given noise that is as large as the data themselves is in the wrong unit (``--noise 5`` meant
+    5 mm of a table in cm: it was taken as 5 m, and epsilon came out 0.8 +- 2.5, 'explained'): a
+    UsageError saying the unit."""
+    runs = res._runs_of(data)
+    kind = runs[0].kind
+    if kind == "impacts":
+        dt = np.concatenate([np.diff(np.asarray(r.t_s, dtype=float)) for r in runs])
+        scale, unit, what = (float(np.median(dt)) if dt.size else math.inf), "s", "the median interval between impacts"
+    elif kind == "apexes":
+        h = np.concatenate([np.asarray(r.h_m, dtype=float)[np.asarray(r.bounce) >= 1] for r in runs])
+        scale, unit, what = (float(np.median(h)) if h.size else math.inf), "m", "the median rebound"
+    else:
+        y = np.concatenate([np.asarray(r.y_m, dtype=float) for r in runs])
+        scale, unit, what = float(np.ptp(y)) if y.size else math.inf, "m", "the heights' whole range"
+    if noise >= 0.5 * scale:
+        example = "0.0002 for 0.2 ms" if unit == "s" else "0.005 for 5 mm"
+        raise UsageError(f"--noise {noise:g} {unit} is more than half {what} ({scale:.3g} {unit}): --noise is in "
+                         f"{unit} whatever unit the file uses (e.g. {example})")
 
 
 def chosen_noise(data, prepared, noise=None):
