@@ -51,6 +51,9 @@ class VrcalGroup(click.Group):
             sys.exit(0)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
+            if command == "vrcal":   # an option's missing value is raised without the subcommand's context
+                named = [a for a in (sys.argv[1:] if args is None else list(args)) if a in self.commands]
+                command = f"vrcal {named[0]}" if named else command
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
             click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
