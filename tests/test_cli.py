@@ -25,6 +25,23 @@ def test_version_and_help():
     assert result.exit_code == 0 and "Examples" in result.output
 
 
+@pytest.mark.parametrize("args", [(), ("plot",)])
+def test_a_group_without_a_command_shows_its_help(args):
+    """`vrcal` alone prints the help (click >= 8.2 raises it as a usage error, which came out as one
+    garbled 'error' line of 1,500 characters)."""
+    result = run(*args)
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("Usage: ") and "error" not in result.output.splitlines()[0]
+    assert "Commands:" in result.output
+
+
+def test_an_option_without_its_value_points_to_its_command_help():
+    """click raises 'requires an argument' without the subcommand's context: the hint named 'vrcal --help'."""
+    result = run("simulate", "tennis", "-o")
+    assert result.exit_code == 2
+    assert result.output.strip().endswith("(see 'vrcal simulate --help')")
+
+
 def test_every_command_has_help_with_an_example():
     def walk(group, path):
         for name, cmd in group.commands.items():

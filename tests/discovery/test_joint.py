@@ -5,12 +5,14 @@ from the command line, and the odd-bounce cases rebuilt synthetically."""
 import json
 import re
 
+import math
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from vrcal.cli import main
-from vrcal.discovery.ranking import discover
+from vrcal.discovery.ranking import discover, discover_file
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
 from vrcal.drop.synthetic import drop_table_case, drop_table_csv
 from vrcal.measurements import ImpactTimes, Runs, Trajectory, read_measurement
@@ -80,6 +82,24 @@ def test_repeated_trials_measure_the_noise_and_name_no_effect_that_is_not_there(
     assert named <= 1
 
 
+def test_repeated_trials_that_agree_to_the_written_step_are_judged_at_that_step(tmp_path):
+    """Three trials per height typed to whole cm agree exactly (17, 17, 17): their pooled scatter is 0,
+    which made the gap 'inf times the noise floor' and the +- 6 times too small. The noise is at least
+    the written step over sqrt(12), still counted as measured."""
+    from vrcal.discovery.ranking import REPLICATE_SOURCE, noise_known
+
+    H = np.array([0.3, 0.5, 0.8, 1.0, 1.5])
+    h = simulate_drops(H, 0.75, 1, TENNIS).observed_apex_heights_m[:, 1]
+    rows = "".join(f"{int(round(100 * a))},{int(round(100 * b))}\n" for a, b in zip(H, h) for _ in range(3))
+    path = tmp_path / "class.csv"
+    path.write_text("H (cm),h (cm)\n" + rows)
+    d = discover(read_measurement(path), TENNIS)
+    assert d.noise_source.startswith(REPLICATE_SOURCE) and noise_known(d.noise_source)
+    assert d.noise_floor == pytest.approx(0.01 / math.sqrt(12.0))
+    assert d.verdict == "explained" and not d.effects
+    assert abs(d.epsilon - 0.75) < 3 * d.final.uncertainty("epsilon")
+
+
 def test_repeated_trials_still_show_a_strong_drag(tmp_path):
     """A ping-pong ball from 0.3-2 m read to 0.5 %: drag is far beyond the trials' scatter."""
     path = tmp_path / "tt.csv"
@@ -130,6 +150,25 @@ def test_several_drops_from_different_heights_share_the_contact(tmp_path):
     assert doc["reader"]["files"] == [str(p) for p in paths]
 
 
+@pytest.mark.parametrize("phases", [(0.0, 0.011), (0.004, 0.017)])
+def test_runs_without_a_floor_are_shifted_by_one_level(tmp_path, phases):
+    """Two runs of a motion detector 50 Hz (y down, origin at the sensor 1.55 m above the floor): each
+    run's lowest sample lies above the contact by where its samples fall in a bounce (up to v dt/2). Each
+    shifted by its own lowest sample, the runs' levels differed by mm and the one contact level fitted to
+    both left a gap 'unexplained' (3.9 times the noise); one shift for all explains them."""
+    paths = []
+    for i, (H, start) in enumerate(zip((1.0, 0.8), phases)):
+        drops = simulate_drops(H, 0.85, 6, BallProperties(mass_kg=0.0459, diameter_m=0.0427), release_time_s=0.3)
+        cols = sample_measurement(drops, "trajectory", fs_hz=50.0, noise_m=0.001, rng=10 + i, t_start_s=start)
+        cols["y"] = -(np.asarray(cols["y"]) - 1.55)        # the sensor's frame: distance down from it
+        paths.append(tmp_path / f"run{i}.csv")
+        paths[-1].write_text(columns_csv(cols, "trajectory"))
+    d = discover_file([str(p) for p in paths], None, mass_kg=0.0459, diameter_m=0.0427, y_down=True)
+    assert any("one level for all runs" in n for n in d.notes)
+    assert d.verdict == "explained" and not d.effects
+    assert d.epsilon == pytest.approx(0.85, abs=0.002)
+
+
 def test_runs_side_by_side_in_one_vernier_file_share_the_contact(tmp_path):
     """A Logger Pro export of two runs under a motion detector ('Run 1: Time (s)', 'Run 1: Position (m)',
     'Run 2: ...'; the second run shorter, its cells empty below): two runs, one C_d, one epsilon."""
@@ -169,9 +208,30 @@ def test_a_class_table_read_by_eye_to_whole_cm_names_the_drag(seed, tmp_path):
     path.write_text("H (cm),h (cm)\n" + "".join(f"{int(round(100 * H))},{int(round(100 * x))}\n"
                                                  for H, x in zip([0.5, 1.0, 1.5, 2.0, 2.5], h)))
     d = discover(read_measurement(path), TT)
-    assert d.noise_source.startswith("assumed (written to whole cm") and 0.005 < d.noise_floor < 0.012
+    assert d.noise_source.startswith("assumed (written to 1 cm: read by eye") and 0.005 < d.noise_floor < 0.012
     assert d.effects == ["air_drag"] and d.verdict == "explained"
     assert d.epsilon == pytest.approx(0.90, abs=0.025)
+
+
+def test_the_noise_of_a_hand_read_table_is_that_of_the_step_the_file_wrote(tmp_path):
+    """The same drop written in whole cm, whole inches and tenths of a foot: the assumed noise follows the
+    step written in the file's own unit (whole inches are coarser than whole cm), and not the decimals of
+    the heights once converted to metres (40 in = 1.016 m had looked like 0.1 mm steps: the inch table got
+    2 mm and a third of the cm table's +-) nor those after a shift to the ball's bottom."""
+    def noise(name, text, **kw):
+        path = tmp_path / name
+        path.write_text(text)
+        return discover_file(str(path), "tennis", **kw).noise_floor
+
+    cm = noise("cm.csv", "H (cm),h (cm)\n100,55\n100,58\n50,28\n")
+    inch = noise("in.csv", "H (in),h (in)\n40,22\n40,23\n20,11\n")
+    feet = noise("ft.csv", "H (ft),h (ft)\n4,2.2\n4,2.3\n2,1.1\n")
+    assert cm == pytest.approx(0.01 * 0.55)                       # 1 % of the median rebound
+    assert inch == pytest.approx(0.0254 / math.sqrt(12.0))         # the inch's step over sqrt(12)
+    assert feet == pytest.approx(0.03048 / math.sqrt(12.0))        # tenths of a foot
+    top = noise("cm.csv", "H (cm),h (cm)\n100,55\n100,58\n50,28\n", rebound_measured_to="top")
+    assert top > 0.004                                             # still read by eye, not 2 mm
+
 
 # --------------------------------------------------------------------------- bounces that do not belong
 

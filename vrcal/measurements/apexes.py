@@ -22,6 +22,7 @@ from vrcal.measurements.table import (
     row_lines,
     unit_factor,
 )
+from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.types import ApexHeights
 
 #: Fewest apex rows (the drop height and one rebound give epsilon; a third row is needed to test an effect).
@@ -81,5 +82,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     gaps = np.flatnonzero(np.diff(bounce) > 1)
     if gaps.size:
         notes.append(f"bounce numbers skip after bounce {int(bounce[gaps[0]])}")
-    return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes), lines=line_numbers)
+    step = printed_resolution(h, max_decimals=6)
+    return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes), lines=line_numbers,
+                       resolution_m=None if step is None else step * factor)
 

@@ -57,6 +57,7 @@ from vrcal.measurements.table import (
     split_cells,
     to_float,
 )
+from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.types import ApexHeights, Runs
 
 DROP_NAMES = ("h0", "h 0", "drop", "drop height", "release height", "initial height", "height of drop",
@@ -227,6 +228,22 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
     return factors
 
 
+def _written_step_m(raw, factors):
+    """The step [m] the rebounds were written to (``raw``: {column index: the file's numbers} of the
+    rebound columns; ``factors``: {column index: factor to m}): the printed resolution of all of a unit's
+    numbers together (one '4' alone looks like whole feet), the coarsest over the units; None when they hold
+    more than six decimals. The drop heights are left out: they are set (1 m, 100 cm), not read."""
+    steps = []
+    for factor in {factors[i] for i in raw}:
+        written = np.concatenate([raw[i] for i in raw if factors[i] == factor])
+        written = written[np.isfinite(written)]
+        step = printed_resolution(written, max_decimals=6) if written.size else None
+        if step is None:
+            return None
+        steps.append(step * factor)
+    return max(steps) if steps else None
+
+
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     table = parse_table(text)
@@ -243,8 +260,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append(f"column(s) {', '.join(repr(header[i]) for i in renamed)}: the 'in' after the name read as "
                      f"inches (write the unit in brackets to say so: 'H (in)', 'H (cm)')")
     factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
-    values = {c.index: column_values(path, table, c, what="height", allow_empty=c.index != found.drop.index)
-              * factors[c.index] for c in columns}
+    raw = {c.index: column_values(path, table, c, what="height", allow_empty=c.index != found.drop.index)
+           for c in columns}
+    values = {i: raw[i] * factors[i] for i in raw}
+    resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors)
     trials = found.trials
     if found.numbered:
         trials, how = _trials_or_rebounds(path, table.header_line,
@@ -272,7 +291,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
             if bad.size:
                 fail(path, int(no), f"height {h[bad[0]]:g} m is not positive")
             runs.append(ApexHeights(bounce=np.array([0] + bounces), h_m=h, source=f"{path}:{int(no)}",
-                                    notes=(), lines=np.full(len(bounces) + 1, int(no))))
+                                    notes=(), lines=np.full(len(bounces) + 1, int(no)), resolution_m=resolution_m))
             labels.append(f"row {k + 1} (line {int(no)})" + (f", '{trial[1].raw}'" if per_row > 1 else ""))
     if not runs:
         fail(path, int(line_numbers[-1]), "no trial with a drop height and a rebound")

@@ -112,6 +112,10 @@ class ApexHeights:
         human-readable remarks
     lines : ndarray of int or None
         the file's line of each row (None when unknown)
+    resolution_m : float or None
+        the step the file wrote the heights to, in metres (0.0254 for whole inches, 0.01 for whole
+        centimetres); None when unknown. A height read against a ruler is good to about that step, whatever
+        unit it is converted to.
     """
 
     bounce: np.ndarray
@@ -120,6 +124,7 @@ class ApexHeights:
     notes: tuple = ()
     kind: str = "apexes"
     lines: np.ndarray = None
+    resolution_m: float = None
 
 
 @dataclass(frozen=True)
