@@ -277,9 +277,9 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
 
     The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
     --diameter with --epsilon or your own drop test's --drop-height and --rebound-height (a ball
-    of your own: one epsilon), or --from a discover result (its ball and measured epsilon). Prints a table for people; --format yaml|json (or -o
-    FILE.yaml|.json) gives the full-precision parameter file with schema_version and a unit in
-    every key.
+    of your own: one epsilon), or --from a discover result (its ball and measured epsilon).
+    Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the
+    full-precision parameter file with schema_version and a unit in every key.
 
     \b
     Examples:

@@ -250,11 +250,12 @@ def fit_text(result):
     levels = tuple(k for k in _LEVELS if k in eps)
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in levels}
     window = levels == _LEVELS
+    model_time = f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"
     if window:
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [
             ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9)"],
-            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), model_time],
             ["H [m]", *(number(H, 4) for _ in levels), "drop height"],
             ["h [m]", *(number(h[k], 4) for k in levels), "rebound height"],
         ]
@@ -264,7 +265,7 @@ def fit_text(result):
         shown = f"{eps['nominal']:.{places}f}" + (f" ± {u:.{places}f}" if u else "")
         rows = [
             ["ε", shown, r["epsilon_source"]],
-            ["T [ms]", _ms_or_inf(T["nominal"]), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", _ms_or_inf(T["nominal"]), model_time],
         ]
         own_test = isinstance(r.get("rebound_height_m"), float)
         if r.get("drop_height_m") is not None:

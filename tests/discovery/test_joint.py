@@ -3,9 +3,8 @@ over 4-6 heights with planted effects, the joint fit recovering shared parameter
 from the command line, and the odd-bounce cases rebuilt synthetically."""
 
 import json
-import re
-
 import math
+import re
 
 import numpy as np
 import pytest

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from vrcal.errors import UsageError
+from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     H_NAMES,
@@ -22,7 +23,6 @@ from vrcal.measurements.table import (
     row_lines,
     unit_factor,
 )
-from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.types import ApexHeights
 
 #: Fewest apex rows (the drop height and one rebound give epsilon; a third row is needed to test an effect).

@@ -41,6 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import UsageError
+from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     LENGTH_UNITS,
@@ -57,7 +58,6 @@ from vrcal.measurements.table import (
     split_cells,
     to_float,
 )
-from vrcal.measurements.cleanup import printed_resolution
 from vrcal.measurements.types import ApexHeights, Runs
 
 DROP_NAMES = ("h0", "h 0", "drop", "drop height", "release height", "initial height", "height of drop",
