@@ -795,7 +795,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
               required=True, help="Engine to run the drop test in (gazebo: its SDF's bounce is ODE's, run it "
                                   "with --engine ode).")
 @_engine_options
-@click.option("--file", "file", type=click.Path(dir_okay=False), default=None,
+@click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
                    "--drop-height run it at your step, gravity, height; body and contact options are refused).")
 @click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
@@ -882,7 +882,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                     tolerance=tolerance, n_bounces=n_bounces, n_phases=n_phases, exported_text=text,
                     mass_kg=mass_kg, diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                     g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
-                    max_penetration_m=max_penetration_m, stiffness=stiffness, K_per_s=K)
+                    max_penetration_m=max_penetration_m, stiffness=stiffness, K_per_s=K, file_name=file)
     emit(format_report(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
     if not result.passed:
         why = (f"epsilon error {result.error:.4g} exceeds the tolerance {result.tolerance:g}"

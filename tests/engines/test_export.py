@@ -356,7 +356,13 @@ def test_verify_file_that_is_not_an_export_is_a_one_line_error(tmp_path, engine,
     result = run("verify", "basketball", "--engine", engine, "--file", path)
     assert result.exit_code == 1, result.output
     assert message in result.output and len(result.output.strip().splitlines()) == 1, result.output
+    assert str(path) in result.output   # which file (a YAML given as MJCF said only 'not an MJCF file')
     assert "Traceback" not in result.output
+
+
+def test_verify_file_that_does_not_exist_is_a_usage_error(tmp_path):
+    result = run("verify", "basketball", "--engine", "mujoco", "--file", tmp_path / "nofile.xml")
+    assert result.exit_code == 2 and "does not exist" in result.output
 
 
 @pytest.mark.parametrize("args, message", [

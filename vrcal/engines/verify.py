@@ -34,7 +34,7 @@ DEFAULT_PHASES = CONFIRM_PHASES
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
            tolerance=None, n_bounces=None, n_phases=DEFAULT_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
-           from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None):
+           from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None, file_name=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
 
     Parameters
@@ -55,6 +55,8 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         step, gravity and target are used; ``dt_s``, ``g_m_per_s2`` and ``drop_height_m`` run it at
         another step, gravity or height, ``epsilon`` judges it against another target; the body,
         integrator, stiffness, floor and impact speed are fixed by the file (UsageError)
+    file_name : str, optional
+        where ``exported_text`` was read from, named in the errors of a file that is no export
 
     Returns
     -------
@@ -71,8 +73,13 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                    max_penetration_m=max_penetration_m, K_per_s=K_per_s)
     if exported_text is not None:
-        loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
-                                             dict(options, stiffness=stiffness, tolerance=tolerance))
+        try:
+            loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
+                                                 dict(options, stiffness=stiffness, tolerance=tolerance))
+        except DataError as exc:   # a file that is no export of this engine: say which file
+            if file_name is None or str(exc).startswith(str(file_name)):
+                raise
+            raise DataError(f"{file_name}: {exc}") from None
         tolerance = setup.tolerance
     else:
         from vrcal.engines.export import build_setup
