@@ -235,3 +235,59 @@ def test_two_drops_in_one_recording_are_two_chains_and_a_room_echo_is_called_one
     assert b - a >= 8 and d - c >= 7
     assert any("a second drop" in n for n in got.notes)
     assert any("echo or ringing: 30.0 ms after an impact" in n for n in got.notes)
+
+
+@pytest.mark.parametrize("name,container,brand", [("phone.m4a", "mp4", b"isom"), ("android.m4a", "mp4", b"mp42"),
+                                                  ("recorder.3gp", "3gp", b"3gp")])
+def test_a_phones_sound_only_mp4_or_3gp_reads_as_sound_whatever_its_brand(tmp_path, name, container, brand):
+    """Android's recorder writes AAC in an MP4 with the brand 'isom' or 'mp42' (or a '3gp4' .3gp), not
+    iTunes' 'M4A ': its tracks (sound, no video) tell it from a video, and it reads as sound."""
+    av = require_extra("av", "audio")
+    from vrcal.measurements.reader import detect_format
+    from vrcal.measurements.sound import mp4_track_kinds
+
+    t, v = drop(n=6)
+    path = tmp_path / name
+    options = {"brand": brand.decode()} if container == "mp4" else {}
+    with av.open(str(path), "w", format=container, options=options) as out:
+        stream = out.add_stream("aac", rate=48000)
+        stream.layout = "mono"
+        frame = av.AudioFrame.from_ndarray(impact_sound(t, v, scene=SoundScene(noise_rms=0.001), seed=0).T
+                                           .astype(np.float32) * 0.9, format="fltp", layout="mono")
+        frame.sample_rate = 48000
+        for packet in [*stream.encode(frame), *stream.encode(None)]:
+            out.mux(packet)
+    assert path.read_bytes()[8:8 + len(brand)] == brand   # the brand says nothing of sound
+    assert mp4_track_kinds(path) == frozenset({"soun"})
+    assert detect_format(path) == "sound"
+    got = read_measurement(path)
+    assert got.t_s.size == 6 and np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1.5e-3
+    # read as a video on purpose: the error says what it is (not 'give --ball or --diameter')
+    with pytest.raises(DataError, match="a sound recording .no video track"):
+        read_measurement(path, "video")
+
+
+def test_track_kinds_of_a_video_and_of_files_without_a_track_list(tmp_path):
+    av = require_extra("av", "audio")
+    from vrcal.measurements.sound import mp4_track_kinds
+
+    video = tmp_path / "clip.mp4"
+    with av.open(str(video), "w") as out:
+        stream = out.add_stream("mpeg4", rate=10)
+        stream.width, stream.height, stream.pix_fmt = 32, 32, "yuv420p"
+        for i in range(3):
+            frame = av.VideoFrame.from_ndarray(np.full((32, 32, 3), 40 * i, dtype=np.uint8), format="rgb24")
+            for packet in stream.encode(frame):
+                out.mux(packet)
+        for packet in stream.encode(None):
+            out.mux(packet)
+    assert "vide" in mp4_track_kinds(video)
+    cut = tmp_path / "cut.m4a"
+    cut.write_bytes(b"\x00\x00\x00\x18ftypisom\x00\x00\x02\x00isommp42\x00\x00\x10\x00mdat")  # no moov
+    assert mp4_track_kinds(cut) is None
+    assert mp4_track_kinds(tmp_path / "missing.mp4") is None
+    from vrcal.measurements.reader import detect_format
+    assert detect_format(cut) == "sound"          # no track list: a .m4a name is sound ...
+    mp4 = tmp_path / "cut.mp4"
+    mp4.write_bytes(cut.read_bytes())
+    assert detect_format(mp4) == "video"          # ... a .mp4 a video

@@ -41,6 +41,7 @@ The impact times kept are then screened like any impact-times file
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,6 +55,9 @@ from vrcal.measurements.types import ImpactTimes
 #: File name endings read as sound (other than WAV they need the optional PyAV).
 SOUND_EXTENSIONS = (".wav", ".wave", ".m4a", ".aac", ".mp3", ".ogg", ".oga", ".opus", ".flac", ".3gp", ".amr",
                     ".caf", ".aif", ".aiff", ".wma", ".webm")
+
+#: Extensions of MP4 files that hold sound only (a phone's ``.m4a`` may carry the brand ``isom``, ``mp42``).
+AUDIO_ONLY_EXTENSIONS = (".m4a", ".m4b", ".aac")
 
 #: One-line hint when a compressed container needs the optional extra.
 AUDIO_HINT = "reading this sound file needs PyAV: pip install 'vrcal[audio]' (or save the recording as WAV)"
@@ -93,14 +97,73 @@ class Onsets:
 
 
 def detect(head, path):
-    """A RIFF/WAVE (or RF64) file, an audio-only MP4 (``M4A``), FLAC, Ogg, MP3, or a sound extension."""
+    """A RIFF/WAVE (or RF64) file, an audio-only MP4/3GP/MOV (brand ``M4A``, or tracks of sound and none of
+    video: :func:`mp4_track_kinds`), FLAC, Ogg, MP3, or a sound extension."""
     if head[:4] in (b"RIFF", b"RF64", b"BW64") and head[8:12] == b"WAVE":
         return True
-    if head[4:8] == b"ftyp" and head[8:11] in (b"M4A", b"M4B"):
-        return True
+    if head[4:8] == b"ftyp":
+        if head[8:11] in (b"M4A", b"M4B"):
+            return True
+        kinds = mp4_track_kinds(path)
+        if kinds is None:   # no track list read: the name decides (.m4a is sound, .mp4 and .3gp video)
+            return Path(path).suffix.lower() in AUDIO_ONLY_EXTENSIONS
+        return "soun" in kinds and "vide" not in kinds
     if head[:4] in (b"fLaC", b"OggS", b"FORM") or head[:3] == b"ID3" or head[:2] in (b"\xff\xfb", b"\xff\xf3"):
         return True
     return Path(path).suffix.lower() in SOUND_EXTENSIONS and head[4:8] != b"ftyp" and head[:4] != b"RIFF"
+
+
+def _boxes(fh, start, end):
+    """``(type, payload start, box end)`` of the ISO base media (MP4) boxes in bytes ``start .. end`` of ``fh``."""
+    pos = start
+    while pos + 8 <= end:
+        fh.seek(pos)
+        head = fh.read(16)
+        if len(head) < 8:
+            return
+        size, kind = int.from_bytes(head[:4], "big"), head[4:8]
+        header = 8
+        if size == 1:   # a 64-bit size follows the type
+            if len(head) < 16:
+                return
+            size, header = int.from_bytes(head[8:16], "big"), 16
+        elif size == 0:  # the box runs to the end
+            size = end - pos
+        if size < header or pos + size > end:
+            return
+        yield kind, pos + header, pos + size
+        pos += size
+
+
+def mp4_track_kinds(path):
+    """The kinds of the tracks of an MP4, 3GP or QuickTime file (ISO/IEC 14496-12: the handler type of each
+    ``moov/trak/mdia/hdlr`` box: ``"soun"`` sound, ``"vide"`` video, ...), or None when the file has no
+    track list that can be read (not such a file, or cut short).
+
+    A phone's sound recording (``.m4a``, ``.3gp``) carries the brand ``isom``, ``mp42`` or ``3gp4`` of any
+    MP4: only its tracks tell it from a video.
+
+    Returns
+    -------
+    frozenset of str or None
+    """
+    try:
+        with open(path, "rb") as fh:
+            end = os.fstat(fh.fileno()).st_size
+            for kind, start, stop in _boxes(fh, 0, end):
+                if kind != b"moov":
+                    continue
+                found = set()
+                for trak, a, b in _boxes(fh, start, stop):
+                    for mdia, c, d in (_boxes(fh, a, b) if trak == b"trak" else ()):
+                        for hdlr, e, f in (_boxes(fh, c, d) if mdia == b"mdia" else ()):
+                            if hdlr == b"hdlr" and f - e >= 12:
+                                fh.seek(e + 8)   # after version, flags and pre_defined (QuickTime: the component type)
+                                found.add(fh.read(4).decode("latin-1"))
+                return frozenset(found)
+    except OSError:
+        return None
+    return None
 
 
 def read_audio(path):
