@@ -25,7 +25,10 @@ How an impact is found
    (``dt_{i+1} ~ r dt_i``, r ~ epsilon). :func:`bounce_sequence` keeps the longest chain of
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
    ratio tracking slow changes) and whose loudness does not jump up; claps, words, echoes
-   and other noises that do not fit are rejected, each with a reason.
+   and other noises that do not fit are rejected, each with a reason. The chain's first event
+   is judged on its own against the later bounces, with the timing noise and their scatter
+   (:func:`vrcal.measurements.cleanup.leading_intruder`): a clap just before the release
+   fits the 12 % window but not the 0.2 ms timing of a bounce sequence.
 5. **The quiet end.** After the chain's last impact, the next one is searched for only in a
    window around its predicted time (:func:`extend_chain`): there noise alone crosses a much
    lower threshold (about 2.7 times the noise, :func:`window_threshold`) only once in
@@ -49,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import detect_impact_anomalies
+from vrcal.measurements.cleanup import NOT_AN_IMPACT, detect_impact_anomalies, leading_intruder
 from vrcal.measurements.types import ImpactTimes
 
 #: File name endings read as sound (other than WAV they need the optional PyAV).
@@ -456,7 +459,9 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     ``tolerance`` of the predicted next interval ``r dt`` (r the median of the last three
     ratios; the loudest candidate in that window is taken). An impact may not be louder
     than the one before it by more than ``max_louder_db`` (each bounce is slower). The
-    longest chain wins; among equally long ones the louder, then the more regular.
+    longest chain wins; among equally long ones the louder, then the more regular. Its first
+    event is then left out while it is no impact of the sequence
+    (:func:`vrcal.measurements.cleanup.leading_intruder`: a clap just before the release).
 
     Parameters
     ----------
@@ -518,9 +523,16 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
                 if best_key is None or key > best_key:
                     best, best_key = chain, key
     chain = np.asarray(best, dtype=int)
+    intruders = {}
+    while chain.size > MIN_IMPACTS:   # a clap or a word just before the release can fit the tolerance
+        why = leading_intruder(t[chain])
+        if why is None:
+            break
+        intruders[int(chain[0])] = why
+        chain = chain[1:]
     if chain.size < MIN_IMPACTS:
         return np.zeros(0, dtype=int), {i: "no bouncing sequence" for i in range(n)}
-    return chain, rejection_reasons(t, chain, tolerance)
+    return chain, {**rejection_reasons(t, chain, tolerance), **intruders}
 
 
 #: An event this soon after an impact [ms] is called its echo or ringing (a wall up to 10 m away).
@@ -725,8 +737,10 @@ def track_sound(path, *, progress=None):
     n_heard = chain.size
     t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain])
     if t_new.size:
+        intruders = {float(onsets.t_s[i]): why for i, why in reasons.items() if why.startswith(NOT_AN_IMPACT)}
         onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
         reasons = rejection_reasons(onsets.t_s, chain)
+        reasons.update({int(np.searchsorted(onsets.t_s, t0)): why for t0, why in intruders.items()})
     second = _second_drop(onsets, chain)
     for i in second:
         reasons.pop(int(i), None)
@@ -737,12 +751,13 @@ def track_sound(path, *, progress=None):
         notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard} found in the windows where the "
                      f"bounce sequence predicts them (rising over {threshold:.1f} x the noise there, where noise "
                      f"alone does so once in {1 / WINDOW_FALSE_ALARM:.0e} windows)")
-    shown = sorted(reasons)
+    shown = sorted(reasons, key=lambda i: (not reasons[i].startswith(NOT_AN_IMPACT), i))   # a clap taken out first
     for i in shown[:MAX_LISTED]:
         notes.append(f"event at t = {onsets.t_s[i]:.4f} s ({onsets.snr_db[i]:.0f} dB) rejected: {reasons[i]}")
     if len(shown) > MAX_LISTED:
+        rest = onsets.t_s[shown[MAX_LISTED:]]
         notes.append(f"... and {len(shown) - MAX_LISTED} more events off the bounce sequence rejected "
-                     f"(t = {onsets.t_s[shown[MAX_LISTED]]:.3f} - {onsets.t_s[shown[-1]]:.3f} s)")
+                     f"(t = {np.min(rest):.3f} - {np.max(rest):.3f} s)")
     t = onsets.t_s[chain]
     dt = np.diff(t)
     r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")
