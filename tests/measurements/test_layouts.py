@@ -416,6 +416,63 @@ def test_a_title_cell_above_a_workbooks_table_is_skipped(tmp_path):
     np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.55])
 
 
+@pytest.mark.parametrize("title", ["", "Bouncing ball lab,,\n", "Bouncing ball lab\n"])
+@pytest.mark.parametrize("units", [",cm,cm", ",(cm),[cm]", "-,centimetres,cm"])
+def test_a_units_row_below_the_header_gives_the_units(tmp_path, title, units):
+    """A class's sheet names its units in a row under the header (with or without a title above): "'cm' is
+    not a number" or '3 cells but the header names 1 columns' before."""
+    text = f"{title}Trial,Drop height,Rebound height\n{units}\n1,30,16.9\n2,30,17\n1,100,56.3\n"
+    data = read_measurement(write(tmp_path, "units.csv", text))
+    assert isinstance(data, Runs) and len(data.runs) == 3
+    np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.563])
+    first = 3 if title else 2
+    assert f"line {first} is a row of units" in " ".join(data.notes)
+    assert "read into the header ('Drop height (" in " ".join(data.notes)
+    assert data.labels[0] == f"row 1 (line {first + 1})"
+
+
+def test_a_units_row_repeating_or_contradicting_the_header(tmp_path):
+    same = read_measurement(write(tmp_path, "same.csv", "t (s),y (m)\ns,m\n" + "".join(
+        f"{t:.3f},{y:.5f}\n" for t, y in zip(*fall()))))
+    assert isinstance(same, Trajectory) and "line 2 is a row of units (s, m) that repeats the header's: skipped" \
+        in same.notes
+    ms = read_measurement(write(tmp_path, "ms.csv", "t,y\nms,cm\n" + "".join(
+        f"{t * 1e3:.1f},{y * 100:.3f}\n" for t, y in zip(*fall()))))
+    np.testing.assert_allclose(ms.t_s[-1], fall()[0][-1]) and np.testing.assert_allclose(ms.y_m[0], 1.2)
+    with pytest.raises(DataError, match=r"units.csv:2: column 'Drop height' is in cm by its header \(line 1\) "
+                                        r"and in mm by the units row below it"):
+        read_measurement(write(tmp_path, "units.csv", "Drop height (cm),Rebound height\nmm,mm\n30,16.9\n"))
+
+
+def test_a_second_header_row_of_names_is_no_units_row(tmp_path):
+    """Only a row of units is read into the header: a row of other words stays an error naming it."""
+    with pytest.raises(DataError, match="'x' is not a number"):
+        read_measurement(write(tmp_path, "two.csv", "Drop height,Rebound height\nx,y\n30,16.9\n"))
+
+
+@pytest.mark.parametrize("sep", [",", ";", "\t"])
+def test_rows_of_empty_cells_between_the_data_are_skipped_with_a_note(tmp_path, sep):
+    """Excel and LibreOffice save an empty row of a sheet as ',,': 'empty cell in column ...' before."""
+    rows = ["Trial,Drop height (cm),Rebound height (cm)", "1,30,16.9", ",,", "1,50,27.9", ",,", ",,", "1,100,56.3",
+            ",,", ",,"]
+    data = read_measurement(write(tmp_path, "blank.csv", "\n".join(r.replace(",", sep) for r in rows) + "\n"))
+    assert len(data.runs) == 3 and data.notes[0] == "lines 3, 5, 6: 3 rows of empty cells, skipped"
+
+
+def test_empty_rows_inside_a_workbooks_table_are_said(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    for row in [["Drop height"], ["cm"], [30], [], [50], [], []]:
+        ws.append(row)
+    ws["B1"], ws["B2"], ws["B3"], ws["B5"] = "Rebound height", "cm", 16.9, 27.9
+    path = tmp_path / "class.xlsx"
+    wb.save(path)
+    data = read_measurement(path)
+    assert len(data.runs) == 2 and "line 4: a row of empty cells, skipped" in data.notes
+    assert any(n.startswith("line 2 is a row of units (cm, cm)") for n in data.notes)
+
+
 @pytest.mark.parametrize("title,header", [("Tennis ball drop 100 cm", '"Event time (s)"'),
                                           ("Ball lab, group 3", "t"), ("Golf ball\nGroup 3", "Time (ms)")])
 def test_a_title_above_a_one_column_impact_file_is_skipped(tmp_path, title, header):
@@ -720,7 +777,7 @@ def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
 CELLS = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**6, 10**6).map(str),
                   st.sampled_from(["t", "y", "h", "H", "bounce", "time (ms)", "y (px)", "drop", "rebound", "",
                                    "nan", "1,5", "-", "x", "#", '"', "mass_A", "0.0687", "84.1", "Fallhöhe (cm)",
-                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3"]))
+                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3", "cm", "(s)", "m/s"]))
 LINES = st.lists(st.lists(CELLS, min_size=1, max_size=4).map(lambda cs: st.sampled_from([",", ";", "\t", " "]).map(
     lambda sep: sep.join(cs))), min_size=0, max_size=30)
 

@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.table import Text
+from vrcal.measurements.table import Text, inner_rows
 
 #: File signatures: zip (xlsx) and OLE2 compound documents (xls).
 _XLSX_MAGIC = b"PK\x03\x04"
@@ -99,14 +99,16 @@ def load_sheet_text(path, sheet=None):
     names = [name for name, _ in sheets]
 
     def as_text(name, rows):
-        lines = []
+        lines, empty = [], []
         for i, row in enumerate(rows, start=1):
             cells = [_cell(v) for v in row]
             while cells and cells[-1] == "":
                 cells.pop()
             if any(cells):
                 lines.append((i, "\t".join(cells)))
-        return Text(f"{path}[{name.strip()}]", lines)
+            else:
+                empty.append(i)
+        return Text(f"{path}[{name.strip()}]", lines, empty_rows=inner_rows(empty, lines))
 
     if sheet is not None:
         for name, rows in sheets:
