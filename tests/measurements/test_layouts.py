@@ -777,7 +777,8 @@ def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
 CELLS = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**6, 10**6).map(str),
                   st.sampled_from(["t", "y", "h", "H", "bounce", "time (ms)", "y (px)", "drop", "rebound", "",
                                    "nan", "1,5", "-", "x", "#", '"', "mass_A", "0.0687", "84.1", "Fallhöhe (cm)",
-                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3", "cm", "(s)", "m/s"]))
+                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3", "cm", "(s)",
+                                   "m/s"]))
 LINES = st.lists(st.lists(CELLS, min_size=1, max_size=4).map(lambda cs: st.sampled_from([",", ";", "\t", " "]).map(
     lambda sep: sep.join(cs))), min_size=0, max_size=30)
 
