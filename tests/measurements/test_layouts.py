@@ -287,7 +287,8 @@ def test_unsorted_labels_are_an_error_naming_the_line(tmp_path):
 
 @pytest.mark.parametrize("header", ["Drop height (cm),Rebound height (cm)", "Height dropped (cm),Height bounced (cm)",
                                     "drop_cm,bounce_cm", "Dropped from (cm);Bounced to (cm)",
-                                    "Release height [cm],Bounce height [cm]", "Initial height (cm),Return height (cm)"])
+                                    "Release height [cm],Bounce height [cm]", "Initial height (cm),Return height (cm)",
+                                    "Initial Height (cm),Final Height (cm)", "Starting height (cm),Bounce height (cm)"])
 def test_drop_tables_as_students_name_their_columns(tmp_path, header):
     H, h = [50.0, 100.0, 150.0], [32.1, 63.5, 94.2]
     sep = ";" if ";" in header else ","
@@ -512,6 +513,31 @@ def test_trials_side_by_side_are_one_run_each_and_the_average_is_not_read(tmp_pa
     assert [r.h_m[1] for r in data.runs] == pytest.approx([0.320, 0.331, 0.642, 0.630, 0.651])
     assert data.labels[1] == "row 1 (line 2), 'Trial 2'"
     assert any("'Average' not read" in n for n in data.notes)
+
+
+@pytest.mark.parametrize("names", ["1st bounce,2nd bounce,3rd bounce", "First bounce,Second bounce,Third bounce",
+                                   "first rebound,second rebound,third rebound", "3rd bounce,1st bounce,2nd bounce"])
+def test_ordinal_bounce_columns_are_the_successive_rebounds(tmp_path, names):
+    """'1st bounce, 2nd bounce, 3rd bounce': only the first was read before, silently ('4 heights' of 8)."""
+    header = "Drop height (cm)," + ",".join(f"{n} (cm)" for n in names.split(","))
+    order = [int(n[0]) if n[0].isdigit() else 0 for n in names.split(",")]
+    rows = [[100, 56.3, 31.6, 17.8], [50, 28.1, 15.8, 8.9]]
+    if order == [3, 1, 2]:
+        rows = [[r[0], r[3], r[1], r[2]] for r in rows]
+    data = read_measurement(write(tmp_path, "o.csv", header + "\n" + "".join(",".join(map(str, r)) + "\n"
+                                                                              for r in rows)))
+    assert [list(r.bounce) for r in data.runs] == [[0, 1, 2, 3]] * 2
+    np.testing.assert_allclose(data.runs[0].h_m, [1.0, 0.563, 0.316, 0.178])
+    assert any("successive rebounds of one drop" in n for n in data.notes)
+
+
+def test_a_numeric_column_not_read_is_named(tmp_path):
+    """A column of numbers the drop table does not read is said, not dropped silently; a trial number is not."""
+    data = read_measurement(write(tmp_path, "x.csv", "Trial,Drop height (cm),Rebound height (cm),Bounce after (cm),"
+                                                     "Comment\n1,100,56.3,31.6,ok\n2,100,56.0,31.2,\n"))
+    assert len(data.runs) == 2 and data.runs[0].h_m.size == 2
+    said = [n for n in data.notes if "not read" in n]
+    assert len(said) == 1 and said[0].startswith("column(s) 'Bounce after' not read: not a drop or rebound height")
 
 
 @pytest.mark.parametrize("rows,trials", [(("100,64,63,65", "50,32,33,31"), True),
