@@ -783,6 +783,60 @@ def test_detect_format_reads_a_workbooks_sheet(tmp_path):
     assert detect_format(tmp_path / "d.xlsx") == "drops"
 
 
+def _phyphox_zip(path, members):
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, text in members.items():
+            zf.writestr(name, text)
+    return path
+
+
+def test_a_phyphox_zip_export_is_read_from_its_all_csv(tmp_path):
+    """phyphox's CSV export is a zip of one CSV per data set and a meta folder: 'binary file ... save it as
+    CSV' before. Its 'All.csv' is read (like the 'All' sheet of its Excel export), --sheet reads another."""
+    t = impact_times(n=8)
+    all_csv = '"Event time (s)","Interval (s)"\n' + "".join(f"{v:.9E},0\n" for v in t)
+    multiple = ",".join(['"Start (s)"'] + [f'"Stop {i} (s)"' for i in range(1, 6)]) + "\n" + \
+        ",".join(f"{v:.9E}" for v in t[:6]) + "\n"
+    path = _phyphox_zip(tmp_path / "export.zip", {"All.csv": all_csv, "Simple.csv": '"Start (s)","Stop (s)"\n1,2\n',
+                                                   "Multiple.csv": multiple, "meta/device.csv": '"property","value"\n'})
+    assert detect_format(path) == "impacts"
+    data = read_measurement(path)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-8)
+    assert data.source == f"{path}[All.csv]"
+    assert data.notes[0] == ("zip archive: 'All.csv' read (also in it: 'Simple.csv', 'Multiple.csv'; --sheet to read "
+                             "another)")
+    np.testing.assert_allclose(read_measurement(path, sheet="Multiple").t_s, t[:6], atol=1e-8)
+    with pytest.raises(UsageError, match=r"no table 'Raw' in the archive \(tables: 'All.csv', 'Simple.csv'"):
+        read_measurement(path, sheet="Raw")
+
+
+def test_a_zip_without_one_table_to_read_says_how_to_choose(tmp_path):
+    one = _phyphox_zip(tmp_path / "one.zip", {"Raw data.csv": "t\n" + "".join(f"{v}\n" for v in impact_times(n=6))})
+    assert read_measurement(one).t_s.size == 6
+    two = _phyphox_zip(tmp_path / "two.zip", {"a.csv": "t\n1\n", "b.csv": "t\n2\n"})
+    with pytest.raises(DataError, match=r"two.zip: a zip archive of 2 tables \('a.csv', 'b.csv'\): give --sheet NAME"):
+        read_measurement(two)
+    none = _phyphox_zip(tmp_path / "none.zip", {"photo.jpg": "x"})
+    with pytest.raises(DataError, match="a zip archive with no CSV or text table in it"):
+        read_measurement(none)
+    bad = tmp_path / "bad.zip"
+    bad.write_bytes(b"PK\x03\x04" + b"\x00" * 40)
+    with pytest.raises(DataError, match="not a readable zip archive"):
+        read_measurement(bad)
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be"])
+def test_a_utf16_text_file_is_read(tmp_path, encoding):
+    """Excel's "Unicode Text" is UTF-16 with a byte order mark, tab-separated: 'binary file' before."""
+    text = "Trial\tDrop height (cm)\tRebound height (cm)\r\n1\t30\t16.9\r\n2\t100\t56.3\r\n"
+    path = tmp_path / "unicode.txt"
+    path.write_bytes(("\ufeff" + text).encode(encoding))
+    data = read_measurement(path)
+    np.testing.assert_allclose(data.runs[1].h_m, [1.0, 0.563])
+
+
 def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
     path = shared_file("realval/giiulia_phyphox_excel/tennis_ball/Lancio 1, tennis, 65.xls")
     real_import = builtins.__import__

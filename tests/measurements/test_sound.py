@@ -91,6 +91,24 @@ def test_every_wav_sample_type_and_rate(tmp_path, bits, fs):
     assert got.t_s.size == 6
     assert np.max(np.abs(got.t_s - t)) < 2.5e-4
     assert f"{fs / 1000:g} kHz" in got.notes[0]
+    assert ("32-bit float" if bits == "float" else f"{bits}-bit") in got.notes[0]   # 24-bit was called 32-bit
+
+
+def test_the_bits_of_an_extensible_wav_are_its_valid_bits(tmp_path):
+    """WAVE_FORMAT_EXTENSIBLE (a phone's 24-bit recording, after a LIST chunk) states its valid bits."""
+    import struct
+
+    from vrcal.measurements.sound import _wav_bits
+
+    fmt = struct.pack("<HHIIHHHHI16s", 0xFFFE, 2, 44100, 44100 * 8, 8, 32, 22, 24, 3, b"\x01" + b"\x00" * 15)
+    info = b"INFOISFT" + struct.pack("<I", 4) + b"abc\x00"
+    body = b"LIST" + struct.pack("<I", len(info)) + info + b"fmt " + struct.pack("<I", len(fmt)) + fmt \
+        + b"data" + struct.pack("<I", 0)
+    path = tmp_path / "x.wav"
+    path.write_bytes(b"RIFF" + struct.pack("<I", 4 + len(body)) + b"WAVE" + body)
+    assert _wav_bits(path) == 24
+    path.write_bytes(b"RIFF\x04\x00\x00\x00WAVE")
+    assert _wav_bits(path) is None
 
 
 def test_quiet_last_bounces_are_left_out_with_a_note(tmp_path):

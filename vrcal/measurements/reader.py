@@ -29,7 +29,6 @@ from vrcal.measurements import (
 from vrcal.measurements.table import (
     TIME_NAMES,
     columns,
-    empty_rows_note,
     fail,
     find_column,
     has_number,
@@ -109,8 +108,7 @@ def detect_format(path):
     if name is not None:
         return name
     excel.check_workbook_name(path)
-    text = excel.load_sheet_text(path) if excel.is_spreadsheet(path) else load_text(path)
-    return _detect_below_title(_units_into_header(text)[0])[1]
+    return _detect_below_title(_units_into_header(_load(path))[0])[1]
 
 
 def _detect_recording(path):
@@ -246,12 +244,7 @@ def read_measurement(path, fmt=None, **options):
     sheet = options.pop("sheet", None)
     if fmt is None:
         excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
-    if excel.is_spreadsheet(path):
-        text = excel.load_sheet_text(path, sheet)
-    else:
-        if sheet is not None:
-            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks only")
-        text = load_text(path)
+    text = _load(path, sheet)
     title = None
     text, units_note = _units_into_header(text, name)
     if name is None:
@@ -266,10 +259,22 @@ def read_measurement(path, fmt=None, **options):
         data = dataclasses.replace(data, notes=tuple(data.notes) + (
             f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
             f"and this file holds {kind}",))
-    said = [_title_note(title) if title is not None else None, units_note, empty_rows_note(text)]
+    said = [_title_note(title) if title is not None else None, units_note, *text.notes]
     if any(said):
         data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))
     return data
+
+
+def _load(path, sheet=None):
+    """The :class:`Text` of a text file, of a workbook's sheet or of a zip archive's table (``sheet`` names
+    which)."""
+    if excel.is_spreadsheet(path):
+        return excel.load_sheet_text(path, sheet)
+    if excel.is_archive(path):
+        return excel.load_archive_text(path, sheet)
+    if sheet is not None:
+        raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks and zip archives only")
+    return load_text(path)
 
 
 def _units_into_header(text, name=None):

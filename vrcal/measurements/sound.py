@@ -224,10 +224,34 @@ def _read_wav(path):
         x, bits = (data.astype(np.float64) - 128.0) / 128.0, "8-bit"
     elif data.dtype.kind == "i":
         x = data.astype(np.float64) / float(2 ** (8 * data.dtype.itemsize - 1))
-        bits = f"{data.dtype.itemsize * 8}-bit"
+        bits = f"{_wav_bits(path) or data.dtype.itemsize * 8}-bit"   # scipy gives 24-bit samples as int32
     else:
         raise DataError(f"{path}: unsupported WAV sample type {data.dtype}")
     return x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}"
+
+
+def _wav_bits(path):
+    """Bits per sample a WAV file's ``fmt `` chunk states (the valid bits of WAVE_FORMAT_EXTENSIBLE), or None."""
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(12)
+            for _ in range(64):   # chunks before 'fmt ' (JUNK, bext, LIST): a few at most
+                head = fh.read(8)
+                if len(head) < 8:
+                    return None
+                kind, size = head[:4], int.from_bytes(head[4:], "little")
+                if kind != b"fmt ":
+                    fh.seek(size + (size & 1), 1)
+                    continue
+                fmt = fh.read(min(size, 40))
+                if len(fmt) < 16:
+                    return None
+                bits = int.from_bytes(fmt[14:16], "little")
+                valid = int.from_bytes(fmt[18:20], "little") if len(fmt) >= 20 and fmt[:2] == b"\xfe\xff" else 0
+                return valid or bits or None
+    except OSError:
+        return None
+    return None
 
 
 def _read_with_av(path):

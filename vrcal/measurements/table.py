@@ -111,7 +111,7 @@ class Text:
     lines: list  # [(lineno, text)]
     multi: bool = False  # a Tracker '#multi:' export
     meta: dict = field(default_factory=dict)  # {key: (lineno, text)} of '# vrcal KEY = VALUE' comments
-    empty_rows: tuple = ()  # line numbers of rows of empty cells between the data (',,' as a spreadsheet saves them)
+    notes: tuple = ()  # what loading did (rows of empty cells skipped, the member of an archive read)
 
 
 #: A comment line carrying what a reader of the file should know (``vrcal track`` writes the tracker's
@@ -125,6 +125,8 @@ def fail(path, line, what):
 
 
 def load_text(path):
+    """The non-blank lines of a text file (:class:`Text`); UTF-8 (a BOM allowed), UTF-16 with its BOM (Excel's
+    "Unicode Text") or Latin-1."""
     path_s = str(path)
     try:
         raw = read_bytes_bounded(Path(path), MAX_TEXT_BYTES, "measurement")
@@ -132,17 +134,33 @@ def load_text(path):
         raise DataError(f"{path_s}: is a directory, not a measurement file") from None
     except OSError as exc:
         raise DataError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
+    return text_from_bytes(path_s, raw)
+
+
+#: What a binary file that is no table is told.
+BINARY = "binary file, not a text table (save it as CSV or text, UTF-8)"
+
+
+def text_from_bytes(path_s, raw):
+    """:class:`Text` of the bytes ``raw`` of the file (or archive member) ``path_s`` (see :func:`load_text`)."""
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):   # UTF-16 with its byte order mark (Excel's "Unicode Text")
+        try:
+            raw = raw.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            fail(path_s, 0, BINARY)
     if not raw.strip():
         fail(path_s, 0, "empty file")
+    if raw[:4] == b"PK\x03\x04":
+        fail(path_s, 0, "a zip archive: unzip it and give the CSV inside (phyphox: 'All.csv')")
     if b"\x00" in raw[:8192]:
-        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
+        fail(path_s, 0, BINARY)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     printable = sum(ch.isprintable() or ch in "\r\n\t" for ch in text[:4096])
     if printable < 0.95 * len(text[:4096]):
-        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
+        fail(path_s, 0, BINARY)
     lines, multi, meta, empty = [], False, {}, []
     for i, line in enumerate(text.splitlines(), start=1):
         if _EMPTY_ROW.match(line):   # ',,' or ';;': a row of empty cells, as Excel and LibreOffice save them
@@ -162,30 +180,23 @@ def load_text(path):
         lines.append((i, line))
     if not lines:
         fail(path_s, 0, "no data (only comments, blank lines or rows of empty cells)")
-    return Text(path_s, lines, multi, meta, inner_rows(empty, lines))
+    return Text(path_s, lines, multi, meta, empty_rows_notes(empty, lines))
 
 
 #: A line of empty cells: separators and blanks only (at least one separator).
 _EMPTY_ROW = re.compile(r"^[ \t]*[,;\t][ \t,;]*$")
 
 
-def inner_rows(numbers, lines):
-    """The line ``numbers`` that lie between the first and the last of ``lines`` ([(lineno, text)]): empty rows
-    inside a table (those before or after it are a spreadsheet's formatted but empty cells, not worth a note)."""
-    if not lines:
-        return ()
-    first, last = lines[0][0], lines[-1][0]
-    return tuple(n for n in numbers if first < n < last)
-
-
-def empty_rows_note(text):
-    """The note of the empty rows skipped inside a table, or None."""
-    rows = text.empty_rows
+def empty_rows_notes(numbers, lines):
+    """``(note,)`` naming the rows of empty cells (line ``numbers``) skipped inside a table of ``lines``
+    ([(lineno, text)]), or ``()``: those before or after it are a spreadsheet's formatted but empty
+    cells, not worth a note."""
+    rows = [n for n in numbers if lines and lines[0][0] < n < lines[-1][0]]
     if not rows:
-        return None
+        return ()
     said = ", ".join(str(n) for n in rows[:8]) + (", ..." if len(rows) > 8 else "")
     return (f"line {said}: a row of empty cells, skipped" if len(rows) == 1
-            else f"lines {said}: {len(rows)} rows of empty cells, skipped")
+            else f"lines {said}: {len(rows)} rows of empty cells, skipped",)
 
 
 def meta_length(text, key, limit_m=1.0):
