@@ -69,8 +69,8 @@ REBOUND_NAMES = ("h1", "h 1", "rebound", "rebound height", "bounce height", "fir
 _MORE = re.compile(r"^h\s*(\d+)$")
 #: Word beginnings (lower case, accents off: :func:`_folded`) that mark a drop-height column: English
 #: (``Height dropped``, ``Starting height``), German (``Fallhöhe``, ``Abwurfhöhe``, ``Starthöhe``,
-#: ``Ausgangshöhe``), French (``hauteur de chute``, ``de lâcher``), Spanish (``altura de caída``, ``inicial``), Italian (``altezza di
-#: caduta``, ``iniziale``), Portuguese (``altura de queda``).
+#: ``Ausgangshöhe``), French (``hauteur de chute``, ``de lâcher``), Spanish (``altura de caída``, ``inicial``),
+#: Italian (``altezza di caduta``, ``iniziale``), Portuguese (``altura de queda``).
 DROP_WORDS = ("drop", "releas", "initial", "start", "fall", "abwurf", "ausgangsh", "chute", "lach", "caid",
               "inicial", "cadut", "inizial", "queda", "soltur")
 #: Word beginnings that mark a rebound column: English (``Bounced to``, ``Final height``), German (``Rückprallhöhe``,
