@@ -246,8 +246,32 @@ def test_other_containers_need_pyav_or_read_with_it(tmp_path):
     _encode(av, aac, x, "aac", "fltp")
     got = read_measurement(aac)
     assert got.t_s.size == 6
-    # a lossy codec smears each onset (pre-echo): intervals stay within 1.5 ms, not 0.25 ms
-    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1.5e-3
+    # a lossy codec smears each onset (pre-echo), which the onsets look past: intervals within 0.5 ms
+    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 5e-4
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_aac_pre_echo_neither_moves_the_onsets_nor_splits_the_bounces(tmp_path, seed):
+    """AAC at 64 kbit/s smears each impact's noise up to 3 ms before it (pre-echo: the codec's transform
+    block). The onset was the pre-echo's start (2-3 ms early) and the level, taken in the pre-echo, too
+    low, so that the next impact seemed 6 dB louder: the first impacts were lost, or one drop split in
+    two. Now the impact's own start is timed, and the sequence is whole."""
+    av = require_extra("av", "audio")
+    t, v = drop(H=1.0, eps=0.85, n=10, release=0.5)
+    x = impact_sound(t, v, scene=SoundScene(noise_rms=0.001), seed=seed)
+    path = tmp_path / "drop.m4a"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("aac", rate=48000)
+        stream.layout, stream.bit_rate = "mono", 64000
+        frame = av.AudioFrame.from_ndarray((x.T * 0.9).astype(np.float32), format="fltp", layout="mono")
+        frame.sample_rate = 48000
+        for packet in [*stream.encode(frame), *stream.encode(None)]:
+            out.mux(packet)
+    got = read_measurement(path)
+    assert got.t_s.size == 10 and got.chains == ()
+    # the encoder's priming shifts every time alike (not signalled in this file); the intervals are exact to 1 ms
+    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1e-3
+    assert any(n.startswith("lossy coding: each onset is the impact's own start") for n in got.notes)
 
 
 def test_two_drops_in_one_recording_are_two_chains_and_a_room_echo_is_called_one(tmp_path):

@@ -20,7 +20,10 @@ How an impact is found
    var(x[k:])`` over a window from 6 ms before to 0.5 ms after the envelope's rise),
    refined between samples by a parabola through the minimum. It does not depend on the
    impact's loudness (a threshold crossing does: a quiet impact crosses it later) nor on
-   clipping (which flattens the peak, not the start).
+   clipping (which flattens the peak, not the start). A lossy codec (AAC, MP3, Vorbis, Opus)
+   spreads each impact's quantisation noise over its transform block, up to a few ms before
+   the impact (pre-echo, 10-35 dB over the noise): there the onset is the impact's own start,
+   the later change point where the energy jumps :data:`PRE_ECHO_JUMP_DB` over the pre-echo.
 4. **Physics.** A bouncing ball's impacts fall on a geometric-like sequence of intervals
    (``dt_{i+1} ~ r dt_i``, r ~ epsilon). :func:`bounce_sequence` keeps the longest chain of
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
@@ -48,6 +51,7 @@ import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -74,7 +78,20 @@ RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's p
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
 WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
+PRE_ECHO_S = 6e-3        #: longest span a lossy codec smears an impact's noise before it (a 256-sample block) [s]
+PRE_ECHO_JUMP_DB = 6.0   #: the impact itself is this much louder than a lossy codec's pre-echo before it [dB]
+#: Decoders of lossless audio (PyAV's codec names); every other codec PyAV decodes is taken as lossy.
+LOSSLESS_CODECS = ("pcm_", "flac", "alac", "wavpack", "tta", "ape", "mlp", "truehd", "shorten")
 AUDIO_BAND_HZ = 20000.0  #: highest frequency a microphone records (the noise band's top) [Hz]
+
+
+class Audio(NamedTuple):
+    """A recording's samples, from :func:`read_audio`."""
+
+    x: np.ndarray     # samples (n, channels), full scale = 1
+    fs_hz: float      # sample rate [Hz]
+    what: str         # a short description ("WAV, 48 kHz, 2 channels, 16-bit")
+    lossy: bool       # coded with loss (AAC, MP3, Vorbis, Opus): each onset is preceded by a pre-echo
 
 
 @dataclass(frozen=True)
@@ -178,12 +195,10 @@ def read_audio(path):
 
     Returns
     -------
-    x : ndarray (n, channels)
-        samples, full scale = 1
-    fs_hz : float
-        sample rate [Hz]
-    what : str
-        a short description (``"WAV, 48 kHz, 2 channels, 16-bit"``)
+    Audio
+        ``(x, fs_hz, what, lossy)``: samples (n, channels), full scale = 1; sample rate [Hz]; a short
+        description (``"WAV, 48 kHz, 2 channels, 16-bit"``); whether the codec is lossy (everything
+        PyAV decodes but FLAC, ALAC, PCM and the other :data:`LOSSLESS_CODECS`)
 
     Raises
     ------
@@ -227,7 +242,7 @@ def _read_wav(path):
         bits = f"{_wav_bits(path) or data.dtype.itemsize * 8}-bit"   # scipy gives 24-bit samples as int32
     else:
         raise DataError(f"{path}: unsupported WAV sample type {data.dtype}")
-    return x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}"
+    return Audio(x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}", False)
 
 
 def _wav_bits(path):
@@ -284,7 +299,8 @@ def _read_with_av(path):
     if not chunks:
         raise DataError(f"{path}: the sound track holds no samples")
     x = np.concatenate(chunks, axis=1).T
-    return x, fs, f"{codec} (PyAV), {_rate_text(fs)}, {_channels_text(x.shape[1])}"
+    return Audio(x, fs, f"{codec} (PyAV), {_rate_text(fs)}, {_channels_text(x.shape[1])}",
+                 not codec.startswith(LOSSLESS_CODECS))
 
 
 def _rate_text(fs):
@@ -369,6 +385,8 @@ class OnsetSignals:
         the noise level (median envelope)
     fs_hz : float
         sample rate [Hz]
+    pre_echo_s : float
+        span before an impact where a lossy codec's pre-echo may lie (0 for lossless audio) [s]
     """
 
     energy: np.ndarray
@@ -377,9 +395,10 @@ class OnsetSignals:
     quick_rise: np.ndarray
     noise: float
     fs_hz: float
+    pre_echo_s: float = 0.0
 
 
-def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
+def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, pre_echo_s=0.0):
     """High-pass, envelope, noise level and rise of a recording (steps 1-2 of the module docstring).
 
     Parameters
@@ -390,6 +409,9 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
         sample rate [Hz]
     highpass_hz : float
         corner of the onset band [Hz]
+    pre_echo_s : float
+        a lossy codec's pre-echo span (:data:`PRE_ECHO_S`; 0 for lossless audio) [s]: each onset is
+        then the start of the impact itself, not of the noise the codec smears before it (:func:`_onset_at`)
 
     Returns
     -------
@@ -417,19 +439,39 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
         return e / np.maximum(bg, noise)
 
     return OnsetSignals(energy=np.sum(y * y, axis=1), e=e, rise=rise(5e-3, 1e-3), quick_rise=rise(1e-3, 2.5e-4),
-                        noise=noise, fs_hz=float(fs_hz))
+                        noise=noise, fs_hz=float(fs_hz), pre_echo_s=float(pre_echo_s))
 
 
-def _onset_at(sig, p, earliest):
+def _onset_at(sig, p, earliest, latest=None):
     """Sub-sample onset [s] and peak level over the noise [dB] of the transient whose rise peaks
-    at sample ``p`` (the AIC change point from 6 ms before to 0.5 ms after, not before ``earliest``)."""
+    at sample ``p`` (the AIC change point from 6 ms before to 0.5 ms after, not before ``earliest``).
+
+    In lossy audio (``sig.pre_echo_s`` > 0) the codec spreads the quantisation noise of a transient over
+    the transform block before it (pre-echo: 10-35 dB over the noise up to 3 ms before an impact in AAC):
+    the rise may peak there, and the change point is the pre-echo's start. So the impact's own start is
+    looked for too, as the AIC change point from 0.5 ms after that start to the envelope's peak within
+    ``sig.pre_echo_s`` after ``p`` (not at or after sample ``latest``, the next candidate); it is the onset
+    when the energy in the millisecond after it is :data:`PRE_ECHO_JUMP_DB` over the energy since the first
+    change point. The level is the peak of the envelope in the 2 ms (lossy: ``sig.pre_echo_s``) after ``p``.
+    """
     fs = sig.fs_hz
+    n = sig.e.size
     start = max(earliest, p - int(round(6e-3 * fs)))
-    stop = min(sig.e.size, p + int(round(5e-4 * fs)))
+    stop = min(n, p + int(round(5e-4 * fs)))
     if stop - start < 8:
         return None
     onset = start + aic_onset(sig.energy[start:stop])
-    peak_level = float(np.max(sig.e[p:min(sig.e.size, p + int(2e-3 * fs) + 1)]))
+    end = min(n, p + int(round(max(2e-3, sig.pre_echo_s) * fs)) + 1, latest if latest is not None else n)
+    end = max(end, p + 1)
+    if sig.pre_echo_s > 0:
+        peak = p + int(np.argmax(sig.e[p:end]))
+        a, b = int(math.ceil(onset + 5e-4 * fs)), min(n, peak + int(round(5e-4 * fs)))
+        if b - a >= 8:
+            later = a + aic_onset(sig.energy[a:b])
+            k1, k2, w = int(onset), int(later), int(round(1e-3 * fs))
+            if k2 > k1 and np.mean(sig.energy[k2:k2 + w]) > np.mean(sig.energy[k1:k2]) * 10 ** (PRE_ECHO_JUMP_DB / 10):
+                onset = later
+    peak_level = float(np.max(sig.e[p:end]))
     return onset / fs, 20.0 * math.log10(peak_level / sig.noise)
 
 
@@ -459,9 +501,9 @@ def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR, sign
     peaks, _ = find_peaks(ratio, height=rise, distance=max(1, int(REFRACTORY_S * fs_hz)))
     times, levels = [], []
     last = 0
-    for p in peaks:
+    for k, p in enumerate(peaks):
         # the start of the rise: back from the peak of the rise to where e leaves the background
-        found = _onset_at(sig, int(p), last)
+        found = _onset_at(sig, int(p), last, int(peaks[k + 1]) if k + 1 < peaks.size else None)
         if found is None:
             continue
         times.append(found[0])
@@ -733,7 +775,7 @@ def track_sound(path, *, progress=None):
     path = str(path)
     if progress:
         progress(0.0, "reading the sound")
-    x, fs, what = read_audio(path)
+    x, fs, what, lossy = read_audio(path)
     n = x.shape[0]
     if n < int(0.05 * fs):
         raise DataError(f"{path}: the recording is only {n / fs * 1e3:.0f} ms long; record the whole drop")
@@ -741,13 +783,16 @@ def track_sound(path, *, progress=None):
     if peak == 0.0 or not np.isfinite(peak):
         raise DataError(f"{path}: the recording is silent (every sample is 0); check the microphone")
     notes = [f"recording: {what}, {n / fs:.2f} s"]
+    if lossy:
+        notes.append(f"lossy coding: each onset is the impact's own start, not of the pre-echo the codec smears up "
+                     f"to {PRE_ECHO_S * 1e3:g} ms before it (a WAV or FLAC recording is timed better)")
     clipped = int(np.sum(np.abs(x) >= 0.999 * max(peak, 0.0))) if peak >= 0.99 else 0
     if clipped > 3:
         notes.append(f"clipped: {clipped} samples at full scale (onsets are timed at the start of each "
                      "impact, which clipping does not move)")
     if progress:
         progress(0.3, "finding onsets")
-    signals = onset_signals(x, fs)
+    signals = onset_signals(x, fs, pre_echo_s=PRE_ECHO_S if lossy else 0.0)
     onsets = impact_onsets(x, fs, signals=signals)
     if progress:
         progress(0.8, "checking the bounce sequence")
