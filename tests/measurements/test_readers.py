@@ -545,6 +545,14 @@ def test_the_first_impacts_of_real_records_are_kept(name):
     assert leading_intruder(t) is None
 
 
+def test_drops_repeated_alike_keep_their_first_impact():
+    """The same drop three times in one file: its intervals repeat, so the later ratios lie at equal
+    intervals (no slope from such pairs; all of them once made the line NaN and every event an intruder)."""
+    one = impact_times(1.0, 0.85, 10)
+    found = impact_chains(np.concatenate([one + 6.0 * k for k in range(3)]), leading=True)
+    assert found.chains == ((0, 9), (10, 19), (20, 29)) and found.anomalies == ()
+
+
 def test_the_first_impact_test_scales_with_the_bounces_scatter():
     """The same first ratio 5 % below the line: refused when the later ratios agree to 0.2 ms timing,
     kept when they scatter by 2 % (a ball bouncing off a rough floor)."""

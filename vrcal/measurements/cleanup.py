@@ -416,7 +416,9 @@ def _theil_sen(x, v, min_points=4):
         pick = np.linspace(0, n - 1, _THEIL_SEN_POINTS).round().astype(int)
         x, v = x[pick], v[pick]
     a, b = np.triu_indices(x.size, 1)
-    slope = float(np.median((v[b] - v[a]) / (x[b] - x[a]))) if a.size else 0.0
+    step = x[b] - x[a]
+    apart = step != 0    # points at one x (the same interval in two drops) give no slope
+    slope = float(np.median((v[b] - v[a])[apart] / step[apart])) if apart.any() else 0.0
     slope = 0.0 if n < min_points else slope    # too few points for a trend
     return float(np.median(v - slope * x)), slope
 
@@ -488,10 +490,13 @@ def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGM
         return None
     level, slope = _theil_sen(x, v, min_points=3)
     s = 1.4826 * float(np.median(np.abs(v - level - slope * x)))
-    line = 1.0 / x.size + (dt[0] - x.mean()) ** 2 / float(np.sum((x - x.mean()) ** 2))
+    spread = float(np.sum((x - x.mean()) ** 2))
+    line = 1.0 / x.size + ((dt[0] - x.mean()) ** 2 / spread if spread > 0 else 0.0)
     sigma = math.sqrt(u[0] ** 2 + s ** 2 * (1.0 + line) + FIRST_RATIO_SPREAD ** 2)
     expected = level + slope * dt[0]
     dev = math.log(q[0]) - expected
+    if not (math.isfinite(dev) and math.isfinite(sigma)):
+        return None
     bend = abs(slope * (dt[0] - dt[1])) if dev < 0 else 0.0
     if abs(dev) <= n_sigma * sigma + bend:
         return None
