@@ -35,6 +35,13 @@ def test_a_group_without_a_command_shows_its_help(args):
     assert "Commands:" in result.output
 
 
+def test_an_option_without_its_value_points_to_its_command_help():
+    """click raises 'requires an argument' without the subcommand's context: the hint named 'vrcal --help'."""
+    result = run("simulate", "tennis", "-o")
+    assert result.exit_code == 2
+    assert result.output.strip().endswith("(see 'vrcal simulate --help')")
+
+
 def test_every_command_has_help_with_an_example():
     def walk(group, path):
         for name, cmd in group.commands.items():

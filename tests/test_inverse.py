@@ -104,3 +104,32 @@ def test_fit_then_forward_round_trip(eps, K):
     T = eq.contact_time_from_epsilon_s(eps, K)
     x, v = family(T, 0.1, 5)
     np.testing.assert_allclose(eq.epsilon_single(x, v, K), eps, rtol=1e-12)
+
+
+def test_own_drop_test_gives_eq9_and_its_model_time():
+    """A teacher's own drop: H = 1 m, h = 0.55 m to the bottom of a 67 mm ball: epsilon = sqrt(0.55)
+    (Eq. 9), T = -ln(epsilon)/K (Eq. 7); read to the ball's top, h is brought down by the diameter."""
+    from vrcal.model.body import describe_body
+
+    body = describe_body(None, mass_kg=0.0577, diameter_m=0.067)
+    r = fit_ball(body, 4.0, heights=(1.0, 0.55, "bottom"))
+    assert r["epsilon"]["nominal"] == pytest.approx(math.sqrt(0.55))
+    assert r["T_s"]["nominal"] == pytest.approx(-math.log(math.sqrt(0.55)) / 4.0)
+    assert r["drop_height_m"] == 1.0 and r["rebound_height_m"] == pytest.approx(0.55)
+    top = fit_ball(body, 4.0, heights=(1.0, 0.6, "top"))
+    assert top["epsilon"]["nominal"] == pytest.approx(math.sqrt(0.6 - 0.067))
+    assert top["rebound_height_m"] == pytest.approx(0.533)
+
+
+@pytest.mark.parametrize("heights, epsilon, message", [
+    ((1.0, None, "bottom"), None, "needs both --drop-height and --rebound-height"),
+    ((1.0, 0.5, "bottom"), 0.7, "not both"),
+    ((100.0, 55.0, "bottom"), None, "heights are in m"),
+    ((1.0, 1.5, "bottom"), None, "cannot rebound higher"),
+])
+def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
+    from vrcal.model.body import describe_body
+
+    body = describe_body(None, mass_kg=0.0577, diameter_m=0.067)
+    with pytest.raises(UsageError, match=message):
+        fit_ball(body, 4.0, heights=heights, epsilon=epsilon)

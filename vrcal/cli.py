@@ -51,6 +51,9 @@ class VrcalGroup(click.Group):
             sys.exit(0)
         except click.ClickException as exc:
             command = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "vrcal"
+            if command == "vrcal":   # an option's missing value is raised without the subcommand's context
+                named = [a for a in (sys.argv[1:] if args is None else list(args)) if a in self.commands]
+                command = f"vrcal {named[0]}" if named else command
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
             click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
@@ -252,6 +255,12 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
 @click.option("--epsilon", type=opt.EPSILON, default=None,
               help="The body's epsilon against a rigid floor (instead of a standard's window or the --from "
                    "result's); needed for a ball of your own.")
+@click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
+              help="Your own drop test: the drop height H to the ball's bottom [m] (with --rebound-height).")
+@click.option("--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
+              help="Your own drop test: the rebound height h [m]; epsilon = sqrt(h/H) (Eq. 9).")
+@click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+              help="Point of the ball the rebound height was read to (needs the ball's diameter).")
 @K_OPTION
 @click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Fix the virtual body's depth x [m]; gives v.")
 @click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None,
@@ -262,12 +271,13 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, K, x_m, v_m_per_s, n, as_paper, fmt, output):
+def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebound_height_m, rebound_measured_to, K,
+        x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of a body: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
     The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
-    --diameter with --epsilon (a ball of your own: one epsilon), or --from a discover result
-    (its ball and measured epsilon). Prints a table for people; --format yaml|json (or -o
+    --diameter with --epsilon or your own drop test's --drop-height and --rebound-height (a ball
+    of your own: one epsilon), or --from a discover result (its ball and measured epsilon). Prints a table for people; --format yaml|json (or -o
     FILE.yaml|.json) gives the full-precision parameter file with schema_version and a unit in
     every key.
 
@@ -278,13 +288,18 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, K, x_m, v_m_per_s, n
       vrcal fit basketball --format yaml
       vrcal fit football --K 4 --x 0.02 -o football.json
       vrcal fit --mass 0.0459 --diameter 0.0427 --epsilon 0.78
+      vrcal fit --mass 0.0577 --diameter 0.067 --drop-height 1 --rebound-height 0.55
       vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
 
     body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
+    heights = None
+    if drop_height_m is not None or rebound_height_m is not None or rebound_measured_to is not None:
+        point = rebound_measured_to or "bottom"
+        heights = (drop_height_m, rebound_height_m, {"center": "centre"}.get(point, point))
     result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
-                      epsilon=epsilon)
+                      epsilon=epsilon, heights=heights)
     emit_result(result, fit_text, fmt, output)
 
 
@@ -515,8 +530,8 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
-              help="Noise of one datum in the data's unit (m, or s for impacts) [default: estimated from a "
-                   "trajectory; 0.2 ms for impacts, 2 mm for apexes].")
+              help="Noise of one datum, in m for heights or s for impact times, whatever unit the file uses "
+                   "(5 mm: 0.005) [default: estimated from a trajectory; 0.2 ms for impacts, 2 mm for apexes].")
 @click.option("--drop-measured-to", type=opt.BALL_POINT, default=None,
               help="Point of the ball the drop heights were measured to (heights only) [default: not stated: the "
                    "bottom, and a height offset is tried].")

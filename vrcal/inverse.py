@@ -60,7 +60,8 @@ class VirtualBody:
         return eq.contact_time_single_s(self.x_m, self.v_m_per_s)
 
 
-def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None):
+def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None,
+             heights=None):
     """The parameter set of a body: epsilon (a window, or one value), T, and its (x, v) family.
 
     Parameters
@@ -81,6 +82,12 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     epsilon : float, optional
         the body's epsilon against a rigid floor (``--epsilon``), instead of a standard's window
         or a discover result's value
+    heights : (float, float, str), optional
+        your own drop test instead (``--drop-height``, ``--rebound-height``, ``--rebound-measured-to``):
+        drop height H to the ball's bottom [m], rebound height h [m], and the point of the ball h was
+        read to ("bottom", "centre" or "top"; brought to the bottom with the body's diameter); epsilon
+        = sqrt(h/H), Eq. (9), without air drag's correction (``vrcal discover`` on a one-row table
+        gives the contact's own)
 
     Returns
     -------
@@ -104,10 +111,17 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
     if v_m_per_s is not None and not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
         raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
+    if heights is not None:
+        if epsilon is not None:
+            raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
+        epsilon, drop_test = _drop_test(body, *heights)
     if epsilon is None and body.discovered is None and body.standard is not None:
         out = _window_fit(body, K, as_paper)
     else:
         out = _single_fit(body, K, as_paper, epsilon)
+    if heights is not None:
+        out.update(drop_test)
+        out["epsilon_source"] = drop_test["epsilon_source"]
     eps = out["epsilon"]
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in eps}  # keyed by the epsilon level
     out["T_s"] = _bounds(T)
@@ -130,6 +144,24 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             "x_m": _bounds({k: eq.virtual_depth_m(v_m_per_s, T[k]) for k in T}),
         }
     return out
+
+
+def _drop_test(body, drop_height_m, rebound_height_m, rebound_measured_to="bottom"):
+    """(epsilon, keys) of one's own drop test: Eq. (9) with the rebound brought to the ball's bottom."""
+    if drop_height_m is None or rebound_height_m is None:
+        raise UsageError("a drop test needs both --drop-height and --rebound-height [m]")
+    for name, value in (("--drop-height", drop_height_m), ("--rebound-height", rebound_height_m)):
+        if value > 20.0:
+            raise UsageError(f"{name} {value:g} m is higher than a drop test is made from: heights are in m "
+                             f"(100 cm: 1)")
+    h = eq.height_to_bottom_m(rebound_height_m, rebound_measured_to, body.diameter_m)
+    eps = float(eq.epsilon_from_heights(h, drop_height_m))
+    read = "" if rebound_measured_to == "bottom" else f"; h read to the {rebound_measured_to}: {rebound_height_m:g} m"
+    return eps, {
+        "epsilon_source": f"your drop test, ε = √(h/H) (Eq. 9){read}",
+        "drop_height_m": float(drop_height_m),
+        "rebound_height_m": float(h),
+    }
 
 
 def _as_body(ball):
@@ -222,7 +254,7 @@ def fit_text(result):
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [
             ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9)"],
-            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
             ["H [m]", *(number(H, 4) for _ in levels), "drop height"],
             ["h [m]", *(number(h[k], 4) for k in levels), "rebound height"],
         ]
@@ -232,10 +264,14 @@ def fit_text(result):
         shown = f"{eps['nominal']:.{places}f}" + (f" ± {u:.{places}f}" if u else "")
         rows = [
             ["ε", shown, r["epsilon_source"]],
-            ["T [ms]", _ms_or_inf(T["nominal"]), f"contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
+            ["T [ms]", _ms_or_inf(T["nominal"]), f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"],
         ]
+        own_test = isinstance(r.get("rebound_height_m"), float)
         if r.get("drop_height_m") is not None:
-            rows.append(["H [m]", number(r["drop_height_m"], 4), "drop height of the discover result"])
+            rows.append(["H [m]", number(r["drop_height_m"], 4),
+                         "drop height" if own_test else "drop height of the discover result"])
+        if own_test:
+            rows.append(["h [m]", number(r["rebound_height_m"], 4), "rebound height, to the ball's bottom"])
     fixed = r.get("fixed")
     if fixed and isinstance(fixed.get("v_m_per_s"), dict):
         x = fixed["x_m"]
@@ -258,7 +294,8 @@ def fit_text(result):
         if r["source"] not in ("standard", "options"):
             who, what = f"{r['ball_name']} from {r['source']}", "one measured ε"
         elif r["ball_name"] != r["ball"] or r["source"] == "standard":
-            who, what = r["ball_name"], "one ε (--epsilon), not the drop-test window"
+            who, what = r["ball_name"], ("one ε (your drop test)" if own_test else "one ε (--epsilon)") + \
+                ", not the standard's drop-test window"
         else:
             who, what = f"{r['ball']}, a ball of your own", "one ε, no drop-test window"
         text = wrap(answer) + wrap(f"{who}: m = {number(r['mass_kg'] * 1e3, 3)} g, "

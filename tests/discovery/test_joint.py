@@ -82,6 +82,24 @@ def test_repeated_trials_measure_the_noise_and_name_no_effect_that_is_not_there(
     assert named <= 1
 
 
+def test_repeated_trials_that_agree_to_the_written_step_are_judged_at_that_step(tmp_path):
+    """Three trials per height typed to whole cm agree exactly (17, 17, 17): their pooled scatter is 0,
+    which made the gap 'inf times the noise floor' and the +- 6 times too small. The noise is at least
+    the written step over sqrt(12), still counted as measured."""
+    from vrcal.discovery.ranking import REPLICATE_SOURCE, noise_known
+
+    H = np.array([0.3, 0.5, 0.8, 1.0, 1.5])
+    h = simulate_drops(H, 0.75, 1, TENNIS).observed_apex_heights_m[:, 1]
+    rows = "".join(f"{int(round(100 * a))},{int(round(100 * b))}\n" for a, b in zip(H, h) for _ in range(3))
+    path = tmp_path / "class.csv"
+    path.write_text("H (cm),h (cm)\n" + rows)
+    d = discover(read_measurement(path), TENNIS)
+    assert d.noise_source.startswith(REPLICATE_SOURCE) and noise_known(d.noise_source)
+    assert d.noise_floor == pytest.approx(0.01 / math.sqrt(12.0))
+    assert d.verdict == "explained" and not d.effects
+    assert abs(d.epsilon - 0.75) < 3 * d.final.uncertainty("epsilon")
+
+
 def test_repeated_trials_still_show_a_strong_drag(tmp_path):
     """A ping-pong ball from 0.3-2 m read to 0.5 %: drag is far beyond the trials' scatter."""
     path = tmp_path / "tt.csv"
@@ -130,6 +148,25 @@ def test_several_drops_from_different_heights_share_the_contact(tmp_path):
     heights = [r["release"]["drop_height_m"] for r in doc["runs"]]
     np.testing.assert_allclose(heights, [0.6, 1.2, 2.0], rtol=0.02)
     assert doc["reader"]["files"] == [str(p) for p in paths]
+
+
+@pytest.mark.parametrize("phases", [(0.0, 0.011), (0.004, 0.017)])
+def test_runs_without_a_floor_are_shifted_by_one_level(tmp_path, phases):
+    """Two runs of a motion detector 50 Hz (y down, origin at the sensor 1.55 m above the floor): each
+    run's lowest sample lies above the contact by where its samples fall in a bounce (up to v dt/2). Each
+    shifted by its own lowest sample, the runs' levels differed by mm and the one contact level fitted to
+    both left a gap 'unexplained' (3.9 times the noise); one shift for all explains them."""
+    paths = []
+    for i, (H, start) in enumerate(zip((1.0, 0.8), phases)):
+        drops = simulate_drops(H, 0.85, 6, BallProperties(mass_kg=0.0459, diameter_m=0.0427), release_time_s=0.3)
+        cols = sample_measurement(drops, "trajectory", fs_hz=50.0, noise_m=0.001, rng=10 + i, t_start_s=start)
+        cols["y"] = -(np.asarray(cols["y"]) - 1.55)        # the sensor's frame: distance down from it
+        paths.append(tmp_path / f"run{i}.csv")
+        paths[-1].write_text(columns_csv(cols, "trajectory"))
+    d = discover_file([str(p) for p in paths], None, mass_kg=0.0459, diameter_m=0.0427, y_down=True)
+    assert any("one level for all runs" in n for n in d.notes)
+    assert d.verdict == "explained" and not d.effects
+    assert d.epsilon == pytest.approx(0.85, abs=0.002)
 
 
 def test_runs_side_by_side_in_one_vernier_file_share_the_contact(tmp_path):

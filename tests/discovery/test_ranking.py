@@ -675,3 +675,19 @@ def test_times_on_a_coarse_grid_are_judged_by_one_scatter(tmp_path):
     assert d.scatter_assumed
     assert d.reference_gap == pytest.approx(max(d.noise_floor, d.scatter_gap)) and d.reference_gap < 2 * d.noise_floor
     assert "from bounce to bounce" not in fit_report(d)
+
+
+@pytest.mark.parametrize("table, noise, unit", [
+    ("H (cm),h (cm)\n100,55\n100,58\n50,28\n", "5", "m"),            # 5 meant mm, the table in cm
+    ("t (ms)\n0\n452\n836\n1163\n1441\n1677\n", "0.5", "s"),          # 0.5 meant ms
+])
+def test_a_noise_as_large_as_the_data_is_refused_with_its_unit(tmp_path, table, noise, unit):
+    """--noise is in m or s whatever the file's unit: --noise 5 for a cm table was taken as 5 m and gave
+    epsilon 0.8 +- 2.5, 'explained'. Now one line saying the unit, exit 2."""
+    path = tmp_path / "d.csv"
+    path.write_text(table)
+    result = run("discover", str(path), "--ball", "tennis", "--noise", noise, "-q")
+    assert result.exit_code == 2, result.output
+    line = result.output.strip()
+    assert len(line.splitlines()) == 1 and f"--noise {noise} {unit} is more than half" in line
+    assert f"--noise is in {unit} whatever unit the file uses" in line

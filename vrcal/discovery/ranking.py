@@ -997,6 +997,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
     given_kind = res._runs_of(data)[0].kind
+    if noise is not None:
+        _check_noise_scale(data, noise)
     prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,
                        sigma_m=noise if given_kind == "trajectory" else None, progress=stages)
     fitted = prepared.data
@@ -1094,6 +1096,27 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      prepared.decimation, n_read, split, nuisance, judged, scatter_limit)
 
 
+def _check_noise_scale(data, noise):
+    """A given noise that is as large as the data themselves is in the wrong unit (``--noise 5`` meant
+    5 mm of a table in cm: it was taken as 5 m, and epsilon came out 0.8 +- 2.5, 'explained'): a
+    UsageError saying the unit."""
+    runs = res._runs_of(data)
+    kind = runs[0].kind
+    if kind == "impacts":
+        dt = np.concatenate([np.diff(np.asarray(r.t_s, dtype=float)) for r in runs])
+        scale, unit, what = (float(np.median(dt)) if dt.size else math.inf), "s", "the median interval between impacts"
+    elif kind == "apexes":
+        h = np.concatenate([np.asarray(r.h_m, dtype=float)[np.asarray(r.bounce) >= 1] for r in runs])
+        scale, unit, what = (float(np.median(h)) if h.size else math.inf), "m", "the median rebound"
+    else:
+        y = np.concatenate([np.asarray(r.y_m, dtype=float) for r in runs])
+        scale, unit, what = float(np.ptp(y)) if y.size else math.inf, "m", "the heights' whole range"
+    if noise >= 0.5 * scale:
+        example = "0.0002 for 0.2 ms" if unit == "s" else "0.005 for 5 mm"
+        raise UsageError(f"--noise {noise:g} {unit} is more than half {what} ({scale:.3g} {unit}): --noise is in "
+                         f"{unit} whatever unit the file uses (e.g. {example})")
+
+
 def chosen_noise(data, prepared, noise=None):
     """The noise of one datum a record is judged at, and where it comes from.
 
@@ -1129,6 +1152,17 @@ def chosen_noise(data, prepared, noise=None):
     else:
         sigma = res.noise_floor(fitted)
         source = REPLICATE_SOURCE if kind == "apexes" else "third differences of the samples"
+        if kind == "apexes" and sigma is not None:
+            # repeated trials that agree to the step they are written to (whole cm: 17, 17, 17) do not
+            # say the noise is nil, only that the ball's scatter is under the step: judged at their
+            # pooled 0, a class table was "inf times the noise floor" with a +- 6 times too small
+            step = written_step_m(fitted)
+            if step is not None and sigma < step / math.sqrt(12.0):
+                sigma = step / math.sqrt(12.0)
+                source = (f"{REPLICATE_SOURCE}, at least the step the heights are written to "
+                          f"({100 * step:.3g} cm) / sqrt(12)")
+            elif sigma <= 0:
+                sigma = None
         if sigma is None:
             sigma, source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
             if kind == "trajectory":
@@ -1150,11 +1184,26 @@ def chosen_noise(data, prepared, noise=None):
 def noise_known(source):
     """Whether a noise of :func:`chosen_noise`'s ``source`` is known (given, or measured in the record
     or its grid) rather than assumed: a known noise is the floor of the fit's uncertainties."""
-    return source in ("given", REPLICATE_SOURCE, GRID_SOURCE) or source.startswith("third differences")
+    return source in ("given", GRID_SOURCE) or source.startswith(("third differences", REPLICATE_SOURCE))
 
 
 #: Relative standard deviation of a height read by eye against a ruler (a rebound's apex).
 READING_FRACTION = 0.01
+
+
+def written_step_m(data):
+    """The step [m] the heights of a drop table or apex file were written to (the readers'
+    ``resolution_m``: the file's own unit, whole inches 25.4 mm), else that of the heights in metres;
+    None when they hold more than six decimals. Not the heights in metres when the reader knew the file's
+    step: 40 in = 1.016 m has four decimals (0.1 mm), and a shift to the ball's bottom
+    (--rebound-measured-to) adds more."""
+    from vrcal.measurements.cleanup import printed_resolution
+
+    runs = res._runs_of(data)
+    written = [r.resolution_m for r in runs if getattr(r, "resolution_m", None) is not None]
+    if written:
+        return max(written)
+    return printed_resolution(np.concatenate([np.asarray(r.h_m, dtype=float) for r in runs]), max_decimals=6)
 
 
 def reading_noise(data):
@@ -1178,16 +1227,10 @@ def reading_noise(data):
     -------
     (float, str)
     """
-    from vrcal.measurements.cleanup import printed_resolution
-
     runs = res._runs_of(data)
     rebounds = np.concatenate([np.asarray(r.h_m, dtype=float)[np.asarray(r.bounce) >= 1] for r in runs])
-    heights = np.concatenate([np.asarray(r.h_m, dtype=float) for r in runs])
     parts = {"2 mm": ASSUMED_NOISE["apexes"]}
-    written = [r.resolution_m for r in runs if getattr(r, "resolution_m", None) is not None]
-    # the step the file wrote (whole inches: 25.4 mm), not that of the heights in metres (1.016 m for
-    # 40 in has four decimals: 0.1 mm), nor after a shift to the ball's bottom (--rebound-measured-to)
-    step = max(written) if written else printed_resolution(heights, max_decimals=6)
+    step = written_step_m(data)
     if step is not None:
         parts[f"heights written to {step * 100:.3g} cm, / sqrt(12)"] = step / math.sqrt(12.0)
         if step >= 0.01 - 1e-12 and rebounds.size:

@@ -111,7 +111,9 @@ def _noise_text(d):
     unit = d.unit
     src = "measured from the samples" if d.noise_source.startswith("third") else (
         "given" if d.noise_source == "given" else
-        "measured: the scatter of repeated trials" if d.noise_source == REPLICATE_SOURCE else
+        ("measured: the scatter of repeated trials" + (", at least the heights' written step / sqrt(12)"
+                                                       if d.noise_source != REPLICATE_SOURCE else ""))
+        if d.noise_source.startswith(REPLICATE_SOURCE) else
         "the grid the times were read on" if d.noise_source == GRID_SOURCE else "assumed")
     if d.decimation > 1 and d.noise_source.startswith("third"):
         src = f"measured on all {d.n_read:,} samples"

@@ -142,6 +142,8 @@ def _detect(text, below=None):
     otherwise."""
     no, line = text.lines[0]
     what = _DOCUMENTS.get(line.lstrip()[:1])
+    if what is None and any(s.startswith("schema_version:") for _, s in text.lines):
+        what = "a YAML document of vrcal (a 'vrcal fit' or 'vrcal discover' result, an export?)"
     if what is not None:
         fail(text.path, no, f"{what}, not a measurement: give the measured file (a table of times, "
                             f"heights or positions, a sound or a video; docs/measurements.md)")

@@ -315,7 +315,8 @@ def read_discover_json(path):
         raise DataError(f"{where}: not a discover JSON (binary, or not UTF-8 text)") from None
     except (json.JSONDecodeError, RecursionError) as exc:
         detail = f"line {exc.lineno}: {exc.msg}" if isinstance(exc, json.JSONDecodeError) else "nested too deeply"
-        raise DataError(f"{where}: not a discover JSON: {detail}") from None
+        raise DataError(f"{where}: not a discover JSON ({detail}): --from takes the file of 'vrcal discover DATA "
+                        f"--ball B --json FILE'") from None
     if not isinstance(doc, dict):
         raise DataError(f"{where}: not a discover JSON: the top level is a {type(doc).__name__}, not an object "
                         "(write one with 'vrcal discover DATA --ball B --json FILE')")

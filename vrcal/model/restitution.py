@@ -178,7 +178,7 @@ def contact_time_from_epsilon_s(epsilon, K_per_s):
     """
     eps = _epsilon_in_unit_interval(epsilon)
     K = _positive("K_per_s", K_per_s)
-    return _out(-np.log(eps) / K)
+    return _out(-np.log(eps) / K + 0.0)   # + 0.0: epsilon = 1 gives 0, not -0
 
 
 def epsilon_pair(x_a_m, v_a_m_per_s, x_b_m, v_b_m_per_s, K_per_s):
