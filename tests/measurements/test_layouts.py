@@ -287,7 +287,8 @@ def test_unsorted_labels_are_an_error_naming_the_line(tmp_path):
 
 @pytest.mark.parametrize("header", ["Drop height (cm),Rebound height (cm)", "Height dropped (cm),Height bounced (cm)",
                                     "drop_cm,bounce_cm", "Dropped from (cm);Bounced to (cm)",
-                                    "Release height [cm],Bounce height [cm]", "Initial height (cm),Return height (cm)"])
+                                    "Release height [cm],Bounce height [cm]", "Initial height (cm),Return height (cm)",
+                                    "Initial Height (cm),Final Height (cm)", "Starting height (cm),Bounce height (cm)"])
 def test_drop_tables_as_students_name_their_columns(tmp_path, header):
     H, h = [50.0, 100.0, 150.0], [32.1, 63.5, 94.2]
     sep = ";" if ";" in header else ","
@@ -416,6 +417,63 @@ def test_a_title_cell_above_a_workbooks_table_is_skipped(tmp_path):
     np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.55])
 
 
+@pytest.mark.parametrize("title", ["", "Bouncing ball lab,,\n", "Bouncing ball lab\n"])
+@pytest.mark.parametrize("units", [",cm,cm", ",(cm),[cm]", "-,centimetres,cm"])
+def test_a_units_row_below_the_header_gives_the_units(tmp_path, title, units):
+    """A class's sheet names its units in a row under the header (with or without a title above): "'cm' is
+    not a number" or '3 cells but the header names 1 columns' before."""
+    text = f"{title}Trial,Drop height,Rebound height\n{units}\n1,30,16.9\n2,30,17\n1,100,56.3\n"
+    data = read_measurement(write(tmp_path, "units.csv", text))
+    assert isinstance(data, Runs) and len(data.runs) == 3
+    np.testing.assert_allclose(data.runs[2].h_m, [1.0, 0.563])
+    first = 3 if title else 2
+    assert f"line {first} is a row of units" in " ".join(data.notes)
+    assert "read into the header ('Drop height (" in " ".join(data.notes)
+    assert data.labels[0] == f"row 1 (line {first + 1})"
+
+
+def test_a_units_row_repeating_or_contradicting_the_header(tmp_path):
+    same = read_measurement(write(tmp_path, "same.csv", "t (s),y (m)\ns,m\n" + "".join(
+        f"{t:.3f},{y:.5f}\n" for t, y in zip(*fall()))))
+    assert isinstance(same, Trajectory) and "line 2 is a row of units (s, m) that repeats the header's: skipped" \
+        in same.notes
+    ms = read_measurement(write(tmp_path, "ms.csv", "t,y\nms,cm\n" + "".join(
+        f"{t * 1e3:.1f},{y * 100:.3f}\n" for t, y in zip(*fall()))))
+    np.testing.assert_allclose(ms.t_s[-1], fall()[0][-1]) and np.testing.assert_allclose(ms.y_m[0], 1.2)
+    with pytest.raises(DataError, match=r"units.csv:2: column 'Drop height' is in cm by its header \(line 1\) "
+                                        r"and in mm by the units row below it"):
+        read_measurement(write(tmp_path, "units.csv", "Drop height (cm),Rebound height\nmm,mm\n30,16.9\n"))
+
+
+def test_a_second_header_row_of_names_is_no_units_row(tmp_path):
+    """Only a row of units is read into the header: a row of other words stays an error naming it."""
+    with pytest.raises(DataError, match="'x' is not a number"):
+        read_measurement(write(tmp_path, "two.csv", "Drop height,Rebound height\nx,y\n30,16.9\n"))
+
+
+@pytest.mark.parametrize("sep", [",", ";", "\t"])
+def test_rows_of_empty_cells_between_the_data_are_skipped_with_a_note(tmp_path, sep):
+    """Excel and LibreOffice save an empty row of a sheet as ',,': 'empty cell in column ...' before."""
+    rows = ["Trial,Drop height (cm),Rebound height (cm)", "1,30,16.9", ",,", "1,50,27.9", ",,", ",,", "1,100,56.3",
+            ",,", ",,"]
+    data = read_measurement(write(tmp_path, "blank.csv", "\n".join(r.replace(",", sep) for r in rows) + "\n"))
+    assert len(data.runs) == 3 and data.notes[0] == "lines 3, 5, 6: 3 rows of empty cells, skipped"
+
+
+def test_empty_rows_inside_a_workbooks_table_are_said(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    for row in [["Drop height"], ["cm"], [30], [], [50], [], []]:
+        ws.append(row)
+    ws["B1"], ws["B2"], ws["B3"], ws["B5"] = "Rebound height", "cm", 16.9, 27.9
+    path = tmp_path / "class.xlsx"
+    wb.save(path)
+    data = read_measurement(path)
+    assert len(data.runs) == 2 and "line 4: a row of empty cells, skipped" in data.notes
+    assert any(n.startswith("line 2 is a row of units (cm, cm)") for n in data.notes)
+
+
 @pytest.mark.parametrize("title,header", [("Tennis ball drop 100 cm", '"Event time (s)"'),
                                           ("Ball lab, group 3", "t"), ("Golf ball\nGroup 3", "Time (ms)")])
 def test_a_title_above_a_one_column_impact_file_is_skipped(tmp_path, title, header):
@@ -455,6 +513,31 @@ def test_trials_side_by_side_are_one_run_each_and_the_average_is_not_read(tmp_pa
     assert [r.h_m[1] for r in data.runs] == pytest.approx([0.320, 0.331, 0.642, 0.630, 0.651])
     assert data.labels[1] == "row 1 (line 2), 'Trial 2'"
     assert any("'Average' not read" in n for n in data.notes)
+
+
+@pytest.mark.parametrize("names", ["1st bounce,2nd bounce,3rd bounce", "First bounce,Second bounce,Third bounce",
+                                   "first rebound,second rebound,third rebound", "3rd bounce,1st bounce,2nd bounce"])
+def test_ordinal_bounce_columns_are_the_successive_rebounds(tmp_path, names):
+    """'1st bounce, 2nd bounce, 3rd bounce': only the first was read before, silently ('4 heights' of 8)."""
+    header = "Drop height (cm)," + ",".join(f"{n} (cm)" for n in names.split(","))
+    order = [int(n[0]) if n[0].isdigit() else 0 for n in names.split(",")]
+    rows = [[100, 56.3, 31.6, 17.8], [50, 28.1, 15.8, 8.9]]
+    if order == [3, 1, 2]:
+        rows = [[r[0], r[3], r[1], r[2]] for r in rows]
+    data = read_measurement(write(tmp_path, "o.csv", header + "\n" + "".join(",".join(map(str, r)) + "\n"
+                                                                              for r in rows)))
+    assert [list(r.bounce) for r in data.runs] == [[0, 1, 2, 3]] * 2
+    np.testing.assert_allclose(data.runs[0].h_m, [1.0, 0.563, 0.316, 0.178])
+    assert any("successive rebounds of one drop" in n for n in data.notes)
+
+
+def test_a_numeric_column_not_read_is_named(tmp_path):
+    """A column of numbers the drop table does not read is said, not dropped silently; a trial number is not."""
+    data = read_measurement(write(tmp_path, "x.csv", "Trial,Drop height (cm),Rebound height (cm),Bounce after (cm),"
+                                                     "Comment\n1,100,56.3,31.6,ok\n2,100,56.0,31.2,\n"))
+    assert len(data.runs) == 2 and data.runs[0].h_m.size == 2
+    said = [n for n in data.notes if "not read" in n]
+    assert len(said) == 1 and said[0].startswith("column(s) 'Bounce after' not read: not a drop or rebound height")
 
 
 @pytest.mark.parametrize("rows,trials", [(("100,64,63,65", "50,32,33,31"), True),
@@ -700,6 +783,60 @@ def test_detect_format_reads_a_workbooks_sheet(tmp_path):
     assert detect_format(tmp_path / "d.xlsx") == "drops"
 
 
+def _phyphox_zip(path, members):
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, text in members.items():
+            zf.writestr(name, text)
+    return path
+
+
+def test_a_phyphox_zip_export_is_read_from_its_all_csv(tmp_path):
+    """phyphox's CSV export is a zip of one CSV per data set and a meta folder: 'binary file ... save it as
+    CSV' before. Its 'All.csv' is read (like the 'All' sheet of its Excel export), --sheet reads another."""
+    t = impact_times(n=8)
+    all_csv = '"Event time (s)","Interval (s)"\n' + "".join(f"{v:.9E},0\n" for v in t)
+    multiple = ",".join(['"Start (s)"'] + [f'"Stop {i} (s)"' for i in range(1, 6)]) + "\n" + \
+        ",".join(f"{v:.9E}" for v in t[:6]) + "\n"
+    path = _phyphox_zip(tmp_path / "export.zip", {"All.csv": all_csv, "Simple.csv": '"Start (s)","Stop (s)"\n1,2\n',
+                                                   "Multiple.csv": multiple, "meta/device.csv": '"property","value"\n'})
+    assert detect_format(path) == "impacts"
+    data = read_measurement(path)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-8)
+    assert data.source == f"{path}[All.csv]"
+    assert data.notes[0] == ("zip archive: 'All.csv' read (also in it: 'Simple.csv', 'Multiple.csv'; --sheet to read "
+                             "another)")
+    np.testing.assert_allclose(read_measurement(path, sheet="Multiple").t_s, t[:6], atol=1e-8)
+    with pytest.raises(UsageError, match=r"no table 'Raw' in the archive \(tables: 'All.csv', 'Simple.csv'"):
+        read_measurement(path, sheet="Raw")
+
+
+def test_a_zip_without_one_table_to_read_says_how_to_choose(tmp_path):
+    one = _phyphox_zip(tmp_path / "one.zip", {"Raw data.csv": "t\n" + "".join(f"{v}\n" for v in impact_times(n=6))})
+    assert read_measurement(one).t_s.size == 6
+    two = _phyphox_zip(tmp_path / "two.zip", {"a.csv": "t\n1\n", "b.csv": "t\n2\n"})
+    with pytest.raises(DataError, match=r"two.zip: a zip archive of 2 tables \('a.csv', 'b.csv'\): give --sheet NAME"):
+        read_measurement(two)
+    none = _phyphox_zip(tmp_path / "none.zip", {"photo.jpg": "x"})
+    with pytest.raises(DataError, match="a zip archive with no CSV or text table in it"):
+        read_measurement(none)
+    bad = tmp_path / "bad.zip"
+    bad.write_bytes(b"PK\x03\x04" + b"\x00" * 40)
+    with pytest.raises(DataError, match="not a readable zip archive"):
+        read_measurement(bad)
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be"])
+def test_a_utf16_text_file_is_read(tmp_path, encoding):
+    """Excel's "Unicode Text" is UTF-16 with a byte order mark, tab-separated: 'binary file' before."""
+    text = "Trial\tDrop height (cm)\tRebound height (cm)\r\n1\t30\t16.9\r\n2\t100\t56.3\r\n"
+    path = tmp_path / "unicode.txt"
+    path.write_bytes(("\ufeff" + text).encode(encoding))
+    data = read_measurement(path)
+    np.testing.assert_allclose(data.runs[1].h_m, [1.0, 0.563])
+
+
 def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
     path = shared_file("realval/giiulia_phyphox_excel/tennis_ball/Lancio 1, tennis, 65.xls")
     real_import = builtins.__import__
@@ -720,7 +857,8 @@ def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
 CELLS = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.integers(-10**6, 10**6).map(str),
                   st.sampled_from(["t", "y", "h", "H", "bounce", "time (ms)", "y (px)", "drop", "rebound", "",
                                    "nan", "1,5", "-", "x", "#", '"', "mass_A", "0.0687", "84.1", "Fallhöhe (cm)",
-                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3"]))
+                                   "Rückprallhöhe in cm", "H (in)", "h (yd)", "Ball lab - group 3", "cm", "(s)",
+                                   "m/s"]))
 LINES = st.lists(st.lists(CELLS, min_size=1, max_size=4).map(lambda cs: st.sampled_from([",", ";", "\t", " "]).map(
     lambda sep: sep.join(cs))), min_size=0, max_size=30)
 

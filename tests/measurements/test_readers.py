@@ -408,6 +408,7 @@ def test_clean_geometric_series_with_jitter_flags_nothing(eps, H, n, seed):
     found = impact_chains(t)
     assert found.chains == ((0, n - 1),) and found.rejected == () and found.anomalies == ()
     assert detect_impact_anomalies(t) == (n, ())
+    assert impact_chains(t, leading=True).anomalies == ()   # the first impact is one
 
 
 @pytest.mark.parametrize("eps", [0.6, 0.75, 0.9])
@@ -485,6 +486,95 @@ def test_a_growing_interval_is_impossible_and_cut():
 
 def test_anomalies_are_vectorised_on_short_input():
     assert detect_impact_anomalies([0.1, 0.5]) == (2, ())
+
+
+@pytest.mark.parametrize("before_s", [0.4, 0.5])
+def test_a_clap_before_the_release_is_no_first_impact(before_s):
+    """A clap 0.4 or 0.5 s before the release makes an interval ratio 6 % above or 5 % below the 0.85 of
+    every bounce: inside a fixed 12 % tolerance, but 5 standard deviations off for 0.2 ms timing and a
+    first bounce's 1 %. It is taken out as no impact; without ``leading`` (a trajectory's bounces) it is
+    kept as before."""
+    t = impact_times(1.0, 0.85, 10, release=2.0)
+    t = np.concatenate([[2.0 - before_s], t]) + np.random.default_rng(1).normal(0, 2e-4, 11)
+    found = impact_chains(t, leading=True)
+    assert found.chains == ((1, 10),)
+    assert [i for i, _, _ in found.rejected] == [0]
+    assert "event 1 at t = " in found.rejected[0][2] and "no impact of the bounce sequence" in found.rejected[0][2]
+    assert impact_chains(t).chains == ((0, 10),)
+
+
+def _drops_with_effects():
+    """Impact times of real-ball physics whose first ratio departs most from the later ones."""
+    from vrcal.drop.simulate import simulate_drops
+    from vrcal.model.body import BallProperties
+
+    balls = {"golf": BallProperties(0.0459, 0.0427, "golf"), "tennis": BallProperties(0.0577, 0.067, "tennis"),
+             "table_tennis": BallProperties(0.0027, 0.040, "table tennis")}
+    cases = [("table_tennis", 0.9, {"air_drag": {"drag_coefficient": 1.0}}),
+             ("table_tennis", 0.9, {"air_drag": {"drag_coefficient": 0.47},
+                                    "velocity_dependent_restitution": {"exponent": 0.5}}),
+             ("tennis", 0.75, {"velocity_dependent_restitution": {"exponent": 0.5},
+                               "contact_duration": {"contact_time_s": 0.006}}),
+             ("golf", 0.8, {"velocity_dependent_restitution": {"exponent": 1.0}})]
+    for ball, eps, effects in cases:
+        for H in (0.3, 1.0, 4.0):
+            yield simulate_drops(H, eps, 12, balls[ball], effects=effects).impact_times_s[0]
+
+
+def test_real_first_impacts_are_kept_whatever_bends_the_ratios():
+    """Air drag, a speed-dependent epsilon and a finite contact lower the fastest bounce's ratio (down to
+    8 % below the straight line of the later ones for a table-tennis ball dropped from 4 m): the first
+    impact stays."""
+    from vrcal.measurements.cleanup import leading_intruder
+
+    rng = np.random.default_rng(2)
+    for t in _drops_with_effects():
+        for _ in range(3):
+            assert leading_intruder(t + rng.normal(0, 2e-4, t.size)) is None
+
+
+@pytest.mark.parametrize("name", ["tennis_65cm_L4", "blue_45cm_L5", "blue_55cm_L3", "blue_35cm_L3", "golf_80cm_r3",
+                                  "pingpong_10cm_L6"])
+def test_the_first_impacts_of_real_records_are_kept(name):
+    """The phyphox records of ../shared/data whose first ratio lies farthest off the later ones (tennis_65cm_L4:
+    5 % below; blue_45cm_L5: 4 % above ratios scattering by 3 %; golf_80cm_r3: 1 % below ratios steady to
+    0.03 %)."""
+    from vrcal.measurements.cleanup import leading_intruder
+
+    t = read_measurement(shared_file(f"realval/giiulia/{name}.csv")).t_s
+    assert leading_intruder(t) is None
+
+
+def test_drops_repeated_alike_keep_their_first_impact():
+    """The same drop three times in one file: its intervals repeat, so the later ratios lie at equal
+    intervals (no slope from such pairs; all of them once made the line NaN and every event an intruder)."""
+    one = impact_times(1.0, 0.85, 10)
+    found = impact_chains(np.concatenate([one + 6.0 * k for k in range(3)]), leading=True)
+    assert found.chains == ((0, 9), (10, 19), (20, 29))
+    assert not any("no impact of the bounce sequence" in why for _, why in found.anomalies)
+
+
+def test_the_first_impact_test_scales_with_the_bounces_scatter():
+    """The same first ratio 5 % below the line: refused when the later ratios agree to 0.2 ms timing,
+    kept when they scatter by 2 % (a ball bouncing off a rough floor)."""
+    from vrcal.measurements.cleanup import leading_intruder
+
+    dt = 0.8 * 0.85 ** np.arange(12)
+    rough = dt * np.exp(np.random.default_rng(3).normal(0, 0.02, dt.size))
+    for flights, kept in ((dt, False), (rough, True)):
+        flights = flights.copy()
+        flights[0] = flights[1] / (0.95 * flights[1] / flights[0])   # the first ratio 5 % lower
+        t = np.concatenate([[0.0], np.cumsum(flights)])
+        assert (leading_intruder(t) is None) == kept
+
+
+def test_an_impact_file_with_a_clap_first_names_it_and_keeps_the_bounces(tmp_path):
+    t = impact_times(1.0, 0.85, 10, release=2.0)
+    p = write(tmp_path, "stopwatch.csv", "Event time (s)\n1.6\n" + "\n".join(f"{v:.5f}" for v in t) + "\n")
+    data = read_measurement(p)
+    np.testing.assert_allclose(data.t_s, t, atol=1e-5)
+    assert list(data.events) == list(range(2, 12))
+    assert any(n.startswith("event 1 (line 2) at t = 1.6000 s is no impact of the bounce sequence") for n in data.notes)
 
 
 def test_reader_names_events_and_lines_and_keeps_the_chains(tmp_path):

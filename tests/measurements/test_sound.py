@@ -66,6 +66,20 @@ def test_clap_and_voice_between_bounces_are_rejected_by_the_physics(tmp_path):
     assert any("noise (clap, voice" in n for n in st.impacts.notes)
 
 
+@pytest.mark.parametrize("before_s", [0.4, 0.5])
+def test_a_clap_just_before_the_release_is_not_taken_as_the_first_impact(tmp_path, before_s):
+    """'Three, two, one', a clap, and the drop: a clap 0.4-0.5 s before the release fits the bounces'
+    interval ratio within 6 % (inside the chain's 12 % window), far off for 0.2 ms timing: left out, with
+    its reason first in the notes."""
+    t, v = drop(H=1.0, eps=0.85, n=10, release=2.0)
+    scene = SoundScene(noise_rms=0.002, clap_times_s=(2.0 - before_s,))
+    path = tmp_path / "clap.wav"
+    write_wav(path, impact_sound(t, v, scene=scene, seed=4), 48000)
+    got = read_measurement(path)
+    assert got.t_s.size >= 8 and np.max(np.abs(got.t_s - t[:got.t_s.size])) < 2.5e-4
+    assert "no impact of the bounce sequence" in [n for n in got.notes if "rejected" in n][0]
+
+
 @pytest.mark.parametrize("bits", [16, 24, 32, "float"])
 @pytest.mark.parametrize("fs", [44100, 48000, 96000])
 def test_every_wav_sample_type_and_rate(tmp_path, bits, fs):
@@ -77,6 +91,24 @@ def test_every_wav_sample_type_and_rate(tmp_path, bits, fs):
     assert got.t_s.size == 6
     assert np.max(np.abs(got.t_s - t)) < 2.5e-4
     assert f"{fs / 1000:g} kHz" in got.notes[0]
+    assert ("32-bit float" if bits == "float" else f"{bits}-bit") in got.notes[0]   # 24-bit was called 32-bit
+
+
+def test_the_bits_of_an_extensible_wav_are_its_valid_bits(tmp_path):
+    """WAVE_FORMAT_EXTENSIBLE (a phone's 24-bit recording, after a LIST chunk) states its valid bits."""
+    import struct
+
+    from vrcal.measurements.sound import _wav_bits
+
+    fmt = struct.pack("<HHIIHHHHI16s", 0xFFFE, 2, 44100, 44100 * 8, 8, 32, 22, 24, 3, b"\x01" + b"\x00" * 15)
+    info = b"INFOISFT" + struct.pack("<I", 4) + b"abc\x00"
+    body = b"LIST" + struct.pack("<I", len(info)) + info + b"fmt " + struct.pack("<I", len(fmt)) + fmt \
+        + b"data" + struct.pack("<I", 0)
+    path = tmp_path / "x.wav"
+    path.write_bytes(b"RIFF" + struct.pack("<I", 4 + len(body)) + b"WAVE" + body)
+    assert _wav_bits(path) == 24
+    path.write_bytes(b"RIFF\x04\x00\x00\x00WAVE")
+    assert _wav_bits(path) is None
 
 
 def test_quiet_last_bounces_are_left_out_with_a_note(tmp_path):
@@ -214,8 +246,32 @@ def test_other_containers_need_pyav_or_read_with_it(tmp_path):
     _encode(av, aac, x, "aac", "fltp")
     got = read_measurement(aac)
     assert got.t_s.size == 6
-    # a lossy codec smears each onset (pre-echo): intervals stay within 1.5 ms, not 0.25 ms
-    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1.5e-3
+    # a lossy codec smears each onset (pre-echo), which the onsets look past: intervals within 0.5 ms
+    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 5e-4
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_aac_pre_echo_neither_moves_the_onsets_nor_splits_the_bounces(tmp_path, seed):
+    """AAC at 64 kbit/s smears each impact's noise up to 3 ms before it (pre-echo: the codec's transform
+    block). The onset was the pre-echo's start (2-3 ms early) and the level, taken in the pre-echo, too
+    low, so that the next impact seemed 6 dB louder: the first impacts were lost, or one drop split in
+    two. Now the impact's own start is timed, and the sequence is whole."""
+    av = require_extra("av", "audio")
+    t, v = drop(H=1.0, eps=0.85, n=10, release=0.5)
+    x = impact_sound(t, v, scene=SoundScene(noise_rms=0.001), seed=seed)
+    path = tmp_path / "drop.m4a"
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("aac", rate=48000)
+        stream.layout, stream.bit_rate = "mono", 64000
+        frame = av.AudioFrame.from_ndarray((x.T * 0.9).astype(np.float32), format="fltp", layout="mono")
+        frame.sample_rate = 48000
+        for packet in [*stream.encode(frame), *stream.encode(None)]:
+            out.mux(packet)
+    got = read_measurement(path)
+    assert got.t_s.size == 10 and got.chains == ()
+    # the encoder's priming shifts every time alike (not signalled in this file); the intervals are exact to 1 ms
+    assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1e-3
+    assert any(n.startswith("lossy coding: each onset is the impact's own start") for n in got.notes)
 
 
 def test_two_drops_in_one_recording_are_two_chains_and_a_room_echo_is_called_one(tmp_path):
@@ -235,3 +291,59 @@ def test_two_drops_in_one_recording_are_two_chains_and_a_room_echo_is_called_one
     assert b - a >= 8 and d - c >= 7
     assert any("a second drop" in n for n in got.notes)
     assert any("echo or ringing: 30.0 ms after an impact" in n for n in got.notes)
+
+
+@pytest.mark.parametrize("name,container,brand", [("phone.m4a", "mp4", b"isom"), ("android.m4a", "mp4", b"mp42"),
+                                                  ("recorder.3gp", "3gp", b"3gp")])
+def test_a_phones_sound_only_mp4_or_3gp_reads_as_sound_whatever_its_brand(tmp_path, name, container, brand):
+    """Android's recorder writes AAC in an MP4 with the brand 'isom' or 'mp42' (or a '3gp4' .3gp), not
+    iTunes' 'M4A ': its tracks (sound, no video) tell it from a video, and it reads as sound."""
+    av = require_extra("av", "audio")
+    from vrcal.measurements.reader import detect_format
+    from vrcal.measurements.sound import mp4_track_kinds
+
+    t, v = drop(n=6)
+    path = tmp_path / name
+    options = {"brand": brand.decode()} if container == "mp4" else {}
+    with av.open(str(path), "w", format=container, options=options) as out:
+        stream = out.add_stream("aac", rate=48000)
+        stream.layout = "mono"
+        frame = av.AudioFrame.from_ndarray(impact_sound(t, v, scene=SoundScene(noise_rms=0.001), seed=0).T
+                                           .astype(np.float32) * 0.9, format="fltp", layout="mono")
+        frame.sample_rate = 48000
+        for packet in [*stream.encode(frame), *stream.encode(None)]:
+            out.mux(packet)
+    assert path.read_bytes()[8:8 + len(brand)] == brand   # the brand says nothing of sound
+    assert mp4_track_kinds(path) == frozenset({"soun"})
+    assert detect_format(path) == "sound"
+    got = read_measurement(path)
+    assert got.t_s.size == 6 and np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 1.5e-3
+    # read as a video on purpose: the error says what it is (not 'give --ball or --diameter')
+    with pytest.raises(DataError, match="a sound recording .no video track"):
+        read_measurement(path, "video")
+
+
+def test_track_kinds_of_a_video_and_of_files_without_a_track_list(tmp_path):
+    av = require_extra("av", "audio")
+    from vrcal.measurements.sound import mp4_track_kinds
+
+    video = tmp_path / "clip.mp4"
+    with av.open(str(video), "w") as out:
+        stream = out.add_stream("mpeg4", rate=10)
+        stream.width, stream.height, stream.pix_fmt = 32, 32, "yuv420p"
+        for i in range(3):
+            frame = av.VideoFrame.from_ndarray(np.full((32, 32, 3), 40 * i, dtype=np.uint8), format="rgb24")
+            for packet in stream.encode(frame):
+                out.mux(packet)
+        for packet in stream.encode(None):
+            out.mux(packet)
+    assert "vide" in mp4_track_kinds(video)
+    cut = tmp_path / "cut.m4a"
+    cut.write_bytes(b"\x00\x00\x00\x18ftypisom\x00\x00\x02\x00isommp42\x00\x00\x10\x00mdat")  # no moov
+    assert mp4_track_kinds(cut) is None
+    assert mp4_track_kinds(tmp_path / "missing.mp4") is None
+    from vrcal.measurements.reader import detect_format
+    assert detect_format(cut) == "sound"          # no track list: a .m4a name is sound ...
+    mp4 = tmp_path / "cut.mp4"
+    mp4.write_bytes(cut.read_bytes())
+    assert detect_format(mp4) == "video"          # ... a .mp4 a video

@@ -6,6 +6,7 @@ missed impacts and odd bounces in a series of impact times (chains of consecutiv
 from __future__ import annotations
 
 import bisect
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -396,26 +397,114 @@ class ImpactChains(NamedTuple):
 _THEIL_SEN_POINTS = 400
 
 
-def _trend_ratio(q, w):
+def _trend_ratio(q):
     """Robust straight line through ln q (Theil-Sen over the plausible ratios): expected q_i."""
     i = np.arange(q.size, dtype=float)
     ok = (q > 0.3) & (q < 1.0)
     if ok.sum() < 2:
         return np.full(q.size, float(np.median(q)))
-    x, v = i[ok], np.log(q[ok])
-    if x.size > _THEIL_SEN_POINTS:    # the slope from evenly spread ratios: pairs grow as the square
-        pick = np.linspace(0, x.size - 1, _THEIL_SEN_POINTS).round().astype(int)
+    level, slope = _theil_sen(i[ok], np.log(q[ok]))
+    return np.exp(level + slope * i)
+
+
+def _theil_sen(x, v, min_points=4):
+    """``(level, slope)`` of the robust straight line ``v = level + slope x`` (Theil-Sen: the median of the
+    pairwise slopes, at most :data:`_THEIL_SEN_POINTS` points evenly spread; flat with fewer than
+    ``min_points`` points)."""
+    n = x.size
+    if n > _THEIL_SEN_POINTS:    # the slope from evenly spread points: pairs grow as the square
+        pick = np.linspace(0, n - 1, _THEIL_SEN_POINTS).round().astype(int)
         x, v = x[pick], v[pick]
     a, b = np.triu_indices(x.size, 1)
-    slope = float(np.median((v[b] - v[a]) / (x[b] - x[a]))) if a.size else 0.0
-    slope = 0.0 if ok.sum() < 4 else slope    # too few ratios for a trend
-    level = float(np.median(v - slope * x))
-    return np.exp(level + slope * i)
+    step = x[b] - x[a]
+    apart = step != 0    # points at one x (the same interval in two drops) give no slope
+    slope = float(np.median((v[b] - v[a])[apart] / step[apart])) if apart.any() else 0.0
+    slope = 0.0 if n < min_points else slope    # too few points for a trend
+    return float(np.median(v - slope * x)), slope
 
 
 #: Timing noise of an acoustic stopwatch's impact times [s] (phyphox-like): what the readers assume
 #: unless the times' own grid is coarser (:func:`time_grid`), and what ``vrcal discover`` judges at.
 TIMING_SIGMA_S = 2e-4
+
+
+#: How far a real ball's first interval ratio lies off the line of the later ones beyond their own
+#: scatter (1 %: up to 0.8 % in the phyphox records of ``../shared/data``, whose later ratios scatter by 0.1-0.6 %).
+FIRST_RATIO_SPREAD = 0.01
+#: Standard deviations off the later bounces' line that make a first event no impact (:func:`leading_intruder`).
+LEADING_SIGMAS = 4.0
+
+
+#: How :func:`leading_intruder`'s reasons start.
+NOT_AN_IMPACT = "no impact of the bounce sequence"
+
+
+def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGMAS):
+    """Why the first of a series of impact times is no impact of the bounce sequence (a clap or a word
+    0.3-0.6 s before the release), or None when it may be one; the reason starts with
+    :data:`NOT_AN_IMPACT`.
+
+    The first interval ratio ``q_0 = dt_1 / dt_0`` is compared with the ratio the later bounces give
+    for a flight as long as ``dt_0``: the robust straight line (Theil-Sen) through their ``ln q_i``
+    against the interval before each, ``dt_i`` (which grows with the impact speed), at ``dt_0``. Its
+    standard deviation there is ``sigma = sqrt(u_0^2 + s^2 (1 + l) + FIRST_RATIO_SPREAD^2)``: ``u_0``
+    the ratio's timing uncertainty (``sqrt(2) timing_sigma_s sqrt(1/dt_0^2 + 1/dt_1^2)``), ``s`` the
+    later ratios' own scatter about their line (1.4826 times the median absolute residual), ``l`` the
+    line's prediction variance one point beyond them over ``s^2`` (``1/m + (dt_0 - mean)^2 / S_xx``), and
+    :data:`FIRST_RATIO_SPREAD`. So the test scales with the record: a clean recording (0.2 ms timing,
+    ratios steady to 0.1 %) refuses a clap 5 % off the line, a ball whose bounces scatter by 2 % keeps a
+    first ratio 6 % off it.
+
+    The physics is one-sided. Air drag, an epsilon that falls with the impact speed and a finite contact
+    all lower the ratios of the fastest (first) bounces, by more than a straight line says when they grow
+    faster than linearly with the speed: a first ratio *below* the line is an intruder only beyond
+    ``n_sigma sigma`` plus the line's own change from the second interval to the first (the curvature may
+    double it); one *above* the line, which no such effect gives, beyond ``n_sigma sigma``. Judged from six
+    events on (three later ratios).
+
+    Parameters
+    ----------
+    t_s : array_like
+        event times [s], increasing
+    timing_sigma_s : float
+        standard deviation of the timing of one event [s]
+    n_sigma : float
+        standard deviations off the line that make the first event an intruder
+
+    Returns
+    -------
+    str or None
+    """
+    t = np.asarray(t_s, dtype=float)
+    if t.size < 6:
+        return None
+    dt = np.diff(t)
+    if not np.all(dt > 0):
+        return None
+    q = dt[1:] / dt[:-1]
+    u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
+    judged = (u < 0.25) & (q > 0.3) & (q < 1.0)
+    judged[0] = False
+    x, v = dt[:-1][judged], np.log(q[judged])
+    if x.size < 3:
+        return None
+    level, slope = _theil_sen(x, v, min_points=3)
+    s = 1.4826 * float(np.median(np.abs(v - level - slope * x)))
+    spread = float(np.sum((x - x.mean()) ** 2))
+    line = 1.0 / x.size + ((dt[0] - x.mean()) ** 2 / spread if spread > 0 else 0.0)
+    sigma = math.sqrt(u[0] ** 2 + s ** 2 * (1.0 + line) + FIRST_RATIO_SPREAD ** 2)
+    expected = level + slope * dt[0]
+    dev = math.log(q[0]) - expected
+    if not (math.isfinite(dev) and math.isfinite(sigma)):
+        return None
+    bend = abs(slope * (dt[0] - dt[1])) if dev < 0 else 0.0
+    if abs(dev) <= n_sigma * sigma + bend:
+        return None
+    side = "below" if dev < 0 else "above"
+    return (f"{NOT_AN_IMPACT}: the first interval ratio "
+            f"{q[0]:.3f} lies {abs(math.expm1(dev)):.1%} {side} the {math.exp(expected):.3f} the later bounces give "
+            f"({(abs(dev) - bend) / sigma:.1f} standard deviations: their ratios scatter by {s:.2%}, the timing by "
+            f"{u[0]:.2%}, a first bounce by {FIRST_RATIO_SPREAD:.0%}): a clap or a sound before the drop; left out")
 
 
 def _after_missed(dt, r, tolerance, max_missed):
@@ -434,7 +523,8 @@ def _after_missed(dt, r, tolerance, max_missed):
     return np.where(fits, dt[:-2] * r ** (j + 3.0), np.inf)
 
 
-def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fraction=0.5, max_missed=3, labels=None):
+def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fraction=0.5, max_missed=3, labels=None,
+                  leading=False):
     """Split a series of impact times into chains of consecutive bounces.
 
     Between impacts the flight times dt_i = t_{i+1} - t_i shrink geometrically,
@@ -471,6 +561,10 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fr
         most consecutive missed impacts tried when explaining a long interval
     labels : sequence of str or None
         how to name each event in the reasons ("event 10 (line 11)"); default "event i+1"
+    leading : bool
+        also judge whether the first event (after the echoes) is an impact at all
+        (:func:`leading_intruder`: a clap before the release is removed like an echo); for events
+        detected in a recording or by a stopwatch, not for the bounces of a trajectory
 
     Returns
     -------
@@ -504,6 +598,12 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fr
                                f"{dt[k] * 1e3:.1f} ms after {name(int(kept[k]))}, where about "
                                f"{expected[k] * 1e3:.0f} ms were expected; removed"))
         kept = np.delete(kept, k + 1)
+    while leading and kept.size >= 6:
+        why = leading_intruder(t[kept], timing_sigma_s=timing_sigma_s)
+        if why is None:
+            break
+        anomalies.append((int(kept[0]), f"{name(int(kept[0]))} at t = {t[kept[0]]:.4f} s is {why}"))
+        kept = kept[1:]
     m = kept.size
     if m < 4:
         chains = ((0, m - 1),) if m >= 3 else ()
@@ -511,7 +611,7 @@ def impact_chains(t_s, *, tolerance=0.12, timing_sigma_s=TIMING_SIGMA_S, echo_fr
         dt = np.diff(t[kept])
         q = dt[1:] / dt[:-1]
         u = np.sqrt(2.0) * timing_sigma_s * np.hypot(1.0 / dt[1:], 1.0 / dt[:-1])
-        trend = _trend_ratio(q, u)
+        trend = _trend_ratio(q)
         with np.errstate(invalid="ignore", divide="ignore"):   # a zero interval: its ratio is not judged (u = inf)
             dev = np.log(q / trend)
         bad = (np.abs(dev) > np.log1p(tolerance + 5.0 * u)) | (q > 1.0 + 5.0 * u)

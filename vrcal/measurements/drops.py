@@ -4,21 +4,23 @@ The header names which column is which (case matters only for ``H`` and ``h``):
 
 * the drop height: ``H``, ``H0``, ``h0``, ``drop``, ``drop height``, ``release height``,
   ``initial height``, or any name with a word starting as one of :data:`DROP_WORDS`
-  (``Height dropped (m)``, ``Dropped from (cm)``, ``drop_cm``; in a class's own language
+  (``Height dropped (m)``, ``Dropped from (cm)``, ``Starting height``, ``drop_cm``; in a class's own language
   ``Fallhöhe``, ``hauteur de chute``, ``altura de caída``, ``altezza di caduta``, ``altura de queda``);
 * the first rebound: ``h``, ``h1``, ``rebound``, ``rebound height``, ``bounce height``,
   ``first rebound``, or any name with a word starting as one of :data:`REBOUND_WORDS`
-  (``Height bounced (m)``, ``Bounced to (cm)``; ``Rückprallhöhe``, ``Sprunghöhe``, ``hauteur du
+  (``Height bounced (m)``, ``Bounced to (cm)``, ``Final height``; ``Rückprallhöhe``, ``Sprunghöhe``, ``hauteur du
   rebond``, ``altura de rebote``, ``altezza di rimbalzo``, ``altura do ressalto``; a ``bounce``
   column with a length unit is a height, not a bounce number); further rebounds of the same trial
   may follow as ``h2``, ``h3``, ...; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
   ``caida``);
 * **trials side by side**: a drop height and several rebound columns numbered by trial
   (``Trial 1 (cm)``, ``Trial 2 (cm)``, ``Run 3``, ``Try 2``), the classroom table with one row per
-  drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... are trials when their values
+  drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... (or ``1st bounce``, ``Second
+  rebound``, ...) are trials when their values
   agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
   when each is clearly below the one before; the notes say which;
-* other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are ignored.
+* other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are not read;
+  a column of numbers other than a trial number is named in a note.
 
 Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
 ``drop_cm``; ``drop_in``, ``H_in``: inches, with a note, where a trajectory's ``y_in`` keeps its name,
@@ -66,17 +68,17 @@ REBOUND_NAMES = ("h1", "h 1", "rebound", "rebound height", "bounce height", "fir
                  "h rebound", "return height", "rebound h")
 _MORE = re.compile(r"^h\s*(\d+)$")
 #: Word beginnings (lower case, accents off: :func:`_folded`) that mark a drop-height column: English
-#: (``Height dropped``), German (``Fallhöhe``, ``Abwurfhöhe``, ``Starthöhe``, ``Ausgangshöhe``), French
-#: (``hauteur de chute``, ``de lâcher``), Spanish (``altura de caída``, ``inicial``), Italian (``altezza di
-#: caduta``, ``iniziale``), Portuguese (``altura de queda``).
-DROP_WORDS = ("drop", "releas", "initial", "fall", "abwurf", "starth", "ausgangsh", "chute", "lach", "caid",
+#: (``Height dropped``, ``Starting height``), German (``Fallhöhe``, ``Abwurfhöhe``, ``Starthöhe``,
+#: ``Ausgangshöhe``), French (``hauteur de chute``, ``de lâcher``), Spanish (``altura de caída``, ``inicial``),
+#: Italian (``altezza di caduta``, ``iniziale``), Portuguese (``altura de queda``).
+DROP_WORDS = ("drop", "releas", "initial", "start", "fall", "abwurf", "ausgangsh", "chute", "lach", "caid",
               "inicial", "cadut", "inizial", "queda", "soltur")
-#: Word beginnings that mark a rebound column: English (``Bounced to``), German (``Rückprallhöhe``,
+#: Word beginnings that mark a rebound column: English (``Bounced to``, ``Final height``), German (``Rückprallhöhe``,
 #: ``Rueckprallhoehe``, ``Sprunghöhe``, ``Rücksprunghöhe``, ``Abprallhöhe``, ``Steighöhe``), French
 #: (``hauteur du rebond``), Spanish and Portuguese (``altura de rebote``, ``altura do ressalto``, ``quique``),
 #: Italian (``altezza di rimbalzo``).
-REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "ruckprall", "rueckprall", "rucksprung", "ruecksprung",
-                 "abprall", "sprung", "steigh", "rebond", "rebot", "ressalt", "quique", "rimbalz")
+REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "final", "ruckprall", "rueckprall", "rucksprung",
+                 "ruecksprung", "abprall", "sprung", "steigh", "rebond", "rebot", "ressalt", "quique", "rimbalz")
 #: What a drop table's header must name (the error of a table whose columns are not recognised).
 NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'hauteur de chute') and a rebound "
           "column ('h', 'rebound', 'Rückprallhöhe', 'hauteur du rebond')")
@@ -86,6 +88,13 @@ _HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "ape
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
 _TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
+#: ... or by an ordinal before it (``1st bounce``, ``Second rebound``, ``3rd bounce height``).
+_ORDINAL = re.compile(r"^(?:(\d+)\s*(?:st|nd|rd|th)|(first|second|third|fourth|fifth|sixth|seventh|eighth|ninth|"
+                      r"tenth))\s+(?:rebound|bounce)(?:\s+height)?$")
+_ORDINAL_WORDS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
+#: Names of a column that numbers the trials or rows (read by no one, and no note needed).
+_INDEX_NAMES = ("trial", "trials", "trial #", "trial no", "trial number", "run", "n", "no", "nr", "#", "number",
+                "index", "versuch", "essai", "intento", "prova", "attempt", "try", "test", "measurement")
 
 
 def _length_unit(c):
@@ -126,9 +135,9 @@ def _height_columns(cols):
     trials = [c for c in rest if _TRIAL.match(c.name)]
     if len(trials) >= 2:
         return DropColumns(drop, [{1: c} for c in trials], [])
-    numbered = [c for c in rest if _NUMBERED.match(c.name)]
+    numbered = [c for c in rest if _bounce_number(c.name) is not None]
     if len(numbered) >= 2:
-        numbered.sort(key=lambda c: int(_NUMBERED.match(c.name).group(1)))
+        numbered.sort(key=lambda c: _bounce_number(c.name))
         return DropColumns(drop, [], numbered)
     rebound = find_column(rest, REBOUND_NAMES) or next((c for c in rest if c.raw == "h"), None) \
         or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.unit), None) \
@@ -141,6 +150,17 @@ def _height_columns(cols):
         if m and int(m.group(1)) >= 2 and c.index != rebound.index:
             out.setdefault(int(m.group(1)), c)
     return DropColumns(drop, [out], [])
+
+
+def _bounce_number(name):
+    """The number of a rebound column numbered after its name (``Bounce 2``) or by an ordinal before it
+    (``2nd bounce``, ``Second rebound``), or None."""
+    m = _NUMBERED.match(name) or _ORDINAL.match(name)
+    if m is None:
+        return None
+    if m.re is _ORDINAL and m.group(2):
+        return _ORDINAL_WORDS.index(m.group(2)) + 1
+    return int(m.group(1))
 
 
 def _inch_columns(cols):
@@ -244,6 +264,14 @@ def _written_step_m(raw, factors):
     return max(steps) if steps else None
 
 
+def _has_numbers(table, col):
+    """True when a cell of column ``col`` of ``table`` holds a number."""
+    if table.numeric is not None:
+        return True
+    return any(col.index < len(cells) and to_float(cells[col.index], table.decimal_comma) is not None
+               for _, cells in table.rows)
+
+
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     table = parse_table(text)
@@ -273,9 +301,16 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     names = ", ".join(f"'{c.raw}'" for c in [found.drop] + [c for t in trials for c in t.values()])
     what = "one trial per row" if per_row == 1 else f"{per_row} trials per row, side by side"
     notes.insert(0, f"format: drop table ({what}; drop and rebound heights from columns {names})")
-    ignored = [c.raw for c in table.cols if c.index not in values and _has_word(c.name, ("average", "mean", "avg"))]
-    if ignored:
-        notes.append(f"column(s) {', '.join(repr(n) for n in ignored)} not read (derived from the trials)")
+    ignored = [c for c in table.cols if c.index not in values and c.name not in _INDEX_NAMES]
+    derived = [c.raw for c in ignored if _has_word(c.name, ("average", "mean", "avg"))]
+    if derived:
+        notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
+    other = [c.raw or f"column {c.index + 1}" for c in ignored
+             if not _has_word(c.name, ("average", "mean", "avg")) and _has_numbers(table, c)]
+    if other:
+        notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
+                     f"{'its name' if len(other) == 1 else 'their names'} (name a rebound 'h2', '2nd bounce', ...; "
+                     f"docs/measurements.md)")
     line_numbers = row_lines(table)
     H = values[found.drop.index]
     runs, labels = [], []

@@ -1,20 +1,25 @@
-"""Spreadsheets (phyphox's Excel exports, ``.xlsx`` and the older ``.xls``) read as text tables.
+"""Spreadsheets (phyphox's Excel exports, ``.xlsx`` and the older ``.xls``) and zip archives of CSV files
+(phyphox's CSV export) read as text tables.
 
 A sheet becomes the same :class:`vrcal.measurements.table.Text` a CSV file gives (cells joined by
 tabs, one line per row, the sheet's row numbers as line numbers), so every layout of
 :data:`vrcal.measurements.reader.FORMATS` reads spreadsheets too. Which sheet: the one named with
 ``sheet``; else phyphox's ``All`` (every event of the Acoustic Stopwatch) when there is one; else
-the first sheet with a table in it. Needs the optional extra ``pip install vrcal[excel]``
+the first sheet with a table in it. A zip archive (phyphox's *Export Data* as CSV: one file per data
+set, ``All.csv``, ``Simple.csv``, ..., and ``meta/``) is read the same way, its CSV files taking the
+place of the sheets (:func:`load_archive_text`; no extra needed). Needs the optional extra ``pip install vrcal[excel]``
 (openpyxl for ``.xlsx``, xlrd for ``.xls``); without it the error says so in one line.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.table import Text
+from vrcal.fileio import MAX_TEXT_BYTES
+from vrcal.measurements.table import Text, empty_rows_notes, text_from_bytes
 
 #: File signatures: zip (xlsx) and OLE2 compound documents (xls).
 _XLSX_MAGIC = b"PK\x03\x04"
@@ -99,14 +104,16 @@ def load_sheet_text(path, sheet=None):
     names = [name for name, _ in sheets]
 
     def as_text(name, rows):
-        lines = []
+        lines, empty = [], []
         for i, row in enumerate(rows, start=1):
             cells = [_cell(v) for v in row]
             while cells and cells[-1] == "":
                 cells.pop()
             if any(cells):
                 lines.append((i, "\t".join(cells)))
-        return Text(f"{path}[{name.strip()}]", lines)
+            else:
+                empty.append(i)
+        return Text(f"{path}[{name.strip()}]", lines, notes=empty_rows_notes(empty, lines))
 
     if sheet is not None:
         for name, rows in sheets:
@@ -167,3 +174,73 @@ def check_workbook_name(path):
 def is_spreadsheet(path):
     """True for an .xlsx or .xls workbook (by its first bytes)."""
     return spreadsheet_kind(Path(path)) is not None
+
+
+#: Files of an archive read as tables (phyphox's ``meta/`` folder, the device and the times, is not one).
+_TABLE_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
+
+
+def is_archive(path):
+    """True for a zip archive that is no workbook (by its first bytes and, for .xlsx, its name)."""
+    if os.path.exists(path) and not os.path.isfile(path):
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4)
+    except OSError:
+        return False
+    return head == _XLSX_MAGIC and spreadsheet_kind(path) is None
+
+
+def load_archive_text(path, member=None):
+    """One table of a zip archive as a :class:`Text` (path shown as ``FILE[MEMBER]``): the one named
+    ``member`` (its name with or without the folder and the ending); else phyphox's ``All.csv``; else the
+    archive's only table. A note names the table read and the others.
+
+    Raises
+    ------
+    UsageError
+        ``member`` names no table of the archive (the message lists them)
+    DataError
+        a corrupt archive, one with no table, several tables and none chosen (the message lists them and
+        says how to choose), an Excel workbook named .zip
+    """
+    import zipfile
+
+    path = str(path)
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            names = [i.filename for i in infos]
+            if "[Content_Types].xml" in names and any(n.startswith("xl/") for n in names):
+                raise DataError(f"{path}: an Excel workbook named as a zip archive: rename it to .xlsx")
+            tables = [i for i in infos if not i.is_dir() and i.filename.lower().endswith(_TABLE_SUFFIXES)
+                      and not i.filename.startswith(("meta/", "__MACOSX/"))
+                      and not Path(i.filename).name.startswith(".")]
+            listed = ", ".join(repr(i.filename) for i in tables)
+            if not tables:
+                raise DataError(f"{path}: a zip archive with no CSV or text table in it "
+                                f"({len(names)} file(s): {', '.join(names[:6])}{', ...' if len(names) > 6 else ''})")
+            if member is not None:
+                chosen = [i for i in tables if str(member).strip() in (i.filename, Path(i.filename).name,
+                                                                       Path(i.filename).stem)]
+                if not chosen:
+                    raise UsageError(f"{path}: no table '{member}' in the archive (tables: {listed})")
+            else:
+                chosen = [i for i in tables if Path(i.filename).stem in PREFERRED_SHEETS] or \
+                    (tables if len(tables) == 1 else [])
+                if not chosen:
+                    raise DataError(f"{path}: a zip archive of {len(tables)} tables ({listed}): give --sheet NAME "
+                                    f"to read one, or unzip it and give the CSV")
+            info = chosen[0]
+            if info.file_size > MAX_TEXT_BYTES:
+                raise DataError(f"{path}: '{info.filename}' is larger than the limit of "
+                                f"{MAX_TEXT_BYTES >> 20} MiB for a measurement file")
+            raw = zf.read(info)
+    except (zipfile.BadZipFile, OSError, RuntimeError, NotImplementedError, EOFError) as exc:
+        raise DataError(f"{path}: not a readable zip archive ({str(exc).strip() or type(exc).__name__})") from None
+    text = text_from_bytes(f"{path}[{info.filename}]", raw)
+    others = [i.filename for i in tables if i is not info]
+    note = (f"zip archive: '{info.filename}' read" + (f" (also in it: {', '.join(repr(n) for n in others)}; --sheet "
+                                                      f"to read another)" if others else ""))
+    return dataclasses.replace(text, notes=(note,) + tuple(text.notes))

@@ -5,8 +5,9 @@ comma, scientific notation. One column is read as impact times whatever its name
 by its name. Units ``s`` or ``ms`` in the header. ``vrcal simulate --format impacts`` writes ``t``.
 
 The events are split into chains of consecutive bounces
-(:func:`vrcal.measurements.cleanup.impact_chains`): echoes are removed, a missed impact or a
-bounce that does not belong ends a chain and the next starts after it; every event left out is
+(:func:`vrcal.measurements.cleanup.impact_chains`): echoes and a first event that is no impact
+(a clap before the release, :func:`vrcal.measurements.cleanup.leading_intruder`) are removed, a
+missed impact or a bounce that does not belong ends a chain and the next starts after it; every event left out is
 named by its number in the file and its line (:func:`impact_times_from_events`, which a reader
 of raw sound can call too).
 """
@@ -187,7 +188,8 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
     if timing:
         notes.append(f"impact times on a {grid.period_s * 1e3:.4g} ms grid ({grid.what}): each is uncertain by "
                      f"{timing * 1e3:.2g} ms (step/sqrt(12)), more than a stopwatch's {TIMING_SIGMA_S * 1e3:g} ms")
-    found = impact_chains(t, labels=[label(i) for i in range(t.size)], timing_sigma_s=max(timing, TIMING_SIGMA_S))
+    found = impact_chains(t, labels=[label(i) for i in range(t.size)], timing_sigma_s=max(timing, TIMING_SIGMA_S),
+                          leading=True)
     for _, why in found.anomalies:
         notes.append(why)
     if not found.chains:

@@ -31,9 +31,11 @@ from vrcal.measurements.table import (
     columns,
     fail,
     find_column,
+    has_number,
     is_numeric_row,
     load_text,
     loose_cells,
+    merge_units_row,
     strip_cell,
 )
 from vrcal.measurements.types import Runs
@@ -106,7 +108,7 @@ def detect_format(path):
     if name is not None:
         return name
     excel.check_workbook_name(path)
-    return _detect_below_title(excel.load_sheet_text(path) if excel.is_spreadsheet(path) else load_text(path))[1]
+    return _detect_below_title(_units_into_header(_load(path))[0])[1]
 
 
 def _detect_recording(path):
@@ -166,10 +168,6 @@ def _detect(text, below=None):
           f"(known formats: {', '.join(FORMATS)}; see --format)")
 
 
-def _has_number(line):
-    return any(is_numeric_row([cell]) for cell in loose_cells(line))
-
-
 def _title_lines(text):
     """How many lines (up to :data:`MAX_TITLE_LINES`) above the header are a title: each with no number in
     it, above a header with no number and a number in the line below it; the header has two or more cells
@@ -180,10 +178,10 @@ def _title_lines(text):
     if lines[0][1].lstrip()[:1] in _DOCUMENTS:
         return 0
     for k in range(1, min(MAX_TITLE_LINES, len(lines) - 2) + 1):
-        if _has_number(lines[k - 1][1]):
+        if has_number(lines[k - 1][1]):
             return 0
         header = loose_cells(lines[k][1])
-        if _has_number(lines[k][1]) or not _has_number(lines[k + 1][1]):
+        if has_number(lines[k][1]) or not has_number(lines[k + 1][1]):
             continue
         if len(header) >= 2 and all(len(loose_cells(s)) < len(header) for _, s in lines[:k]):
             return k
@@ -248,13 +246,9 @@ def read_measurement(path, fmt=None, **options):
     sheet = options.pop("sheet", None)
     if fmt is None:
         excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
-    if excel.is_spreadsheet(path):
-        text = excel.load_sheet_text(path, sheet)
-    else:
-        if sheet is not None:
-            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks only")
-        text = load_text(path)
+    text = _load(path, sheet)
     title = None
+    text, units_note = _units_into_header(text, name)
     if name is None:
         text, name, title = _detect_below_title(text)
     parsed = {k: v for k, v in options.items() if v is not None}
@@ -267,14 +261,35 @@ def read_measurement(path, fmt=None, **options):
         data = dataclasses.replace(data, notes=tuple(data.notes) + (
             f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
             f"and this file holds {kind}",))
-    if title is not None:
-        data = dataclasses.replace(data, notes=(_title_note(title),) + tuple(data.notes))
+    said = [_title_note(title) if title is not None else None, units_note, *text.notes]
+    if any(said):
+        data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))
     return data
+
+
+def _load(path, sheet=None):
+    """The :class:`Text` of a text file, of a workbook's sheet or of a zip archive's table (``sheet`` names
+    which)."""
+    if excel.is_spreadsheet(path):
+        return excel.load_sheet_text(path, sheet)
+    if excel.is_archive(path):
+        return excel.load_archive_text(path, sheet)
+    if sheet is not None:
+        raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks and zip archives only")
+    return load_text(path)
+
+
+def _units_into_header(text, name=None):
+    """``(text, note)``: a units row below the header written into it (:func:`merge_units_row`), except in
+    a Vernier export, whose reader joins its own names and units."""
+    if name == "vernier" or (name is None and vernier.detect(text)):
+        return text, None
+    return merge_units_row(text, MAX_TITLE_LINES)
 
 
 def _title_note(title):
     """The note of the title lines ``[(lineno, line)]`` skipped above a table's header."""
-    said = ", ".join(repr(line.strip()) for _, line in title)
+    said = ", ".join(repr(line.strip().rstrip(",;\t ")) for _, line in title)   # a sheet's empty cells after it
     if len(title) == 1:
         return f"line {title[0][0]} {said} is a title: skipped"
     return f"lines {title[0][0]}-{title[-1][0]} ({said}) are a title: skipped"

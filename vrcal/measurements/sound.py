@@ -20,12 +20,18 @@ How an impact is found
    var(x[k:])`` over a window from 6 ms before to 0.5 ms after the envelope's rise),
    refined between samples by a parabola through the minimum. It does not depend on the
    impact's loudness (a threshold crossing does: a quiet impact crosses it later) nor on
-   clipping (which flattens the peak, not the start).
+   clipping (which flattens the peak, not the start). A lossy codec (AAC, MP3, Vorbis, Opus)
+   spreads each impact's quantisation noise over its transform block, up to a few ms before
+   the impact (pre-echo, 10-35 dB over the noise): there the onset is the impact's own start,
+   the later change point where the energy jumps :data:`PRE_ECHO_JUMP_DB` over the pre-echo.
 4. **Physics.** A bouncing ball's impacts fall on a geometric-like sequence of intervals
    (``dt_{i+1} ~ r dt_i``, r ~ epsilon). :func:`bounce_sequence` keeps the longest chain of
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
    ratio tracking slow changes) and whose loudness does not jump up; claps, words, echoes
-   and other noises that do not fit are rejected, each with a reason.
+   and other noises that do not fit are rejected, each with a reason. The chain's first event
+   is judged on its own against the later bounces, with the timing noise and their scatter
+   (:func:`vrcal.measurements.cleanup.leading_intruder`): a clap just before the release
+   fits the 12 % window but not the 0.2 ms timing of a bounce sequence.
 5. **The quiet end.** After the chain's last impact, the next one is searched for only in a
    window around its predicted time (:func:`extend_chain`): there noise alone crosses a much
    lower threshold (about 2.7 times the noise, :func:`window_threshold`) only once in
@@ -41,19 +47,24 @@ The impact times kept are then screened like any impact-times file
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import detect_impact_anomalies
+from vrcal.measurements.cleanup import NOT_AN_IMPACT, detect_impact_anomalies, leading_intruder
 from vrcal.measurements.types import ImpactTimes
 
 #: File name endings read as sound (other than WAV they need the optional PyAV).
 SOUND_EXTENSIONS = (".wav", ".wave", ".m4a", ".aac", ".mp3", ".ogg", ".oga", ".opus", ".flac", ".3gp", ".amr",
                     ".caf", ".aif", ".aiff", ".wma", ".webm")
+
+#: Extensions of MP4 files that hold sound only (a phone's ``.m4a`` may carry the brand ``isom``, ``mp42``).
+AUDIO_ONLY_EXTENSIONS = (".m4a", ".m4b", ".aac")
 
 #: One-line hint when a compressed container needs the optional extra.
 AUDIO_HINT = "reading this sound file needs PyAV: pip install 'vrcal[audio]' (or save the recording as WAV)"
@@ -67,7 +78,20 @@ RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's p
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
 WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
+PRE_ECHO_S = 6e-3        #: longest span a lossy codec smears an impact's noise before it (a 256-sample block) [s]
+PRE_ECHO_JUMP_DB = 6.0   #: the impact itself is this much louder than a lossy codec's pre-echo before it [dB]
+#: Decoders of lossless audio (PyAV's codec names); every other codec PyAV decodes is taken as lossy.
+LOSSLESS_CODECS = ("pcm_", "flac", "alac", "wavpack", "tta", "ape", "mlp", "truehd", "shorten")
 AUDIO_BAND_HZ = 20000.0  #: highest frequency a microphone records (the noise band's top) [Hz]
+
+
+class Audio(NamedTuple):
+    """A recording's samples, from :func:`read_audio`."""
+
+    x: np.ndarray     # samples (n, channels), full scale = 1
+    fs_hz: float      # sample rate [Hz]
+    what: str         # a short description ("WAV, 48 kHz, 2 channels, 16-bit")
+    lossy: bool       # coded with loss (AAC, MP3, Vorbis, Opus): each onset is preceded by a pre-echo
 
 
 @dataclass(frozen=True)
@@ -93,14 +117,73 @@ class Onsets:
 
 
 def detect(head, path):
-    """A RIFF/WAVE (or RF64) file, an audio-only MP4 (``M4A``), FLAC, Ogg, MP3, or a sound extension."""
+    """A RIFF/WAVE (or RF64) file, an audio-only MP4/3GP/MOV (brand ``M4A``, or tracks of sound and none of
+    video: :func:`mp4_track_kinds`), FLAC, Ogg, MP3, or a sound extension."""
     if head[:4] in (b"RIFF", b"RF64", b"BW64") and head[8:12] == b"WAVE":
         return True
-    if head[4:8] == b"ftyp" and head[8:11] in (b"M4A", b"M4B"):
-        return True
+    if head[4:8] == b"ftyp":
+        if head[8:11] in (b"M4A", b"M4B"):
+            return True
+        kinds = mp4_track_kinds(path)
+        if kinds is None:   # no track list read: the name decides (.m4a is sound, .mp4 and .3gp video)
+            return Path(path).suffix.lower() in AUDIO_ONLY_EXTENSIONS
+        return "soun" in kinds and "vide" not in kinds
     if head[:4] in (b"fLaC", b"OggS", b"FORM") or head[:3] == b"ID3" or head[:2] in (b"\xff\xfb", b"\xff\xf3"):
         return True
     return Path(path).suffix.lower() in SOUND_EXTENSIONS and head[4:8] != b"ftyp" and head[:4] != b"RIFF"
+
+
+def _boxes(fh, start, end):
+    """``(type, payload start, box end)`` of the ISO base media (MP4) boxes in bytes ``start .. end`` of ``fh``."""
+    pos = start
+    while pos + 8 <= end:
+        fh.seek(pos)
+        head = fh.read(16)
+        if len(head) < 8:
+            return
+        size, kind = int.from_bytes(head[:4], "big"), head[4:8]
+        header = 8
+        if size == 1:   # a 64-bit size follows the type
+            if len(head) < 16:
+                return
+            size, header = int.from_bytes(head[8:16], "big"), 16
+        elif size == 0:  # the box runs to the end
+            size = end - pos
+        if size < header or pos + size > end:
+            return
+        yield kind, pos + header, pos + size
+        pos += size
+
+
+def mp4_track_kinds(path):
+    """The kinds of the tracks of an MP4, 3GP or QuickTime file (ISO/IEC 14496-12: the handler type of each
+    ``moov/trak/mdia/hdlr`` box: ``"soun"`` sound, ``"vide"`` video, ...), or None when the file has no
+    track list that can be read (not such a file, or cut short).
+
+    A phone's sound recording (``.m4a``, ``.3gp``) carries the brand ``isom``, ``mp42`` or ``3gp4`` of any
+    MP4: only its tracks tell it from a video.
+
+    Returns
+    -------
+    frozenset of str or None
+    """
+    try:
+        with open(path, "rb") as fh:
+            end = os.fstat(fh.fileno()).st_size
+            for kind, start, stop in _boxes(fh, 0, end):
+                if kind != b"moov":
+                    continue
+                found = set()
+                for trak, a, b in _boxes(fh, start, stop):
+                    for mdia, c, d in (_boxes(fh, a, b) if trak == b"trak" else ()):
+                        for hdlr, e, f in (_boxes(fh, c, d) if mdia == b"mdia" else ()):
+                            if hdlr == b"hdlr" and f - e >= 12:
+                                fh.seek(e + 8)   # after version, flags and pre_defined (QuickTime: the component type)
+                                found.add(fh.read(4).decode("latin-1"))
+                return frozenset(found)
+    except OSError:
+        return None
+    return None
 
 
 def read_audio(path):
@@ -112,12 +195,10 @@ def read_audio(path):
 
     Returns
     -------
-    x : ndarray (n, channels)
-        samples, full scale = 1
-    fs_hz : float
-        sample rate [Hz]
-    what : str
-        a short description (``"WAV, 48 kHz, 2 channels, 16-bit"``)
+    Audio
+        ``(x, fs_hz, what, lossy)``: samples (n, channels), full scale = 1; sample rate [Hz]; a short
+        description (``"WAV, 48 kHz, 2 channels, 16-bit"``); whether the codec is lossy (everything
+        PyAV decodes but FLAC, ALAC, PCM and the other :data:`LOSSLESS_CODECS`)
 
     Raises
     ------
@@ -158,10 +239,34 @@ def _read_wav(path):
         x, bits = (data.astype(np.float64) - 128.0) / 128.0, "8-bit"
     elif data.dtype.kind == "i":
         x = data.astype(np.float64) / float(2 ** (8 * data.dtype.itemsize - 1))
-        bits = f"{data.dtype.itemsize * 8}-bit"
+        bits = f"{_wav_bits(path) or data.dtype.itemsize * 8}-bit"   # scipy gives 24-bit samples as int32
     else:
         raise DataError(f"{path}: unsupported WAV sample type {data.dtype}")
-    return x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}"
+    return Audio(x, float(fs), f"WAV, {_rate_text(fs)}, {_channels_text(x.shape[1])}, {bits}", False)
+
+
+def _wav_bits(path):
+    """Bits per sample a WAV file's ``fmt `` chunk states (the valid bits of WAVE_FORMAT_EXTENSIBLE), or None."""
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(12)
+            for _ in range(64):   # chunks before 'fmt ' (JUNK, bext, LIST): a few at most
+                head = fh.read(8)
+                if len(head) < 8:
+                    return None
+                kind, size = head[:4], int.from_bytes(head[4:], "little")
+                if kind != b"fmt ":
+                    fh.seek(size + (size & 1), 1)
+                    continue
+                fmt = fh.read(min(size, 40))
+                if len(fmt) < 16:
+                    return None
+                bits = int.from_bytes(fmt[14:16], "little")
+                valid = int.from_bytes(fmt[18:20], "little") if len(fmt) >= 20 and fmt[:2] == b"\xfe\xff" else 0
+                return valid or bits or None
+    except OSError:
+        return None
+    return None
 
 
 def _read_with_av(path):
@@ -194,7 +299,8 @@ def _read_with_av(path):
     if not chunks:
         raise DataError(f"{path}: the sound track holds no samples")
     x = np.concatenate(chunks, axis=1).T
-    return x, fs, f"{codec} (PyAV), {_rate_text(fs)}, {_channels_text(x.shape[1])}"
+    return Audio(x, fs, f"{codec} (PyAV), {_rate_text(fs)}, {_channels_text(x.shape[1])}",
+                 not codec.startswith(LOSSLESS_CODECS))
 
 
 def _rate_text(fs):
@@ -279,6 +385,8 @@ class OnsetSignals:
         the noise level (median envelope)
     fs_hz : float
         sample rate [Hz]
+    pre_echo_s : float
+        span before an impact where a lossy codec's pre-echo may lie (0 for lossless audio) [s]
     """
 
     energy: np.ndarray
@@ -287,9 +395,10 @@ class OnsetSignals:
     quick_rise: np.ndarray
     noise: float
     fs_hz: float
+    pre_echo_s: float = 0.0
 
 
-def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
+def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, pre_echo_s=0.0):
     """High-pass, envelope, noise level and rise of a recording (steps 1-2 of the module docstring).
 
     Parameters
@@ -300,6 +409,9 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
         sample rate [Hz]
     highpass_hz : float
         corner of the onset band [Hz]
+    pre_echo_s : float
+        a lossy codec's pre-echo span (:data:`PRE_ECHO_S`; 0 for lossless audio) [s]: each onset is
+        then the start of the impact itself, not of the noise the codec smears before it (:func:`_onset_at`)
 
     Returns
     -------
@@ -327,19 +439,39 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ):
         return e / np.maximum(bg, noise)
 
     return OnsetSignals(energy=np.sum(y * y, axis=1), e=e, rise=rise(5e-3, 1e-3), quick_rise=rise(1e-3, 2.5e-4),
-                        noise=noise, fs_hz=float(fs_hz))
+                        noise=noise, fs_hz=float(fs_hz), pre_echo_s=float(pre_echo_s))
 
 
-def _onset_at(sig, p, earliest):
+def _onset_at(sig, p, earliest, latest=None):
     """Sub-sample onset [s] and peak level over the noise [dB] of the transient whose rise peaks
-    at sample ``p`` (the AIC change point from 6 ms before to 0.5 ms after, not before ``earliest``)."""
+    at sample ``p`` (the AIC change point from 6 ms before to 0.5 ms after, not before ``earliest``).
+
+    In lossy audio (``sig.pre_echo_s`` > 0) the codec spreads the quantisation noise of a transient over
+    the transform block before it (pre-echo: 10-35 dB over the noise up to 3 ms before an impact in AAC):
+    the rise may peak there, and the change point is the pre-echo's start. So the impact's own start is
+    looked for too, as the AIC change point from 0.5 ms after that start to the envelope's peak within
+    ``sig.pre_echo_s`` after ``p`` (not at or after sample ``latest``, the next candidate); it is the onset
+    when the energy in the millisecond after it is :data:`PRE_ECHO_JUMP_DB` over the energy since the first
+    change point. The level is the peak of the envelope in the 2 ms (lossy: ``sig.pre_echo_s``) after ``p``.
+    """
     fs = sig.fs_hz
+    n = sig.e.size
     start = max(earliest, p - int(round(6e-3 * fs)))
-    stop = min(sig.e.size, p + int(round(5e-4 * fs)))
+    stop = min(n, p + int(round(5e-4 * fs)))
     if stop - start < 8:
         return None
     onset = start + aic_onset(sig.energy[start:stop])
-    peak_level = float(np.max(sig.e[p:min(sig.e.size, p + int(2e-3 * fs) + 1)]))
+    end = min(n, p + int(round(max(2e-3, sig.pre_echo_s) * fs)) + 1, latest if latest is not None else n)
+    end = max(end, p + 1)
+    if sig.pre_echo_s > 0:
+        peak = p + int(np.argmax(sig.e[p:end]))
+        a, b = int(math.ceil(onset + 5e-4 * fs)), min(n, peak + int(round(5e-4 * fs)))
+        if b - a >= 8:
+            later = a + aic_onset(sig.energy[a:b])
+            k1, k2, w = int(onset), int(later), int(round(1e-3 * fs))
+            if k2 > k1 and np.mean(sig.energy[k2:k2 + w]) > np.mean(sig.energy[k1:k2]) * 10 ** (PRE_ECHO_JUMP_DB / 10):
+                onset = later
+    peak_level = float(np.max(sig.e[p:end]))
     return onset / fs, 20.0 * math.log10(peak_level / sig.noise)
 
 
@@ -369,9 +501,9 @@ def impact_onsets(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, rise=RISE, snr=SNR, sign
     peaks, _ = find_peaks(ratio, height=rise, distance=max(1, int(REFRACTORY_S * fs_hz)))
     times, levels = [], []
     last = 0
-    for p in peaks:
+    for k, p in enumerate(peaks):
         # the start of the rise: back from the peak of the rise to where e leaves the background
-        found = _onset_at(sig, int(p), last)
+        found = _onset_at(sig, int(p), last, int(peaks[k + 1]) if k + 1 < peaks.size else None)
         if found is None:
             continue
         times.append(found[0])
@@ -393,7 +525,9 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     ``tolerance`` of the predicted next interval ``r dt`` (r the median of the last three
     ratios; the loudest candidate in that window is taken). An impact may not be louder
     than the one before it by more than ``max_louder_db`` (each bounce is slower). The
-    longest chain wins; among equally long ones the louder, then the more regular.
+    longest chain wins; among equally long ones the louder, then the more regular. Its first
+    event is then left out while it is no impact of the sequence
+    (:func:`vrcal.measurements.cleanup.leading_intruder`: a clap just before the release).
 
     Parameters
     ----------
@@ -455,9 +589,16 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
                 if best_key is None or key > best_key:
                     best, best_key = chain, key
     chain = np.asarray(best, dtype=int)
+    intruders = {}
+    while chain.size > MIN_IMPACTS:   # a clap or a word just before the release can fit the tolerance
+        why = leading_intruder(t[chain])
+        if why is None:
+            break
+        intruders[int(chain[0])] = why
+        chain = chain[1:]
     if chain.size < MIN_IMPACTS:
         return np.zeros(0, dtype=int), {i: "no bouncing sequence" for i in range(n)}
-    return chain, rejection_reasons(t, chain, tolerance)
+    return chain, {**rejection_reasons(t, chain, tolerance), **intruders}
 
 
 #: An event this soon after an impact [ms] is called its echo or ringing (a wall up to 10 m away).
@@ -634,7 +775,7 @@ def track_sound(path, *, progress=None):
     path = str(path)
     if progress:
         progress(0.0, "reading the sound")
-    x, fs, what = read_audio(path)
+    x, fs, what, lossy = read_audio(path)
     n = x.shape[0]
     if n < int(0.05 * fs):
         raise DataError(f"{path}: the recording is only {n / fs * 1e3:.0f} ms long; record the whole drop")
@@ -642,13 +783,16 @@ def track_sound(path, *, progress=None):
     if peak == 0.0 or not np.isfinite(peak):
         raise DataError(f"{path}: the recording is silent (every sample is 0); check the microphone")
     notes = [f"recording: {what}, {n / fs:.2f} s"]
+    if lossy:
+        notes.append(f"lossy coding: each onset is the impact's own start, not of the pre-echo the codec smears up "
+                     f"to {PRE_ECHO_S * 1e3:g} ms before it (a WAV or FLAC recording is timed better)")
     clipped = int(np.sum(np.abs(x) >= 0.999 * max(peak, 0.0))) if peak >= 0.99 else 0
     if clipped > 3:
         notes.append(f"clipped: {clipped} samples at full scale (onsets are timed at the start of each "
                      "impact, which clipping does not move)")
     if progress:
         progress(0.3, "finding onsets")
-    signals = onset_signals(x, fs)
+    signals = onset_signals(x, fs, pre_echo_s=PRE_ECHO_S if lossy else 0.0)
     onsets = impact_onsets(x, fs, signals=signals)
     if progress:
         progress(0.8, "checking the bounce sequence")
@@ -662,8 +806,10 @@ def track_sound(path, *, progress=None):
     n_heard = chain.size
     t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain])
     if t_new.size:
+        intruders = {float(onsets.t_s[i]): why for i, why in reasons.items() if why.startswith(NOT_AN_IMPACT)}
         onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
         reasons = rejection_reasons(onsets.t_s, chain)
+        reasons.update({int(np.searchsorted(onsets.t_s, t0)): why for t0, why in intruders.items()})
     second = _second_drop(onsets, chain)
     for i in second:
         reasons.pop(int(i), None)
@@ -674,12 +820,13 @@ def track_sound(path, *, progress=None):
         notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard} found in the windows where the "
                      f"bounce sequence predicts them (rising over {threshold:.1f} x the noise there, where noise "
                      f"alone does so once in {1 / WINDOW_FALSE_ALARM:.0e} windows)")
-    shown = sorted(reasons)
+    shown = sorted(reasons, key=lambda i: (not reasons[i].startswith(NOT_AN_IMPACT), i))   # a clap taken out first
     for i in shown[:MAX_LISTED]:
         notes.append(f"event at t = {onsets.t_s[i]:.4f} s ({onsets.snr_db[i]:.0f} dB) rejected: {reasons[i]}")
     if len(shown) > MAX_LISTED:
+        rest = onsets.t_s[shown[MAX_LISTED:]]
         notes.append(f"... and {len(shown) - MAX_LISTED} more events off the bounce sequence rejected "
-                     f"(t = {onsets.t_s[shown[MAX_LISTED]]:.3f} - {onsets.t_s[shown[-1]]:.3f} s)")
+                     f"(t = {np.min(rest):.3f} - {np.max(rest):.3f} s)")
     t = onsets.t_s[chain]
     dt = np.diff(t)
     r = float(np.median(dt[1:] / dt[:-1])) if dt.size > 1 else float("nan")

@@ -8,6 +8,7 @@ a malformed file gives the same one-line message ``FILE:LINE: what is wrong``
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import re
 from collections.abc import Sequence
@@ -66,6 +67,23 @@ def known_units(units):
     """The units of a unit table for an error message (``m, cm, mm, in, ...``)."""
     return ", ".join(u for u in units if u)
 
+#: Units of other quantities a table's units row may name beside times and lengths (a velocity, an
+#: acceleration, an angle, a force, a mass, a level, a ratio; ``-`` for a number without a unit).
+_OTHER_UNIT = re.compile(r"^(?:(?:m|cm|mm|ft|in)/s(?:\^?2|²)?|deg|°|rad|n|kg|g|j|hz|db|%|-)$")
+
+
+def unit_of_cell(cell):
+    """The unit a cell of a units row names, as :func:`unit_symbol` writes it (``cm``, ``(cm)``, ``[s]``,
+    ``metres``, ``m/s``), or None when the cell is no unit."""
+    c = strip_cell(cell)
+    if len(c) >= 2 and c[0] in "([" and c[-1] in ")]":
+        c = c[1:-1].strip()
+    symbol = unit_symbol(c)
+    if symbol and (symbol in TIME_UNITS or symbol in LENGTH_UNITS or _OTHER_UNIT.match(symbol)):
+        return symbol
+    return None
+
+
 #: A unit written after the name instead of in brackets: ``t_s``, ``y_cm``, ``t/s`` (quantity / unit,
 #: ISO 80000-1), ``height in mm``; only a unit of the tables above counts (``bounce_no`` keeps its name),
 #: and not ``in`` (``y_in`` keeps its name: inches are ``y (in)``, ``y_inch``, ``height in inches``).
@@ -93,6 +111,7 @@ class Text:
     lines: list  # [(lineno, text)]
     multi: bool = False  # a Tracker '#multi:' export
     meta: dict = field(default_factory=dict)  # {key: (lineno, text)} of '# vrcal KEY = VALUE' comments
+    notes: tuple = ()  # what loading did (rows of empty cells skipped, the member of an archive read)
 
 
 #: A comment line carrying what a reader of the file should know (``vrcal track`` writes the tracker's
@@ -106,6 +125,8 @@ def fail(path, line, what):
 
 
 def load_text(path):
+    """The non-blank lines of a text file (:class:`Text`); UTF-8 (a BOM allowed), UTF-16 with its BOM (Excel's
+    "Unicode Text") or Latin-1."""
     path_s = str(path)
     try:
         raw = read_bytes_bounded(Path(path), MAX_TEXT_BYTES, "measurement")
@@ -113,19 +134,38 @@ def load_text(path):
         raise DataError(f"{path_s}: is a directory, not a measurement file") from None
     except OSError as exc:
         raise DataError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
+    return text_from_bytes(path_s, raw)
+
+
+#: What a binary file that is no table is told.
+BINARY = "binary file, not a text table (save it as CSV or text, UTF-8)"
+
+
+def text_from_bytes(path_s, raw):
+    """:class:`Text` of the bytes ``raw`` of the file (or archive member) ``path_s`` (see :func:`load_text`)."""
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):   # UTF-16 with its byte order mark (Excel's "Unicode Text")
+        try:
+            raw = raw.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            fail(path_s, 0, BINARY)
     if not raw.strip():
         fail(path_s, 0, "empty file")
+    if raw[:4] == b"PK\x03\x04":
+        fail(path_s, 0, "a zip archive: unzip it and give the CSV inside (phyphox: 'All.csv')")
     if b"\x00" in raw[:8192]:
-        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
+        fail(path_s, 0, BINARY)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     printable = sum(ch.isprintable() or ch in "\r\n\t" for ch in text[:4096])
     if printable < 0.95 * len(text[:4096]):
-        fail(path_s, 0, "binary file, not a text table (save it as CSV or text, UTF-8)")
-    lines, multi, meta = [], False, {}
+        fail(path_s, 0, BINARY)
+    lines, multi, meta, empty = [], False, {}, []
     for i, line in enumerate(text.splitlines(), start=1):
+        if _EMPTY_ROW.match(line):   # ',,' or ';;': a row of empty cells, as Excel and LibreOffice save them
+            empty.append(i)
+            continue
         first = line[:1]
         if first in ("#", "") or first.isspace():   # a comment or blank line, perhaps indented
             stripped = line.strip()
@@ -139,8 +179,24 @@ def load_text(path):
                 continue
         lines.append((i, line))
     if not lines:
-        fail(path_s, 0, "no data (only comments or blank lines)")
-    return Text(path_s, lines, multi, meta)
+        fail(path_s, 0, "no data (only comments, blank lines or rows of empty cells)")
+    return Text(path_s, lines, multi, meta, empty_rows_notes(empty, lines))
+
+
+#: A line of empty cells: separators and blanks only (at least one separator).
+_EMPTY_ROW = re.compile(r"^[ \t]*[,;\t][ \t,;]*$")
+
+
+def empty_rows_notes(numbers, lines):
+    """``(note,)`` naming the rows of empty cells (line ``numbers``) skipped inside a table of ``lines``
+    ([(lineno, text)]), or ``()``: those before or after it are a spreadsheet's formatted but empty
+    cells, not worth a note."""
+    rows = [n for n in numbers if lines and lines[0][0] < n < lines[-1][0]]
+    if not rows:
+        return ()
+    said = ", ".join(str(n) for n in rows[:8]) + (", ..." if len(rows) > 8 else "")
+    return (f"line {said}: a row of empty cells, skipped" if len(rows) == 1
+            else f"lines {said}: {len(rows)} rows of empty cells, skipped",)
 
 
 def meta_length(text, key, limit_m=1.0):
@@ -412,6 +468,57 @@ def check_increasing(path, values, line_numbers, label):
         j = int(bad[0]) + 1
         fail(path, int(line_numbers[j]), f"{label} not increasing ({values[j]:g} after {values[j - 1]:g})")
 
+
+
+def merge_units_row(text, max_title_lines=5):
+    """``(text, note)``: a table whose header is followed by a row of units (``Trial,Drop height,Rebound
+    height`` over ``,cm,cm``, as a class's spreadsheet is often laid out) with the units written into the
+    header (``Drop height (cm)``) and the units row gone, and a note saying so; ``(text, None)`` when the
+    text has no such row.
+
+    The units row lies below the header, under at most ``max_title_lines`` title lines, above the first
+    line with a number: every filled cell a unit (:func:`unit_of_cell`), one at least a time or length
+    unit, each below a named header cell, and the line after it holds a number. A header cell that
+    already has a unit keeps it when the row agrees; a disagreement is an error naming both.
+    """
+    lines = text.lines
+    for k in range(1, min(max_title_lines + 1, len(lines) - 2) + 1):
+        if has_number(lines[k - 1][1]):
+            return text, None
+        (header_no, header), (units_no, units) = lines[k - 1], lines[k]
+        if has_number(units) or not has_number(lines[k + 1][1]):
+            continue
+        sep, _ = sniff(header, [units] + [s for _, s in lines[k + 1:k + 21]])
+        names, cells = split_cells(header, sep), split_cells(units, sep)
+        found = [(i, unit_of_cell(c)) for i, c in enumerate(cells) if c]
+        if not found or any(u is None for _, u in found) or not any(u in TIME_UNITS or u in LENGTH_UNITS
+                                                                      for _, u in found) \
+                or any(i >= len(names) or not names[i] for i, _ in found):
+            continue
+        merged = list(names)
+        for i, _ in found:
+            written = strip_cell(cells[i])
+            written = written[1:-1].strip() if written[:1] in "([" and written[-1:] in ")]" else written
+            col = columns([names[i]])[0]
+            if col.unit and written != "-" and col.unit != unit_of_cell(written):
+                fail(text.path, units_no, f"column '{col.raw}' is in {col.unit} by its header (line {header_no}) "
+                                          f"and in {written} by the units row below it: correct one of them")
+            if not col.unit and written != "-":   # '-': a number without a unit
+                merged[i] = f"{names[i]}({written})" if sep == " " else f"{names[i]} ({written})"
+        line = merged[0] if sep is None else sep.join(f'"{c}"' if sep in c else c for c in merged)
+        new = [(no, line if no == header_no else s) for no, s in lines[:k]] + lines[k + 1:]
+        added = [merged[i] for i, _ in found if merged[i] != names[i]]
+        row = ", ".join(strip_cell(cells[i]) for i, _ in found)
+        note = (f"line {units_no} is a row of units ({row}): read into the header "
+                f"({', '.join(repr(c) for c in added)})" if added else
+                f"line {units_no} is a row of units ({row}) that repeats the header's: skipped")
+        return dataclasses.replace(text, lines=new), note
+    return text, None
+
+
+def has_number(line):
+    """True when a cell of ``line`` (split at any comma, semicolon or tab) is a number."""
+    return any(is_numeric_row([cell]) for cell in loose_cells(line))
 
 
 def header_columns(text, header_at=0):

@@ -12,20 +12,14 @@ detector's position, runs side by side fitted jointly.
 from __future__ import annotations
 
 import dataclasses
-import re
 
 from vrcal.measurements import trajectory
-from vrcal.measurements.table import LENGTH_UNITS, TIME_UNITS, fail, is_numeric_row
+from vrcal.measurements.table import fail, is_numeric_row, unit_of_cell
 
 #: Units spelled out as Vernier's sketches print them, and their symbols.
 SPELLED_UNITS = {"seconds": "s", "second": "s", "sec": "s", "milliseconds": "ms", "meters": "m", "metres": "m",
                  "meter": "m", "metre": "m", "centimeters": "cm", "centimetres": "cm", "millimeters": "mm",
                  "millimetres": "mm"}
-#: A cell of the units line: a time or length unit the readers know (:mod:`vrcal.measurements.table`), or
-#: the unit of another of Logger Pro's columns (a velocity, an acceleration, an angle, a force, a mass).
-_UNIT_CELL = re.compile(r"^(" + "|".join(re.escape(u) for u in sorted({*TIME_UNITS, *LENGTH_UNITS}, key=len,
-                                                                        reverse=True))
-                        + r"|m/s|m/s\^?2|m/s²|ft/s|ft/s\^?2|ft/s²|deg|n|kg)$")
 
 
 def detect(text):
@@ -38,8 +32,8 @@ def _cells(line):
 
 def _is_units(cells):
     """A line of units: every non-empty cell a unit symbol or a spelled-out unit."""
-    filled = [c.lower() for c in cells if c]
-    return bool(filled) and all(c in SPELLED_UNITS or _UNIT_CELL.match(c) for c in filled)
+    filled = [c for c in cells if c]
+    return bool(filled) and all(unit_of_cell(c) is not None for c in filled)
 
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):

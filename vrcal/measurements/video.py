@@ -106,12 +106,20 @@ COLORS = {
 def detect(head, path):
     """An MP4/MOV/3GP (``ftyp``, not audio-only), AVI, Matroska/WebM file, or a video extension."""
     if head[4:8] == b"ftyp":
-        return head[8:11] not in (b"M4A", b"M4B")
+        return not _sound_only(head, path)
     if head[:4] == b"RIFF" and head[8:12] == b"AVI ":
         return True
     if head[:4] == b"\x1a\x45\xdf\xa3":
         return True
     return Path(path).suffix.lower() in VIDEO_EXTENSIONS
+
+
+def _sound_only(head, path):
+    """True for an MP4/3GP/MOV file (``head``: its first bytes) that holds sound and no video (a phone's
+    ``.m4a`` or ``.3gp`` recording: :func:`vrcal.measurements.sound.detect`)."""
+    from vrcal.measurements import sound
+
+    return head[4:8] == b"ftyp" and sound.detect(head, path)
 
 
 def _cv2():
@@ -611,8 +619,16 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     -------
     VideoTrack
     """
-    cv2 = _cv2()
     path = str(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        head = b""   # _open names the problem
+    if _sound_only(head, path):
+        raise DataError(f"{path}: a sound recording (no video track in it): read its impact times as sound "
+                        "(leave out --format video, or give --format sound)")
+    cv2 = _cv2()
     if diameter_m is None and scale_m_per_px is None:
         raise UsageError(f"{path}: the scale of a video comes from the ball's diameter: give --ball or --diameter")
     if diameter_m is not None and not (math.isfinite(diameter_m) and diameter_m > 0):
