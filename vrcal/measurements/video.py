@@ -79,7 +79,7 @@ from pathlib import Path
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import detect_release_index
+from vrcal.measurements.cleanup import detect_release_index, prominent_minima, third_difference_sigma
 from vrcal.measurements.trajectory import finish_trajectory
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -497,27 +497,76 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
     return row_f, col_f, area_f, edge
 
 
+#: Least prominence of a bounce in the rows: this many times the rows' noise from frame to frame
+#: (:func:`vrcal.measurements.cleanup.third_difference_sigma`), and at least :data:`BOUNCE_MIN_PX`.
+#: At a high frame rate the ball barely moves between frames near an apex, and a wiggle of the
+#: noise there is a local lowest point like a bounce; its prominence is about the noise's.
+BOUNCE_NOISE = 8.0
+BOUNCE_MIN_PX = 0.5
+
+
+def _bounces(row, noise):
+    """Indices of the bounces in the rows of the frames kept (rows grow downwards): the lowest
+    points of the path (largest rows) whose prominence is at least :data:`BOUNCE_NOISE` times the
+    rows' noise ``noise`` [px] and :data:`BOUNCE_MIN_PX` -- and the stops: a fall faster than that
+    a frame that halts (a ball that lands and stays). Returns a sorted array of int."""
+    least = max(BOUNCE_MIN_PX, BOUNCE_NOISE * noise)
+    lowest = prominent_minima(-row, least)
+    fall = np.diff(row)
+    stops = np.flatnonzero((fall[:-1] > max(1.0, least)) & (fall[1:] < 0.2 * fall[:-1])) + 1
+    return np.union1d(lowest, stops).astype(int)
+
+
+def _one_flight(t, row, a, b, noise):
+    """Are the pieces ``a`` and ``b`` (frame indices, ``b`` after ``a``, the ball unseen between
+    them) parts of one flight? A cubic through both (a parabola skewed by air drag) must fit
+    them within four times the noise (at least :data:`BOUNCE_MIN_PX` RMS), curve downwards as a
+    flight does (rows grow downwards), and turn up nowhere between them (no bounce unseen)."""
+    idx = np.r_[a, b]
+    if idx.size < 5:
+        return False
+    tt = t[idx] - t[a[-1]]
+    coef = np.polyfit(tt, row[idx], 3)
+    rms = float(np.sqrt(np.mean((row[idx] - np.polyval(coef, tt)) ** 2)))
+    if rms > max(BOUNCE_MIN_PX, 4.0 * noise) or np.polyfit(tt, row[idx], 2)[0] <= 0:
+        return False
+    d1, d2 = np.polyder(coef), np.polyder(coef, 2)
+    turns = [r.real for r in np.roots(d1) if abs(r.imag) < 1e-12 and 0.0 <= r.real <= tt[a.size]]
+    return not any(np.polyval(d2, r) < 0 for r in turns)  # a lowest point of the path (a bounce) unseen
+
+
 def _flights(t, row, min_frames=4):
     """Parabolas ``row = a t^2 + b t + c`` of the flights between bounces.
 
-    Bounces are the frames where the ball, moving down (row growing), turns up or stops. Returns
-    ``[(indices, coeffs, rms)]`` for flights with at least ``min_frames`` frames; the frames
-    at each bounce are left out of both flights (the ball may be in contact).
+    Bounces are the lowest points of the path (:func:`_bounces`). A time gap of more than 3.5
+    frame intervals (the ball unseen: out of the picture, hidden, or lost) ends a piece of a
+    flight; two pieces on either side of a gap are one flight when one path fits them
+    (:func:`_one_flight`: a ball that rises out of the top of the picture and falls back in),
+    else the gap ends the flight. Returns ``[(indices, coeffs, rms)]`` for flights with at least
+    ``min_frames`` frames; the frames at each bounce are left out of both flights (the ball may
+    be in contact).
     """
     dt = np.diff(t)
+    if dt.size == 0:
+        return []
     step = float(np.median(dt))
-    # a bounce: falling, then rising -- or stopping (a ball that lands and stays; the fall must be
-    # faster than a pixel a frame, so that the noise at an apex makes no bounce)
-    fall = np.diff(row)
-    bounce = [i for i in range(1, row.size - 1) if fall[i - 1] > 0 and (
-        fall[i] < 0 or (fall[i - 1] > 1.0 and fall[i] < 0.2 * fall[i - 1]))]
-    gaps = [i + 1 for i in np.flatnonzero(dt > 3.5 * step)]  # a gap without the ball ends a flight
-    bounds = [-1] + sorted(set(bounce) | set(gaps)) + [row.size]
-    out = []
+    noise = third_difference_sigma(t, row) or 0.0
+    bounce = set(_bounces(row, noise).tolist())
+    gaps = set((np.flatnonzero(dt > 3.5 * step) + 1).tolist())  # a gap without the ball ends a piece
+    bounds = [-1] + sorted(bounce | gaps) + [row.size]
+    pieces = []  # [indices, joined to the piece before across a gap]
     for a, b in zip(bounds[:-1], bounds[1:]):
-        idx = np.arange(a + 1, b)
-        if b in gaps:
-            idx = np.arange(a + 1, b)
+        start = a if a in gaps and a not in bounce else a + 1
+        idx = np.arange(start, b)
+        if idx.size == 0:
+            continue
+        if pieces and start in gaps and start not in bounce and pieces[-1][0][-1] == start - 1 \
+                and _one_flight(t, row, pieces[-1][0], idx, noise):
+            pieces[-1][0] = np.r_[pieces[-1][0], idx]
+            continue
+        pieces.append([idx])
+    out = []
+    for (idx,) in pieces:
         if idx.size < min_frames:
             continue
         coef = np.polyfit(t[idx], row[idx], 2)
@@ -531,11 +580,37 @@ def _flights(t, row, min_frames=4):
     return out
 
 
+def _unseen_notes(t, row, flights, diameter_px):
+    """Notes on the gaps within a flight (:func:`_flights` joined the pieces on either side): where
+    the ball went out of sight -- out of the top of the picture when it was within a diameter and
+    a half of the top edge on either side of the gap."""
+    out = []
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    for idx, _, _ in flights:
+        for k in np.flatnonzero(np.diff(t[idx]) > 3.5 * step):
+            a, b = idx[k], idx[k + 1]
+            top = max(row[a], row[b]) < 1.5 * diameter_px
+            where = "out of the top of the picture" if top else "out of sight"
+            out.append(f"the ball goes {where} at t = {t[a]:.3f} s and comes back at t = {t[b]:.3f} s: one "
+                       f"flight{' (its top unseen)' if top else ''}, fitted through the frames on either side -- a "
+                       "gap, not a bounce")
+    return out
+
+
+def _consecutive(t, i1, i2):
+    """Are two flights (frame indices, ``i2`` after ``i1``) consecutive, one impact between them?
+    So when the ball is unseen between them for less than half the shorter flight's span: an
+    unseen flight between them would last longer (the flights of a bounce sequence shrink by a
+    steady ratio). The frames at a bounce, in neither flight, count as unseen."""
+    unseen = t[i2[0]] - t[i1[-1]]
+    return unseen < 0.5 * min(t[i1[-1]] - t[i1[0]], t[i2[-1]] - t[i2[0]])
+
+
 def _bounce_crossings(t, flights):
     """(time, row) of the crossing of each pair of consecutive flight parabolas between their frames."""
     out = []
     for (i1, c1, _), (i2, c2, _) in zip(flights[:-1], flights[1:]):
-        if i2[0] - i1[-1] > 3:
+        if not _consecutive(t, i1, i2):
             continue
         t_lo, t_hi = t[i1[-1]], t[i2[0]]
         roots = np.roots(np.asarray(c1) - np.asarray(c2))
@@ -769,6 +844,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     diameter_px = float(np.median(d_frames))
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
     fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
+    notes += _unseen_notes(tt, rr, flights, diameter_px)
     scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
                                  fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
                                  g_m_per_s2)
@@ -941,7 +1017,7 @@ def fit_bounces(t, row, flights):
     for i, c, _ in chain:
         roots = np.sort(np.roots(np.asarray(c, float) - [0.0, 0.0, r0]).real)
         lo, hi = (roots[0], roots[-1]) if roots.size == 2 else (t[i[0]], t[i[-1]])
-        joined = bool(times) and i[0] - prev[-1] <= 3
+        joined = bool(times) and _consecutive(t, prev, i)
         if joined:
             times[-1] = 0.5 * (times[-1] + min(lo, t[i[0]]))
         else:
