@@ -177,6 +177,7 @@ class VideoTrack:
     bounces: object = None          # BounceFit of the flights between bounces, or None
     systematic_m: float = 0.0       # the centres' systematic uncertainty in heights [m] (CENTRE_SYSTEMATIC_PX)
     scale_down: float = 1.0
+    rate_suspect: str = ""          # why the frame rate is suspect (a slow-motion video), "" when it is not
 
 
 class _Progress:
@@ -228,7 +229,21 @@ def _distance(cv2, a, b):
     return np.sqrt(cv2.transform(d, np.ones((1, 3), np.float32)))
 
 
-def _read_pass1(cv2, path, roi, prog):
+#: ``--rotate``: degrees the picture is turned clockwise before tracking -> OpenCV's code.
+ROTATIONS = {0: None, 90: "ROTATE_90_CLOCKWISE", 180: "ROTATE_180", 270: "ROTATE_90_COUNTERCLOCKWISE"}
+
+
+def _view(cv2, frame, rotate, roi):
+    """The frame as tracked: turned ``rotate`` degrees clockwise, then cut to ``roi``."""
+    if rotate:
+        frame = cv2.rotate(frame, getattr(cv2, ROTATIONS[rotate]))
+    if roi is not None:
+        x, y, w, h = roi
+        frame = frame[y:y + h, x:x + w]
+    return frame
+
+
+def _read_pass1(cv2, path, roi, prog, rotate=0):
     cap = _open(cv2, path)
     fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
     n_est = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
@@ -244,11 +259,11 @@ def _read_pass1(cv2, path, roi, prog):
         if not ok or frame is None:
             break
         stamps.append(cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0)
-        if roi is not None:
-            x, y, w, h = roi
-            frame = frame[y:y + h, x:x + w]
-            if frame.shape[0] < 8 or frame.shape[1] < 8:
-                raise UsageError(f"--roi {roi} lies outside the {frame.shape[1]}x{frame.shape[0]} video")
+        whole = frame.shape
+        frame = _view(cv2, frame, rotate, roi)
+        if frame.shape[0] < 8 or frame.shape[1] < 8:
+            turned = f" (turned {rotate} degrees)" if rotate else ""
+            raise UsageError(f"--roi {roi} lies outside the {whole[1]}x{whole[0]} video{turned}")
         if factor is None:
             factor = max(1, int(frame.shape[1] // LOW_RES_WIDTH))
             size = frame.shape[:2]
@@ -449,7 +464,7 @@ def ball_presence(cv2, crop, background, ball_lab):
     return np.clip(alpha, 0.0, 1.0)
 
 
-def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n):
+def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate=0):
     """Pass 2: alpha-weighted centroid at full size around each coarse detection."""
     rows, cols, areas = coarse
     row_f, col_f = np.full(n, np.nan), np.full(n, np.nan)
@@ -467,9 +482,7 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
         ok, frame = cap.retrieve()
         if not ok:
             break
-        if roi is not None:
-            x, y, w, h = roi
-            frame = frame[y:y + h, x:x + w]
+        frame = _view(cv2, frame, rotate, roi)
         H, W = frame.shape[:2]
         cy, cx = (rows[i] + 0.5) * factor - 0.5, (cols[i] + 0.5) * factor - 0.5
         # a box 3 diameters tall (motion blur) and 2 wide
@@ -597,6 +610,29 @@ def _unseen_notes(t, row, flights, diameter_px):
     return out
 
 
+def _upright_turn(t, row, col):
+    """Degrees (90, 180, 270) to turn the picture clockwise so that the ball falls down the
+    picture, when it does not as it is (a video filmed sideways or upside down, without a
+    rotation tag), else 0. A flight here is one of :func:`_flights` that its parabola fits to
+    within five times the noise (at least a pixel RMS): the lowest points of the path read along
+    a wrong direction cut V-shaped pieces, which fit no parabola. The picture is taken as turned
+    when the rows as they are give fewer than two flights and the path read along another
+    direction -- the columns (the ball falls towards the right edge: 90, the left: 270) or the
+    rows upside down (180) -- gives three or more: a fall and two flights between bounces."""
+    if t.size < 8:
+        return 0
+
+    def flights(series):
+        limit = max(1.0, 5.0 * (third_difference_sigma(t, series) or 0.0))
+        return sum(rms <= limit for _, _, rms in _flights(t, series))
+
+    if flights(row) >= 2:
+        return 0
+    counts = {turn: flights(series) for turn, series in ((90, col), (270, -col), (180, -row))}
+    turn = max(counts, key=counts.get)
+    return turn if counts[turn] >= 3 else 0
+
+
 def _consecutive(t, i1, i2):
     """Are two flights (frame indices, ``i2`` after ``i1``) consecutive, one impact between them?
     So when the ball is unseen between them for less than half the shorter flight's span: an
@@ -659,7 +695,7 @@ def _fall_misfit_px(t, row, fall, curvature):
 
 
 def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
-                g_m_per_s2=STANDARD_GRAVITY):
+                g_m_per_s2=STANDARD_GRAVITY, rotate=0):
     """Track the ball in a video of a drop (see the module docstring).
 
     Parameters
@@ -681,10 +717,19 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     g_m_per_s2 : float
         the local gravitational acceleration [m/s^2] (default standard gravity): the flights'
         curvature with it gives a scale (:func:`choose_scale`)
+    rotate : {0, 90, 180, 270}
+        degrees to turn the picture clockwise before tracking (a video filmed sideways without a
+        rotation tag; a tagged one OpenCV turns upright itself); ``roi`` is in the turned picture
 
     Returns
     -------
     VideoTrack
+
+    Raises
+    ------
+    DataError
+        no ball, too few frames; or a ball whose flights run across the picture or upwards (a
+        video turned without a tag): the message names the ``rotate`` that turns it upright
     """
     cv2 = _cv2()
     path = str(path)
@@ -696,11 +741,15 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         raise UsageError(f"--fps must be a positive frame rate in Hz, got {fps:g}")
     if isinstance(roi, str):
         roi = parse_roi(roi)
+    rotate = int(rotate or 0)
+    if rotate not in ROTATIONS:
+        raise UsageError(f"--rotate {rotate}: give 0, 90, 180 or 270 (degrees clockwise)")
     given_bgr = parse_color(color) if color is not None else None
     prog = _Progress(progress)
-    frames, stamps, full, container_fps, factor, size = _read_pass1(cv2, path, roi, prog)
+    frames, stamps, full, container_fps, factor, size = _read_pass1(cv2, path, roi, prog, rotate)
     n = len(frames)
     notes = [f"video: {size[1]}x{size[0]} px, {n} frames, {container_fps:.3f} fps (container)"
+             + (f", turned {rotate} degrees clockwise (--rotate)" if rotate else "")
              + (f", region {roi[2]}x{roi[3]} at ({roi[0]}, {roi[1]})" if roi else "")]
     if n < 10:
         raise DataError(f"{path}: only {n} frame(s); a drop needs a video of at least a second")
@@ -734,7 +783,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     keys = sorted(full)
     bgmed = _TiledMedian([full[k] for k in keys])
     diameter_small = 2.0 * math.sqrt(np.nanmedian(coarse[2]) / math.pi)
-    row, col, area, edge = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n)
+    row, col, area, edge = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate)
     # quality
     area_ref = float(np.nanmedian(area))
     ratio = area / area_ref
@@ -763,6 +812,16 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         notes.append(f"{int(repeated.sum())} repeated frame(s) dropped (a frame identical to the one before: a "
                      f"frame-rate conversion; frames {_list(np.flatnonzero(repeated))})")
     lost = ~good & ~repeated
+    turn = _upright_turn(t[good], row[good], col[good])
+    if turn:
+        total = (rotate + turn) % 360
+        fix = (f"give --rotate {total} (turns the picture {total} degrees clockwise before tracking)" if total else
+               "track it without --rotate")
+        turned = f" (as turned by --rotate {rotate})" if rotate else ""
+        raise DataError(f"{path}: " + (
+            f"the ball's flights curve upwards{turned}: is the video upside down? {fix.capitalize()}" if turn == 180
+            else f"the ball moves across the picture{turned}, not up and down (it falls towards the "
+            f"{'right' if turn == 90 else 'left'} edge): is the video rotated? {fix.capitalize()}"))
     result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
                      diameter_m, scale_m_per_px, g_m_per_s2)
     result.background = bg
@@ -845,7 +904,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
     fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
     notes += _unseen_notes(tt, rr, flights, diameter_px)
-    scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
+    scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
                                  fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
                                  g_m_per_s2)
     if fit is not None and fit.n_flights >= 2:
@@ -924,6 +983,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
+                     rate_suspect=rate_suspect,
                      trajectory=traj, bounces=fit, systematic_m=CENTRE_SYSTEMATIC_PX * scale)
     return out
 
@@ -1097,8 +1157,9 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
 
     Returns
     -------
-    (float, float)
-        the scale [m/px] and g from the flights with the diameter's (or the given) scale [m/s^2]
+    (float, float, str)
+        the scale [m/px], g from the flights with the diameter's (or the given) scale [m/s^2], and
+        what makes the frame rate suspect ("" when it is not)
     """
     g_px = fit.g_px_per_s2 if fit is not None else fall_g_px
     g_rel = fit.curvature_sd_px_per_s2 / fit.curvature_px_per_s2 if fit is not None else float("inf")
@@ -1115,7 +1176,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         notes.append(f"scale: {scale * 1e3:.4g} mm/px (given); {seen}")
         if math.isfinite(g_meas):
             notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
-        return scale, g_meas
+        return scale, g_meas, ""
     scale_d = diameter_m / diameter_px
     seen += f" for its {diameter_m * 1e3:.4g} mm"
     g_meas = g_px * scale_d
@@ -1124,19 +1185,19 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
-        notes.append(f"WARNING: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
-                     f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
-                     "rate is "
-                     f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
-                     "give --fps, or check --diameter")
-        return scale_d, g_meas
+        suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and {clock}, "
+                   f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
+                   f"rate is suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} "
+                   f"fps: give --fps {fps * k:.0f}, or check --diameter")
+        notes.append(f"WARNING: {suspect}")
+        return scale_d, g_meas, suspect
     if not (math.isfinite(g_meas) and g_rel < G_TELLS):
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
                      + ("too few flights between bounces to tell g" if fit is not None else
                         "no flight between bounces to tell g"))
         if math.isfinite(g_meas):
             notes.append(f"check: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}")
-        return scale_d, g_meas
+        return scale_d, g_meas, ""
     sigma = math.hypot(g_rel, d_rel)
     scale_g = g_m_per_s2 / g_px
     from_g = f"g ({g_m_per_s2:g} m/s^2 with {clock}) and {curved}"
@@ -1147,7 +1208,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
                      "--diameter bias an apparent size; a clock is trusted over it)")
         notes.append("the heights are scaled with g known: an effect that changes every flight's acceleration alike "
                      "(buoyancy) cannot be told from this video")
-        return scale_g, g_meas
+        return scale_g, g_meas, ""
     w_g, w_d = 1.0 / g_rel ** 2, 1.0 / d_rel ** 2
     scale = math.exp((w_g * math.log(scale_g) + w_d * math.log(scale_d)) / (w_g + w_d))
     share = w_g / (w_g + w_d)
@@ -1157,7 +1218,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if share > 0.5:
         notes.append("the heights are scaled mostly with g known: an effect that changes every flight's acceleration "
                      "alike (buoyancy) cannot be told from this video")
-    return scale, g_meas
+    return scale, g_meas, ""
 
 
 def _straddling(t, row, flights, min_px=0.3):
@@ -1196,7 +1257,13 @@ def _flight_residual(t, row):
 
 
 def parse(path, *, diameter_m=None, roi=None, color=None, fs_hz=None, scale_m_per_px=None, progress=None,
-          g_m_per_s2=STANDARD_GRAVITY, **_ignored):
-    """The ``video`` reader: the ball's trajectory (see :func:`track_video`); ``fs_hz`` is ``--fps``."""
-    return track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fs_hz, scale_m_per_px=scale_m_per_px,
-                       progress=progress, g_m_per_s2=g_m_per_s2).trajectory
+          g_m_per_s2=STANDARD_GRAVITY, rotate=0, **_ignored):
+    """The ``video`` reader: the ball's trajectory (see :func:`track_video`); ``fs_hz`` is ``--fps``.
+    A video whose frame rate is suspect (a slow-motion video read at its container's rate: g from
+    its flights with the ball's apparent diameter for scale more than :data:`FRAME_RATE_SUSPECT`
+    off) is a DataError naming the capture rate that fits (``vrcal track`` writes it with a warning)."""
+    vt = track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fs_hz, scale_m_per_px=scale_m_per_px,
+                     progress=progress, g_m_per_s2=g_m_per_s2, rotate=rotate)
+    if vt.rate_suspect:
+        raise DataError(f"{path}: {vt.rate_suspect}")
+    return vt.trajectory
