@@ -949,7 +949,7 @@ def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Starting values {drop_height_m, release_time_s, epsilon} read from the data (one run).
 
     trajectory: drop height from the still level before release (or the first sample; of
-    a record that starts in the fall, from the fall's parabola: :func:`_falling_start`),
+    a record that starts in the fall, from the flight after its first impact: :func:`_falling_start`),
     ε from the ratios of successive impact intervals, release time from the first
     impact and the free-fall time; impacts: ε from interval ratios, drop height from
     the first interval (v = g Δt / 2); apexes: drop height = apex 0, ε from the apex
@@ -999,27 +999,27 @@ def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
         t0 = float(t[imp[0]] - math.sqrt(2 * fall_height / g))
     else:
         t0 = float(t[r])
-    falling = _falling_start(t, y, imp, g) if r == 0 and imp.size else None
+    falling = _falling_start(t, y, imp, eps, g) if r == 0 else None
     if falling is not None:  # the record starts in the fall (a video whose ball enters the picture falling)
         still, t0 = falling
     return {"drop_height_m": still, "release_time_s": t0, "epsilon": eps}
 
 
-def _falling_start(t, y, imp, g):
-    """(drop height [m], release time [s]) of a record that starts in the fall, before its first
-    impact: the fall from rest ``y = H - g (t - t_r)^2 / 2`` through the samples before the first
-    impact (the last two left out: the ball may be in contact). None when the record starts at
-    rest or at the apex (the fall then starts within a sample interval of its first sample), or
-    with fewer than three samples of the fall."""
-    n = int(imp[0]) - 1
-    if n < 3:
+def _falling_start(t, y, imp, eps, g):
+    """(drop height [m], release time [s]) of a record that starts in the fall (a video whose ball
+    enters the picture falling), from the flight after its first impact: that flight's duration
+    ``T`` gives the take-off speed ``g T / 2``, over ``eps`` the impact speed ``v``, and the fall
+    from rest that ends at the first impact with ``v`` starts ``v / g`` before it from ``v^2 / 2g``.
+    None when the record starts at rest or at the top of its fall (the first sample is no lower
+    than 90 % of that height, or the ball rises between the first two samples), or with fewer than
+    two impacts."""
+    if imp.size < 2 or y[1] >= y[0]:
         return None
-    tt, yy = t[:n], y[:n]
-    slope, intercept = np.polyfit(tt, yy + 0.5 * g * tt ** 2, 1)   # = H - g t_r^2 / 2 + g t_r t
-    t_r = slope / g
-    if not t_r < t[0] - (t[1] - t[0]):
+    v = 0.5 * g * float(t[imp[1]] - t[imp[0]]) / eps
+    height = v * v / (2.0 * g)
+    if not 0.9 * height > y[0]:
         return None
-    return float(intercept + 0.5 * g * t_r ** 2), float(t_r)
+    return height, float(t[imp[0]]) - v / g
 
 
 def initial_values(problem):

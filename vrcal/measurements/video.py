@@ -633,6 +633,18 @@ def _upright_turn(t, row, col):
     return turn if counts[turn] >= 3 else 0
 
 
+def _starts_with_fall(t, flights):
+    """Is the first flight the fall from the hand? So when it starts at its top: the vertex of its
+    parabola lies no later than a quarter into its frames (a ball released from rest, or one that
+    enters the picture falling). A first flight that rises first starts at a bounce: the fall was
+    too short to be a flight (fewer than four frames), or unseen."""
+    if not flights:
+        return False
+    idx, coef, _ = flights[0]
+    t0, t1 = t[idx[0]], t[idx[-1]]
+    return -coef[1] / (2.0 * coef[0]) <= t0 + 0.25 * (t1 - t0)
+
+
 def _consecutive(t, i1, i2):
     """Are two flights (frame indices, ``i2`` after ``i1``) consecutive, one impact between them?
     So when the ball is unseen between them for less than half the shorter flight's span: an
@@ -902,7 +914,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     d_frames = 2.0 * np.sqrt(area[slow] / math.pi)
     diameter_px = float(np.median(d_frames))
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
-    fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
+    fall = flights[0] if _starts_with_fall(tt, flights) else None
+    fall_g_px = 2.0 * fall[1][0] if fall is not None and fall[0].size >= 5 else float("nan")
     notes += _unseen_notes(tt, rr, flights, diameter_px)
     scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
                                  fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
@@ -927,8 +940,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     end = _track_end(flights, rr.size)
     # the fall from the hand must be a fall: else the track starts at the first apex
     fall_note = None
-    if fit is not None and flights[0][0].size >= 5 and fit.n_flights >= 2:
-        misfit = _fall_misfit_px(tt, rr, flights[0][0], fit.curvature_px_per_s2)
+    if fit is not None and fall is not None and fall[0].size >= 5 and fit.n_flights >= 2:
+        misfit = _fall_misfit_px(tt, rr, fall[0], fit.curvature_px_per_s2)
         flight_rms = float(np.median([f[2] for f in flights[1:]]))
         if misfit > max(FALL_MISFIT_PX, 4.0 * flight_rms):
             _, t0, t1 = fit.flights[0]
@@ -1043,7 +1056,8 @@ def fit_bounces(t, row, flights):
     between impacts ``t_i`` and ``t_{i+1}``: a parabola, skewed by ``s_i`` (one per flight)
     as air drag skews a flight (faster up than down), which would otherwise bias ``row_c``
     where the flights are extrapolated to the floor. The fall from the hand (the first
-    flight) is left out: a hand may still touch it, and the ball may start nearer the camera. Least
+    flight, when it starts at its top: :func:`_starts_with_fall`) is left out: a hand may still
+    touch it, and the ball may start nearer the camera. Least
     squares over all the flights' frames (the frames at a bounce are in no flight) give
     ``a``, ``row_c`` and their standard errors. A contact that lasts (the ball resting on
     the floor between landing and lift-off) is not modelled: the flights then meet above
@@ -1065,7 +1079,7 @@ def fit_bounces(t, row, flights):
     """
     from scipy.optimize import least_squares
 
-    chain = [f for f in flights[1:] if f[0].size >= 4]
+    chain = [f for f in (flights[1:] if _starts_with_fall(t, flights) else flights) if f[0].size >= 4]
     if not chain:
         return None
     # impact-time parameters: consecutive flights share one
@@ -1073,7 +1087,7 @@ def fit_bounces(t, row, flights):
     a0 = float(np.median([c[0] for _, c, _ in chain]))
     crossings = _bounce_crossings(t, flights)
     r0 = float(np.median([c[1] for c in crossings])) if crossings else float(max(np.max(row[i]) for i, _, _ in chain))
-    prev = flights[0][0]
+    prev = None
     for i, c, _ in chain:
         roots = np.sort(np.roots(np.asarray(c, float) - [0.0, 0.0, r0]).real)
         lo, hi = (roots[0], roots[-1]) if roots.size == 2 else (t[i[0]], t[i[-1]])
