@@ -40,7 +40,12 @@ Times, scale, floor and the y axis
   then the frames left are timed both by their stamps and evenly spaced over the same
   span, and the timing whose flights are better parabolas is kept (``--fps`` overrides
   the container's rate, e.g. for a slow-motion video).
-* **The bounces** (:func:`fit_bounces`). The flights between bounces are fitted together
+* **The bounces** (:func:`_flights`, :func:`fit_bounces`). A bounce is a lowest point of the
+  path that stands out of the centres' noise (:func:`_bounces`: at a high frame rate a wiggle
+  of the noise at an apex is no bounce). A gap in the frames (the ball out of the picture, or
+  hidden) ends a piece of a flight; the pieces on either side are one flight when one path
+  fits them (a ball rising out of the top of the picture: a note says so), else the gap ends
+  the flight. The flights between bounces are fitted together
   as parabolas of one curvature that leave and reach one contact row, consecutive ones
   meeting there at the impact: the curvature in px/s² (g over the scale) and the centre's
   row at contact, each with its standard error. The fall from the hand is not in it.
@@ -53,9 +58,13 @@ Times, scale, floor and the y axis
   blur, shading, compression and the ball's distance change) and a note gives what the
   diameter would have implied. A g from the diameter's scale more than 25 % off standard
   gravity makes the frame rate itself suspect (a slow-motion video): the diameter's scale
-  is kept and a warning names the capture rate that would fit. ``scale_m_per_px`` overrides
+  is kept and a warning names the capture rate that would fit (the ``video`` reader,
+  :func:`parse`, which ``vrcal discover`` uses, stops there with it). ``scale_m_per_px`` overrides
   both. A scale from g cannot tell an effect that changes the flights' acceleration alike
   (buoyancy): a note says so.
+* **Orientation.** ``rotate`` (``--rotate``) turns each frame clockwise before tracking. A
+  ball whose flights run along the columns, or curve upwards, is a video turned without a
+  rotation tag: an error names the ``--rotate`` that sets it upright (:func:`_upright_turn`).
 * **Floor and y axis.** Image rows grow downwards; heights are ``(row_c - row) * scale``,
   where ``row_c`` is the centre's row at contact from the bounce fit. So ``y`` is the
   height of the ball's bottom above the floor (the centre at contact is one radius above it).
