@@ -525,7 +525,9 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
               help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")
 @click.option("--fs", "--fps", "fs_hz", type=opt.RATE_HZ, default=None,
-              help="Frame rate [Hz] when the file has no time column.")
+              help="Frame rate [Hz] when the file has no time column (a video: overrides its time stamps).")
+@click.option("--rotate", type=opt.ROTATION, default=None,
+              help="A video: turn the picture this many degrees clockwise first (filmed sideways, no rotation tag).")
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
@@ -546,7 +548,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
 @click.pass_context
-def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, floor_m, noise,
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, rotate, floor_m, noise,
              drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir, quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
@@ -580,7 +582,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
                            g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
                            y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
-                           read_options={"progress": None if quiet else tracking_progress("discover")},
+                           read_options={"progress": None if quiet else tracking_progress("discover"),
+                                         "rotate": None if rotate is None else int(rotate)},
                            drop_measured_to={"center": "centre"}.get(drop_measured_to, drop_measured_to),
                            rebound_measured_to={"center": "centre"}.get(rebound_measured_to, rebound_measured_to))
     text = fit_report(result, details=details)
@@ -632,12 +635,14 @@ def tracking_progress(command):
               help="Video: frame rate [Hz] overriding the container's time stamps (a slow-motion video).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Video: metres per pixel overriding the scale from the diameter.")
+@click.option("--rotate", type=opt.ROTATION, default=None,
+              help="Video: turn the picture this many degrees clockwise first (filmed sideways, no rotation tag).")
 @g_option(from_json=False)
 @click.option("-q", "--quiet", is_flag=True, help="No progress on stderr and no summary.")
 @STANDARDS_OPTION
 @click.pass_context
-def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, g_m_per_s2,
-          quiet):
+def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, fps, scale_m_per_px, rotate,
+          g_m_per_s2, quiet):
     """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
 
     A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
@@ -651,6 +656,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
       vrcal track drop.wav -o impacts.csv
       vrcal track drop.mp4 --ball tennis -o drop.csv --plot drop.png
       vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
+      vrcal track sideways.mp4 --ball tennis --rotate 90 -o drop.csv
     """
     import os
 
@@ -662,6 +668,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
         diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
                              scale_m_per_px=scale_m_per_px, g_m_per_s2=g_m_per_s2,
+                             rotate=None if rotate is None else int(rotate),
                              progress=None if quiet else tracking_progress("track"))
     files = {}
     if plot_file:

@@ -234,6 +234,10 @@ INPUT_FILE = click.Path(exists=True, dir_okay=False)
 #: keys of vrcal.model.restitution.POINT_OFFSET_DIAMETERS, and "center" for "centre").
 BALL_POINT = click.Choice(["bottom", "centre", "center", "top"])
 
+#: Degrees a video is turned clockwise before tracking (``--rotate``; the keys of
+#: vrcal.measurements.video.ROTATIONS).
+ROTATION = click.Choice(["0", "90", "180", "270"])
+
 #: The measurement formats of ``--format`` (the keys of vrcal.measurements.reader.FORMATS, written out
 #: so that the CLI starts without importing the readers; a test keeps the two equal).
 MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "tracker", "phyphox-collision", "drops", "apexes",

@@ -536,3 +536,24 @@ def test_qn_scale_is_a_standard_deviation_that_bears_an_odd_value():
     qn = np.array([qn_scale(s) for s in samples])
     assert np.mean(qn < 0.5) < np.mean(mad < 0.5)
     assert qn_scale(np.random.default_rng(2).normal(0.0, 1.0, 5000)) == pytest.approx(1.0, abs=0.05)   # MAD
+
+
+def test_a_record_that_starts_in_the_fall_and_misses_an_apex_is_fitted():
+    """A video whose ball enters the picture falling and rises out of its top after the first bounce:
+    the record starts in the fall (no still segment; the drop height is above the picture) and has a
+    gap at the first apex. The start values come from the flight after the first impact (the first
+    sample as the drop height, 'released' at the first sample, put the fit in a wrong minimum:
+    epsilon 0.96 for 0.75 on the probe's video), and discover finds the planted epsilon."""
+    from vrcal.discovery.ranking import discover
+
+    d = simulate_drops(2.0, 0.75, 4, TENNIS, release_time_s=0.2)
+    t = np.arange(0.0, d.landing_times_s[0] - 0.05, 1 / 60)
+    y = d.height_m(t)[0]
+    seen = (t > 0.55) & (y < 0.9)          # the picture shows heights up to 0.9 m
+    data = Trajectory(t[seen], y[seen] + np.random.default_rng(2).normal(0.0, 2e-4, seen.sum()), "test")
+    start = res.initial_baseline(data)
+    assert start["drop_height_m"] == pytest.approx(2.0, rel=0.1)
+    assert start["release_time_s"] == pytest.approx(0.2, abs=0.03)
+    result = discover(data, TENNIS)
+    assert result.epsilon == pytest.approx(0.75, abs=0.002)
+    assert not result.effects

@@ -82,6 +82,8 @@ def test_bad_recordings_fail_in_one_line_and_leave_nothing(tmp_path):
         (("track", junk, "--diameter", "0.067"), 1, "video"),
         (("track", text), 1, "not a sound or video recording"),
         (("track", silent, "--color", "red"), 2, "apply to videos"),
+        (("track", silent, "--rotate", "90"), 2, "apply to videos"),
+        (("track", silent, "--rotate", "45"), 2, "'45' is not one of '0', '90', '180', '270'"),
         (("discover", silent, "--ball", "tennis"), 1, "silent"),
     ]:
         out = tmp_path / "out.csv"

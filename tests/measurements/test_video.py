@@ -29,7 +29,8 @@ def _opencv():
 
 def render(directory, name="drop.avi", eps=0.75, H=0.6, n=5, effects=None, **scene):
     drops = simulate_drops(H, eps, n, BALL, release_time_s=0.2, effects=effects)
-    sc = VideoScene(width=320, x_px=160.0, m_per_px=M_PER_PX, floor_row=FLOOR_ROW, height=320, **scene)
+    sc = VideoScene(**{"width": 320, "x_px": 160.0, "m_per_px": M_PER_PX, "floor_row": FLOOR_ROW, "height": 320,
+                       **scene})
     path = directory / name
     truth = render_video(path, drops, D, scene=sc, seed=1)
     return path, truth
@@ -214,6 +215,158 @@ def test_bad_videos_fail_in_one_line(tmp_path, plain):
     assert "\n" not in str(err.value)
     with pytest.raises(UsageError, match="diameter"):
         read_measurement(plain[0])
+
+
+def test_a_noise_wiggle_at_an_apex_of_a_fast_video_is_no_bounce():
+    """At 240 fps the ball moves less than the centres' noise between frames near an apex: a wiggle
+    of the noise there is a lowest point of the path like a bounce, and each one cut a flight in two
+    (the probe's 240 fps video: the floor at row 401.5 for 440, heights down to -0.1 m). Bounces are
+    the lowest points standing out of the noise: the flights are the true ones and the floor is
+    within a few hundredths of a pixel (no video: the rows of a simulated drop with 0.1 px noise)."""
+    from vrcal.measurements.video import _flights, fit_bounces
+
+    d = simulate_drops(0.6, 0.75, 4, BALL, release_time_s=0.2)
+    t = np.arange(0.2, d.impact_times_s[0][-1] + 0.02, 1 / 240)   # from the release, as the tracker does
+    row_c = FLOOR_ROW - 0.5 * D / M_PER_PX
+    row = row_c - d.height_m(t)[0] / M_PER_PX + np.random.default_rng(3).normal(0.0, 0.1, t.size)
+    flights = _flights(t, row)
+    assert len(flights) == 4  # the fall and three flights between the four bounces
+    fit = fit_bounces(t, row, flights)
+    assert fit.n_flights == 3
+    np.testing.assert_allclose(fit.impact_times_s, d.impact_times_s[0], atol=1 / 240)
+    assert abs(fit.contact_row_px - row_c) < 0.05
+
+
+def test_frames_with_the_ball_out_of_the_picture_are_a_gap_not_a_bounce():
+    """The probe's video (no video here: the rows of a simulated drop at 60 fps, 0.1 px noise): the
+    ball enters the picture falling and rises out of its top after the first bounce. The gap was
+    taken for a bounce -- the two pieces of the first flight fitted as two flights meeting at the
+    floor -- and the floor came out at row 418.75 +- 11 px for 440. One flight across the gap gives
+    the floor within a tenth of a pixel."""
+    from vrcal.measurements.video import _flights, fit_bounces
+
+    d = simulate_drops(2.0, 0.75, 4, BALL, release_time_s=0.5)
+    t = np.arange(0.0, d.impact_times_s[0][-1] + 0.05, 1 / 60)
+    row = 440.0 - d.height_m(t)[0] * 450.0 + np.random.default_rng(4).normal(0.0, 0.1, t.size)
+    seen = row > 20.0     # the centre a diameter below the top edge
+    t, row = t[seen], row[seen]
+    flights = _flights(t, row)
+    assert len(flights) == 4  # the fall into the picture and three flights between the four bounces
+    fit = fit_bounces(t, row, flights)
+    assert fit.n_flights == 3
+    assert abs(fit.contact_row_px - 440.0) < 0.1
+
+
+def test_a_ball_that_leaves_the_top_of_the_picture_is_one_flight(tmp_path):
+    """The ball enters the picture falling and rises out of its top after the first bounce: the
+    frames it is out of sight are a gap in one flight, not a bounce (the probe's video: the gap was
+    taken for a bounce, the floor came out 21 px high, and discover's epsilon was 0.962 for 0.75).
+    The floor and the scale are right, a note says where the ball went, and discover finds epsilon."""
+    from vrcal.discovery.ranking import discover
+
+    path, truth = render(tmp_path, H=1.0, n=3, height=200, floor_row=190.0, noise_sd=2.0)
+    gone = ~np.isfinite(truth["row_px"]) | (truth["row_px"] < -10)
+    assert gone[(truth["t_s"] > 0.85) & (truth["t_s"] < 1.1)].all()  # the first apex is out of the picture
+    vt = track_video(path, diameter_m=D)
+    assert abs(vt.contact_row_px - (190.0 - truth["diameter_px"] / 2)) < 0.1
+    assert abs(vt.scale_m_per_px / M_PER_PX - 1) < 0.003
+    result = discover(vt.trajectory, BALL)
+    assert abs(result.epsilon - 0.75) < 0.005
+    assert not result.effects
+    assert any("out of the top of the picture" in n and "a gap, not a bounce" in n for n in vt.notes)
+
+
+def test_a_slow_motion_video_read_by_discover_names_the_capture_rate(hard):
+    """A slow-motion video read at its container's rate: 'vrcal track' writes it with a warning; the
+    reader discover uses stops with the same hint, the capture rate that fits and --fps (it said
+    'the heights or the times are not in the units read (check --fs, --scale ...)')."""
+    path, truth = hard
+    with pytest.raises(DataError, match=r"slow-motion video\?\); the motion fits a capture rate of about 30 fps: "
+                                        r"give --fps 30, or check --diameter") as err:
+        read_measurement(path, diameter_m=D, fs_hz=7.5)
+    assert "\n" not in str(err.value)
+
+
+def _turned(source, directory, code):
+    import cv2
+
+    cap = cv2.VideoCapture(str(source))
+    frames = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(cv2.rotate(frame, code))
+    cap.release()
+    out = directory / "turned.avi"
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"MJPG"), 30, frames[0].shape[1::-1])
+    for frame in frames:
+        writer.write(frame)
+    writer.release()
+    return out
+
+
+def test_a_video_filmed_sideways_names_the_rotation_that_turns_it_upright(plain, tmp_path):
+    """A video turned a quarter counter-clockwise without a rotation tag (the ball falls towards the
+    right edge) said 'no fall or bounce ... heights vary by 0.7 mm'. It is a one-line error naming
+    --rotate 90, and --rotate 90 tracks it as the upright video."""
+    import cv2
+
+    path, truth = plain
+    turned = _turned(path, tmp_path, cv2.ROTATE_90_COUNTERCLOCKWISE)
+    with pytest.raises(DataError, match=r"the ball moves across the picture, not up and down \(it falls towards "
+                                        r"the right edge\): is the video rotated\? Give --rotate 90") as err:
+        read_measurement(turned, diameter_m=D)
+    assert "\n" not in str(err.value)
+    vt = track_video(turned, diameter_m=D, rotate=90)
+    kept = vt.kept & ~truth["straddles_impact"]
+    assert kept.sum() > 40 and np.max(np.abs(vt.row_px[kept] - truth["row_px"][kept])) < 0.5
+    assert abs(vt.contact_row_px - contact_row(truth)) < 0.1
+    assert "turned 90 degrees clockwise" in vt.notes[0]
+    with pytest.raises(UsageError, match="--rotate 45"):
+        track_video(turned, diameter_m=D, rotate=45)
+
+
+def test_the_turn_that_sets_a_video_upright():
+    """Each way a picture can be turned (no video: the centres of a simulated drop at 30 fps, 0.1 px
+    noise), and a drop with the ball drifting sideways, which is upright."""
+    from vrcal.measurements.video import _upright_turn
+
+    d = simulate_drops(0.6, 0.75, 5, BALL, release_time_s=0.2)
+    t = np.arange(0.0, d.impact_times_s[0][-1], 1 / 30)
+    rng = np.random.default_rng(5)
+    down = 280.0 - d.height_m(t)[0] / M_PER_PX + rng.normal(0.0, 0.1, t.size)   # the row, upright
+    across = 160.0 + 20.0 * t + rng.normal(0.0, 0.1, t.size)                     # a slow drift sideways
+    assert _upright_turn(t, down, across) == 0
+    assert _upright_turn(t, 320.0 - across, down) == 90        # falls towards the right edge
+    assert _upright_turn(t, across, 320.0 - down) == 270       # ... the left edge
+    assert _upright_turn(t, 320.0 - down, 320.0 - across) == 180
+
+
+def test_discover_reads_a_sideways_video_with_rotate(plain, tmp_path):
+    """'vrcal discover VIDEO' says the same in one line, and takes --rotate too (a text file notes it
+    ignored)."""
+    import cv2
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+
+    turned = _turned(plain[0], tmp_path, cv2.ROTATE_90_CLOCKWISE)
+    result = CliRunner().invoke(main, ["discover", str(turned), "--ball", "tennis", "-q"])
+    assert result.exit_code == 1 and result.output.count("\n") == 1
+    assert "falls towards the left edge): is the video rotated? Give --rotate 270" in result.output
+    result = CliRunner().invoke(main, ["discover", str(turned), "--ball", "tennis", "-q", "--rotate", "270",
+                                       "--json", "-"])
+    assert result.exit_code == 0, result.output
+    import json
+
+    found = json.loads(result.output)
+    assert abs(found["epsilon"] - 0.75) < 0.005 and found["reader"]["rotate"] == 270
+    table = tmp_path / "drop.csv"
+    t = np.arange(0, 1.5, 1 / 100)
+    y = simulate_drops(0.6, 0.75, 4, BALL, release_time_s=0.2).height_m(t)[0]
+    table.write_text("t,y\n" + "".join(f"{a:.4f},{b:.6f}\n" for a, b in zip(t, y)))
+    assert "--rotate ignored: it applies to videos" in read_measurement(table, rotate=90).notes
 
 
 @pytest.fixture(scope="module")

@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
+from vrcal.measurements.cleanup import third_difference_sigma
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -587,7 +588,6 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     -------
     Prepared
     """
-    from vrcal.discovery.residuals import _third_difference_sigma
     from vrcal.measurements import Runs, plausibility
 
     runs = list(data.runs) if isinstance(data, Runs) else [data]
@@ -621,7 +621,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     sigma = sigma_m if sigma_m is not None else full_noise
     if sigma is None and shifted[0].kind == "trajectory":
         first = record.runs[0] if isinstance(record, Runs) else record
-        sigma = _third_difference_sigma(np.asarray(first.t_s, float), np.asarray(first.y_m, float))
+        sigma = third_difference_sigma(np.asarray(first.t_s, float), np.asarray(first.y_m, float))
     if progress is not None:
         progress(0.5, "checking the record and finding its bounces")
     checked = plausibility.check(record, diameter, g_m_per_s2, y_down=y_down, sigma_m=sigma or 0.0)

@@ -1331,7 +1331,7 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     noise : float or None
         noise of one datum in the data's unit, see :func:`discover`
     read_options : dict or None
-        options of the sound and video readers (``roi``, ``color``, ``progress``, see
+        options of the sound and video readers (``roi``, ``color``, ``rotate``, ``progress``, see
         :func:`vrcal.measurements.read_measurement`); a video's scale comes from the ball's diameter
     drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"} or None
         the point of the ball that drop and rebound heights were measured to
@@ -1359,7 +1359,8 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     data = heights_to_bottom(data, float(np.mean(props.diameter_m)), drop_measured_to, rebound_measured_to)
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
     reader = {"files": [str(p) for p in paths], "format": fmt, **options, "drop_measured_to": drop_measured_to,
-              "rebound_measured_to": rebound_measured_to}
+              "rebound_measured_to": rebound_measured_to,
+              **({"rotate": recording["rotate"]} if recording.get("rotate") else {})}
     stated = drop_measured_to is not None or rebound_measured_to is not None
     candidates = [e for e in res.applicable_effects("apexes") if e != "height_offset"] if stated else None
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,

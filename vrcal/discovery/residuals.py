@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
+from vrcal.measurements.cleanup import third_difference_sigma
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: Data kinds the fitter knows, and the unit of their residuals.
@@ -212,7 +213,7 @@ def noise_floor(data):
         return None
     values, weights = [], []
     for run in runs:
-        s = _third_difference_sigma(np.asarray(run.t_s, dtype=float), np.asarray(run.y_m, dtype=float))
+        s = third_difference_sigma(np.asarray(run.t_s, dtype=float), np.asarray(run.y_m, dtype=float))
         if s is not None:
             values.append(s * s)
             weights.append(len(run.t_s))
@@ -249,25 +250,6 @@ def replicate_sigma(runs):
     if dof < MIN_REPLICATE_DOF:
         return None, dof
     return math.sqrt(ss / dof), dof
-
-
-def _third_difference_sigma(t, y):
-    """Robust σ [m] of a near-parabolic series from its third differences (see :func:`noise_floor`)."""
-    if t.size < 8:
-        return None
-    dt = np.diff(t)
-    step = np.median(dt)
-    d3 = np.diff(y, 3)
-    # keep only third differences over four equally spaced samples
-    even = np.abs(dt - step) <= 0.01 * step
-    ok = even[:-2] & even[1:-1] & even[2:]
-    d3 = d3[ok]
-    if d3.size < 5:
-        return None
-    mad = np.median(np.abs(d3 - np.median(d3)))
-    sigma = 1.4826 * mad / math.sqrt(20.0)
-    # below a millionth of the height range the "noise" is rounding: a simulation, no measurement
-    return float(sigma) if sigma > 1e-6 * float(np.ptp(y)) else None
 
 
 #: Most values :func:`qn_scale` takes all pairs of (beyond: the median absolute deviation).
@@ -958,7 +940,7 @@ def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
     if seg.size < 3:
         return np.array([], dtype=int)
     if sigma_m is None:
-        sigma_m = _third_difference_sigma(np.asarray(t_s, dtype=float), y) or 0.0
+        sigma_m = third_difference_sigma(np.asarray(t_s, dtype=float), y) or 0.0
     span = float(np.max(seg) - np.min(seg))
     return prominent_minima(seg, max(8.0 * sigma_m, 0.005 * span, 1e-9)) + r
 
@@ -966,7 +948,8 @@ def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
 def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Starting values {drop_height_m, release_time_s, epsilon} read from the data (one run).
 
-    trajectory: drop height from the still level before release (or the first sample),
+    trajectory: drop height from the still level before release (or the first sample; of
+    a record that starts in the fall, from the flight after its first impact: :func:`_falling_start`),
     ε from the ratios of successive impact intervals, release time from the first
     impact and the free-fall time; impacts: ε from interval ratios, drop height from
     the first interval (v = g Δt / 2); apexes: drop height = apex 0, ε from the apex
@@ -1016,7 +999,27 @@ def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
         t0 = float(t[imp[0]] - math.sqrt(2 * fall_height / g))
     else:
         t0 = float(t[r])
+    falling = _falling_start(t, y, imp, eps, g) if r == 0 else None
+    if falling is not None:  # the record starts in the fall (a video whose ball enters the picture falling)
+        still, t0 = falling
     return {"drop_height_m": still, "release_time_s": t0, "epsilon": eps}
+
+
+def _falling_start(t, y, imp, eps, g):
+    """(drop height [m], release time [s]) of a record that starts in the fall (a video whose ball
+    enters the picture falling), from the flight after its first impact: that flight's duration
+    ``T`` gives the take-off speed ``g T / 2``, over ``eps`` the impact speed ``v``, and the fall
+    from rest that ends at the first impact with ``v`` starts ``v / g`` before it from ``v^2 / 2g``.
+    None when the record starts at rest or at the top of its fall (the first sample is no lower
+    than 90 % of that height, or the ball rises between the first two samples), or with fewer than
+    two impacts."""
+    if imp.size < 2 or y[1] >= y[0]:
+        return None
+    v = 0.5 * g * float(t[imp[1]] - t[imp[0]]) / eps
+    height = v * v / (2.0 * g)
+    if not 0.9 * height > y[0]:
+        return None
+    return height, float(t[imp[0]]) - v / g
 
 
 def initial_values(problem):

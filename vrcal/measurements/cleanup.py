@@ -1,6 +1,7 @@
 """Clean-up of raw records, one pure function each: the still segment before release,
-duplicated video frames, the bounces of a trajectory (prominent minima), and echoes,
-missed impacts and odd bounces in a series of impact times (chains of consecutive bounces).
+duplicated video frames, the noise of a trajectory (third differences), its bounces (prominent
+minima), and echoes, missed impacts and odd bounces in a series of impact times (chains of
+consecutive bounces).
 """
 
 from __future__ import annotations
@@ -296,6 +297,44 @@ def find_duplicated_frames(positions, release_index=0):
         before, after = d[i - 2, 0], d[i, 0]
         dup &= (np.sign(before) == np.sign(after)) & (np.abs(before) > quantum) & (np.abs(after) > quantum)
     return i[dup]
+
+
+def third_difference_sigma(t, y):
+    """Robust noise σ of one sample of a near-parabolic series (a trajectory's heights [m], a
+    video's image rows [px]; the unit of ``y``), from its third differences, which vanish on a
+    parabola: 1.4826 x their median absolute deviation over sqrt(20) (the third difference of
+    white noise has variance 20 σ²), over runs of four equally spaced samples only. A bounce
+    or a lost frame spoils a few of them; the median ignores those.
+
+    Parameters
+    ----------
+    t : ndarray
+        sample times [s]
+    y : ndarray
+        the series (any unit)
+
+    Returns
+    -------
+    float or None
+        σ in the unit of ``y``; None with fewer than 8 samples or 5 usable differences, or when
+        σ is below a millionth of the range of ``y`` (rounding: a simulation, no measurement)
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if t.size < 8:
+        return None
+    dt = np.diff(t)
+    step = np.median(dt)
+    d3 = np.diff(y, 3)
+    # keep only third differences over four equally spaced samples
+    even = np.abs(dt - step) <= 0.01 * step
+    ok = even[:-2] & even[1:-1] & even[2:]
+    d3 = d3[ok]
+    if d3.size < 5:
+        return None
+    mad = np.median(np.abs(d3 - np.median(d3)))
+    sigma = 1.4826 * mad / math.sqrt(20.0)
+    return float(sigma) if sigma > 1e-6 * float(np.ptp(y)) else None
 
 
 def prominent_minima(y, prominence):

@@ -93,7 +93,7 @@ FORMATS = {
 #: file again the same way (``vrcal discover`` writes them into its JSON).
 READER_OPTIONS = ("scale_m_per_px", "y_down", "fs_hz", "sheet")
 #: Options only the recording readers (sound, video) take.
-RECORDING_OPTIONS = ("diameter_m", "roi", "color", "progress", "g_m_per_s2")
+RECORDING_OPTIONS = ("diameter_m", "roi", "color", "progress", "g_m_per_s2", "rotate")
 
 
 def format_help():
@@ -214,8 +214,8 @@ def read_measurement(path, fmt=None, **options):
         stamps: a slow-motion video); ``sheet`` (str or None): the sheet of a workbook (default: phyphox's
         ``All``, else the first with a table)
         Recordings (sound, video) also take ``diameter_m`` (video: the ball's diameter [m], which
-        gives the scale), ``roi``, ``color``, ``g_m_per_s2`` (the g that scales a video from its
-        flights; :func:`vrcal.measurements.video.track_video`) and ``progress`` (a callable
+        gives the scale), ``roi``, ``color``, ``rotate``, ``g_m_per_s2`` (the g that scales a video from
+        its flights; :func:`vrcal.measurements.video.track_video`) and ``progress`` (a callable
         ``progress(fraction, message)``); the text layouts ignore them.
 
     Returns
@@ -241,6 +241,7 @@ def read_measurement(path, fmt=None, **options):
     if name is not None and FORMATS[name].recording:
         passed = {k: v for k, v in options.items() if k not in ("y_down", "sheet") and v is not None}
         return FORMATS[name].parser(str(path), **passed)
+    rotate = options.get("rotate")
     for key in RECORDING_OPTIONS:
         options.pop(key, None)
     sheet = options.pop("sheet", None)
@@ -261,6 +262,8 @@ def read_measurement(path, fmt=None, **options):
         data = dataclasses.replace(data, notes=tuple(data.notes) + (
             f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
             f"and this file holds {kind}",))
+    if rotate:
+        data = dataclasses.replace(data, notes=tuple(data.notes) + ("--rotate ignored: it applies to videos",))
     said = [_title_note(title) if title is not None else None, units_note, *text.notes]
     if any(said):
         data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))

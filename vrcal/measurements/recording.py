@@ -39,7 +39,7 @@ class Tracked:
 
 
 def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
-          g_m_per_s2=None):
+          g_m_per_s2=None, rotate=None):
     """Track a recording (see :func:`vrcal.measurements.sound.track_sound` and
     :func:`vrcal.measurements.video.track_video`) and lay the result out as a measurement file.
 
@@ -51,8 +51,9 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
         None: detected from the file
     diameter_m : float or None
         video: the ball's diameter [m]
-    roi, color, fps, scale_m_per_px :
-        video options (region ``x,y,w,h``, ball colour, frame rate [Hz], scale [m/px])
+    roi, color, fps, scale_m_per_px, rotate :
+        video options (region ``x,y,w,h``, ball colour, frame rate [Hz], scale [m/px], degrees to turn
+        the picture clockwise)
     progress : callable, optional
         ``progress(fraction, message)``
     g_m_per_s2 : float or None
@@ -72,12 +73,13 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
         raise DataError(f"{path}: not a sound or video recording (WAV, m4a, mp3, mp4, mov, avi, ...); "
                         "a text measurement needs no tracking: give it to 'vrcal discover' directly")
     if kind == "sound":
-        if any(v is not None for v in (roi, color, fps, scale_m_per_px)):
-            raise UsageError("--roi, --color, --fps and --scale apply to videos, not to sound")
+        if any(v is not None for v in (roi, color, fps, scale_m_per_px, rotate)):
+            raise UsageError("--roi, --color, --fps, --scale and --rotate apply to videos, not to sound")
         st = sound.track_sound(path, progress=progress)
         return Tracked("sound", st.impacts, impacts_text(st), st)
     vt = video.track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fps, scale_m_per_px=scale_m_per_px,
-                           progress=progress, **({} if g_m_per_s2 is None else {"g_m_per_s2": g_m_per_s2}))
+                           progress=progress, rotate=rotate or 0,
+                           **({} if g_m_per_s2 is None else {"g_m_per_s2": g_m_per_s2}))
     return Tracked("video", vt.trajectory, trajectory_text(vt), vt)
 
 

@@ -40,7 +40,12 @@ Times, scale, floor and the y axis
   then the frames left are timed both by their stamps and evenly spaced over the same
   span, and the timing whose flights are better parabolas is kept (``--fps`` overrides
   the container's rate, e.g. for a slow-motion video).
-* **The bounces** (:func:`fit_bounces`). The flights between bounces are fitted together
+* **The bounces** (:func:`_flights`, :func:`fit_bounces`). A bounce is a lowest point of the
+  path that stands out of the centres' noise (:func:`_bounces`: at a high frame rate a wiggle
+  of the noise at an apex is no bounce). A gap in the frames (the ball out of the picture, or
+  hidden) ends a piece of a flight; the pieces on either side are one flight when one path
+  fits them (a ball rising out of the top of the picture: a note says so), else the gap ends
+  the flight. The flights between bounces are fitted together
   as parabolas of one curvature that leave and reach one contact row, consecutive ones
   meeting there at the impact: the curvature in px/s² (g over the scale) and the centre's
   row at contact, each with its standard error. The fall from the hand is not in it.
@@ -53,9 +58,13 @@ Times, scale, floor and the y axis
   blur, shading, compression and the ball's distance change) and a note gives what the
   diameter would have implied. A g from the diameter's scale more than 25 % off standard
   gravity makes the frame rate itself suspect (a slow-motion video): the diameter's scale
-  is kept and a warning names the capture rate that would fit. ``scale_m_per_px`` overrides
+  is kept and a warning names the capture rate that would fit (the ``video`` reader,
+  :func:`parse`, which ``vrcal discover`` uses, stops there with it). ``scale_m_per_px`` overrides
   both. A scale from g cannot tell an effect that changes the flights' acceleration alike
   (buoyancy): a note says so.
+* **Orientation.** ``rotate`` (``--rotate``) turns each frame clockwise before tracking. A
+  ball whose flights run along the columns, or curve upwards, is a video turned without a
+  rotation tag: an error names the ``--rotate`` that sets it upright (:func:`_upright_turn`).
 * **Floor and y axis.** Image rows grow downwards; heights are ``(row_c - row) * scale``,
   where ``row_c`` is the centre's row at contact from the bounce fit. So ``y`` is the
   height of the ball's bottom above the floor (the centre at contact is one radius above it).
@@ -79,7 +88,7 @@ from pathlib import Path
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import detect_release_index
+from vrcal.measurements.cleanup import detect_release_index, prominent_minima, third_difference_sigma
 from vrcal.measurements.trajectory import finish_trajectory
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -185,6 +194,7 @@ class VideoTrack:
     bounces: object = None          # BounceFit of the flights between bounces, or None
     systematic_m: float = 0.0       # the centres' systematic uncertainty in heights [m] (CENTRE_SYSTEMATIC_PX)
     scale_down: float = 1.0
+    rate_suspect: str = ""          # why the frame rate is suspect (a slow-motion video), "" when it is not
 
 
 class _Progress:
@@ -236,7 +246,21 @@ def _distance(cv2, a, b):
     return np.sqrt(cv2.transform(d, np.ones((1, 3), np.float32)))
 
 
-def _read_pass1(cv2, path, roi, prog):
+#: ``--rotate``: degrees the picture is turned clockwise before tracking -> OpenCV's code.
+ROTATIONS = {0: None, 90: "ROTATE_90_CLOCKWISE", 180: "ROTATE_180", 270: "ROTATE_90_COUNTERCLOCKWISE"}
+
+
+def _view(cv2, frame, rotate, roi):
+    """The frame as tracked: turned ``rotate`` degrees clockwise, then cut to ``roi``."""
+    if rotate:
+        frame = cv2.rotate(frame, getattr(cv2, ROTATIONS[rotate]))
+    if roi is not None:
+        x, y, w, h = roi
+        frame = frame[y:y + h, x:x + w]
+    return frame
+
+
+def _read_pass1(cv2, path, roi, prog, rotate=0):
     cap = _open(cv2, path)
     fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
     n_est = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
@@ -252,11 +276,11 @@ def _read_pass1(cv2, path, roi, prog):
         if not ok or frame is None:
             break
         stamps.append(cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0)
-        if roi is not None:
-            x, y, w, h = roi
-            frame = frame[y:y + h, x:x + w]
-            if frame.shape[0] < 8 or frame.shape[1] < 8:
-                raise UsageError(f"--roi {roi} lies outside the {frame.shape[1]}x{frame.shape[0]} video")
+        whole = frame.shape
+        frame = _view(cv2, frame, rotate, roi)
+        if frame.shape[0] < 8 or frame.shape[1] < 8:
+            turned = f" (turned {rotate} degrees)" if rotate else ""
+            raise UsageError(f"--roi {roi} lies outside the {whole[1]}x{whole[0]} video{turned}")
         if factor is None:
             factor = max(1, int(frame.shape[1] // LOW_RES_WIDTH))
             size = frame.shape[:2]
@@ -457,7 +481,7 @@ def ball_presence(cv2, crop, background, ball_lab):
     return np.clip(alpha, 0.0, 1.0)
 
 
-def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n):
+def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate=0):
     """Pass 2: alpha-weighted centroid at full size around each coarse detection."""
     rows, cols, areas = coarse
     row_f, col_f = np.full(n, np.nan), np.full(n, np.nan)
@@ -475,9 +499,7 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
         ok, frame = cap.retrieve()
         if not ok:
             break
-        if roi is not None:
-            x, y, w, h = roi
-            frame = frame[y:y + h, x:x + w]
+        frame = _view(cv2, frame, rotate, roi)
         H, W = frame.shape[:2]
         cy, cx = (rows[i] + 0.5) * factor - 0.5, (cols[i] + 0.5) * factor - 0.5
         # a box 3 diameters tall (motion blur) and 2 wide
@@ -505,27 +527,76 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
     return row_f, col_f, area_f, edge
 
 
+#: Least prominence of a bounce in the rows: this many times the rows' noise from frame to frame
+#: (:func:`vrcal.measurements.cleanup.third_difference_sigma`), and at least :data:`BOUNCE_MIN_PX`.
+#: At a high frame rate the ball barely moves between frames near an apex, and a wiggle of the
+#: noise there is a local lowest point like a bounce; its prominence is about the noise's.
+BOUNCE_NOISE = 8.0
+BOUNCE_MIN_PX = 0.5
+
+
+def _bounces(row, noise):
+    """Indices of the bounces in the rows of the frames kept (rows grow downwards): the lowest
+    points of the path (largest rows) whose prominence is at least :data:`BOUNCE_NOISE` times the
+    rows' noise ``noise`` [px] and :data:`BOUNCE_MIN_PX` -- and the stops: a fall faster than that
+    a frame that halts (a ball that lands and stays). Returns a sorted array of int."""
+    least = max(BOUNCE_MIN_PX, BOUNCE_NOISE * noise)
+    lowest = prominent_minima(-row, least)
+    fall = np.diff(row)
+    stops = np.flatnonzero((fall[:-1] > max(1.0, least)) & (fall[1:] < 0.2 * fall[:-1])) + 1
+    return np.union1d(lowest, stops).astype(int)
+
+
+def _one_flight(t, row, a, b, noise):
+    """Are the pieces ``a`` and ``b`` (frame indices, ``b`` after ``a``, the ball unseen between
+    them) parts of one flight? A cubic through both (a parabola skewed by air drag) must fit
+    them within four times the noise (at least :data:`BOUNCE_MIN_PX` RMS), curve downwards as a
+    flight does (rows grow downwards), and turn up nowhere between them (no bounce unseen)."""
+    idx = np.r_[a, b]
+    if idx.size < 5:
+        return False
+    tt = t[idx] - t[a[-1]]
+    coef = np.polyfit(tt, row[idx], 3)
+    rms = float(np.sqrt(np.mean((row[idx] - np.polyval(coef, tt)) ** 2)))
+    if rms > max(BOUNCE_MIN_PX, 4.0 * noise) or np.polyfit(tt, row[idx], 2)[0] <= 0:
+        return False
+    d1, d2 = np.polyder(coef), np.polyder(coef, 2)
+    turns = [r.real for r in np.roots(d1) if abs(r.imag) < 1e-12 and 0.0 <= r.real <= tt[a.size]]
+    return not any(np.polyval(d2, r) < 0 for r in turns)  # a lowest point of the path (a bounce) unseen
+
+
 def _flights(t, row, min_frames=4):
     """Parabolas ``row = a t^2 + b t + c`` of the flights between bounces.
 
-    Bounces are the frames where the ball, moving down (row growing), turns up or stops. Returns
-    ``[(indices, coeffs, rms)]`` for flights with at least ``min_frames`` frames; the frames
-    at each bounce are left out of both flights (the ball may be in contact).
+    Bounces are the lowest points of the path (:func:`_bounces`). A time gap of more than 3.5
+    frame intervals (the ball unseen: out of the picture, hidden, or lost) ends a piece of a
+    flight; two pieces on either side of a gap are one flight when one path fits them
+    (:func:`_one_flight`: a ball that rises out of the top of the picture and falls back in),
+    else the gap ends the flight. Returns ``[(indices, coeffs, rms)]`` for flights with at least
+    ``min_frames`` frames; the frames at each bounce are left out of both flights (the ball may
+    be in contact).
     """
     dt = np.diff(t)
+    if dt.size == 0:
+        return []
     step = float(np.median(dt))
-    # a bounce: falling, then rising -- or stopping (a ball that lands and stays; the fall must be
-    # faster than a pixel a frame, so that the noise at an apex makes no bounce)
-    fall = np.diff(row)
-    bounce = [i for i in range(1, row.size - 1) if fall[i - 1] > 0 and (
-        fall[i] < 0 or (fall[i - 1] > 1.0 and fall[i] < 0.2 * fall[i - 1]))]
-    gaps = [i + 1 for i in np.flatnonzero(dt > 3.5 * step)]  # a gap without the ball ends a flight
-    bounds = [-1] + sorted(set(bounce) | set(gaps)) + [row.size]
-    out = []
+    noise = third_difference_sigma(t, row) or 0.0
+    bounce = set(_bounces(row, noise).tolist())
+    gaps = set((np.flatnonzero(dt > 3.5 * step) + 1).tolist())  # a gap without the ball ends a piece
+    bounds = [-1] + sorted(bounce | gaps) + [row.size]
+    pieces = []  # [indices, joined to the piece before across a gap]
     for a, b in zip(bounds[:-1], bounds[1:]):
-        idx = np.arange(a + 1, b)
-        if b in gaps:
-            idx = np.arange(a + 1, b)
+        start = a if a in gaps and a not in bounce else a + 1
+        idx = np.arange(start, b)
+        if idx.size == 0:
+            continue
+        if pieces and start in gaps and start not in bounce and pieces[-1][0][-1] == start - 1 \
+                and _one_flight(t, row, pieces[-1][0], idx, noise):
+            pieces[-1][0] = np.r_[pieces[-1][0], idx]
+            continue
+        pieces.append([idx])
+    out = []
+    for (idx,) in pieces:
         if idx.size < min_frames:
             continue
         coef = np.polyfit(t[idx], row[idx], 2)
@@ -539,11 +610,72 @@ def _flights(t, row, min_frames=4):
     return out
 
 
+def _unseen_notes(t, row, flights, diameter_px):
+    """Notes on the gaps within a flight (:func:`_flights` joined the pieces on either side): where
+    the ball went out of sight -- out of the top of the picture when it was within a diameter and
+    a half of the top edge on either side of the gap."""
+    out = []
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    for idx, _, _ in flights:
+        for k in np.flatnonzero(np.diff(t[idx]) > 3.5 * step):
+            a, b = idx[k], idx[k + 1]
+            top = max(row[a], row[b]) < 1.5 * diameter_px
+            where = "out of the top of the picture" if top else "out of sight"
+            out.append(f"the ball goes {where} at t = {t[a]:.3f} s and comes back at t = {t[b]:.3f} s: one "
+                       f"flight{' (its top unseen)' if top else ''}, fitted through the frames on either side -- a "
+                       "gap, not a bounce")
+    return out
+
+
+def _upright_turn(t, row, col):
+    """Degrees (90, 180, 270) to turn the picture clockwise so that the ball falls down the
+    picture, when it does not as it is (a video filmed sideways or upside down, without a
+    rotation tag), else 0. A flight here is one of :func:`_flights` that its parabola fits to
+    within five times the noise (at least a pixel RMS): the lowest points of the path read along
+    a wrong direction cut V-shaped pieces, which fit no parabola. The picture is taken as turned
+    when the rows as they are give fewer than two flights and the path read along another
+    direction -- the columns (the ball falls towards the right edge: 90, the left: 270) or the
+    rows upside down (180) -- gives three or more: a fall and two flights between bounces."""
+    if t.size < 8:
+        return 0
+
+    def flights(series):
+        limit = max(1.0, 5.0 * (third_difference_sigma(t, series) or 0.0))
+        return sum(rms <= limit for _, _, rms in _flights(t, series))
+
+    if flights(row) >= 2:
+        return 0
+    counts = {turn: flights(series) for turn, series in ((90, col), (270, -col), (180, -row))}
+    turn = max(counts, key=counts.get)
+    return turn if counts[turn] >= 3 else 0
+
+
+def _starts_with_fall(t, flights):
+    """Is the first flight the fall from the hand? So when it starts at its top: the vertex of its
+    parabola lies no later than a quarter into its frames (a ball released from rest, or one that
+    enters the picture falling). A first flight that rises first starts at a bounce: the fall was
+    too short to be a flight (fewer than four frames), or unseen."""
+    if not flights:
+        return False
+    idx, coef, _ = flights[0]
+    t0, t1 = t[idx[0]], t[idx[-1]]
+    return -coef[1] / (2.0 * coef[0]) <= t0 + 0.25 * (t1 - t0)
+
+
+def _consecutive(t, i1, i2):
+    """Are two flights (frame indices, ``i2`` after ``i1``) consecutive, one impact between them?
+    So when the ball is unseen between them for less than half the shorter flight's span: an
+    unseen flight between them would last longer (the flights of a bounce sequence shrink by a
+    steady ratio). The frames at a bounce, in neither flight, count as unseen."""
+    unseen = t[i2[0]] - t[i1[-1]]
+    return unseen < 0.5 * min(t[i1[-1]] - t[i1[0]], t[i2[-1]] - t[i2[0]])
+
+
 def _bounce_crossings(t, flights):
     """(time, row) of the crossing of each pair of consecutive flight parabolas between their frames."""
     out = []
     for (i1, c1, _), (i2, c2, _) in zip(flights[:-1], flights[1:]):
-        if i2[0] - i1[-1] > 3:
+        if not _consecutive(t, i1, i2):
             continue
         t_lo, t_hi = t[i1[-1]], t[i2[0]]
         roots = np.roots(np.asarray(c1) - np.asarray(c2))
@@ -592,7 +724,7 @@ def _fall_misfit_px(t, row, fall, curvature):
 
 
 def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
-                g_m_per_s2=STANDARD_GRAVITY):
+                g_m_per_s2=STANDARD_GRAVITY, rotate=0):
     """Track the ball in a video of a drop (see the module docstring).
 
     Parameters
@@ -614,10 +746,19 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     g_m_per_s2 : float
         the local gravitational acceleration [m/s^2] (default standard gravity): the flights'
         curvature with it gives a scale (:func:`choose_scale`)
+    rotate : {0, 90, 180, 270}
+        degrees to turn the picture clockwise before tracking (a video filmed sideways without a
+        rotation tag; a tagged one OpenCV turns upright itself); ``roi`` is in the turned picture
 
     Returns
     -------
     VideoTrack
+
+    Raises
+    ------
+    DataError
+        no ball, too few frames; or a ball whose flights run across the picture or upwards (a
+        video turned without a tag): the message names the ``rotate`` that turns it upright
     """
     path = str(path)
     try:
@@ -637,11 +778,15 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         raise UsageError(f"--fps must be a positive frame rate in Hz, got {fps:g}")
     if isinstance(roi, str):
         roi = parse_roi(roi)
+    rotate = int(rotate or 0)
+    if rotate not in ROTATIONS:
+        raise UsageError(f"--rotate {rotate}: give 0, 90, 180 or 270 (degrees clockwise)")
     given_bgr = parse_color(color) if color is not None else None
     prog = _Progress(progress)
-    frames, stamps, full, container_fps, factor, size = _read_pass1(cv2, path, roi, prog)
+    frames, stamps, full, container_fps, factor, size = _read_pass1(cv2, path, roi, prog, rotate)
     n = len(frames)
     notes = [f"video: {size[1]}x{size[0]} px, {n} frames, {container_fps:.3f} fps (container)"
+             + (f", turned {rotate} degrees clockwise (--rotate)" if rotate else "")
              + (f", region {roi[2]}x{roi[3]} at ({roi[0]}, {roi[1]})" if roi else "")]
     if n < 10:
         raise DataError(f"{path}: only {n} frame(s); a drop needs a video of at least a second")
@@ -675,7 +820,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     keys = sorted(full)
     bgmed = _TiledMedian([full[k] for k in keys])
     diameter_small = 2.0 * math.sqrt(np.nanmedian(coarse[2]) / math.pi)
-    row, col, area, edge = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n)
+    row, col, area, edge = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate)
     # quality
     area_ref = float(np.nanmedian(area))
     ratio = area / area_ref
@@ -704,6 +849,16 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         notes.append(f"{int(repeated.sum())} repeated frame(s) dropped (a frame identical to the one before: a "
                      f"frame-rate conversion; frames {_list(np.flatnonzero(repeated))})")
     lost = ~good & ~repeated
+    turn = _upright_turn(t[good], row[good], col[good])
+    if turn:
+        total = (rotate + turn) % 360
+        fix = (f"give --rotate {total} (turns the picture {total} degrees clockwise before tracking)" if total else
+               "track it without --rotate")
+        turned = f" (as turned by --rotate {rotate})" if rotate else ""
+        raise DataError(f"{path}: " + (
+            f"the ball's flights curve upwards{turned}: is the video upside down? {fix.capitalize()}" if turn == 180
+            else f"the ball moves across the picture{turned}, not up and down (it falls towards the "
+            f"{'right' if turn == 90 else 'left'} edge): is the video rotated? {fix.capitalize()}"))
     result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
                      diameter_m, scale_m_per_px, g_m_per_s2)
     result.background = bg
@@ -784,8 +939,10 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     d_frames = 2.0 * np.sqrt(area[slow] / math.pi)
     diameter_px = float(np.median(d_frames))
     diameter_sd_px = math.hypot(EDGE_PX, 1.4826 * float(np.median(np.abs(d_frames - diameter_px))))
-    fall_g_px = 2.0 * flights[0][1][0] if flights and flights[0][0].size >= 5 else float("nan")
-    scale, g_meas = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
+    fall = flights[0] if _starts_with_fall(tt, flights) else None
+    fall_g_px = 2.0 * fall[1][0] if fall is not None and fall[0].size >= 5 else float("nan")
+    notes += _unseen_notes(tt, rr, flights, diameter_px)
+    scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
                                  fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
                                  g_m_per_s2)
     if fit is not None and fit.n_flights >= 2:
@@ -808,8 +965,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     end = _track_end(flights, rr.size)
     # the fall from the hand must be a fall: else the track starts at the first apex
     fall_note = None
-    if fit is not None and flights[0][0].size >= 5 and fit.n_flights >= 2:
-        misfit = _fall_misfit_px(tt, rr, flights[0][0], fit.curvature_px_per_s2)
+    if fit is not None and fall is not None and fall[0].size >= 5 and fit.n_flights >= 2:
+        misfit = _fall_misfit_px(tt, rr, fall[0], fit.curvature_px_per_s2)
         flight_rms = float(np.median([f[2] for f in flights[1:]]))
         if misfit > max(FALL_MISFIT_PX, 4.0 * flight_rms):
             _, t0, t1 = fit.flights[0]
@@ -864,6 +1021,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
+                     rate_suspect=rate_suspect,
                      trajectory=traj, bounces=fit, systematic_m=CENTRE_SYSTEMATIC_PX * scale)
     return out
 
@@ -923,7 +1081,8 @@ def fit_bounces(t, row, flights):
     between impacts ``t_i`` and ``t_{i+1}``: a parabola, skewed by ``s_i`` (one per flight)
     as air drag skews a flight (faster up than down), which would otherwise bias ``row_c``
     where the flights are extrapolated to the floor. The fall from the hand (the first
-    flight) is left out: a hand may still touch it, and the ball may start nearer the camera. Least
+    flight, when it starts at its top: :func:`_starts_with_fall`) is left out: a hand may still
+    touch it, and the ball may start nearer the camera. Least
     squares over all the flights' frames (the frames at a bounce are in no flight) give
     ``a``, ``row_c`` and their standard errors. A contact that lasts (the ball resting on
     the floor between landing and lift-off) is not modelled: the flights then meet above
@@ -945,7 +1104,7 @@ def fit_bounces(t, row, flights):
     """
     from scipy.optimize import least_squares
 
-    chain = [f for f in flights[1:] if f[0].size >= 4]
+    chain = [f for f in (flights[1:] if _starts_with_fall(t, flights) else flights) if f[0].size >= 4]
     if not chain:
         return None
     # impact-time parameters: consecutive flights share one
@@ -953,11 +1112,11 @@ def fit_bounces(t, row, flights):
     a0 = float(np.median([c[0] for _, c, _ in chain]))
     crossings = _bounce_crossings(t, flights)
     r0 = float(np.median([c[1] for c in crossings])) if crossings else float(max(np.max(row[i]) for i, _, _ in chain))
-    prev = flights[0][0]
+    prev = None
     for i, c, _ in chain:
         roots = np.sort(np.roots(np.asarray(c, float) - [0.0, 0.0, r0]).real)
         lo, hi = (roots[0], roots[-1]) if roots.size == 2 else (t[i[0]], t[i[-1]])
-        joined = bool(times) and i[0] - prev[-1] <= 3
+        joined = bool(times) and _consecutive(t, prev, i)
         if joined:
             times[-1] = 0.5 * (times[-1] + min(lo, t[i[0]]))
         else:
@@ -1037,8 +1196,9 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
 
     Returns
     -------
-    (float, float)
-        the scale [m/px] and g from the flights with the diameter's (or the given) scale [m/s^2]
+    (float, float, str)
+        the scale [m/px], g from the flights with the diameter's (or the given) scale [m/s^2], and
+        what makes the frame rate suspect ("" when it is not)
     """
     g_px = fit.g_px_per_s2 if fit is not None else fall_g_px
     g_rel = fit.curvature_sd_px_per_s2 / fit.curvature_px_per_s2 if fit is not None else float("inf")
@@ -1055,7 +1215,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         notes.append(f"scale: {scale * 1e3:.4g} mm/px (given); {seen}")
         if math.isfinite(g_meas):
             notes.append(f"check: the flights give g = {g_meas:.2f} m/s^2 with this scale and {clock}")
-        return scale, g_meas
+        return scale, g_meas, ""
     scale_d = diameter_m / diameter_px
     seen += f" for its {diameter_m * 1e3:.4g} mm"
     g_meas = g_px * scale_d
@@ -1064,19 +1224,19 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
-        notes.append(f"WARNING: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}, "
-                     f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
-                     "rate is "
-                     f"suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} fps: "
-                     "give --fps, or check --diameter")
-        return scale_d, g_meas
+        suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and {clock}, "
+                   f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
+                   f"rate is suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} "
+                   f"fps: give --fps {fps * k:.0f}, or check --diameter")
+        notes.append(f"WARNING: {suspect}")
+        return scale_d, g_meas, suspect
     if not (math.isfinite(g_meas) and g_rel < G_TELLS):
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}; "
                      + ("too few flights between bounces to tell g" if fit is not None else
                         "no flight between bounces to tell g"))
         if math.isfinite(g_meas):
             notes.append(f"check: the {who} g = {g_meas:.2f} m/s^2 with this scale and {clock}")
-        return scale_d, g_meas
+        return scale_d, g_meas, ""
     sigma = math.hypot(g_rel, d_rel)
     scale_g = g_m_per_s2 / g_px
     from_g = f"g ({g_m_per_s2:g} m/s^2 with {clock}) and {curved}"
@@ -1087,7 +1247,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
                      "--diameter bias an apparent size; a clock is trusted over it)")
         notes.append("the heights are scaled with g known: an effect that changes every flight's acceleration alike "
                      "(buoyancy) cannot be told from this video")
-        return scale_g, g_meas
+        return scale_g, g_meas, ""
     w_g, w_d = 1.0 / g_rel ** 2, 1.0 / d_rel ** 2
     scale = math.exp((w_g * math.log(scale_g) + w_d * math.log(scale_d)) / (w_g + w_d))
     share = w_g / (w_g + w_d)
@@ -1097,7 +1257,7 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if share > 0.5:
         notes.append("the heights are scaled mostly with g known: an effect that changes every flight's acceleration "
                      "alike (buoyancy) cannot be told from this video")
-    return scale, g_meas
+    return scale, g_meas, ""
 
 
 def _straddling(t, row, flights, min_px=0.3):
@@ -1136,7 +1296,13 @@ def _flight_residual(t, row):
 
 
 def parse(path, *, diameter_m=None, roi=None, color=None, fs_hz=None, scale_m_per_px=None, progress=None,
-          g_m_per_s2=STANDARD_GRAVITY, **_ignored):
-    """The ``video`` reader: the ball's trajectory (see :func:`track_video`); ``fs_hz`` is ``--fps``."""
-    return track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fs_hz, scale_m_per_px=scale_m_per_px,
-                       progress=progress, g_m_per_s2=g_m_per_s2).trajectory
+          g_m_per_s2=STANDARD_GRAVITY, rotate=0, **_ignored):
+    """The ``video`` reader: the ball's trajectory (see :func:`track_video`); ``fs_hz`` is ``--fps``.
+    A video whose frame rate is suspect (a slow-motion video read at its container's rate: g from
+    its flights with the ball's apparent diameter for scale more than :data:`FRAME_RATE_SUSPECT`
+    off) is a DataError naming the capture rate that fits (``vrcal track`` writes it with a warning)."""
+    vt = track_video(path, diameter_m=diameter_m, roi=roi, color=color, fps=fs_hz, scale_m_per_px=scale_m_per_px,
+                     progress=progress, g_m_per_s2=g_m_per_s2, rotate=rotate)
+    if vt.rate_suspect:
+        raise DataError(f"{path}: {vt.rate_suspect}")
+    return vt.trajectory
