@@ -796,20 +796,16 @@ def fit_physical(problem, effects, start=None, *, limited=None, free=None):
     return bounded
 
 
-def _limits_alone(cand, th):
-    """Whether the limits may be all that keeps ``cand`` (judged unconstrained, with parameters beyond
-    them) from being material: every other test passed (held inside the limits it can only fit worse),
-    and the limits lie within reach of the optimum -- the sum of the squared distances to them in the
-    fit's standard uncertainties at most 4 ``Thresholds.indistinguishable_chi2`` (the quadratic estimate
-    of what holding them costs; the fit held inside them decides, at ``indistinguishable_chi2``)."""
-    if cand.delta_bic < th.delta_bic or cand.p_value > th.p_value or not cand.gap_ok:
-        return False
+def _limits_distance(cand):
+    """How far the physical limits lie from the unconstrained optimum of ``cand``: the sum of the squared
+    distances of its parameters beyond them, each in its standard uncertainty (the quadratic estimate of
+    the chi-square that holding them costs)."""
     sds = cand.fit.effect_uncertainties
     z2 = 0.0
     for effect, param, value, (lo, hi) in cand.outside:
         sd = sds[effect][param]
         z2 += ((value - min(max(value, lo), hi)) / sd) ** 2 if sd > 0 else math.inf
-    return z2 <= 4.0 * th.indistinguishable_chi2
+    return z2
 
 
 def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, nuisance=()):
@@ -826,7 +822,11 @@ def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, n
     fit = _fit_candidate(problem, named, names, current)
     cand = _judge(Candidate("+".join(names), rnd, fit, 0.0, 0.0, 1.0, False, False, members=tuple(names)),
                   current, sigma_floor, th, floor_sd_m, checked)
-    if cand.in_prior or not _limits_alone(cand, th):
+    if cand.in_prior or cand.delta_bic < th.delta_bic or cand.p_value > th.p_value or not cand.gap_ok:
+        return cand   # inside them, or failing another test: held inside them it can only fit worse
+    z2 = _limits_distance(cand)
+    if z2 > 4.0 * th.indistinguishable_chi2:   # far beyond reach: not worth a fit
+        cand.verdict += f"; the limits lie {math.sqrt(z2):.3g} standard uncertainties away: the data reject them"
         return cand
     bounded = fit_physical(problem, (*named, *names), start=_start_from(current), limited=(*checked, *names),
                            free=fit)
