@@ -16,11 +16,14 @@ The workflow (issue 3, parts 3 and 4):
      (σ_floor from the data alone, :func:`vrcal.discovery.residuals.noise_floor`, for
      trajectories; an assumed instrument noise, :data:`ASSUMED_NOISE`, for the few
      impact times or apex heights of a drop, or the user's ``noise``);
-   * every fitted parameter lies inside the effect's hard physical limits
-     (``Parameter.physical_limits``: C_d 0.2-1.0, a contact time up to twice the ball's
-     membrane estimate, an offset within the ball, ...). A candidate that passes every other
-     test but needs an unphysical value is never named; it is reported with the value it
-     would need and what to check (``Discovery.unphysical``);
+   * every fitted parameter, the candidate's and those of the effects named before, lies inside
+     its hard physical limits (``Parameter.physical_limits``: C_d 0.2-1.0, a contact time up to
+     twice the ball's membrane estimate, an offset within the ball, ...). When the unconstrained
+     optimum lies beyond them, the model fitted inside them is judged instead (:func:`_try`,
+     :func:`fit_physical`): named at its limit when it passes every test and the data cannot reject
+     the limit; otherwise the candidate is not named and is reported with the value it would need
+     and what to check (``Discovery.unphysical``). Every later fit of the model (a later round's,
+     the backward step's, the final ones) keeps the named effects inside their limits;
    * the RMS gap shrinks by at least ``Thresholds.gap_factor``, or the gap removed,
      sqrt(gap_before² - gap_after²), is at least 0.2 noise sigma (on n samples that is a
      Δχ² of at least 0.04 n, e.g. 60 for a 1,500-sample trajectory);
@@ -29,7 +32,8 @@ The workflow (issue 3, parts 3 and 4):
    Laplace approximation of the marginal likelihood, with ONE noise σ for the round and
    the prior densities of the effect parameters from the registry, ``Parameter.density``),
    name the material candidate with the highest evidence, add it to the model and repeat
-   until no candidate is material (so two hidden effects are both found). With a large
+   until no candidate is material (so every hidden effect is found: there is no cap; a caller's
+   ``max_effects`` stops the rounds, and what it leaves out is reported, ``Discovery.cut``). With a large
    χ² gap between candidates the order is the BIC's; when two candidates fit equally well
    (impact times, apex heights: a handful of data), the one whose parameter is physically
    plausible wins (a drag coefficient of 0.47 over a speed exponent of 0.02).

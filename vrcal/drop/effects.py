@@ -30,9 +30,10 @@ References
 Prior densities
 ---------------
 Every parameter has ``bounds`` (what the fitter may try: wide, so that a value an effect
-would need is seen even where it is unphysical), hard physical ``limits`` (a candidate
-whose fitted value lies outside them is never named: ``vrcal discover`` reports the
-value it would need instead; they may depend on the ball, :meth:`Parameter.physical_limits`),
+would need is seen even where it is unphysical), hard physical ``limits`` (no effect is named
+with a value beyond them: a candidate whose best fit lies beyond is held at the limit when the data
+cannot reject it, :func:`vrcal.discovery.ranking.fit_physical`, else ``vrcal discover`` reports the
+value it would need; they may depend on the ball, :meth:`Parameter.physical_limits`),
 a plausible range ``prior`` and a proper prior *density* (``Parameter.density``; uniform
 over ``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
 evidence (:func:`vrcal.discovery.residuals.minus_two_ln_evidence`). The densities come from
