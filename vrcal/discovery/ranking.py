@@ -768,10 +768,19 @@ def rank_by_evidence(cands, current, sigma_floor):
     return sigma
 
 
-def _outside(fit, effects):
+def _outside(fit, effects, fading=True):
     """[(effect, parameter, value, (lo, hi))] of the parameters of ``effects`` in ``fit`` beyond their hard
-    physical limits."""
-    return [(e, *o) for e in effects for o in fit.outside_limits(e)]
+    physical limits; ``fading=False`` leaves out those beyond on the side of the value at which the effect
+    vanishes (C_d below 0.2 towards 0: the effect fading, which the backward step judges)."""
+    from vrcal.drop.effects import EFFECTS
+
+    out = [(e, *o) for e in effects for o in fit.outside_limits(e)]
+    if not fading:
+        def fades(e, name, value, lo, hi):
+            null = EFFECTS[e].null_values.get(name)
+            return null is not None and ((value < lo and null <= lo) or (value > hi and null >= hi))
+        out = [o for o in out if not fades(o[0], o[1], o[2], *o[3])]
+    return out
 
 
 def fit_physical(problem, effects, start=None, *, limited=None, free=None):
@@ -876,7 +885,10 @@ def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0, checked=()):
     # otherwise the F test of nested models with the residual variance
     cand.p_value = chi2_sf(cand.delta_chi2, dk) if known else f_sf(cand.delta_chi2 / dk, dk, dof)
     cand.delta_bic = current.bic - fit.bic
-    cand.outside = _outside(fit, (*cand.members, *(n for n in checked if n not in cand.members)))
+    # an effect named before that the candidate makes fade (drag to C_d 0 once a speed law explains the
+    # record) is left to the backward step, which drops it; one pushed the other way is beyond its limits
+    cand.outside = _outside(fit, cand.members) + _outside(fit, [n for n in checked if n not in cand.members],
+                                                          fading=False)
     cand.in_prior = not cand.outside
     removed = math.sqrt(max(current.judged_gap**2 - fit.judged_gap**2, 0.0))
     cand.gap_ok = (fit.judged_gap <= th.gap_factor * current.judged_gap) or (
@@ -967,6 +979,9 @@ def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_ef
         pool = [n for n in pool if n not in win.members]
         before = list(named)
         named, current = _backward(problem, named, win.members, current, th, rnd, notes, keep=nuisance)
+        kept = [n for n in named if n not in nuisance]
+        if _outside(current, kept):   # one the backward step kept though it faded: held inside its limits
+            current = fit_physical(problem, named, start=_start_from(current), limited=kept, free=current)
         for c in (c for r in rounds for c in r):
             if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
                 c.verdict = f"named, dropped in round {rnd}"
