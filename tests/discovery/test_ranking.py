@@ -772,7 +772,9 @@ def test_an_optimum_just_beyond_a_limit_is_named_at_the_limit():
     assert held["limit"] == 1.0 and held["unconstrained"] > 1.0 and held["chi2"] < 9
     text = " ".join(fit_report(d).split())
     assert "(at limit)" in text and "exponent held at its physical limit 1" in text
-    assert d.as_dict()["at_limit"] == d.at_limit
+    out = d.as_dict()
+    assert out["at_limit"] == d.at_limit
+    assert [c["held_at_limit"] for c in out["candidates"] if c["verdict"] == "named"] == [True]
 
 
 def test_a_limit_the_data_reject_is_not_named_and_the_advice_fits_a_drop_table():

@@ -577,6 +577,7 @@ class Discovery:
                  "score": c.score, "bic": c.fit.bic,
                  "delta_bic": c.delta_bic, "two_ln_bayes_factor": c.two_ln_bayes,
                  "p_value": c.p_value, "in_prior": c.in_prior, "physical": c.physical, "material": c.material,
+                 "held_at_limit": c.free is not None,
                  "verdict": c.verdict,
                  "parameters": ({m: c.fit.effect_values.get(m, {}) for m in c.members} if len(c.members) > 1
                                 else c.fit.effect_values.get(c.name, {}))}
