@@ -677,7 +677,7 @@ def test_times_on_a_coarse_grid_are_judged_by_one_scatter(tmp_path):
     assert "from bounce to bounce" not in fit_report(d)
 
 
-# --------------------------------------------------------------------------- as many effects as are material, inside their limits
+# --------------------------------------------------------------------------- every material effect, inside its limits
 
 
 def _track(ball, effects, drop_height_m, epsilon, fs_hz, seed, noise_m=0.001):
