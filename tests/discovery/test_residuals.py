@@ -149,10 +149,17 @@ def test_occam_factor_of_one_parameter():
     from vrcal.drop.effects import EFFECTS
 
     p = EFFECTS["air_drag"].parameter("drag_coefficient")
-    # a narrow likelihood: ln(sqrt(2 pi) s prior(theta)) (the prior is renormalised to the bounds)
+    # a narrow likelihood: ln(sqrt(2 pi) s prior(theta)), the prior renormalised to its physical limits (0.2-1.0:
+    # it vanishes beyond them)
     s = 1e-3
+    grid = np.linspace(0.2, 1.0, 100001)
+    mass = float(np.sum(p.prior_pdf(grid)) * (grid[1] - grid[0]))
+    assert 0.98 < mass < 0.999
     assert res._prior_integral(p, 0.47, s, None) == pytest.approx(
-        math.log(math.sqrt(2 * math.pi) * s * float(p.prior_pdf(0.47))), abs=1e-3)
+        math.log(math.sqrt(2 * math.pi) * s * float(p.prior_pdf(0.47)) / mass), abs=1e-4)
+    # held at a limit (the optimum beyond it), half the likelihood lies beyond: ln 1/2 more
+    assert res._prior_integral(p, 1.0, s / 100, None) == pytest.approx(
+        math.log(0.5 * math.sqrt(2 * math.pi) * s / 100 * float(p.prior_pdf(1.0)) / mass), abs=1e-3)
     # a flat likelihood (the data say nothing): the whole prior, ln 1 = 0
     assert res._prior_integral(p, 0.47, 1e6, None) == pytest.approx(0.0, abs=1e-3)
     assert res._prior_integral(p, 0.47, math.inf, None) == 0.0

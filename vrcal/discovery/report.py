@@ -185,7 +185,11 @@ def answer(discovery):
         else:
             parts.append(f"The paper's constant-epsilon model leaves a gap of {after} ({_noise_text(d)}), and "
                          f"no effect of the registry explains it.")
-    if v == "unexplained" and d.effects:
+    if d.cut:
+        parts.append(f"{_effects_phrase(d.cut)[0].upper() + _effects_phrase(d.cut)[1:]} would also matter but "
+                     f"{'is' if len(d.cut) == 1 else 'are'} not named: at most {d.max_effects} effect(s) are named "
+                     f"(max_effects); the values here lack {'it' if len(d.cut) == 1 else 'them'}.")
+    elif v == "unexplained" and d.effects:
         ratio = d.gap_after / d.reference_gap if d.reference_gap else math.inf
         parts.append(f"Something else remains: {after} is {ratio:.1f} times the noise, structure that no candidate "
                      f"of the registry removes.")
@@ -319,13 +323,14 @@ def _named_table(d):
     from vrcal.drop.effects import EFFECTS
 
     rows = []
+    held = {(e["effect"], e["parameter"]) for e in d.at_limit}
     for name in d.effects:
         values, uncs = d.final.effect_values[name], d.final.effect_uncertainties[name]
         for p in EFFECTS[name].parameters:
             lo, hi = p.physical_limits(d.ball)
             amb = ", ".join(d.ambiguous.get(name, ())) or "-"
-            rows.append([name, p.name, pm(values[p.name], uncs.get(p.name), p.unit), _limits_text(lo, hi, p.unit),
-                         amb])
+            value = pm(values[p.name], uncs.get(p.name), p.unit) + (" (at limit)" if (name, p.name) in held else "")
+            rows.append([name, p.name, value, _limits_text(lo, hi, p.unit), amb])
     return table(rows, ["effect", "parameter", "value", "physical limits", "ambiguous with"], align="lllll",
                  indent="  ")
 

@@ -98,8 +98,13 @@ def bic(rss_value, n, k):
 
 def _prior_integral(param, value, sd, ball, n_grid=2001):
     """ln of the integral of exp(-(x - value)^2 / (2 sd^2)) times the prior density of ``param``
-    (a :class:`vrcal.drop.effects.Parameter`), renormalised to its hard bounds, over the bounds."""
+    (a :class:`vrcal.drop.effects.Parameter`), renormalised to its hard physical limits (within the
+    fitter's bounds), over those limits: the density vanishes beyond them. A fit held at a limit (its
+    optimum beyond: :func:`vrcal.discovery.ranking.fit_physical`) keeps only the likelihood inside, about
+    half of it (2 ln 2 = 1.4 more in -2 ln Z), against an effect that fits as well inside its limits."""
     lo, hi = map(float, param.bounds)
+    a, b = param.physical_limits(ball)
+    lo, hi = max(lo, a), min(hi, b)
     if math.isinf(sd):
         return 0.0   # the data say nothing about the parameter: the whole prior
     grid = np.linspace(lo, hi, n_grid)
@@ -1268,7 +1273,7 @@ def prior_deviates(layout, ball):
     return deviate
 
 
-def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None, fixed=None):
+def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None, fixed=None, within=()):
     """Fit the baseline plus ``effects`` to ``problem.data`` by bounded least squares.
 
     Parameters
@@ -1292,6 +1297,10 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None,
     fixed : dict, optional
         parameters held at a value ({key: value}, e.g. ``{"contact_duration.contact_time_s": 0.005}``:
         what epsilon would be if the contact lasted 5 ms)
+    within : sequence of str
+        effects whose parameters are held inside their hard physical limits
+        (:meth:`vrcal.drop.effects.Parameter.physical_limits`, for this ball) instead of the fitter's wide
+        ``bounds``: the best physical fit when the unconstrained optimum lies beyond them
 
     Returns
     -------
@@ -1328,6 +1337,10 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None,
     lo = np.array([p.bounds[0] for p in layout])
     hi = np.array([p.bounds[1] for p in layout])
     for j, p in enumerate(layout):
+        if p.effect is not None and p.effect in within:
+            a, b = EFFECTS[p.effect].parameter(p.name).physical_limits(problem.ball)
+            lo[j], hi[j] = max(lo[j], a), min(hi[j], b)
+            x0[j] = float(np.clip(x0[j], lo[j], hi[j]))
         if p.key in (fixed or {}):       # held at a value: its bounds closed on it
             lo[j] = hi[j] = x0[j] = float(fixed[p.key])
     prior = None

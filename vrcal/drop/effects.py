@@ -23,13 +23,17 @@ References
     sphere, half the displaced mass).
 [6] E. Achenbach, "Experiments on the flow past spheres at very high Reynolds numbers",
     J. Fluid Mech. 54, 565 (1972) (C_d = 0.4-0.5 below the drag crisis).
+[7] K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in
+    vibroimpact", J. Appl. Mech. 42, 440 (1975) (a Hertz contact whose damping force is
+    proportional to the indentation to the same power: 1 - eps = (2/3) alpha v to first order).
 
 Prior densities
 ---------------
 Every parameter has ``bounds`` (what the fitter may try: wide, so that a value an effect
-would need is seen even where it is unphysical), hard physical ``limits`` (a candidate
-whose fitted value lies outside them is never named: ``vrcal discover`` reports the
-value it would need instead; they may depend on the ball, :meth:`Parameter.physical_limits`),
+would need is seen even where it is unphysical), hard physical ``limits`` (no effect is named
+with a value beyond them: a candidate whose best fit lies beyond is held at the limit when the data
+cannot reject it, :func:`vrcal.discovery.ranking.fit_physical`, else ``vrcal discover`` reports the
+value it would need; they may depend on the ball, :meth:`Parameter.physical_limits`),
 a plausible range ``prior`` and a proper prior *density* (``Parameter.density``; uniform
 over ``prior`` when None) that ``vrcal discover`` uses to rank the candidates by their
 evidence (:func:`vrcal.discovery.residuals.minus_two_ln_evidence`). The densities come from
@@ -57,8 +61,16 @@ Physical limits (hard; ``Parameter.limits``)
 * ``air_drag.drag_coefficient``: 0.2-1.0, a sphere over the Reynolds numbers of a drop
   (1e3-3e5: 0.4-0.5 below the drag crisis, down to 0.2 past it, up to about 0.6 for fuzzy
   or seamed balls [4, 6]; 1.0 leaves room for rough balls);
-* ``velocity_dependent_restitution.exponent``: 0-1 (1/5 viscoelastic [2]; inflated balls
-  flatter; beyond 1 no contact model);
+* ``velocity_dependent_restitution.exponent``: 0-1. p is the exponent of 1 - eps against the
+  impact speed. A linear spring-dashpot has a constant eps (p = 0); a viscoelastic Hertz contact
+  (Kuwabara-Kono, Ramirez et al. [2]) 1 - eps ~ v^(1/5); Hunt-Crossley's Hertz contact [7], whose
+  damping grows with the indentation as the elastic force does, 1 - eps ~ v (p = 1). Both are
+  first orders in the dissipation: solved through the contact, the local exponent d ln(1 - eps) /
+  d ln v of Hunt-Crossley is 0.99 at eps = 0.99, 0.94 at 0.94, 0.89 at 0.88 and 0.80 at 0.79,
+  of Kuwabara-Kono 0.199 to 0.17 over the same range (never above its first order); so no
+  contact model of a ball gives p > 1, and a fit beyond it (a drop table of a Hunt-Crossley
+  basketball with its drag left out: p 1.02) is held at 1 when the data cannot reject that
+  (:func:`vrcal.discovery.ranking.fit_physical`);
 * ``contact_duration.contact_time_s``: 0 to twice the membrane estimate
   :func:`inflated_contact_time_s` of the ball (its size and a 60 kPa gauge pressure): a
   factor 2 covers 15-240 kPa and the wall's stiffness; a shorter contact (a solid ball)
@@ -604,18 +616,23 @@ EFFECTS = {
         name="velocity_dependent_restitution",
         parameters=(
             Parameter("exponent", "1", 0.2, (-1.0, 2.0), (0.0, 0.5),
-                      "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 for viscoelastic spheres, 0 = constant eps",
+                      "p in 1 - eps = (1 - eps_ref)(v/v_ref)^p; 1/5 viscoelastic spheres, 1 Hunt-Crossley, "
+                      "0 = constant eps",
                       LogNormalPrior(0.2, math.log(2.0), "viscoelastic spheres, p = 1/5 (Ramirez et al. 1999)"),
                       limits=(0.0, 1.0)),
         ),
         equation="eps(v) = 1 - (1 - eps_ref) (v / v_ref)^p,  v_ref = first impact speed",
         description="epsilon depends on the impact speed: slower (later) bounces are more elastic for p > 0",
         reference="Kuwabara & Kono, Jpn. J. Appl. Phys. 26, 1230 (1987); Ramirez, Poeschel, Brilliantov, "
-                  "Schwager, Phys. Rev. E 60, 4465 (1999)",
+                  "Schwager, Phys. Rev. E 60, 4465 (1999) (viscoelastic, p = 1/5); Hunt & Crossley, J. Appl. "
+                  "Mech. 42, 440 (1975) (p = 1, the upper limit)",
         kinds=("trajectory", "impacts", "apexes"),
         null_values={"exponent": 0.0},
         function=restitution_at_speed,
         check="check the time scale and for bounces that do not belong (a kick, a second surface)",
+        check_by_kind={"apexes": "check the ball's mass and diameter (air drag makes rebounds fall off with "
+                                 "height too), the point of the ball each height was read to, and for trials "
+                                 "that do not belong (a misread height, a rebound off something else)"},
     ),
     "contact_duration": Effect(
         name="contact_duration",
