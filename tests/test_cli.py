@@ -42,6 +42,14 @@ def test_an_option_without_its_value_points_to_its_command_help():
     assert result.output.strip().endswith("(see 'vrcal simulate --help')")
 
 
+@pytest.mark.parametrize("command, typo, meant", [("export", "mujuco", "mujoco"), ("verify", "pybulet", "pybullet")])
+def test_a_mistyped_engine_is_named(command, typo, meant):
+    """As ball names do, an engine's typo says which engine was probably meant."""
+    result = run(command, "tennis", "--engine", typo)
+    assert result.exit_code == 2 and f"(did you mean '{meant}'?)" in result.output
+    assert "did you mean" not in run(command, "tennis", "--engine", "zzz").output
+
+
 def test_every_command_has_help_with_an_example():
     def walk(group, path):
         for name, cmd in group.commands.items():

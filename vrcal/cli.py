@@ -733,7 +733,7 @@ def _engine_options(f):
 
 @main.command("export")
 @click.argument("ball", required=False)
-@click.option("--engine", "engine", type=click.Choice(_ENGINE_NAMES, case_sensitive=False), required=True,
+@click.option("--engine", "engine", type=opt.NamedChoice(_ENGINE_NAMES, case_sensitive=False), required=True,
               help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
 @_engine_options
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
@@ -798,8 +798,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 
 @main.command("verify")
 @click.argument("ball", required=False)
-@click.option("--engine", "engine", type=click.Choice(["mujoco", "ode", "bullet", "pybullet", "gazebo"],
-                                                     case_sensitive=False),
+@click.option("--engine", "engine", type=opt.NamedChoice(["mujoco", "ode", "bullet", "pybullet", "gazebo"],
+                                                        case_sensitive=False),
               required=True, help="Engine to run the drop test in (gazebo: its SDF's bounce is ODE's, run it "
                                   "with --engine ode).")
 @_engine_options

@@ -232,6 +232,21 @@ INPUT_FILE = click.Path(exists=True, dir_okay=False)
 
 #: The points of a ball a height can be measured to (``--drop-measured-to``, ``--rebound-measured-to``; the
 #: keys of vrcal.model.restitution.POINT_OFFSET_DIAMETERS, and "center" for "centre").
+class NamedChoice(click.Choice):
+    """A click.Choice whose refusal says which valid name was probably meant ('mujuco' -> 'mujoco'),
+    as the ball names do."""
+
+    def convert(self, value, param, ctx):
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter as exc:
+            import difflib
+
+            close = difflib.get_close_matches(str(value).lower(), [str(c) for c in self.choices], n=1, cutoff=0.6)
+            if close:
+                exc.message = f"{exc.message} (did you mean '{close[0]}'?)"
+            raise
+
 BALL_POINT = click.Choice(["bottom", "centre", "center", "top"])
 
 #: Degrees a video is turned clockwise before tracking (``--rotate``; the keys of
