@@ -184,6 +184,7 @@ def test_finely_timed_impacts_have_no_grid():
 @given(fs=st.floats(20.0, 250.0), t0=st.floats(0.0, 5.0), n=st.integers(20, 400), decimals=st.integers(2, 3),
        gap=st.integers(3, 40))
 @example(fs=24.0, t0=4.0, n=289, decimals=2, gap=3)   # printed intervals 0.04/0.05 s: the first step guess is low
+@example(fs=142.0, t0=1.9375, n=20, decimals=3, gap=4)  # the least-squares line missed the grid by 0.81 ms at an end
 def test_regular_grid_recovery_is_never_worse_than_the_rounding(fs, t0, n, decimals, gap):
     from vrcal.measurements.cleanup import regular_frame_times
 
