@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vrcal.errors import UsageError
+from vrcal.errors import UsageError, unit_hint
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
@@ -146,14 +146,18 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     return out
 
 
+#: Highest drop or rebound of one's own drop test [m] (:func:`fit_ball`'s ``heights``).
+MAX_DROP_TEST_M = 20.0
+
+
 def _drop_test(body, drop_height_m, rebound_height_m, rebound_measured_to="bottom"):
     """(epsilon, keys) of one's own drop test: Eq. (9) with the rebound brought to the ball's bottom."""
     if drop_height_m is None or rebound_height_m is None:
         raise UsageError("a drop test needs both --drop-height and --rebound-height [m]")
     for name, value in (("--drop-height", drop_height_m), ("--rebound-height", rebound_height_m)):
-        if value > 20.0:
-            raise UsageError(f"{name} {value:g} m is higher than a drop test is made from: heights are in m "
-                             f"(100 cm: 1)")
+        if value > MAX_DROP_TEST_M:
+            raise UsageError(f"{name} {value:g} m is higher than a drop test is made from: heights are in m"
+                             + unit_hint(value, MAX_DROP_TEST_M, name, "m", "cm", 100))
     h = eq.height_to_bottom_m(rebound_height_m, rebound_measured_to, body.diameter_m)
     eps = float(eq.epsilon_from_heights(h, drop_height_m))
     read = "" if rebound_measured_to == "bottom" else f"; h read to the {rebound_measured_to}: {rebound_height_m:g} m"

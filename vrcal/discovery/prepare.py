@@ -125,7 +125,7 @@ def floor_referenced(data, floor_m=None, ball=None):
         shift = float(floor_m)
         note = f"heights shifted by {-shift:+.4f} m (--floor {shift:g} m)"
     else:
-        low = float(np.min(y[int(getattr(data, "release_index", 0) or 0):]))
+        low = _lowest_after_release(data)
         lo, hi = floor_band(ball)
         if lo <= low <= hi:
             return data, None
@@ -135,25 +135,27 @@ def floor_referenced(data, floor_m=None, ball=None):
     return dataclasses.replace(data, y_m=y - shift), note
 
 
+def _lowest_after_release(run):
+    """The lowest height of a trajectory from its release on [m]."""
+    return float(np.min(np.asarray(run.y_m, dtype=float)[int(getattr(run, "release_index", 0) or 0):]))
+
+
 def _common_floor(runs, ball):
-    """(shift, lowest, highest) [m] for trajectories none of which is referenced to the floor
-    (:func:`floor_referenced`): one shift for all, their lowest sample after release, and the range of
-    the runs' lowest samples; None when one run is referenced (or the runs are not trajectories).
+    """(lowest, highest) [m] of the lowest samples after release of trajectories none of which is
+    referenced to the floor (:func:`floor_referenced`): the lowest is the one shift for all; None when one
+    run is referenced (or the runs are not trajectories).
 
     Each run's lowest sample lies above the contact by where its samples happen to fall in its bounces
     (up to v dt / 2: 44 mm at 4.4 m/s and 50 Hz); shifted each by its own, two runs of one motion
     detector were 9.8 mm apart, which the one contact level fitted to all runs could not follow
     ('unexplained', 3.9 times the noise; each run alone, or both at one level, explained)."""
-    lows = []
+    if any(run.kind != "trajectory" for run in runs):
+        return None
+    lows = [_lowest_after_release(run) for run in runs]
     lo, hi = floor_band(ball)
-    for run in runs:
-        if run.kind != "trajectory":
-            return None
-        low = float(np.min(np.asarray(run.y_m, dtype=float)[int(getattr(run, "release_index", 0) or 0):]))
-        if lo <= low <= hi:
-            return None
-        lows.append(low)
-    return min(lows), min(lows), max(lows)
+    if any(lo <= low <= hi for low in lows):
+        return None
+    return min(lows), max(lows)
 
 
 def decimation_factor(n_samples, dt_s, max_samples=None):
@@ -598,7 +600,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     common = _common_floor(runs, ball) if floor_m is None and len(runs) > 1 else None
     if common is not None:
         notes.append(f"heights are not referenced to the floor in any run (lowest samples after release "
-                     f"{common[1]:+.4f} to {common[2]:+.4f} m): all shifted by {-common[0]:+.4f} m, one level "
+                     f"{common[0]:+.4f} to {common[1]:+.4f} m): all shifted by {-common[0]:+.4f} m, one level "
                      f"for all runs, so that the lowest sample is at 0 (a level per run would differ by where "
                      f"each run's samples fall in its bounces; give --floor to set the floor)")
     for run, label in zip(runs, labels):
