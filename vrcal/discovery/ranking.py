@@ -319,6 +319,14 @@ class Discovery:
         return [c for rnd in self.rounds for c in rnd]
 
     @property
+    def reference_sigma(self):
+        """σ [data unit] of the candidates' χ²: the data's noise floor, else the final model's residual
+        standard deviation sqrt(RSS/(n - k))."""
+        if self.noise_floor:
+            return float(self.noise_floor)
+        return math.sqrt(self.final.residual_variance)
+
+    @property
     def reference_gap(self):
         """What the final gap is compared with: the noise floor, or the scatter's gap when larger."""
         return max(self.noise_floor or 0.0, self.scatter_gap or 0.0) or None
@@ -573,7 +581,7 @@ class Discovery:
                           else "least squares"),
             "candidates": [
                 {"name": c.name, "round": c.round, "gap": c.gap, "judged_gap": c.fit.judged_gap,
-                 "chi2": c.fit.rss / (self.noise_floor or math.sqrt(self.final.residual_variance)) ** 2,
+                 "chi2": c.fit.rss / self.reference_sigma ** 2,
                  "score": c.score, "bic": c.fit.bic,
                  "delta_bic": c.delta_bic, "two_ln_bayes_factor": c.two_ln_bayes,
                  "p_value": c.p_value, "in_prior": c.in_prior, "physical": c.physical, "material": c.material,
@@ -700,6 +708,18 @@ def gap_per_bounce(before, after):
 
 def _start_from(fit):
     return {p.key: float(v) for p, v in zip(fit.layout, fit.values)}
+
+
+def _start_without(fit, effects):
+    """:func:`_start_from` ``fit`` without the parameters of ``effects``."""
+    return {k: v for k, v in _start_from(fit).items() if k.split(".")[0] not in effects}
+
+
+def _mark_dropped(rounds, dropped, verdict):
+    """Give ``verdict`` to the named candidates of ``rounds`` with a member in ``dropped``."""
+    for c in (c for r in rounds for c in r):
+        if c.verdict.startswith("named") and set(c.members) & set(dropped):
+            c.verdict = verdict
 
 
 def split_by_priors(problem, current, named, ambiguous, sigma):
@@ -850,7 +870,6 @@ def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, n
     # cannot reject a limit at its own residuals (a tennis record's contact of 14.3 ms held at 13.4 ms,
     # "chi2 +0.2", stood in for what it misses)
     cost = (bounded.rss - fit.rss) / (sigma_floor or fit.noise_sigma(None)) ** 2
-    bounded.extra["limit_chi2"] = float(cost)
     if held.material and cost <= th.indistinguishable_chi2:
         held.verdict = "material at its physical limit"
         return held
@@ -981,11 +1000,9 @@ def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_ef
         before = list(named)
         named, current = _backward(problem, named, win.members, current, th, rnd, notes, keep=nuisance)
         kept = [n for n in named if n not in nuisance]
-        if _outside(current, kept):   # one the backward step kept though it faded: held inside its limits
-            current = fit_physical(problem, named, start=_start_from(current), limited=kept, free=current)
-        for c in (c for r in rounds for c in r):
-            if c.verdict.startswith("named") and any(m in before and m not in named for m in c.members):
-                c.verdict = f"named, dropped in round {rnd}"
+        # one the backward step kept though it faded: held inside its limits (unchanged when inside them)
+        current = fit_physical(problem, named, start=_start_from(current), limited=kept, free=current)
+        _mark_dropped(rounds, [m for m in before if m not in named], f"named, dropped in round {rnd}")
     ambiguous = {k: v for k, v in ambiguous.items() if k in named}
     return current, named, rounds, ambiguous, notes, cut
 
@@ -1008,10 +1025,7 @@ def _bounce_scatter(problem, fit, sigma_floor, alpha=0.05, share_alpha=1.0):
 def _over_runs(problem, fit, quantity):
     """The median over the runs of ``quantity(t, model_t)`` (the run's impact times and ``fit``'s model
     times [s]), its None values left out; None when all are."""
-    values = []
-    for run, sl in zip(problem.runs, fit.run_slices()):
-        t = np.asarray(run.t_s, dtype=float)
-        values.append(quantity(t, t - fit.residuals[sl]))
+    values = [quantity(t, t - fit.residuals[sl]) for sl, t in res._run_times(problem)]
     values = [v for v in values if v is not None]
     return float(np.median(values)) if values else None
 
@@ -1220,14 +1234,11 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                              for n in weak for k, v in current.effect_values[n].items())
             notes.append(f"{', '.join(weak)} not named: material in the test, but with the ± the bounces' scatter "
                          f"gives its value ({vals}) is within {NULL_SIGMAS:g} ± of none")
-            for c in (c for r in rounds for c in r):
-                if c.verdict.startswith("named") and set(c.members) & set(weak):
-                    c.verdict = "named, then dropped: not resolved with the bounces' scatter"
+            _mark_dropped(rounds, weak, "named, then dropped: not resolved with the bounces' scatter")
             named = [n for n in named if n not in weak]
             ambiguous = {k: v for k, v in ambiguous.items() if k in named}
-            current = fit_physical(problem, named, start={
-                k: v for k, v in _start_from(current).items() if k.split(".")[0] not in weak},
-                limited=[n for n in named if n not in nuisance])
+            current = fit_physical(problem, named, start=_start_without(current, weak),
+                                   limited=[n for n in named if n not in nuisance])
             current, scatter, scatter_gap, scatter_limit, scatter_notes = _with_scatter(problem, current,
                                                                                         sigma_floor)
         notes.extend(scatter_notes)
@@ -1405,7 +1416,7 @@ def _backward(problem, named, added, current, th, rnd, notes, keep=()):
         changed = False
         for name in [n for n in named if n not in added and n not in keep]:
             rest = [n for n in named if n != name]
-            start = {k: v for k, v in _start_from(current).items() if not k.startswith(name + ".")}
+            start = _start_without(current, (name,))
             fit = res.fit_model(problem, tuple(rest), start=start)
             if fit.bic - current.bic >= th.delta_bic:
                 continue   # needed; held inside the limits the rest would fit no better

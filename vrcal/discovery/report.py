@@ -79,14 +79,6 @@ def _wrap(text, indent="", first=None):
                          subsequent_indent=indent, break_long_words=True, break_on_hyphens=False)
 
 
-def reference_sigma(discovery):
-    """σ [data unit] used for the χ² column: the data's noise floor, else the final model's
-    residual standard deviation sqrt(RSS/(n - k))."""
-    if discovery.noise_floor:
-        return float(discovery.noise_floor)
-    return math.sqrt(discovery.final.residual_variance)
-
-
 def _effects_phrase(names):
     words = [PHRASES[n][0] for n in names]
     if len(words) == 1:
@@ -412,7 +404,7 @@ def details_lines(d):
     """The statistics of every candidate (χ², AIC, BIC, ΔBIC, p, evidence) and the gap per bounce."""
     unit = d.unit
     scale, uname = _UNIT_SCALE[unit]
-    sigma = reference_sigma(d)
+    sigma = d.reference_sigma
     th = d.thresholds
     b = d.judged_baseline
     out = ["Statistics (--details)"]

@@ -330,12 +330,13 @@ def _ratio_changes(t_s):
     return _ratio_change_values(t), band
 
 
-def _band_matrix(band, n, offsets=(0, 1, 2, 3)):
-    """The sparse (m, n) matrix (scipy.sparse) whose row j holds ``band[j, c]`` in column j + offsets[c]
+def _band_matrix(band, n):
+    """The sparse (m, n) matrix (scipy.sparse) whose row j holds ``band[j, c]`` in column j + c
     (m = band.shape[0]; :func:`_ratio_changes`)."""
     from scipy import sparse
 
-    return sparse.diags([band[:, c] for c in range(band.shape[1])], list(offsets), shape=(band.shape[0], n))
+    return sparse.diags([band[:, c] for c in range(band.shape[1])], list(range(band.shape[1])),
+                        shape=(band.shape[0], n))
 
 
 #: How much larger than assumed a stopwatch's timing noise may be (a phone's acoustic onsets: 0.05-1 ms
@@ -461,8 +462,10 @@ def scatter_upper_limit(t_s, timing_sigma_s, t_model_s=None, alpha=0.05):
     """
     from vrcal.discovery.lsq import chi2_sf
 
+    if not timing_sigma_s > 0:
+        return None
     setup = _scatter_chi2(t_s, timing_sigma_s, t_model_s)
-    if setup is None or not timing_sigma_s > 0:
+    if setup is None:
         return None
     q, dof, d = setup[:3]
     lo, hi = 0.0, float(dof)      # the lower alpha quantile of chi2(dof): chi2_sf(c, dof) = 1 - alpha
@@ -511,14 +514,19 @@ def _scatter_by_reml(d, MMt, T, alpha, shares=np.linspace(0.0, 1.0, 41)):
     return math.sqrt(v * (1.0 - f))
 
 
-def _run_times(problem):
-    """[(slice, t)] of a problem's impact times: each run's slice of the residuals and its times [s]."""
+def _run_slices(problem):
+    """The residuals' slice of each run of a problem."""
     out, start = [], 0
     for run in problem.runs:
-        t = np.asarray(run.t_s, dtype=float)
-        out.append((slice(start, start + t.size), t))
-        start += t.size
+        n = observed_values(run).size
+        out.append(slice(start, start + n))
+        start += n
     return out
+
+
+def _run_times(problem):
+    """[(slice, t)] of a problem's impact times: each run's slice of the residuals and its times [s]."""
+    return [(sl, np.asarray(run.t_s, dtype=float)) for run, sl in zip(problem.runs, _run_slices(problem))]
 
 
 def _scatter_design(fit):
@@ -1182,12 +1190,7 @@ class FitResult:
 
     def run_slices(self):
         """The residuals' slice of each run."""
-        out, start = [], 0
-        for run in self.problem.runs:
-            n = observed_values(run).size
-            out.append(slice(start, start + n))
-            start += n
-        return out
+        return _run_slices(self.problem)
 
 
 def _scales(layout, x0):
