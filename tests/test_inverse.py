@@ -112,11 +112,11 @@ def test_own_drop_test_gives_eq9_and_its_model_time():
     from vrcal.model.body import describe_body
 
     body = describe_body(None, mass_kg=0.0577, diameter_m=0.067)
-    r = fit_ball(body, 4.0, heights=(1.0, 0.55, "bottom"))
+    r = fit_ball(body, 4.0, drop_height_m=1.0, rebound_height_m=0.55, rebound_measured_to="bottom")
     assert r["epsilon"]["nominal"] == pytest.approx(math.sqrt(0.55))
     assert r["T_s"]["nominal"] == pytest.approx(-math.log(math.sqrt(0.55)) / 4.0)
     assert r["drop_height_m"] == 1.0 and r["rebound_height_m"] == pytest.approx(0.55)
-    top = fit_ball(body, 4.0, heights=(1.0, 0.6, "top"))
+    top = fit_ball(body, 4.0, drop_height_m=1.0, rebound_height_m=0.6, rebound_measured_to="top")
     assert top["epsilon"]["nominal"] == pytest.approx(math.sqrt(0.6 - 0.067))
     assert top["rebound_height_m"] == pytest.approx(0.533)
 
@@ -132,4 +132,5 @@ def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
 
     body = describe_body(None, mass_kg=0.0577, diameter_m=0.067)
     with pytest.raises(UsageError, match=message):
-        fit_ball(body, 4.0, heights=heights, epsilon=epsilon)
+        drop, rebound, point = heights
+        fit_ball(body, 4.0, drop_height_m=drop, rebound_height_m=rebound, rebound_measured_to=point, epsilon=epsilon)

@@ -294,12 +294,9 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
 
     body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
-    heights = None
-    if drop_height_m is not None or rebound_height_m is not None or rebound_measured_to is not None:
-        point = rebound_measured_to or "bottom"
-        heights = (drop_height_m, rebound_height_m, {"center": "centre"}.get(point, point))
     result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
-                      epsilon=epsilon, heights=heights)
+                      epsilon=epsilon, drop_height_m=drop_height_m, rebound_height_m=rebound_height_m,
+                      rebound_measured_to=rebound_measured_to)
     emit_result(result, fit_text, fmt, output)
 
 
@@ -584,8 +581,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                            y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
                            read_options={"progress": None if quiet else tracking_progress("discover"),
                                          "rotate": None if rotate is None else int(rotate)},
-                           drop_measured_to={"center": "centre"}.get(drop_measured_to, drop_measured_to),
-                           rebound_measured_to={"center": "centre"}.get(rebound_measured_to, rebound_measured_to))
+                           drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
     text = fit_report(result, details=details)
     for warning in result.warnings:
         click.echo(f"vrcal: warning: {warning}", err=True)

@@ -56,3 +56,12 @@ def unit_hint(value, maximum, option, unit, small_unit, factor):
     if math.isfinite(x) and maximum < x <= factor * maximum:
         return f"; {option} is in {unit}: {x:g} {small_unit} = {x / factor:g}"
     return ""
+
+
+def closest_name(value, names, cutoff=0.6):
+    """The name of ``names`` that ``value`` was probably meant to be (a typo: 'mujuco' -> 'mujoco'), or
+    None: the one offer of every "did you mean" (balls, effects, choices of an option)."""
+    import difflib
+
+    close = difflib.get_close_matches(str(value), [str(n) for n in names], n=1, cutoff=cutoff)
+    return close[0] if close else None

@@ -61,7 +61,7 @@ class VirtualBody:
 
 
 def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None,
-             heights=None):
+             drop_height_m=None, rebound_height_m=None, rebound_measured_to=None):
     """The parameter set of a body: epsilon (a window, or one value), T, and its (x, v) family.
 
     Parameters
@@ -82,12 +82,13 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     epsilon : float, optional
         the body's epsilon against a rigid floor (``--epsilon``), instead of a standard's window
         or a discover result's value
-    heights : (float, float, str), optional
-        your own drop test instead (``--drop-height``, ``--rebound-height``, ``--rebound-measured-to``):
-        drop height H to the ball's bottom [m], rebound height h [m], and the point of the ball h was
-        read to ("bottom", "centre" or "top"; brought to the bottom with the body's diameter); epsilon
-        = sqrt(h/H), Eq. (9), without air drag's correction (``vrcal discover`` on a one-row table
-        gives the contact's own)
+    drop_height_m, rebound_height_m : float, optional
+        your own drop test instead (``--drop-height``, ``--rebound-height``): drop height H to the
+        ball's bottom [m] and rebound height h [m], both needed; epsilon = sqrt(h/H), Eq. (9), without
+        air drag's correction (``vrcal discover`` on a one-row table gives the contact's own)
+    rebound_measured_to : {"bottom", "centre", "top"}, optional
+        the point of the ball h was read to (brought to the bottom with the body's diameter; default
+        the bottom); a drop test's option
 
     Returns
     -------
@@ -111,17 +112,17 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
     if v_m_per_s is not None and not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
         raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
-    if heights is not None:
+    drop_test = None
+    if drop_height_m is not None or rebound_height_m is not None or rebound_measured_to is not None:
         if epsilon is not None:
             raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
-        epsilon, drop_test = _drop_test(body, *heights)
+        epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, rebound_measured_to or "bottom")
     if epsilon is None and body.discovered is None and body.standard is not None:
         out = _window_fit(body, K, as_paper)
     else:
         out = _single_fit(body, K, as_paper, epsilon)
-    if heights is not None:
+    if drop_test is not None:
         out.update(drop_test)
-        out["epsilon_source"] = drop_test["epsilon_source"]
     eps = out["epsilon"]
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in eps}  # keyed by the epsilon level
     out["T_s"] = _bounds(T)

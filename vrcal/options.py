@@ -20,7 +20,7 @@ import math
 
 import click
 
-from vrcal.errors import unit_hint
+from vrcal.errors import closest_name, unit_hint
 
 
 def _range_text(lo, hi, lo_open=False, hi_open=False, unit=""):
@@ -240,14 +240,24 @@ class NamedChoice(click.Choice):
         try:
             return super().convert(value, param, ctx)
         except click.BadParameter as exc:
-            import difflib
-
-            close = difflib.get_close_matches(str(value).lower(), [str(c) for c in self.choices], n=1, cutoff=0.6)
+            close = closest_name(str(value).lower(), self.choices)
             if close:
-                exc.message = f"{exc.message} (did you mean '{close[0]}'?)"
+                exc.message = f"{exc.message} (did you mean '{close}'?)"
             raise
 
-BALL_POINT = click.Choice(["bottom", "centre", "center", "top"])
+class BallPoint(click.Choice):
+    """The point of the ball a height was read to: bottom, centre (or center) or top, given as the
+    library spells it ("centre")."""
+
+    def __init__(self):
+        super().__init__(["bottom", "centre", "center", "top"])
+
+    def convert(self, value, param, ctx):
+        point = super().convert(value, param, ctx)
+        return "centre" if point == "center" else point
+
+
+BALL_POINT = BallPoint()
 
 #: Degrees a video is turned clockwise before tracking (``--rotate``; the keys of
 #: vrcal.measurements.video.ROTATIONS).

@@ -87,13 +87,12 @@ each effect here is a named, documented departure that the data can support or r
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from vrcal.errors import UsageError
+from vrcal.errors import UsageError, closest_name
 from vrcal.model.body import ball_density_kg_per_m3
 
 #: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
@@ -701,8 +700,8 @@ def get_effect(name):
     """The :class:`Effect` called ``name``; UsageError naming the valid ones otherwise."""
     if name in EFFECTS:
         return EFFECTS[name]
-    close = difflib.get_close_matches(str(name), list(EFFECTS), n=1, cutoff=0.6)
-    hint = f"; did you mean '{close[0]}'?" if close else ""
+    close = closest_name(name, EFFECTS)
+    hint = f"; did you mean '{close}'?" if close else ""
     raise UsageError(f"unknown effect '{name}'{hint} (valid: {', '.join(EFFECTS)})")
 
 

@@ -48,7 +48,6 @@ def export_params(setup, n_bounces=None, pair=None):
         raise UsageError(f"restitution threshold {RESTITUTION_VELOCITY_THRESHOLD} m/s is not below the last "
                          f"impact speed {v_last:.3g} m/s")
     ball_eps = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
-    slop = PYBULLET_CONTACT_SLOP_M
     out = {
         "engine": "bullet",
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
@@ -74,9 +73,10 @@ def export_params(setup, n_bounces=None, pair=None):
             "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
             "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
             "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
-            f"contactSlop {CONTACT_SLOP_M:g}: with PyBullet's default {slop:g} m a ball found less deep than "
-            f"that leaves up to {slop:g} m / dt too slowly (at this step {slop / setup.dt_s:.3g} m/s, up to "
-            f"{slop / (setup.dt_s * v_last):.2g} off epsilon at the drop test's last impact)",
+            f"contactSlop {CONTACT_SLOP_M:g}: with PyBullet's default {PYBULLET_CONTACT_SLOP_M:g} m a ball found "
+            f"less deep than that leaves up to {PYBULLET_CONTACT_SLOP_M:g} m / dt too slowly (at this step "
+            f"{PYBULLET_CONTACT_SLOP_M / setup.dt_s:.3g} m/s, up to "
+            f"{PYBULLET_CONTACT_SLOP_M / (setup.dt_s * v_last):.2g} off epsilon at the drop test's last impact)",
             "friction is not set by vrcal: lateralFriction 0 makes the ball frictionless (it slides, never "
             "rolls); a vertical drop ignores it: set lateralFriction on the ball and the floor to yours",
         ],

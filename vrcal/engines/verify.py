@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from vrcal.engines import get_engine, load, require_runtime
+from vrcal.engines.bullet import PYBULLET_CONTACT_SLOP_M
 from vrcal.engines.common import (
     CONFIRM_PHASES,
     DEFAULT_TOLERANCE,
@@ -286,7 +287,7 @@ def _settings(engine, loaded, setup):
     slop = loaded["setPhysicsEngineParameter"].get("contactSlop")
     return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
             "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}",
-            "contactSlop": "1e-05 (PyBullet's default)" if slop is None else f"{slop:g}"}
+            "contactSlop": f"{PYBULLET_CONTACT_SLOP_M:g} (PyBullet's default)" if slop is None else f"{slop:g}"}
 
 
 def _range(values, digits=4):

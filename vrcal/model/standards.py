@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from vrcal.errors import DataError, UsageError
+from vrcal.errors import DataError, UsageError, closest_name
 from vrcal.fileio import parse_yaml, read_yaml
 from vrcal.model.restitution import POINT_OFFSET_DIAMETERS, epsilon_from_heights, height_to_bottom_m
 
@@ -331,13 +331,9 @@ def get_ball(key, standards=None):
     found = find_ball(key, standards)
     if found is not None:
         return found
-    import difflib
-
-    norm = normalised_name(key)
     names = list(standards) + [a for ball in standards.values() for a in ball.aliases]
-    close = difflib.get_close_matches(norm, names, n=1, cutoff=0.5)
-    close = [find_ball(c, standards).key for c in close]
-    hint = f"; did you mean '{close[0]}'?" if close else ""
+    close = closest_name(normalised_name(key), names, cutoff=0.5)
+    hint = f"; did you mean '{find_ball(close, standards).key}'?" if close else ""
     raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
 
 
