@@ -196,7 +196,7 @@ def _minimax_grid(k, t):
 
     scale = float(np.max(np.abs(t))) or 1.0
     A = np.column_stack([np.ones_like(k), k, -np.ones_like(k)])
-    A_ub = np.vstack([A * [1, 1, 1], A * [-1, -1, 1]])
+    A_ub = np.vstack([A, A * [-1, -1, 1]])
     b_ub = np.concatenate([t, -t]) / scale
     out = linprog([0.0, 0.0, 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None), (None, None), (0, None)],
                   method="highs")

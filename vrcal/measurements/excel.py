@@ -34,8 +34,9 @@ MAX_ROWS = 1_000_000
 _HINT = "install the optional extra: pip install 'vrcal[excel]'"
 
 
-def spreadsheet_kind(path):
-    """'xlsx', 'xls' or None, from the file's first bytes (not its name)."""
+def container_kind(path):
+    """'xlsx', 'xls', 'zip' (an archive that is no workbook) or None, from the file's first bytes (and, for
+    a zip, its name: an .xlsx is a zip too)."""
     if os.path.exists(path) and not os.path.isfile(path):
         return None  # a FIFO or a device is read once, by the text reader: no peeking
     try:
@@ -43,11 +44,17 @@ def spreadsheet_kind(path):
             head = fh.read(8)
     except OSError:
         return None
-    if head.startswith(_XLSX_MAGIC) and str(path).lower().endswith((".xlsx", ".xlsm")):
-        return "xlsx"
+    if head.startswith(_XLSX_MAGIC):
+        return "xlsx" if str(path).lower().endswith((".xlsx", ".xlsm")) else "zip"
     if head == _XLS_MAGIC:
         return "xls"
     return None
+
+
+def spreadsheet_kind(path):
+    """'xlsx', 'xls' or None, from the file's first bytes (:func:`container_kind`)."""
+    kind = container_kind(path)
+    return kind if kind in ("xlsx", "xls") else None
 
 
 def _cell(value):
@@ -180,16 +187,6 @@ def is_spreadsheet(path):
 _TABLE_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
 
 
-def is_archive(path):
-    """True for a zip archive that is no workbook (by its first bytes and, for .xlsx, its name)."""
-    if os.path.exists(path) and not os.path.isfile(path):
-        return False
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4)
-    except OSError:
-        return False
-    return head == _XLSX_MAGIC and spreadsheet_kind(path) is None
 
 
 def load_archive_text(path, member=None):

@@ -273,9 +273,10 @@ def read_measurement(path, fmt=None, **options):
 def _load(path, sheet=None):
     """The :class:`Text` of a text file, of a workbook's sheet or of a zip archive's table (``sheet`` names
     which)."""
-    if excel.is_spreadsheet(path):
+    kind = excel.container_kind(path)
+    if kind in ("xlsx", "xls"):
         return excel.load_sheet_text(path, sheet)
-    if excel.is_archive(path):
+    if kind == "zip":
         return excel.load_archive_text(path, sheet)
     if sheet is not None:
         raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks and zip archives only")

@@ -496,11 +496,11 @@ def merge_units_row(text, max_title_lines=5):
                 or any(i >= len(names) or not names[i] for i, _ in found):
             continue
         merged = list(names)
-        for i, _ in found:
-            written = strip_cell(cells[i])
+        for i, unit in found:
+            written = strip_cell(cells[i])   # as the row writes it, without brackets, for the header
             written = written[1:-1].strip() if written[:1] in "([" and written[-1:] in ")]" else written
             col = columns([names[i]])[0]
-            if col.unit and written != "-" and col.unit != unit_of_cell(written):
+            if col.unit and written != "-" and col.unit != unit:
                 fail(text.path, units_no, f"column '{col.raw}' is in {col.unit} by its header (line {header_no}) "
                                           f"and in {written} by the units row below it: correct one of them")
             if not col.unit and written != "-":   # '-': a number without a unit
