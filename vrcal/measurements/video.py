@@ -113,9 +113,11 @@ COLORS = {
 
 
 def detect(head, path):
-    """An MP4/MOV/3GP (``ftyp``, not audio-only), AVI, Matroska/WebM file, or a video extension."""
+    """An MP4/MOV/3GP (``ftyp``), AVI, Matroska/WebM file, or a video extension. The reader asks the sound
+    format first (:data:`vrcal.measurements.reader.FORMATS`), which takes an MP4 of sound alone (its track
+    list read once); ``--format video`` on one is refused by :func:`track_video`."""
     if head[4:8] == b"ftyp":
-        return not _sound_only(head, path)
+        return True
     if head[:4] == b"RIFF" and head[8:12] == b"AVI ":
         return True
     if head[:4] == b"\x1a\x45\xdf\xa3":
