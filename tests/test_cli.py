@@ -98,6 +98,15 @@ def test_pair_command():
     assert data["epsilon"] == pytest.approx(data["bodies"][0]["epsilon_on_rigid_floor"])
 
 
+def test_pair_output_file_format_follows_its_extension_as_the_help_says(tmp_path):
+    help_text = " ".join(run("pair", "--help").output.split())
+    assert ".txt for the table; other -o files get yaml" in help_text
+    assert run("pair", "tennis", "floor", "-o", str(tmp_path / "out.txt")).exit_code == 0
+    assert (tmp_path / "out.txt").read_text() == run("pair", "tennis", "floor").output
+    assert run("pair", "tennis", "floor", "-o", str(tmp_path / "out.dat")).exit_code == 0
+    assert yaml.safe_load((tmp_path / "out.dat").read_text())["schema_version"] >= 1
+
+
 def test_user_standards_file(tmp_path):
     path = tmp_path / "mine.yaml"
     path.write_text(yaml.safe_dump({"schema_version": 1, "balls": {"superball": {

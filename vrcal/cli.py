@@ -207,7 +207,8 @@ def emit_result(data, human, fmt, output, file_default="yaml"):
 FORMAT_OPTION = click.option(
     "--format", "fmt", type=click.Choice(["text", "yaml", "json"]), default=None, show_default="text",
     help="text: a table for people (stdout's default); yaml, json: the full-precision machine file "
-         "(also chosen by -o's extension .yaml/.yml/.json; other -o files get yaml).")
+         "(also chosen by -o's extension: .yaml/.yml/.json, and .txt for the table; other -o files get "
+         "yaml).")
 
 
 K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",

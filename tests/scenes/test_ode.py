@@ -101,6 +101,15 @@ def test_bad_time_step_is_a_usage_error(ode):
         ode.simulate_scene_ode(scene, dt_s=0.5)
 
 
+def test_ode_dt_without_ode_is_a_usage_error(tmp_path):
+    result = CliRunner().invoke(main, ["scene", str(EXAMPLES / "stack-drop.yaml"), "--engine", "vrcal",
+                                       "--ode-dt", "1e-3", "-o", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert result.output.strip().splitlines()[-1].startswith("vrcal: error: --ode-dt sets ODE's time step and has "
+                                                              "no effect with --engine vrcal")
+    assert not (tmp_path / "o").exists()
+
+
 def test_cli_compare_reports_differences_and_why(ode, tmp_path):
     doc = yaml.safe_load((EXAMPLES / "figure8-basketball.yaml").read_text())
     doc["duration_s"] = 1.5

@@ -114,6 +114,7 @@ BAD = [
     (["duration_s"], None, "duration_s: missing"),
     (["bodies"], [], "bodies: must be a non-empty list"),
     (["gravity"], 9.8, "top level: unknown field(s) ['gravity']"),
+    (["frction_mu"], 0.5, "top level: unknown field(s) ['frction_mu']; did you mean 'friction_mu'?"),
 ]
 
 
@@ -230,3 +231,12 @@ def test_plot_heights_returns_the_axes_with_one_line_per_body():
     np.testing.assert_allclose(z_line[sampled], res.bottom_height_m()[:, 0])
     np.testing.assert_array_equal(z_line[np.isin(t_line, t_floor)], 0.0)
     plt.close(ax.figure)
+
+
+def test_a_typo_of_name_is_named_as_a_typo_not_a_missing_name():
+    # the probe's errs/missing_name.yaml: `nam: tennis` used to say "bodies[1].name: must be a non-empty text"
+    doc = doc_with(["bodies", 1, "name"], None, delete=True)
+    doc["bodies"][1]["nam"] = "b2"
+    with pytest.raises(DataError) as err:
+        validate_scene(doc, "s.yaml")
+    assert "bodies[1]: unknown field(s) ['nam']; did you mean 'name'?" in str(err.value)

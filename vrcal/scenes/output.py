@@ -374,6 +374,9 @@ def run_scene(path, *, engine="vrcal", compare=False, ode_dt_s=None, standards=N
 
     if engine not in ("vrcal", "ode"):
         raise UsageError(f"unknown engine {engine!r} (known: vrcal, ode)")
+    if ode_dt_s is not None and engine == "vrcal" and not compare:
+        raise UsageError("--ode-dt sets ODE's time step and has no effect with --engine vrcal: "
+                         "add --compare or --engine ode, or leave it out")
     scene = load_scene(path, standards)
     engines = ("vrcal", "ode") if compare else (engine,)
     results = {}

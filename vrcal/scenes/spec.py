@@ -282,10 +282,16 @@ def _vector(fields, key, where, path, *, default=None, maximum=None):
 
 
 def _unknown(fields, allowed, where, path):
-    unknown = set(fields) - allowed
+    """Refuse fields not in ``allowed``, offering the closest allowed name for each typo."""
+    from vrcal.errors import closest_name
+
+    unknown = sorted(set(fields) - allowed, key=str)
     if unknown:
+        offers = [(str(u), closest_name(u, sorted(allowed))) for u in unknown]
+        hint = "; ".join(f"did you mean {c!r} for {u!r}?" if len(unknown) > 1 else f"did you mean {c!r}?"
+                         for u, c in offers if c)
         raise _err(where, path.rstrip(".") or "top level",
-                   f"unknown field(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
+                   f"unknown field(s) {unknown}" + (f"; {hint}" if hint else "") + f" (allowed: {sorted(allowed)})")
 
 
 def validate_scene(doc, where="scene", *, default_name="scene", standards=None, base_dir=None):
@@ -383,6 +389,8 @@ def _body(fields, i, where, K, standards, base_dir=None, notes=None):
         raise _err(where, label, "must be a mapping with name, position_m and ball (or from, or mass_kg, radius_m, "
                                  "virtual_body)")
     name = fields.get("name")
+    if not isinstance(name, str) or not name.strip():
+        _unknown(fields, _BODY_FIELDS, where, f"{label}.")  # a typo of 'name' is named as a typo
     if (not isinstance(name, str) or not name.strip() or name.strip().lower() == "floor"
             or len(name.strip()) > MAX_NAME_CHARS):
         raise _err(where, f"{label}.name", f"must be a non-empty text other than 'floor' (at most "
