@@ -351,3 +351,58 @@ def test_cradle_of_touching_balls_passes_the_striker_speed_to_the_last_ball(exam
     assert [(c.body_a, c.body_b) for c in res.contacts] == [("striker", "b1"), ("b1", "b2"), ("b2", "b3")]
     assert all(c.epsilon == 1.0 for c in res.contacts)
     np.testing.assert_allclose(res.velocity_m_per_s[-1, :, 0], [0.0, 0.0, 0.0, 2.0], atol=1e-12)
+
+
+# --------------------------------------------------------------------------- sliding on the floor
+
+
+def sliding_scene(inertia="hollow", spin_y=0.0, mu=0.3, duration=2.0, more=()):
+    """The probe's slide.yaml: m 0.5 kg, R 0.1 m, vx 2 m/s on the floor."""
+    return validate_scene({
+        "name": "slide", "K_per_s": 4.0, "duration_s": duration, "friction_mu": mu, "floor": {"material": "steel"},
+        "bodies": [{"name": "ball", "mass_kg": 0.5, "radius_m": 0.1, "inertia": inertia,
+                    "virtual_body": {"x_m": 0.05, "v_m_per_s": 0.5}, "position_m": [0, 0, 0.1],
+                    "velocity_m_per_s": [2.0, 0, 0], "spin_rad_per_s": [0, spin_y, 0]}, *more]}, "t.yaml")
+
+
+@pytest.mark.parametrize("inertia,spin_y,rolling", [
+    # hand values (kinetic friction until the contact point stops slipping, I = k m R^2):
+    # v_roll = v0 - u0/(1 + 1/k) with the slip u0 = v0 - omega_y R (e.g. Marion & Thornton, rolling billiard ball)
+    ("hollow", 0.0, 1.2),             # k = 2/3: 3/5 * 2 m/s
+    ("solid", 0.0, 10.0 / 7.0),       # k = 2/5: 5/7 * 2 m/s
+    ("hollow", -40.0, -0.4),          # backspin: u0 = 2 + 4 = 6 m/s, 2 - 6 * 2/5 = -0.4 m/s (comes back)
+])
+def test_a_ball_sliding_on_the_floor_ends_rolling_at_the_textbook_speed(inertia, spin_y, rolling):
+    res = mb.simulate_scene(sliding_scene(inertia, spin_y))
+    v, w = res.velocity_m_per_s[-1, 0], res.spin_rad_per_s[-1, 0]
+    assert v[0] == pytest.approx(rolling, rel=1e-12)
+    assert w[1] * 0.1 == pytest.approx(v[0], rel=1e-12)      # rolling: omega_y R = v_x
+    assert res.position_m[-1, 0, 2] == 0.1 and v[2] == 0.0     # it stays on the floor
+
+
+def test_sliding_distance_is_the_closed_form():
+    # hollow, mu 0.3: t_roll = 2 / (0.3 g 2.5) = 0.27191 s, x = 2 t - mu g t^2 / 2 + 1.2 (2 s - t) = 2.5088 m
+    g = 9.80665
+    t_roll = 2.0 / (0.3 * g * 2.5)
+    x = 2.0 * t_roll - 0.5 * 0.3 * g * t_roll**2 + 1.2 * (2.0 - t_roll)
+    res = mb.simulate_scene(sliding_scene())
+    assert res.position_m[-1, 0, 0] == pytest.approx(x, rel=1e-12)
+    assert x == pytest.approx(2.5088, abs=1e-4)
+    mid = np.searchsorted(res.t_s, 0.1)   # still sliding at 0.1 s: v = 2 - mu g t
+    assert res.velocity_m_per_s[mid, 0, 0] == pytest.approx(2.0 - 0.3 * g * res.t_s[mid], rel=1e-12)
+
+
+def test_sliding_never_adds_energy_and_a_rolling_ball_keeps_its_energy():
+    more = [{"name": "hit", "mass_kg": 0.5, "radius_m": 0.1, "virtual_body": {"x_m": 0.05, "v_m_per_s": 0.5},
+             "position_m": [1.0, 0.003, 0.1], "spin_rad_per_s": [3.0, 0, 5.0]}]
+    res = mb.simulate_scene(sliding_scene(more=more, duration=3.0))
+    assert (res.contacts[0].body_a, res.contacts[0].body_b) == ("ball", "hit")   # rolls into the other ball
+    e = total_energy(res)
+    assert np.all(np.diff(e) <= 1e-9 * e[0])
+    rolled = res.t_s > 2.0   # long after every slip has ended: no rolling resistance, no loss
+    assert np.ptp(e[rolled]) <= 1e-9 * e[0]
+
+
+def test_without_friction_a_ball_slides_on_for_ever():
+    res = mb.simulate_scene(sliding_scene(mu=0.0))
+    assert res.velocity_m_per_s[-1, 0, 0] == 2.0

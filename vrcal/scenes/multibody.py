@@ -23,9 +23,13 @@ Choices (departures from [1], which relied on ODE for all of this):
   ("sequential impulses"). For a stack this is the classic sequential-collision result.
 * Resting: a floor impact slower than the scene's ``rest_speed_m_per_s`` is perfectly inelastic
   (epsilon = 0, with the same friction impulse) and puts the ball at rest on the floor: its
-  vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno). A ball at
-  rest keeps its horizontal velocity and spin (no rolling friction, no sliding friction while it
-  rests). A ball resting on another ball is not modelled: a scene that starts with one is refused
+  vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno).
+* Sliding on the floor: while a ball rests on the floor (placed there, or after its last impact) and
+  its lowest point slips, kinetic Coulomb friction mu m g acts against the slip
+  (:func:`floor_sliding_friction`) until the ball rolls -- a closed-form event like the impacts;
+  then it rolls on with no further loss (no rolling resistance is modelled). A hollow ball sliding
+  at v0 without spin rolls at 3/5 v0 (solid: 5/7 v0). Spin about the vertical axis is left alone.
+  A ball resting on another ball is not modelled: a scene that starts with one is refused
   up front, and one that comes to it (a ball settling on a ball that rests on the floor, or
   contacts piling up at one instant) stops at that moment with an error naming the bodies.
 * Cost: every event screens every pair of bodies (numpy) and solves the few that may meet, so a
@@ -60,7 +64,11 @@ ZENO_STEP_S = 1e-6
 #: ... and this many of them in a row stop the run (a ball settling on a ball, never at rest).
 ZENO_EVENTS = 200
 
+#: A ball on the floor whose lowest point slips slower than this [m/s] rolls.
+SLIP_TOLERANCE_M_PER_S = 1e-9
+
 _FLOOR = -1
+_ROLL = -2      # the event "ball i stops slipping and rolls"
 
 
 # --------------------------------------------------------------------------- equations
@@ -165,6 +173,54 @@ def friction_impulse_N_s(slip_velocity_m_per_s, j_N_s, mu, k_tangential_per_kg):
     return -size[..., None] * unit
 
 
+def floor_sliding_friction(slip_velocity_m_per_s, mu, g_m_per_s2, radius_m, inertia_factor):
+    """Kinetic Coulomb friction on a sphere that slides while it rests on the floor (vrcal's choice).
+
+    The floor pushes up with m g and, while the contact point slips with velocity u (horizontal),
+    pulls with the constant force F = -mu m g u/|u| at r = -R z. The slip keeps its direction and
+    shrinks at the constant rate mu g (1 + 1/k) until the ball rolls (u = 0); from then on there is
+    no friction force (no rolling resistance is modelled).
+
+    Parameters
+    ----------
+    slip_velocity_m_per_s : array_like, shape (..., 3)
+        velocity of the contact point, ``v + omega x (-R z)``, horizontal [m/s]
+    mu : float
+        Coulomb friction coefficient [-], >= 0
+    g_m_per_s2 : float
+        gravitational acceleration [m/s^2]
+    radius_m : float or ndarray
+        sphere radius R [m]
+    inertia_factor : float or ndarray
+        k in I = k m R^2 [-] (2/3 hollow shell, 2/5 solid sphere)
+
+    Returns
+    -------
+    acceleration_m_per_s2 : ndarray, shape (..., 3)
+        ``-mu g u/|u|`` (zero when u = 0)
+    angular_acceleration_rad_per_s2 : ndarray, shape (..., 3)
+        ``I^-1 (r x F) = mu g (z x u/|u|) / (k R)``
+    time_to_roll_s : ndarray, shape (...)
+        ``|u| / (mu g (1 + 1/k))`` (inf when mu = 0 and u != 0; 0 when u = 0)
+
+    Notes
+    -----
+    Textbook result (e.g. a billiard ball struck without spin): a ball sliding at v0 without spin
+    rolls after ``v0 / (mu g (1 + 1/k))`` at ``v0 / (1 + k)`` -- 3/5 v0 for a hollow shell, 5/7 v0
+    for a solid sphere; energy only decreases.
+    """
+    u = np.asarray(slip_velocity_m_per_s, dtype=float)
+    speed = np.linalg.norm(u, axis=-1)
+    k = np.asarray(inertia_factor, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(speed[..., None] > 0, u / np.where(speed > 0, speed, 1.0)[..., None], 0.0)
+        rate = mu * g_m_per_s2 * (1.0 + 1.0 / k)
+        t_roll = np.where(speed > 0, speed / np.where(rate > 0, rate, 0.0), 0.0)
+    acc = -mu * g_m_per_s2 * unit
+    alpha = mu * g_m_per_s2 * np.cross([0.0, 0.0, 1.0], unit) / (k * np.asarray(radius_m, dtype=float))[..., None]
+    return acc, alpha, t_roll
+
+
 # --------------------------------------------------------------------------- the simulator
 
 
@@ -184,9 +240,36 @@ class _State:
         self.t = 0.0
         self.g = scene.g_m_per_s2
         self.eps = scene.epsilon_matrix()
+        self.k = self.I / (self.m * self.R * self.R)
+        self.slide_acc = np.zeros((self.n, 3))   # floor friction on balls sliding on the floor [m/s^2]
+        self.alpha = np.zeros((self.n, 3))       # its angular acceleration [rad/s^2]
+        self.t_roll = np.full(self.n, np.inf)    # time from now until each sliding ball rolls [s]
+
+    def floor_slip(self):
+        """Velocity of each ball's lowest point [m/s], horizontal: v + omega x (-R z)."""
+        u = self.v + np.cross(self.w, -self.R[:, None] * np.array([0.0, 0.0, 1.0]))
+        u[:, 2] = 0.0
+        return u
+
+    def update_sliding(self):
+        """After an event: kinetic friction on every ball that rests on the floor and slips."""
+        u = self.floor_slip()
+        sliding = self.rest & (np.linalg.norm(u, axis=1) > SLIP_TOLERANCE_M_PER_S) & (self.scene.friction_mu > 0)
+        self.slide_acc[:] = 0.0
+        self.alpha[:] = 0.0
+        self.t_roll[:] = np.inf
+        if sliding.any():
+            acc, alpha, t_roll = floor_sliding_friction(u[sliding], self.scene.friction_mu, self.g,
+                                                        self.R[sliding], self.k[sliding])
+            self.slide_acc[sliding], self.alpha[sliding], self.t_roll[sliding] = acc, alpha, t_roll
+
+    def roll(self, i):
+        """Ball ``i`` has stopped slipping: set its spin to rolling exactly (removes rounding)."""
+        self.w[i, 0] = -self.v[i, 1] / self.R[i]
+        self.w[i, 1] = self.v[i, 0] / self.R[i]
 
     def accel(self):
-        a = np.zeros((self.n, 3))
+        a = self.slide_acc.copy()
         a[~self.rest, 2] = -self.g
         return a
 
@@ -194,11 +277,14 @@ class _State:
         a = self.accel()
         self.p = self.p + self.v * dt + 0.5 * a * dt * dt
         self.v = self.v + a * dt
-        self.ang = self.ang + self.w[:, 1] * dt
+        self.ang = self.ang + self.w[:, 1] * dt + 0.5 * self.alpha[:, 1] * dt * dt
+        self.w = self.w + self.alpha * dt
+        self.t_roll = self.t_roll - dt
         self.t += dt
 
     def snapshot(self):
-        return (self.t, self.p.copy(), self.v.copy(), self.w.copy(), self.ang.copy(), self.rest.copy())
+        return (self.t, self.p.copy(), self.v.copy(), self.w.copy(), self.ang.copy(), self.rest.copy(),
+                self.accel(), self.alpha.copy())
 
 
 def _floor_time(z0, vz, R, g):
@@ -369,7 +455,7 @@ def _next_event(st, horizon_s=np.inf):
     a = st.accel()
     floor_t = [_floor_time(st.p[i, 2], st.v[i, 2], st.R[i], st.g) if not st.rest[i] else np.inf
                for i in range(st.n)]
-    bound = min(min(floor_t, default=np.inf), horizon_s)
+    bound = min(min(floor_t, default=np.inf), float(np.min(st.t_roll, initial=np.inf)), horizon_s)
     dv = np.linalg.norm(st.v[:, None, :] - st.v[None, :, :], axis=2)
     da = np.linalg.norm(a[:, None, :] - a[None, :, :], axis=2)
     gaps = _pair_gaps(st)
@@ -380,6 +466,8 @@ def _next_event(st, horizon_s=np.inf):
     for i in range(st.n):
         if floor_t[i] < best:
             best, what = floor_t[i], (i, _FLOOR)
+        if st.t_roll[i] < best:
+            best, what = max(float(st.t_roll[i]), 0.0), (i, _ROLL)
         for j in np.flatnonzero(may_meet[i]):
             j = int(j)
             t = _pair_time(st.p[i] - st.p[j], st.v[i] - st.v[j], a[i] - a[j], st.R[i] + st.R[j])
@@ -482,6 +570,7 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
     st = _State(scene)
     contacts = []
     _resolve_all(st, contacts)
+    st.update_sliding()
     snaps = [st.snapshot()]
     n_events = 0
     piled = 0  # events in a row closer together than ZENO_STEP_S
@@ -503,7 +592,10 @@ def simulate_scene(scene, *, max_events=DEFAULT_MAX_EVENTS):
         i, j = what
         if j == _FLOOR:
             st.p[i, 2] = st.R[i]  # the root of the quadratic: the bottom is at z = 0
+        elif j == _ROLL:
+            st.roll(i)
         _resolve_all(st, contacts)
+        st.update_sliding()
         snaps.append(st.snapshot())
         n_events += 1
         if n_events >= max_events:
@@ -527,17 +619,15 @@ def _sample(scene, snaps, contacts):
     g = scene.g_m_per_s2
     for k in np.unique(idx):
         sel = idx == k
-        t0, p, v, w, a0, rest = snaps[k]
+        t0, p, v, w, a0, rest, acc, alpha = snaps[k]
         tau = (times[sel] - t0)[:, None, None]
-        acc = np.zeros((n_b, 3))
-        acc[~rest, 2] = -g
         pos[sel] = p[None] + v[None] * tau + 0.5 * acc[None] * tau**2
         vel[sel] = v[None] + acc[None] * tau
-        spin[sel] = w[None]
-        ang[sel] = a0[None] + w[None, :, 1] * tau[:, :, 0]
+        spin[sel] = w[None] + alpha[None] * tau
+        ang[sel] = a0[None] + w[None, :, 1] * tau[:, :, 0] + 0.5 * alpha[None, :, 1] * tau[:, :, 0] ** 2
     apexes = []
     radii = np.array([b.radius_m for b in scene.bodies])
-    for k, (t0, p, v, _w, _a, rest) in enumerate(snaps):
+    for k, (t0, p, v, _w, _a, rest, _acc, _alpha) in enumerate(snaps):
         t1 = snaps[k + 1][0] if k + 1 < len(snaps) else t0
         for b in range(n_b):
             if rest[b] or v[b, 2] < 0:
@@ -550,5 +640,6 @@ def _sample(scene, snaps, contacts):
     return SceneResult(scene=scene, engine="vrcal", t_s=times, position_m=pos, velocity_m_per_s=vel,
                        spin_rad_per_s=spin, angle_y_rad=ang, contacts=contacts, apexes=apexes,
                        notes=[f"event-driven; {len(contacts)} contacts; friction mu = {scene.friction_mu:g} "
-                              f"(Coulomb, impulse form); rest below {scene.rest_speed_m_per_s:g} m/s"],
+                              f"(Coulomb: impulse form at impacts, kinetic friction mu m g while a ball slides on the "
+                              f"floor until it rolls); rest below {scene.rest_speed_m_per_s:g} m/s"],
                        settings={"events": len(snaps) - 1})
