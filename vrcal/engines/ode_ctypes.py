@@ -146,6 +146,13 @@ class dContact(Structure):
     _fields_ = [("surface", dSurfaceParameters), ("geom", dContactGeom), ("fdir1", dVector3)]
 
 
+class dJointFeedback(Structure):
+    """``dJointFeedback`` (ode/common.h): force [N] and torque [N m] the joint applied to body 1
+    (f1, t1) and body 2 (f2, t2) during the last step, filled when set by ``dJointSetFeedback``."""
+
+    _fields_ = [("f1", dVector3), ("t1", dVector3), ("f2", dVector3), ("t2", dVector3)]
+
+
 #: The C layout (bytes) for double precision, checked against ctypes by :func:`check_layout`.
 EXPECTED_LAYOUT = {
     "sizeof(dReal)": 8,
@@ -153,6 +160,7 @@ EXPECTED_LAYOUT = {
     "sizeof(dSurfaceParameters)": 120,
     "sizeof(dContactGeom)": 96,
     "sizeof(dContact)": 248,
+    "sizeof(dJointFeedback)": 128,
     "dContact.surface.bounce": 48,
     "dContact.surface.bounce_vel": 56,
     "dContact.surface.soft_cfm": 72,
@@ -176,6 +184,7 @@ def layout():
         "sizeof(dSurfaceParameters)": ctypes.sizeof(dSurfaceParameters),
         "sizeof(dContactGeom)": ctypes.sizeof(dContactGeom),
         "sizeof(dContact)": ctypes.sizeof(dContact),
+        "sizeof(dJointFeedback)": ctypes.sizeof(dJointFeedback),
         "dContact.surface.bounce": surf + dSurfaceParameters.bounce.offset,
         "dContact.surface.bounce_vel": surf + dSurfaceParameters.bounce_vel.offset,
         "dContact.surface.soft_cfm": surf + dSurfaceParameters.soft_cfm.offset,
@@ -281,6 +290,7 @@ _FUNCTIONS = {
     "dJointCreateContact": (dJointID, [dWorldID, dJointGroupID, POINTER(dContact)]),
     "dJointAttach": (None, [dJointID, dBodyID, dBodyID]),
     "dJointDestroy": (None, [dJointID]),
+    "dJointSetFeedback": (None, [dJointID, POINTER(dJointFeedback)]),
 }
 
 _LIB = None

@@ -11,8 +11,16 @@ from ``dCollide`` the callback, as in Section 7 of [1]:
 3. calculates ``surface.bounce = exp(-K T)`` (Eq. 7),
 
 and attaches a contact joint. Friction: ``dContactApprox1`` with ``mu`` = the scene's
-``friction_mu`` (ODE's friction pyramid with the normal impulse of the same step: the same
-Coulomb law as vrcal's simulator, solved by ODE's LCP). ``bounce_vel`` = the scene's
+``friction_mu``: ODE's friction pyramid, which caps the friction force along each of its two
+tangential axes at mu times the normal force separately. With ODE's own axes that is not
+Coulomb's law: a slip along the diagonal of the axes may be opposed by up to sqrt(2) mu N (a
+ball hitting the floor at mu = 0.2 with 4 m/s of slip along the diagonal kept 2.400 m/s, against
+2.861 m/s along an axis). So every contact also sets ``dContactFDir1`` with ``fdir1`` along the
+contact point's relative tangential velocity (:func:`slip_direction`): the slip then lies on one
+axis of the pyramid, nothing slips along the other, and the friction opposes the slip with at most
+mu N -- the Coulomb circle of vrcal's simulator, for the slip at the start of each step (tested:
+2.861 m/s in both directions). Where a contact does not slip ODE chooses the axes; a
+sticking contact needs no friction beyond mu N along the slip it stops. ``bounce_vel`` = the scene's
 ``rest_speed_m_per_s`` (slower impacts do not bounce: vrcal's resting rule). The hollow
 shell inertia I = k m R^2 of each body is set in its ``dMass``.
 
@@ -127,7 +135,9 @@ def simulate_scene_ode(scene, *, dt_s=DEFAULT_DT_S):
     -------
     vrcal.scenes.spec.SceneResult
         trajectories at ``scene.sample_times_s()`` (the nearest step), contacts (one per
-        first touch of a pair, with the bounce used), apexes (vertex of the parabola through the
+        first touch of a pair that approaches, with the bounce used and the impulses on body a
+        from ODE's joint feedback over the impact step: ``dJointSetFeedback``'s force x dt, which
+        includes the step's support against gravity, m g dt), apexes (vertex of the parabola through the
         three highest steps of each flight)
 
     Raises
@@ -210,24 +220,35 @@ def _run(O, lib, scene, dt_s):
             touching_now.add(key)
             b1 = lib.dGeomGetBody(o1)
             b2 = lib.dGeomGetBody(o2) if j != -1 else None
+            nrm = np.array(geoms[0].geom.normal[:3])   # from body b (or the floor) towards body a
+            feedback = None
             if key not in touching_prev:
-                nrm = np.array(geoms[0].geom.normal[:3])
                 va = np.array(O.vec3(lib.dBodyGetLinearVel(b1)))
                 vb = np.array(O.vec3(lib.dBodyGetLinearVel(b2))) if b2 else np.zeros(3)
                 approach = float(-nrm @ (va - vb))
-                names = [scene.bodies[k].name for k in key if k != -1] + (["floor"] if key[1] == -1 else [])
-                note = "" if approach >= scene.rest_speed_m_per_s else "no bounce: slower than bounce_vel"
-                contacts.append(SceneContact(state["t"], names[0], names[1], approach,
-                                             bounce if approach >= scene.rest_speed_m_per_s else 0.0,
-                                             math.nan, math.nan, note))
+                if approach > 0.0:               # an impact; a touch that does not approach (placed) is none
+                    names = [scene.bodies[k].name for k in key if k != -1] + (["floor"] if key[1] == -1 else [])
+                    note = "" if approach >= scene.rest_speed_m_per_s else "no bounce: slower than bounce_vel"
+                    contacts.append(SceneContact(state["t"], names[0], names[1], approach,
+                                                 bounce if approach >= scene.rest_speed_m_per_s else 0.0,
+                                                 math.nan, math.nan, note))
+                    feedback = (O.dJointFeedback * count)()
+                    impacts_now.append((len(contacts) - 1, feedback, nrm))
             for c in range(count):
                 s = geoms[c].surface
                 s.mode = mode                    # "enable contact bounce parameter"
                 s.mu = scene.friction_mu
                 s.bounce = bounce
                 s.bounce_vel = scene.rest_speed_m_per_s
+                if friction:
+                    direction = slip_direction(O, lib, geoms[c].geom, b1, b2)
+                    if direction is not None:    # the pyramid's first axis along the slip: Coulomb's circle
+                        s.mode = mode | O.dContactFDir1
+                        geoms[c].fdir1[:3] = direction
                 joint = lib.dJointCreateContact(world, group, ctypes.byref(geoms[c]))
                 lib.dJointAttach(joint, b1, b2)
+                if feedback is not None:
+                    lib.dJointSetFeedback(joint, ctypes.byref(feedback[c]))
 
         pos = np.empty((n_steps + 1, n, 3))
         vel = np.empty((n_steps + 1, n, 3))
@@ -249,9 +270,12 @@ def _run(O, lib, scene, dt_s):
                     ang[k, b] = math.atan2(-r[8], r[0])
 
         record(0)
+        impacts_now = []
+
         for k in range(n_steps):
             state["t"] = k * dt_s
             touching_now = set()
+            impacts_now.clear()
             O.collide_pairs(lib, space, near_callback)
             for key in touching_now:
                 for b in key:
@@ -259,6 +283,11 @@ def _run(O, lib, scene, dt_s):
                         in_contact[k, b] = True
             touching_prev = touching_now
             lib.dWorldStep(world, dt_s)
+            for index_c, feedback, nrm in impacts_now:   # the impact step's impulse on body a
+                force = np.sum([np.array(f.f1[:3]) for f in feedback], axis=0)
+                normal = float(force @ nrm)
+                contacts[index_c].normal_impulse_N_s = normal * dt_s
+                contacts[index_c].tangential_impulse_N_s = float(np.linalg.norm(force - normal * nrm)) * dt_s
             lib.dJointGroupEmpty(group)
             record(k + 1)
     finally:
@@ -271,9 +300,50 @@ def _run(O, lib, scene, dt_s):
                        spin_rad_per_s=spin[idx], angle_y_rad=ang[idx], contacts=contacts, apexes=apexes,
                        notes=[f"ODE {n_steps} steps of {dt_s:g} s (dWorldStep); bounce from Eqs. 6, 7 in the "
                               f"near-callback; bounce_vel = {scene.rest_speed_m_per_s:g} m/s; "
-                              f"{'dContactApprox1, mu = %g' % scene.friction_mu if friction else 'no friction'}"],
+                              + (f"dContactApprox1 with fdir1 along the slip, mu = {scene.friction_mu:g}" if friction
+                                 else "no friction")],
                        settings={"dt_s": dt_s, "steps": n_steps, "cfm": WORLD_CFM, "erp": WORLD_ERP,
                                  "max_correcting_vel_m_per_s": MAX_CORRECTING_VEL_M_PER_S})
+
+
+def slip_direction(O, lib, contact_geom, body_a, body_b, tolerance_m_per_s=1e-9):
+    """Unit vector of the tangential velocity of body a's contact point relative to body b's, or None.
+
+    Parameters
+    ----------
+    O : module
+        :mod:`vrcal.engines.ode_ctypes`
+    lib : ctypes.CDLL
+        the loaded libode
+    contact_geom : dContactGeom
+        the contact from ``dCollide`` (pos [m], normal pointing towards body a)
+    body_a, body_b : dBodyID
+        the two bodies (``body_b`` None for the static floor)
+    tolerance_m_per_s : float
+        below this slip speed [m/s] there is no direction (None): ODE picks its own axes
+
+    Returns
+    -------
+    ndarray, shape (3,) or None
+        ``u_t/|u_t|`` with ``u = (v_a + w_a x (p - x_a)) - (v_b + w_b x (p - x_b))`` and
+        ``u_t = u - (u.n) n``: the direction set as ``fdir1`` so that ODE's friction pyramid has
+        an axis along the slip (its friction then opposes the slip with at most mu * normal force,
+        the Coulomb circle, instead of mu on each of two fixed axes).
+    """
+    pos = np.array(contact_geom.pos[:3])
+    n = np.array(contact_geom.normal[:3])
+
+    def point_velocity(body):
+        if not body:
+            return np.zeros(3)
+        centre = np.array(O.vec3(lib.dBodyGetPosition(body)))
+        return (np.array(O.vec3(lib.dBodyGetLinearVel(body)))
+                + np.cross(np.array(O.vec3(lib.dBodyGetAngularVel(body))), pos - centre))
+
+    u = point_velocity(body_a) - point_velocity(body_b)
+    u_t = u - (u @ n) * n
+    speed = float(np.linalg.norm(u_t))
+    return u_t / speed if speed > tolerance_m_per_s else None
 
 
 def _apexes(scene, pos, vel, in_contact, dt_s):

@@ -24,7 +24,10 @@ Layouts
 
     t_s,body_a,body_b,impact_speed_m_per_s,epsilon,normal_impulse_N_s,tangential_impulse_N_s,note
 
-``body_b`` is ``floor`` for the floor; the impact speed is the normal approach speed.
+``body_b`` is ``floor`` for the floor; the impact speed is the normal approach speed. The
+impulses are on body_a: vrcal's are exact (Eq. 5 and friction); ODE's come from its joint
+feedback over the impact step (force x dt, so they include m g dt of support). A touch that does
+not approach (a ball placed on the floor) is not a contact.
 """
 
 from __future__ import annotations
@@ -63,9 +66,12 @@ def trajectories_csv(result):
 
 
 def contacts_csv(result):
-    """Every contact as CSV text (layout in the module docstring)."""
+    """Every contact as CSV text (layout in the module docstring); an impulse not known is left empty."""
+    def known(x):
+        return _g(x) if np.isfinite(x) else ""
+
     rows = [[_g(c.t_s), c.body_a, c.body_b, _g(c.impact_speed_m_per_s), _g(c.epsilon),
-             _g(c.normal_impulse_N_s), _g(c.tangential_impulse_N_s), c.note] for c in result.contacts]
+             known(c.normal_impulse_N_s), known(c.tangential_impulse_N_s), c.note] for c in result.contacts]
     return csv_text(CONTACT_COLUMNS, rows)
 
 
