@@ -155,3 +155,64 @@ def test_ode_cradle_reports_its_solver_messages_in_the_notes(ode, capfd):
     assert "ODE Message" not in capfd.readouterr().err
     n = res.settings["ode_messages"]
     assert (n > 0) == any("LCP" in note for note in res.notes)
+
+
+def oblique_scene(mu=0.2, duration=0.45):
+    """The probe's pyramid.yaml: 0.5 kg, R 0.1 m, dropped from 0.5 m (bottom) with 4 m/s horizontally,
+    along x and along the diagonal x = y; floor epsilon exp(-4 * 0.05 / (2 * 0.5)) = 0.8187."""
+    body = {"mass_kg": 0.5, "radius_m": 0.1, "virtual_body": {"x_m": 0.05, "v_m_per_s": 0.5}, "position_of": "bottom"}
+    s = 4.0 / math.sqrt(2.0)
+    return validate_scene({"name": "pyramid", "K_per_s": 4.0, "duration_s": duration, "sample_dt_s": 0.001,
+                           "friction_mu": mu, "floor": {"material": "steel"},
+                           "bodies": [{**body, "name": "alongx", "position_m": [0, 0, 0.5],
+                                       "velocity_m_per_s": [4.0, 0, 0]},
+                                      {**body, "name": "diag", "position_m": [0, 1.0, 0.5],
+                                       "velocity_m_per_s": [s, s, 0]}]}, "pyramid.yaml")
+
+
+def test_friction_is_coulombs_circle_in_both_engines_also_off_the_axes(ode):
+    """A sliding impact: the horizontal speed drops by mu j / m whatever the slip's direction.
+
+    Hand values: impact speed sqrt(2 g 0.5) = 3.1316 m/s, j = m (1 + 0.8187) 3.1316 = 2.8477 N s,
+    mu j / m = 1.1391 m/s, so 4 - 1.1391 = 2.8609 m/s. ODE's default friction pyramid capped each of
+    its axes separately and gave 2.400 m/s along the diagonal; with fdir1 along the slip it agrees."""
+    g = 9.80665
+    v_in = math.sqrt(2 * g * 0.5)
+    eps = math.exp(-4.0 * 0.05 / (2 * 0.5))
+    j = 0.5 * (1 + eps) * v_in
+    hand = 4.0 - 0.2 * j / 0.5
+    assert hand == pytest.approx(2.8609, abs=1e-4)
+    scene = oblique_scene()
+    for res, tol in ((simulate_scene(scene), 1e-9), (ode.simulate_scene_ode(scene), 2e-4)):
+        speed = np.hypot(res.velocity_m_per_s[-1, :, 0], res.velocity_m_per_s[-1, :, 1])
+        assert speed == pytest.approx([hand, hand], rel=tol), res.engine
+        direction = res.velocity_m_per_s[-1, 1, :2] / speed[1]
+        assert direction == pytest.approx([2 ** -0.5, 2 ** -0.5], abs=1e-9)   # the slip's direction is kept
+        c = res.contacts[0]
+        assert c.normal_impulse_N_s == pytest.approx(j, rel=1e-3)   # ODE's includes m g dt = 0.0005 N s
+        assert c.tangential_impulse_N_s == pytest.approx(0.2 * j, rel=1e-3)
+
+
+def test_ode_ball_sliding_on_the_floor_rolls_like_vrcal(ode):
+    """The probe's slide.yaml: hollow ball, mu 0.3, vx 2 m/s: rolls at 3/5 * 2 = 1.2 m/s; with backspin
+    omega_y = -40 rad/s (slip 6 m/s) it comes back at 2 - 6 * 2/5 = -0.4 m/s (hand values)."""
+    body = {"mass_kg": 0.5, "radius_m": 0.1, "virtual_body": {"x_m": 0.05, "v_m_per_s": 0.5},
+            "velocity_m_per_s": [2.0, 0, 0]}
+    scene = validate_scene({"name": "slide", "K_per_s": 4.0, "duration_s": 1.0, "friction_mu": 0.3,
+                            "floor": {"material": "steel"},
+                            "bodies": [{**body, "name": "slider", "position_m": [0, 0, 0.1]},
+                                       {**body, "name": "backspin", "position_m": [0, 1.0, 0.1],
+                                        "spin_rad_per_s": [0, -40.0, 0]}]}, "slide.yaml")
+    for res in (simulate_scene(scene), ode.simulate_scene_ode(scene, dt_s=1e-3)):
+        assert res.velocity_m_per_s[-1, :, 0] == pytest.approx([1.2, -0.4], abs=1e-3), res.engine
+        assert res.contacts == []    # balls placed on the floor make no impact in either engine
+
+
+def test_ode_contacts_carry_impulses_not_nan(ode, tmp_path):
+    run = CliRunner().invoke(main, ["scene", str(EXAMPLES / "stack-drop.yaml"), "--engine", "ode", "--ode-dt", "1e-3",
+                                    "--no-animation", "-o", str(tmp_path)])
+    assert run.exit_code == 0, run.output
+    text = (tmp_path / "stack-drop-contacts.csv").read_text()
+    assert "nan" not in text
+    rows = [line.split(",") for line in text.splitlines()[1:]]
+    assert rows and all(float(r[5]) > 0 for r in rows)

@@ -3,6 +3,12 @@
 Contacts are matched per pair of bodies in time order (the k-th floor impact of a ball in
 one run with the k-th in the other), apexes per body in time order. The report gives the
 differences in impact time and apex height and explains where they come from.
+
+Impact times and apex heights miss what happens sideways (friction, rolling, a row of balls
+passing momentum on), so every body's state is compared too: its largest distance between the two
+runs over the whole run (horizontal included) and its final position and velocity. A body beyond
+:func:`state_tolerances` is flagged ("DIFFERENT"); when vrcal resolved touching contacts at one
+instant one after another (sequential impulses) the report names that order dependence.
 """
 
 from __future__ import annotations
@@ -13,6 +19,36 @@ import numpy as np
 
 #: Apexes lower than this [m] are left out of the relative difference (the last tiny bounces).
 MIN_APEX_FOR_RELATIVE_M = 0.05
+
+#: A body's state differs between the runs when its position differs by more than
+#: max(POSITION_TOLERANCE_M, POSITION_TOLERANCE_PER_STEP_M_PER_S * dt) at some sample time ...
+POSITION_TOLERANCE_M = 0.01
+POSITION_TOLERANCE_PER_STEP_M_PER_S = 30.0
+#: ... or its final velocity by more than max(VELOCITY_TOLERANCE_M_PER_S, VELOCITY_TOLERANCE_PER_STEP_M_PER_S2 * dt).
+#: Measured (ODE step 1e-4 s / 1e-3 s) on the example scenes whose physics agree: at most 3 mm / 23 mm
+#: and 0.005 / 0.05 m/s; a reordered Newton's cradle differs by 0.6 m and 1 m/s.
+VELOCITY_TOLERANCE_M_PER_S = 0.05
+VELOCITY_TOLERANCE_PER_STEP_M_PER_S2 = 100.0
+
+
+def state_tolerances(dt_s):
+    """The position [m] and velocity [m/s] differences beyond which a body's runs differ.
+
+    Parameters
+    ----------
+    dt_s : float
+        ODE's time step [s] (nan: the fixed parts alone)
+
+    Returns
+    -------
+    (float, float)
+        ``max(0.01 m, 30 m/s * dt)`` and ``max(0.05 m/s, 100 m/s^2 * dt)``: ODE's time
+        discretisation shifts positions by about v dt per bounce and velocities by about g dt.
+    """
+    dt = dt_s if np.isfinite(dt_s) else 0.0
+    return (max(POSITION_TOLERANCE_M, POSITION_TOLERANCE_PER_STEP_M_PER_S * dt),
+            max(VELOCITY_TOLERANCE_M_PER_S, VELOCITY_TOLERANCE_PER_STEP_M_PER_S2 * dt))
+
 
 #: Why an ODE run differs from the exact event-driven one (printed with every comparison).
 EXPLANATIONS = (
@@ -42,6 +78,19 @@ class SceneComparison:
     unmatched: list = field(default_factory=list)  # text
     dt_s: float = float("nan")
     solver_messages: int = 0                      # messages ODE's solver reported during run b
+    # (body, largest |dp| [m], its time [s], final |dp| [m], final v_a [m/s] (3,), final v_b (3,), differs)
+    states: list = field(default_factory=list)
+    simultaneous: list = field(default_factory=list)  # (t [s], [pair labels]) resolved one after another in a
+
+    @property
+    def differing_bodies(self):
+        """Names of the bodies whose states differ beyond :func:`state_tolerances`."""
+        return [r[0] for r in self.states if r[6]]
+
+    @property
+    def max_position_difference_m(self):
+        d = [r[1] for r in self.states]
+        return max(d) if d else float("nan")
 
     @property
     def max_impact_time_difference_s(self):
@@ -67,6 +116,45 @@ def _by_key(contacts):
             continue
         out.setdefault(f"{c.body_a} - {c.body_b}", []).append(c)
     return out
+
+
+def compare_states(a, b, dt_s):
+    """Every body's largest position difference and final states of two runs (same sample times).
+
+    Returns
+    -------
+    list of tuple
+        (body, largest |p_b - p_a| [m], the time of it [s], final |p_b - p_a| [m], final v_a [m/s],
+        final v_b [m/s], differs): ``differs`` when the position or the final velocity differs by
+        more than :func:`state_tolerances`
+    """
+    tol_p, tol_v = state_tolerances(dt_s)
+    pb = np.stack([np.stack([np.interp(a.t_s, b.t_s, b.position_m[:, k, c]) for c in range(3)], axis=1)
+                   for k in range(len(a.scene.names))], axis=1)
+    dist = np.linalg.norm(pb - a.position_m, axis=2)
+    out = []
+    for k, name in enumerate(a.scene.names):
+        worst = int(np.argmax(dist[:, k]))
+        va, vb = a.velocity_m_per_s[-1, k], b.velocity_m_per_s[-1, k]
+        differs = bool(dist[worst, k] > tol_p or np.linalg.norm(vb - va) > tol_v)
+        out.append((name, float(dist[worst, k]), float(a.t_s[worst]), float(dist[-1, k]), va.copy(), vb.copy(),
+                    differs))
+    return out
+
+
+def simultaneous_contacts(result):
+    """Instants at which a run resolved two or more contacts, at least one between balls.
+
+    Returns
+    -------
+    list of (float, list of str)
+        (t [s], the contacts "a - b" in the order they were resolved)
+    """
+    groups = {}
+    for c in result.contacts:
+        groups.setdefault(c.t_s, []).append(c)
+    return [(t, [f"{c.body_a} - {c.body_b}" for c in cs]) for t, cs in sorted(groups.items())
+            if len(cs) > 1 and any(c.body_b != "floor" for c in cs)]
 
 
 def compare_results(a, b):
@@ -97,7 +185,28 @@ def compare_results(a, b):
             cmp.apexes.append((name, k, x[0], x[1], y[0], y[1]))
         if len(pa) != len(pb):
             cmp.unmatched.append(f"{name}: {len(pa)} apexes ({a.engine}) vs {len(pb)} ({b.engine})")
+    cmp.states = compare_states(a, b, cmp.dt_s)
+    cmp.simultaneous = simultaneous_contacts(a)
     return cmp
+
+
+def difference_flags(cmp):
+    """Short lines naming what differs beyond the tolerances (empty when the runs agree): for the
+    text and the figure."""
+    if not cmp.differing_bodies:
+        return []
+    ea, eb = cmp.engines
+    tol_p, tol_v = state_tolerances(cmp.dt_s)
+    worst = max(cmp.states, key=lambda r: r[1])
+    lines = [f"DIFFERENT: {', '.join(cmp.differing_bodies)} end in other states (tolerance {tol_p * 1e3:g} mm, "
+             f"{tol_v:g} m/s); largest |Δposition| {worst[1]:.3g} m ({worst[0]}, t = {worst[2]:.3g} s)"]
+    if cmp.simultaneous:
+        t, pairs = cmp.simultaneous[0]
+        lines.append(f"order dependence: at t = {t:.4g} s {ea} resolved {len(pairs)} touching contacts one after "
+                     f"another ({', '.join(pairs)}: sequential impulses), {eb}'s LCP solves them together in one "
+                     "step -- for touching balls (Newton's cradle) the two give different, equally momentum-"
+                     "conserving outcomes")
+    return lines
 
 
 def _first_per_key(matches, max_rows):
@@ -133,6 +242,12 @@ def comparison_text(cmp, max_rows=5):
                      f"mm{share}", first="  ")
     else:
         text += "  no matched apexes\n"
+    if cmp.states:
+        tol_p, tol_v = state_tolerances(cmp.dt_s)
+        text += wrap(f"{len(cmp.states)} bodies, largest |Δposition| = {number(cmp.max_position_difference_m * 1e3, 3)} "
+                     f"mm (horizontal too; tolerance {tol_p * 1e3:g} mm, final velocity {tol_v:g} m/s)", first="  ")
+    for line in difference_flags(cmp):
+        text += wrap(line, first="  ")
     if cmp.solver_messages:
         text += wrap(f"WARNING: ODE's solver reported {cmp.solver_messages} messages (see the notes above): "
                      "its run is unreliable there", first="  ")
@@ -144,7 +259,17 @@ def comparison_text(cmp, max_rows=5):
             for name, k, _ta, ha, _tb, hb in _first_per_key(cmp.apexes, max_rows)]
     if rows:
         text += "\n" + table(rows, ["apex of", "k", f"h {ea} [m]", f"h {eb} [m]", "Δh [mm]"], align="lrrrr")
+    rows = [[name, f"{d * 1e3:.2f}", f"{t:.3f}", f"{dend * 1e3:.2f}", _vector_text(va), _vector_text(vb),
+             "DIFFERENT" if differs else ""]
+            for name, d, t, dend, va, vb, differs in cmp.states[:3 * max_rows]]
+    if rows:
+        text += "\n" + table(rows, ["body", "max |Δp| [mm]", "at t [s]", "end |Δp| [mm]", f"end v {ea} [m/s]",
+                                    f"end v {eb} [m/s]", ""], align="lrrrlll")
     for line in cmp.unmatched:
         text += wrap(f"unmatched: {line}")
     text += "\nwhy they differ:\n" + "".join(wrap(e, first="  - ") for e in EXPLANATIONS)
     return text
+
+
+def _vector_text(v):
+    return " ".join(f"{x:+.3f}" for x in v)

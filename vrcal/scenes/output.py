@@ -132,10 +132,13 @@ def plot_heights(result, ax=None, other=None):
     return ax
 
 
-def plot_difference(result, other, ax=None):
-    """The difference ``other - result`` of the plotted quantity (bottom height, or x) per body [mm].
+def plot_difference(result, other, ax=None, flags=()):
+    """The difference ``other - result`` of the plotted quantity (bottom height, or x) per body [mm]
+    (solid) and, dotted, the horizontal distance between the two runs' centres [mm].
 
-    ``other`` is interpolated to ``result``'s sample times. Returns the Axes (one line per body).
+    ``other`` is interpolated to ``result``'s sample times; ``flags`` (lines of text, e.g.
+    :func:`vrcal.scenes.compare.difference_flags`) are written in red on the panel. Returns the
+    Axes (one or two lines per body).
     """
     import matplotlib.pyplot as plt
 
@@ -148,9 +151,20 @@ def plot_difference(result, other, ax=None):
     for k in range(a.shape[1]):
         diff = np.interp(result.t_s, other.t_s, b[:, k]) - a[:, k]
         ax.plot(result.t_s, diff * 1e3, color=colours[k % len(colours)], lw=1.0)
+        dxy = [np.interp(result.t_s, other.t_s, other.position_m[:, k, c]) - result.position_m[:, k, c]
+               for c in (0, 1)]
+        horizontal = np.hypot(*dxy)
+        if np.any(horizontal > 1e-6):
+            ax.plot(result.t_s, horizontal * 1e3, color=colours[k % len(colours)], lw=1.0, ls=":")
     ax.axhline(0.0, color="0.3", lw=0.8)
+    if flags:
+        import textwrap
+
+        ax.text(0.01, 0.97, "\n".join(textwrap.fill(f, 110) for f in flags), transform=ax.transAxes, va="top",
+                fontsize=6, color="tab:red", bbox={"fc": "white", "ec": "tab:red", "alpha": 0.85})
     ax.set_xlabel("time t [s]")
-    ax.set_ylabel(f"{'height' if vertical else 'x'}: {other.engine} − {result.engine} [mm]", fontsize=8)
+    ax.set_ylabel(f"{'height' if vertical else 'x'}: {other.engine} − {result.engine} [mm]\n"
+                  "(dotted: horizontal distance)", fontsize=7)
     ax.grid(alpha=0.3)
     return ax
 
@@ -323,8 +337,9 @@ def _motion_text(result, n_apexes=4):
     return table(rows, ["body", "bottom height at each apex (bounce 0 = start), or the end"], align="ll")
 
 
-def heights_png(result, other=None, dpi=100):
-    """The Figure-8 plot rendered to PNG bytes; with ``other`` a difference panel below it."""
+def heights_png(result, other=None, dpi=100, flags=()):
+    """The Figure-8 plot rendered to PNG bytes; with ``other`` a difference panel below it, with
+    ``flags`` (what differs beyond the tolerances) written on it in red."""
     import matplotlib.pyplot as plt
 
     if other is None:
@@ -335,7 +350,7 @@ def heights_png(result, other=None, dpi=100):
                                           gridspec_kw={"height_ratios": [3, 1.3]})
         plot_heights(result, ax=ax, other=other)
         ax.set_xlabel("")
-        plot_difference(result, other, ax=ax_diff)
+        plot_difference(result, other, ax=ax_diff, flags=flags)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
@@ -403,16 +418,21 @@ def run_scene(path, *, engine="vrcal", compare=False, ode_dt_s=None, standards=N
         run.files[f"{stem}-contacts{suffix}.csv"] = contacts_csv(res)
     main = results[engine] if not compare else results["vrcal"]
     other = results["ode"] if compare else None
-    run.files[f"{stem}.png"] = heights_png(main, other=other)
+    flags = []
+    if compare:
+        from vrcal.scenes.compare import compare_results, difference_flags
+
+        run.comparison = compare_results(results["vrcal"], results["ode"])
+        flags = difference_flags(run.comparison)
+    run.files[f"{stem}.png"] = heights_png(main, other=other, flags=flags)
     if animate:
         run.files[f"{stem}.gif"] = animation_gif(main)
     texts = [summary_text(main, f"{stem}-contacts{'-vrcal' if compare else ''}.csv")]
     if compare:
-        from vrcal.scenes.compare import compare_results, comparison_text
+        from vrcal.scenes.compare import comparison_text
 
         texts.append(wrap(f"{other.scene.name} (ode): {len(other.contacts)} contacts")
                      + "".join(wrap(f"note: {note}") for note in other.notes))
-        run.comparison = compare_results(results["vrcal"], results["ode"])
         texts.append(comparison_text(run.comparison))
     run.summary = "\n".join(texts)
     return run
