@@ -216,3 +216,45 @@ def test_ode_contacts_carry_impulses_not_nan(ode, tmp_path):
     assert "nan" not in text
     rows = [line.split(",") for line in text.splitlines()[1:]]
     assert rows and all(float(r[5]) > 0 for r in rows)
+
+
+def cradle(striker_last):
+    """A frictionless striker at 2 m/s rolls into three touching equal balls, epsilon = 1 (the probe's
+    cradle_last.yaml lists the striker last)."""
+    ball = {"mass_kg": 0.2, "radius_m": 0.1, "virtual_body": {"x_m": 0.0}}
+    row = [{**ball, "name": f"b{k + 1}", "position_m": [0.2 * k, 0, 0.1]} for k in range(3)]
+    striker = {**ball, "name": "striker", "position_m": [-1.0, 0, 0.1], "velocity_m_per_s": [2.0, 0, 0]}
+    return validate_scene({"name": "cradle", "K_per_s": 4.0, "duration_s": 1.0, "friction_mu": 0.0,
+                           "floor": {"material": "steel"},
+                           "bodies": row + [striker] if striker_last else [striker] + row}, "cradle.yaml")
+
+
+def test_compare_flags_a_reordered_cradle_and_names_the_order_dependence(ode):
+    from vrcal.scenes.compare import comparison_text
+
+    scene = cradle(striker_last=True)
+    a, b = simulate_scene(scene), ode.simulate_scene_ode(scene)
+    # vrcal: striker, b1, b2 stop, b3 leaves at 2 m/s; ODE's LCP: b1-b3 leave at 1 m/s, the striker at -1 m/s
+    assert a.velocity_m_per_s[-1, :, 0] == pytest.approx([0, 0, 2.0, 0], abs=1e-9)
+    assert b.velocity_m_per_s[-1, :, 0] == pytest.approx([1.0, 1.0, 1.0, -1.0], abs=1e-3)
+    cmp = compare_results(a, b)
+    assert cmp.differing_bodies == ["b1", "b2", "b3", "striker"]
+    assert cmp.max_position_difference_m == pytest.approx(0.6, abs=0.01)   # 1 m/s for the 0.6 s after 0.4 s
+    text = comparison_text(cmp)
+    assert "DIFFERENT: b1, b2, b3, striker end in other states" in text
+    assert "order dependence: at t = 0.4 s vrcal resolved 3 touching contacts one after another" in text
+    from vrcal.scenes.compare import difference_flags
+    from vrcal.scenes.output import plot_difference
+
+    ax = plot_difference(a, b, flags=difference_flags(cmp))          # the PNG's lower panel says it too
+    assert any("DIFFERENT: b1, b2, b3, striker" in t.get_text() for t in ax.texts)
+    assert len(ax.lines) == 2 * 4 + 1            # per body: x difference and horizontal distance; the zero line
+
+
+def test_compare_of_agreeing_runs_flags_nothing_but_reports_the_horizontal_difference(ode):
+    from vrcal.scenes.compare import comparison_text
+
+    scene = oblique_scene()
+    cmp = compare_results(simulate_scene(scene), ode.simulate_scene_ode(scene))
+    assert cmp.differing_bodies == [] and cmp.max_position_difference_m < 1e-3
+    assert "DIFFERENT" not in comparison_text(cmp) and "largest |Δposition|" in comparison_text(cmp)

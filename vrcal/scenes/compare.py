@@ -245,7 +245,7 @@ def comparison_text(cmp, max_rows=5):
     if cmp.states:
         tol_p, tol_v = state_tolerances(cmp.dt_s)
         text += wrap(f"{len(cmp.states)} bodies, largest |Δposition| = {number(cmp.max_position_difference_m * 1e3, 3)} "
-                     f"mm (horizontal too; tolerance {tol_p * 1e3:g} mm, final velocity {tol_v:g} m/s)", first="  ")
+                     f"mm (horizontal too; tolerance {tol_p * 1e3:g} mm, end velocity {tol_v:g} m/s)", first="  ")
     for line in difference_flags(cmp):
         text += wrap(line, first="  ")
     if cmp.solver_messages:
@@ -272,4 +272,4 @@ def comparison_text(cmp, max_rows=5):
 
 
 def _vector_text(v):
-    return " ".join(f"{x:+.3f}" for x in v)
+    return " ".join(f"{round(float(x), 3) + 0.0:+.3f}" for x in v)
