@@ -203,7 +203,7 @@ def difference_flags(cmp):
     if cmp.simultaneous:
         t, pairs = cmp.simultaneous[0]
         lines.append(f"order dependence: at t = {t:.4g} s {ea} resolved {len(pairs)} touching contacts one after "
-                     f"another ({', '.join(pairs)}: sequential impulses), {eb}'s LCP solves them together in one "
+                     f"another ({', '.join(pairs)}: sequential impulses), {'ODE' if eb == 'ode' else eb}'s LCP solves them together in one "
                      "step -- for touching balls (Newton's cradle) the two give different, equally momentum-"
                      "conserving outcomes")
     return lines
