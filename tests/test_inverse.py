@@ -121,11 +121,34 @@ def test_own_drop_test_gives_eq9_and_its_model_time():
     assert top["rebound_height_m"] == pytest.approx(0.533)
 
 
+@pytest.mark.parametrize("drop_to, rebound_to", [("centre", "centre"), ("top", "top"), ("centre", None)])
+def test_own_drop_test_brings_both_heights_to_the_bottom(drop_to, rebound_to):
+    """Eq. 9 takes heights of the ball's bottom: the centre falls H_bottom before contact. A tennis ball
+    (D = 0.067 m) read to the centre, H_c = 1.0 m, h_c = 0.6 m: by hand sqrt((0.6 - 0.0335)/(1.0 - 0.0335))
+    = 0.7656 -- not sqrt(0.6/1.0) = 0.7746 ("the same point"), nor 0.7527 (drop left at the bottom)."""
+    from vrcal.model.standards import get_ball
+
+    D = get_ball("tennis").diameter_m.nominal   # 0.066995 m
+    offset = {"centre": D / 2, "top": D, None: 0.0}
+    r = fit_ball("tennis", 4.0, drop_height_m=1.0, rebound_height_m=0.6, drop_measured_to=drop_to,
+                 rebound_measured_to=rebound_to)
+    hand = math.sqrt((0.6 - offset[rebound_to]) / (1.0 - offset[drop_to]))
+    assert r["epsilon"]["nominal"] == pytest.approx(hand, rel=1e-12)
+    assert r["drop_height_m"] == pytest.approx(1.0 - offset[drop_to])
+    if drop_to == rebound_to == "centre":
+        assert round(r["epsilon"]["nominal"], 4) == 0.7656
+
+
 @pytest.mark.parametrize("heights, epsilon, message", [
     ((1.0, None, "bottom"), None, "needs both --drop-height and --rebound-height"),
     ((1.0, 0.5, "bottom"), 0.7, "not both"),
-    ((100.0, 55.0, "bottom"), None, "heights are in m"),
+    ((100.0, 55.0, "bottom"), None,
+     r"^--drop-height must be at most 20 m \(higher than a drop test is made from\), got 100; "
+     r"--drop-height is in m: 100 cm = 1$"),
     ((1.0, 1.5, "bottom"), None, "cannot rebound higher"),
+    ((1.0, 0.05, "top"), None, r"^--rebound-height 0.05 m to the ball's top: a height to the top cannot be below "
+                               r"the diameter D = 0.067 m"),
+    ((1.0, 0.02, "centre"), None, "cannot be below the radius D/2 = 0.0335 m"),
 ])
 def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
     from vrcal.model.body import describe_body

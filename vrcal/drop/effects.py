@@ -93,7 +93,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vrcal.errors import UsageError, closest_name
-from vrcal.model.body import ball_density_kg_per_m3
+from vrcal.model.plausible import ball_density_kg_per_m3
 
 #: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
 AIR_DENSITY_KG_PER_M3 = 1.204
