@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vrcal.errors import UsageError
-from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, pair
+from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, fit_text, pair
 from vrcal.model import restitution as eq
 from vrcal.model.standards import ball_epsilon, get_ball
 
@@ -157,3 +157,25 @@ def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
     with pytest.raises(UsageError, match=message):
         drop, rebound, point = heights
         fit_ball(body, 4.0, drop_height_m=drop, rebound_height_m=rebound, rebound_measured_to=point, epsilon=epsilon)
+
+
+def test_epsilon_one_is_the_lossless_body_x_0_v_0():
+    """epsilon = 1: T = 0 (Eq. 7), which only x = 0 has (Eq. 10); [1] gives that body no speed (v = 0).
+    The machine file holds plain numbers (no null, no inf), and --x cannot be fixed."""
+    import json
+
+    from vrcal.fileio import dumps
+    from vrcal.model.body import describe_body
+
+    body = describe_body(None, mass_kg=0.0027, diameter_m=0.04)
+    r = fit_ball(body, 4.0, epsilon=1.0)
+    assert r["T_s"]["nominal"] == 0.0
+    assert r["family"] == [{"x_m": 0.0, "v_m_per_s": 0.0}]
+    assert eq.contact_time_single_s(r["family"][0]["x_m"], r["family"][0]["v_m_per_s"]) == 0.0
+    text = dumps(r, "json")
+    assert "null" not in text and "Infinity" not in text and json.loads(text)["family"][0]["v_m_per_s"] == 0.0
+    assert any("x = 0" in n for n in r["notes"])
+    assert "inf" not in fit_text(r)
+    assert fit_ball(body, 4.0, epsilon=1.0, v_m_per_s=0.1)["fixed"]["x_m"]["nominal"] == 0.0
+    with pytest.raises(UsageError, match="only x = 0"):
+        fit_ball(body, 4.0, epsilon=1.0, x_m=0.01)

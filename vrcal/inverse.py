@@ -132,7 +132,14 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     out["T_s"] = _bounds(T)
     R = body.radius_m
     if T["nominal"] == 0:
-        out["family"] = [{"x_m": 0.0, "v_m_per_s": None}]
+        # epsilon = 1: T = 0 only at x = 0, a virtual body on the surface, to which [1] gives no speed
+        # (v = 0; Eq. 10 gives T = 0 at x = 0 for any v, as contact_time_single_s does)
+        out["family"] = [{"x_m": 0.0, "v_m_per_s": 0.0}]
+        out["notes"].append("ε = 1 gives T = 0: the only virtual body is x = 0, on the ball's surface, with no speed "
+                            "(v = 0, as the paper's lossless body); any v gives the same T = 0")
+        if x_m is not None:
+            raise UsageError(f"--x {x_m:g}: ε = 1 gives T = 0, which only x = 0 has (v = x/(2T) would be infinite); "
+                             "leave out --x, or give --v (x = 2vT = 0)")
     else:
         xs, vs = family(T["nominal"], R, n)
         out["family"] = [{"x_m": float(x), "v_m_per_s": float(v)} for x, v in zip(xs, vs)]
@@ -333,7 +340,7 @@ def _ms_or_inf(T_s, digits=4):
 def _family_rows(members, width=100):
     """The family as two rows (x [mm], v [m/s]), wrapped into blocks that fit ``width`` columns."""
     xs = [number(m["x_m"] * 1e3, 3) for m in members]
-    vs = ["inf" if m["v_m_per_s"] is None else number(m["v_m_per_s"], 3) for m in members]
+    vs = [number(m["v_m_per_s"], 3) for m in members]
     cell = max(len(c) for c in xs + vs)
     per_row = max(1, (width - 2 - 9) // (cell + 2))
     out = ""
