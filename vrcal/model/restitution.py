@@ -35,8 +35,9 @@ from vrcal.errors import UsageError
 STANDARD_GRAVITY_M_PER_S2 = 9.80665
 
 #: Default rate constant K [1/s]. The paper does not state its K; its Table 2 implies
-#: K = 3.9-4.2 1/s (least squares 4.11 1/s) when x and v are read interchanged
-#: (see :mod:`vrcal.model.table2`). vrcal uses the round value 4 1/s.
+#: K = 3.9-4.2 1/s (least squares 4.11 1/s) when x and v are read interchanged (the x column
+#: a speed, the v column a depth: T = v/(2x) is a time [s], so K is in 1/s; see
+#: :mod:`vrcal.model.table2`). vrcal uses the round value 4 1/s.
 DEFAULT_K_PER_S = 4.0
 
 #: Offset [in units of the ball diameter] from a named point of the ball to its bottom.
