@@ -338,7 +338,9 @@ def _table_markdown(table, as_paper):
         f"- T = −ln(ε)/K (Eq. 7) with K = {K:g} 1/s.",
         "- Virtual body: x = R/2, the ball's nominal radius halved; v = x/(2T) (Eq. 10) for ε nominal; "
         "the last column gives v for ε min..max at the same x.",
-        "- The paper's own Table 2 values follow T = v/(2x) instead; see `vrcal table2 --compare-paper`.",
+        "- The paper's own Table 2 values follow T = v/(2x) instead (its x column read as a speed and its v column "
+        "as a depth: T is still a time and K comes out in 1/s, about 4.1); see `vrcal table2 --compare-paper` and "
+        "[paper.md](paper.md).",
         "",
     ]
     return "\n".join(lines)
