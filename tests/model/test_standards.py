@@ -248,3 +248,14 @@ def test_yaml_is_loaded_safely(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(UsageError, match="no such standards file"):
         load_standards(tmp_path / "nope.yaml")
+
+
+def test_fiba_bounce_table_is_recorded_as_a_departure():
+    """The FIBA bounce table (1035-1085 mm to the bottom) is narrower than the rule's 1.2-1.4 m to the top
+    (957-1157 mm to the bottom, standards-facts.md); its midpoint agrees with the rule's nominal, and the
+    entry says which window it uses."""
+    ball = get_ball("basketball")
+    w = ball_epsilon(ball)
+    assert w.rebound_m.min == pytest.approx(1.2 - ball.diameter_m.nominal)
+    assert abs(0.5 * (1.035 + 1.085) - w.rebound_m.nominal) < 0.005
+    assert any("1035-1085" in d and "keeps the rule's window" in d for d in ball.departures)
