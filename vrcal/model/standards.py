@@ -1,8 +1,11 @@
 """The association ball standards: load, validate, look up, and turn into epsilon (Eq. 9).
 
 ``standards.yaml`` (shipped with vrcal) is data with a schema; every load validates it
-and a bad field is reported by its path (``balls.tennis.rebound_m.max``). A user file
-given with ``--standards FILE`` follows the same schema.
+and a bad field is reported by its path (``balls.tennis.rebound_m.max``), an unknown key
+with the closest allowed one. A user file given with ``--standards FILE`` follows the same
+schema and replaces the shipped balls. Every ball, shipped or not, must pass the rules of
+:mod:`vrcal.model.plausible` that ``--mass``/``--diameter`` and ``fit --drop-height`` pass
+(a density a ball can have, heights of a drop test): a unit slip is named, not computed.
 """
 
 from __future__ import annotations
