@@ -292,7 +292,7 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
       vrcal fit football --K 4 --x 0.02 -o football.json
       vrcal fit --mass 0.0459 --diameter 0.0427 --epsilon 0.78
       vrcal fit --mass 0.0577 --diameter 0.067 --drop-height 1 --rebound-height 0.55
-      vrcal fit tennis --drop-height 1 --rebound-height 0.6 --drop-measured-to centre --rebound-measured-to centre
+      vrcal fit tennis --drop-height 1.07 --rebound-height 0.63 --drop-measured-to top
       vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text

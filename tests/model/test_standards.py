@@ -258,4 +258,4 @@ def test_fiba_bounce_table_is_recorded_as_a_departure():
     w = ball_epsilon(ball)
     assert w.rebound_m.min == pytest.approx(1.2 - ball.diameter_m.nominal)
     assert abs(0.5 * (1.035 + 1.085) - w.rebound_m.nominal) < 0.005
-    assert any("1035-1085" in d and "keeps the rule's window" in d for d in ball.departures)
+    assert any("1035-1085" in d and "957-1157" in d and "not used" in d for d in ball.departures)
