@@ -15,8 +15,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from vrcal.errors import UsageError
 from vrcal.model.plausible import check_ball_size
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2

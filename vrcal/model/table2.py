@@ -216,7 +216,8 @@ def _finding(readings, best, other):
         f"(max/min {o['K_row_spread']:.2f}) and the best single K = {o['K_least_squares']:.3g} "
         f"leaves |epsilon error| up to {o['max_abs_epsilon_error']:.2g}. "
         "The paper states no units for x and v: a change of units (a length unit of one column "
-        "only) rescales every row's K by the same factor, so it cannot remove the spread. vrcal follows Eq. (10) as printed, T = x/(2v)."
+        "only) rescales every row's K by the same factor, so it cannot remove the spread. "
+        "vrcal follows Eq. (10) as printed, T = x/(2v)."
     )
     return text
 
