@@ -315,16 +315,19 @@ def test_every_command_that_takes_a_body_takes_g_where_it_uses_it():
         assert ("--from" in opts) == (name != "discover"), name
 
 
-@pytest.mark.parametrize("args", [
-    ("fit", "--mass", 57, "--diameter", 0.066, "--epsilon", 0.76),          # grams typed as kg
-    ("fit", "--mass", 0.057, "--diameter", 6.6, "--epsilon", 0.76),         # cm typed as m
-    ("fit", "tennis", "--mass", 57),                                         # one override, in grams
-    ("simulate", "--mass", 45.9, "--diameter", 4.27, "--epsilon", 0.78),    # both: lighter than air
+@pytest.mark.parametrize("args,slip", [
+    (("fit", "--mass", 57, "--diameter", 0.066, "--epsilon", 0.76), "--mass is in kg: 57 g = 0.057"),
+    (("fit", "--mass", 0.057, "--diameter", 6.6, "--epsilon", 0.76), "--diameter is in m: 6.6 cm = 0.066"),
+    (("fit", "tennis", "--mass", 57), "--mass is in kg: 57 g = 0.057"),
+    (("simulate", "--mass", 0.0459, "--diameter", 4.27, "--epsilon", 0.78), "--diameter is in m: 4.27 cm = 0.0427"),
+    # both slipped (45.9 g, 4.27 cm): no one field fixes it, both units are named
+    (("simulate", "--mass", 45.9, "--diameter", 4.27, "--epsilon", 0.78),
+     "--mass is in kg (57 g = 0.057) and --diameter in m (6.6 cm = 0.066)"),
 ])
-def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip_named(args):
+def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip_named(args, slip):
     result = run(*args)
     assert result.exit_code == 2, result.output
-    assert "would be" in result.stderr and "--mass is in kg" in result.stderr
+    assert "would be" in result.stderr and slip in result.stderr, result.stderr
 
 
 @pytest.mark.parametrize("mass,diameter", [(0.17, 0.5), (0.0027, 0.04), (0.535, 0.0508)])

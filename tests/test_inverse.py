@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vrcal.errors import UsageError
-from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, pair
+from vrcal.inverse import DEFAULT_K_PER_S, family, fit_ball, fit_text, pair
 from vrcal.model import restitution as eq
 from vrcal.model.standards import ball_epsilon, get_ball
 
@@ -121,11 +121,34 @@ def test_own_drop_test_gives_eq9_and_its_model_time():
     assert top["rebound_height_m"] == pytest.approx(0.533)
 
 
+@pytest.mark.parametrize("drop_to, rebound_to", [("centre", "centre"), ("top", "top"), ("centre", None)])
+def test_own_drop_test_brings_both_heights_to_the_bottom(drop_to, rebound_to):
+    """Eq. 9 takes heights of the ball's bottom: the centre falls H_bottom before contact. A tennis ball
+    (D = 0.067 m) read to the centre, H_c = 1.0 m, h_c = 0.6 m: by hand sqrt((0.6 - 0.0335)/(1.0 - 0.0335))
+    = 0.7656 -- not sqrt(0.6/1.0) = 0.7746 ("the same point"), nor 0.7527 (drop left at the bottom)."""
+    from vrcal.model.standards import get_ball
+
+    D = get_ball("tennis").diameter_m.nominal   # 0.066995 m
+    offset = {"centre": D / 2, "top": D, None: 0.0}
+    r = fit_ball("tennis", 4.0, drop_height_m=1.0, rebound_height_m=0.6, drop_measured_to=drop_to,
+                 rebound_measured_to=rebound_to)
+    hand = math.sqrt((0.6 - offset[rebound_to]) / (1.0 - offset[drop_to]))
+    assert r["epsilon"]["nominal"] == pytest.approx(hand, rel=1e-12)
+    assert r["drop_height_m"] == pytest.approx(1.0 - offset[drop_to])
+    if drop_to == rebound_to == "centre":
+        assert round(r["epsilon"]["nominal"], 4) == 0.7656
+
+
 @pytest.mark.parametrize("heights, epsilon, message", [
     ((1.0, None, "bottom"), None, "needs both --drop-height and --rebound-height"),
     ((1.0, 0.5, "bottom"), 0.7, "not both"),
-    ((100.0, 55.0, "bottom"), None, "heights are in m"),
+    ((100.0, 55.0, "bottom"), None,
+     r"^--drop-height must be at most 20 m \(higher than a drop test is made from\), got 100; "
+     r"--drop-height is in m: 100 cm = 1$"),
     ((1.0, 1.5, "bottom"), None, "cannot rebound higher"),
+    ((1.0, 0.05, "top"), None, r"^--rebound-height 0.05 m to the ball's top: a height to the top cannot be below "
+                               r"the diameter D = 0.067 m"),
+    ((1.0, 0.02, "centre"), None, "cannot be below the radius D/2 = 0.0335 m"),
 ])
 def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
     from vrcal.model.body import describe_body
@@ -134,3 +157,25 @@ def test_own_drop_test_bad_input_is_a_usage_error(heights, epsilon, message):
     with pytest.raises(UsageError, match=message):
         drop, rebound, point = heights
         fit_ball(body, 4.0, drop_height_m=drop, rebound_height_m=rebound, rebound_measured_to=point, epsilon=epsilon)
+
+
+def test_epsilon_one_is_the_lossless_body_x_0_v_0():
+    """epsilon = 1: T = 0 (Eq. 7), which only x = 0 has (Eq. 10); [1] gives that body no speed (v = 0).
+    The machine file holds plain numbers (no null, no inf), and --x cannot be fixed."""
+    import json
+
+    from vrcal.fileio import dumps
+    from vrcal.model.body import describe_body
+
+    body = describe_body(None, mass_kg=0.0027, diameter_m=0.04)
+    r = fit_ball(body, 4.0, epsilon=1.0)
+    assert r["T_s"]["nominal"] == 0.0
+    assert r["family"] == [{"x_m": 0.0, "v_m_per_s": 0.0}]
+    assert eq.contact_time_single_s(r["family"][0]["x_m"], r["family"][0]["v_m_per_s"]) == 0.0
+    text = dumps(r, "json")
+    assert "null" not in text and "Infinity" not in text and json.loads(text)["family"][0]["v_m_per_s"] == 0.0
+    assert any("x = 0" in n for n in r["notes"])
+    assert "inf" not in fit_text(r)
+    assert fit_ball(body, 4.0, epsilon=1.0, v_m_per_s=0.1)["fixed"]["x_m"]["nominal"] == 0.0
+    with pytest.raises(UsageError, match="only x = 0"):
+        fit_ball(body, 4.0, epsilon=1.0, x_m=0.01)

@@ -257,9 +257,12 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
               help="The body's epsilon against a rigid floor (instead of a standard's window or the --from "
                    "result's); needed for a ball of your own.")
 @click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
-              help="Your own drop test: the drop height H to the ball's bottom [m] (with --rebound-height).")
+              help="Your own drop test: the drop height H [m] (with --rebound-height), at most 20 m.")
 @click.option("--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
-              help="Your own drop test: the rebound height h [m]; epsilon = sqrt(h/H) (Eq. 9).")
+              help="Your own drop test: the rebound height h [m]; epsilon = sqrt(h/H) (Eq. 9) with both heights "
+                   "of the ball's bottom.")
+@click.option("--drop-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+              help="Point of the ball the drop height was read to (needs the ball's diameter).")
 @click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
               help="Point of the ball the rebound height was read to (needs the ball's diameter).")
 @K_OPTION
@@ -272,8 +275,8 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
-def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebound_height_m, rebound_measured_to, K,
-        x_m, v_m_per_s, n, as_paper, fmt, output):
+def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebound_height_m, drop_measured_to,
+        rebound_measured_to, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of a body: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
     The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
@@ -290,6 +293,7 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
       vrcal fit football --K 4 --x 0.02 -o football.json
       vrcal fit --mass 0.0459 --diameter 0.0427 --epsilon 0.78
       vrcal fit --mass 0.0577 --diameter 0.067 --drop-height 1 --rebound-height 0.55
+      vrcal fit tennis --drop-height 1.07 --rebound-height 0.63 --drop-measured-to top
       vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
@@ -297,7 +301,7 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
     body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
     result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
                       epsilon=epsilon, drop_height_m=drop_height_m, rebound_height_m=rebound_height_m,
-                      rebound_measured_to=rebound_measured_to)
+                      drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
     emit_result(result, fit_text, fmt, output)
 
 

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vrcal.errors import UsageError, unit_hint
+from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
+from vrcal.model.plausible import check_drop_test_height
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
 from vrcal.textout import number, table, wrap
@@ -61,7 +62,7 @@ class VirtualBody:
 
 
 def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None,
-             drop_height_m=None, rebound_height_m=None, rebound_measured_to=None):
+             drop_height_m=None, rebound_height_m=None, drop_measured_to=None, rebound_measured_to=None):
     """The parameter set of a body: epsilon (a window, or one value), T, and its (x, v) family.
 
     Parameters
@@ -83,12 +84,14 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         the body's epsilon against a rigid floor (``--epsilon``), instead of a standard's window
         or a discover result's value
     drop_height_m, rebound_height_m : float, optional
-        your own drop test instead (``--drop-height``, ``--rebound-height``): drop height H to the
-        ball's bottom [m] and rebound height h [m], both needed; epsilon = sqrt(h/H), Eq. (9), without
-        air drag's correction (``vrcal discover`` on a one-row table gives the contact's own)
-    rebound_measured_to : {"bottom", "centre", "top"}, optional
-        the point of the ball h was read to (brought to the bottom with the body's diameter; default
-        the bottom); a drop test's option
+        your own drop test instead (``--drop-height``, ``--rebound-height``): drop height H and rebound
+        height h [m] above the floor, both needed, each at most
+        :data:`vrcal.model.plausible.MAX_DROP_TEST_M`; epsilon = sqrt(h/H), Eq. (9), with both heights
+        of the ball's bottom, without air drag's correction (``vrcal discover`` on a one-row table
+        gives the contact's own)
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}, optional
+        the point of the ball H and h were read to (brought to the bottom with the body's diameter,
+        :func:`vrcal.model.restitution.height_to_bottom_m`; default the bottom); a drop test's options
 
     Returns
     -------
@@ -113,10 +116,11 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     if v_m_per_s is not None and not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
         raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
     drop_test = None
-    if drop_height_m is not None or rebound_height_m is not None or rebound_measured_to is not None:
+    if any(a is not None for a in (drop_height_m, rebound_height_m, drop_measured_to, rebound_measured_to)):
         if epsilon is not None:
             raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
-        epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, rebound_measured_to or "bottom")
+        epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
+                                        rebound_measured_to or "bottom")
     if epsilon is None and body.discovered is None and body.standard is not None:
         out = _window_fit(body, K, as_paper)
     else:
@@ -128,7 +132,14 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     out["T_s"] = _bounds(T)
     R = body.radius_m
     if T["nominal"] == 0:
-        out["family"] = [{"x_m": 0.0, "v_m_per_s": None}]
+        # epsilon = 1: T = 0 only at x = 0, a virtual body on the surface, to which [1] gives no speed
+        # (v = 0; Eq. 10 gives T = 0 at x = 0 for any v, as contact_time_single_s does)
+        out["family"] = [{"x_m": 0.0, "v_m_per_s": 0.0}]
+        out["notes"].append("ε = 1 gives T = 0: the only virtual body is x = 0, on the ball's surface, with no speed "
+                            "(v = 0, as the paper's lossless body); any v gives the same T = 0")
+        if x_m is not None:
+            raise UsageError(f"--x {x_m:g}: ε = 1 gives T = 0, which only x = 0 has (v = x/(2T) would be infinite); "
+                             "leave out --x, or give --v (x = 2vT = 0)")
     else:
         xs, vs = family(T["nominal"], R, n)
         out["family"] = [{"x_m": float(x), "v_m_per_s": float(v)} for x, v in zip(xs, vs)]
@@ -147,25 +158,30 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     return out
 
 
-#: Highest drop or rebound of one's own drop test [m] (:func:`fit_ball`'s ``heights``).
-MAX_DROP_TEST_M = 20.0
-
-
-def _drop_test(body, drop_height_m, rebound_height_m, rebound_measured_to="bottom"):
-    """(epsilon, keys) of one's own drop test: Eq. (9) with the rebound brought to the ball's bottom."""
+def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom"):
+    """(epsilon, keys) of one's own drop test: Eq. (9) with both heights brought to the ball's bottom."""
     if drop_height_m is None or rebound_height_m is None:
         raise UsageError("a drop test needs both --drop-height and --rebound-height [m]")
-    for name, value in (("--drop-height", drop_height_m), ("--rebound-height", rebound_height_m)):
-        if value > MAX_DROP_TEST_M:
-            raise UsageError(f"{name} {value:g} m is higher than a drop test is made from: heights are in m"
-                             + unit_hint(value, MAX_DROP_TEST_M, name, "m", "cm", 100))
-    h = eq.height_to_bottom_m(rebound_height_m, rebound_measured_to, body.diameter_m)
-    eps = float(eq.epsilon_from_heights(h, drop_height_m))
-    read = "" if rebound_measured_to == "bottom" else f"; h read to the {rebound_measured_to}: {rebound_height_m:g} m"
+    D = body.diameter_m
+    heights = {}
+    for name, value, point in (("--drop-height", drop_height_m, drop_measured_to),
+                               ("--rebound-height", rebound_height_m, rebound_measured_to)):
+        check_drop_test_height(value, name)
+        offset = eq.POINT_OFFSET_DIAMETERS[point] * D
+        if value < offset:
+            raise UsageError(f"{name} {value:g} m to the ball's {point}: a height to the {point} cannot be below "
+                             f"{'the diameter D' if point == 'top' else 'the radius D/2'} = {offset:.3g} m "
+                             f"(the {point} of the ball resting on the floor)")
+        heights[name] = float(eq.height_to_bottom_m(value, point, D))
+    H, h = heights["--drop-height"], heights["--rebound-height"]
+    eps = float(eq.epsilon_from_heights(h, H))
+    read = ", ".join(f"{what} {value:g} m to the {point}"
+                     for what, point, value in (("H", drop_measured_to, drop_height_m),
+                                                ("h", rebound_measured_to, rebound_height_m)) if point != "bottom")
     return eps, {
-        "epsilon_source": f"your drop test, ε = √(h/H) (Eq. 9){read}",
-        "drop_height_m": float(drop_height_m),
-        "rebound_height_m": float(h),
+        "epsilon_source": f"your drop test, ε = √(h/H) (Eq. 9){'; ' + read if read else ''}",
+        "drop_height_m": H,
+        "rebound_height_m": h,
     }
 
 
@@ -275,7 +291,7 @@ def fit_text(result):
         own_test = isinstance(r.get("rebound_height_m"), float)
         if r.get("drop_height_m") is not None:
             rows.append(["H [m]", number(r["drop_height_m"], 4),
-                         "drop height" if own_test else "drop height of the discover result"])
+                         "drop height, to the ball's bottom" if own_test else "drop height of the discover result"])
         if own_test:
             rows.append(["h [m]", number(r["rebound_height_m"], 4), "rebound height, to the ball's bottom"])
     fixed = r.get("fixed")
@@ -324,7 +340,7 @@ def _ms_or_inf(T_s, digits=4):
 def _family_rows(members, width=100):
     """The family as two rows (x [mm], v [m/s]), wrapped into blocks that fit ``width`` columns."""
     xs = [number(m["x_m"] * 1e3, 3) for m in members]
-    vs = ["inf" if m["v_m_per_s"] is None else number(m["v_m_per_s"], 3) for m in members]
+    vs = [number(m["v_m_per_s"], 3) for m in members]
     cell = max(len(c) for c in xs + vs)
     per_row = max(1, (width - 2 - 9) // (cell + 2))
     out = ""

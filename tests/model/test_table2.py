@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from vrcal.cli import main
 from vrcal.errors import UsageError
 from vrcal.inverse import DEFAULT_K_PER_S
+from vrcal.model import restitution as eq
 from vrcal.model.restitution import epsilon_single
 from vrcal.model.standards import ball_epsilon, get_ball, load_standards
 from vrcal.model.table2 import (
@@ -63,6 +64,19 @@ def test_basketball_row_numbers():
     assert row["ball"] == "basketball"
     assert round(row["K_printed"], 4) == 0.0273
     assert round(row["K_swapped"], 2) == 3.87
+
+
+def test_the_swapped_reading_is_dimensionally_sound():
+    """Swapped, the x column holds the speed and the v column the depth: T = v/(2x) is a depth over twice a
+    speed, a time [s], and K is in 1/s, as printed -- basketball 0.42 m / (2 * 5 m/s) = 0.042 s,
+    K = -ln 0.85 / 0.042 = 3.87 1/s. The units note says so and never that K comes out in s."""
+    cmp = compare_paper(load_standards())
+    row = cmp["rows"][0]
+    assert row["T_swapped"] == pytest.approx(eq.contact_time_single_s(0.42, 5.0)) == pytest.approx(0.042)
+    assert row["K_swapped"] == pytest.approx(-math.log(0.85) / 0.042)
+    units = cmp["units"]
+    assert "K is in 1/s" in units and "in s:" not in units and "not the dimensions" not in units
+    assert "0.042 s" in units and "3.87 1/s" in units
 
 
 def test_least_squares_finding():

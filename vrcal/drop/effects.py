@@ -93,7 +93,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vrcal.errors import UsageError, closest_name
-from vrcal.model.body import ball_density_kg_per_m3
+from vrcal.model.plausible import ball_density_kg_per_m3
 
 #: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
 AIR_DENSITY_KG_PER_M3 = 1.204
@@ -312,9 +312,10 @@ def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
     Parameters
     ----------
     rebound_height_m : float or ndarray
-        apex height h of the first rebound [m], >= 0, same point of the ball as H
+        apex height h of the first rebound [m], >= 0, of the ball's bottom above the floor (as H;
+        :func:`vrcal.model.restitution.height_to_bottom_m` brings a height to the centre or top there)
     drop_height_m : float or ndarray
-        drop height H [m], > 0 (released from rest)
+        drop height H [m] of the ball's bottom above the floor, > 0 (released from rest)
     k_per_m : float or ndarray
         drag constant k [1/m] (:func:`drag_constant_per_m`), >= 0
 

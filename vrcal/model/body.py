@@ -15,9 +15,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from vrcal.errors import UsageError
+from vrcal.model.plausible import check_ball_size
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.model.standards import find_ball, get_ball, load_standards, normalised_name
 
@@ -383,37 +382,13 @@ def _key(name, standards):
     return normalised_name(name) if std is None else std.key
 
 
-#: Mean densities a ball can have [kg/m^3]: above the air's (a lighter one floats away), below
-#: osmium's (22,590, the densest element). A beach ball is about 3, a table-tennis ball 80, a
-#: tennis ball 370, a golf ball 1,130, a steel ball 7,850.
-BALL_DENSITY_KG_PER_M3 = (1.2, 23_000.0)
-
-
-def ball_density_kg_per_m3(mass_kg, diameter_m):
-    """Mean density of a ball [kg/m^3].
-
-    Parameters
-    ----------
-    mass_kg : float or ndarray
-        mass of the ball [kg]
-    diameter_m : float or ndarray
-        diameter of the ball [m]
-    """
-    return np.asarray(mass_kg, dtype=float) / (np.pi / 6.0 * np.asarray(diameter_m, dtype=float) ** 3)
-
-
 def _plausible(props, mass_kg, diameter_m):
     """``props`` when the --mass/--diameter given make a ball that can exist, else a UsageError
-    naming the likely slip (grams for kilograms, centimetres for metres)."""
-    if mass_kg is None and diameter_m is None:
-        return props
-    rho = float(ball_density_kg_per_m3(props.mass_kg, props.diameter_m))
-    lo, hi = BALL_DENSITY_KG_PER_M3
-    if lo <= rho <= hi:
-        return props
-    what = "lighter than air" if rho < lo else "denser than any material"
-    raise UsageError(f"a ball of {props.mass_kg:g} kg and {props.diameter_m:g} m would be {what} "
-                     f"({rho:.3g} kg/m^3): --mass is in kg (57 g = 0.057) and --diameter in m (6.6 cm = 0.066)")
+    naming the likely slip (grams for kilograms, centimetres for metres;
+    :func:`vrcal.model.plausible.check_ball_size`, the rule a standards file's balls follow too)."""
+    if mass_kg is not None or diameter_m is not None:
+        check_ball_size(props.mass_kg, props.diameter_m)
+    return props
 
 
 def _check_size(label, value, unit=""):

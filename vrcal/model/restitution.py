@@ -11,10 +11,13 @@ References
 
 Departures from [1]
 -------------------
-* Eq. (9) ``eps = sqrt(h/H)`` only holds when drop height H and rebound height h
-  are measured to the same point of the ball. [1] mixes conventions (FIBA measures
-  the drop to the bottom and the rebound to the top of the ball);
-  :func:`height_to_bottom_m` brings both heights to the bottom of the ball first.
+* Eq. (9) ``eps = sqrt(h/H)`` holds for the heights of the ball's **bottom** above the
+  floor: the ball (any point of it, its centre too) falls H_bottom before it touches
+  the floor and rises h_bottom after. Heights of the centre or the top are not enough
+  even when both are to the same point (sqrt(h_c/H_c) is not sqrt(h_b/H_b));
+  :func:`height_to_bottom_m` brings each height to the bottom first (top: minus D,
+  centre: minus D/2). [1] applies Eq. (9) to FIBA's heights as printed (the drop to
+  the bottom, the rebound to the top of the ball).
 * [1] prints Table 2 with values that follow ``T = v/(2x)`` rather than its own
   Eq. (10) ``T = x/(2v)``; vrcal follows the equations as printed (see
   :mod:`vrcal.model.table2`).
@@ -32,8 +35,9 @@ from vrcal.errors import UsageError
 STANDARD_GRAVITY_M_PER_S2 = 9.80665
 
 #: Default rate constant K [1/s]. The paper does not state its K; its Table 2 implies
-#: K = 3.9-4.2 1/s (least squares 4.11 1/s) when x and v are read interchanged
-#: (see :mod:`vrcal.model.table2`). vrcal uses the round value 4 1/s.
+#: K = 3.9-4.2 1/s (least squares 4.11 1/s) when x and v are read interchanged (the x column
+#: a speed, the v column a depth: T = v/(2x) is a time [s], so K is in 1/s; see
+#: :mod:`vrcal.model.table2`). vrcal uses the round value 4 1/s.
 DEFAULT_K_PER_S = 4.0
 
 #: Offset [in units of the ball diameter] from a named point of the ball to its bottom.
@@ -272,9 +276,10 @@ def epsilon_from_heights(rebound_height_m, drop_height_m):
     Parameters
     ----------
     rebound_height_m : float or ndarray
-        rebound height h [m], >= 0, measured to the same point of the ball as H
+        rebound height h [m] of the ball's bottom above the floor, >= 0 (a height read to
+        the centre or top first through :func:`height_to_bottom_m`)
     drop_height_m : float or ndarray
-        drop height H [m], > 0
+        drop height H [m] of the ball's bottom above the floor, > 0
 
     Returns
     -------

@@ -1,8 +1,11 @@
 """The association ball standards: load, validate, look up, and turn into epsilon (Eq. 9).
 
 ``standards.yaml`` (shipped with vrcal) is data with a schema; every load validates it
-and a bad field is reported by its path (``balls.tennis.rebound_m.max``). A user file
-given with ``--standards FILE`` follows the same schema.
+and a bad field is reported by its path (``balls.tennis.rebound_m.max``), an unknown key
+with the closest allowed one. A user file given with ``--standards FILE`` follows the same
+schema and replaces the shipped balls. Every ball, shipped or not, must pass the rules of
+:mod:`vrcal.model.plausible` that ``--mass``/``--diameter`` and ``fit --drop-height`` pass
+(a density a ball can have, heights of a drop test): a unit slip is named, not computed.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from pathlib import Path
 
 from vrcal.errors import DataError, UsageError, closest_name
 from vrcal.fileio import parse_yaml, read_yaml
+from vrcal.model.plausible import check_ball_size, check_drop_test_height
 from vrcal.model.restitution import POINT_OFFSET_DIAMETERS, epsilon_from_heights, height_to_bottom_m
 
 SCHEMA_VERSION = 1
@@ -89,6 +93,15 @@ class EpsilonWindow:
         return {"min": self.min, "nominal": self.nominal, "max": self.max}
 
 
+class Standards(dict):
+    """ball key -> :class:`Ball`, in file order, with the file they came from (``path``: None for the
+    shipped ``standards.yaml``), so that a failed lookup can say where the balls came from."""
+
+    def __init__(self, balls=(), path=None):
+        super().__init__(balls)
+        self.path = path
+
+
 # --------------------------------------------------------------------------- loading
 
 
@@ -113,14 +126,16 @@ def load_standards(path=None):
 
     Returns
     -------
-    dict
-        ball key -> :class:`Ball`, in file order
+    Standards
+        ball key -> :class:`Ball`, in file order; a user's file replaces the shipped balls
 
     Raises
     ------
     DataError
-        unreadable file, malformed YAML (with file and line), or a field that breaks
-        the schema (with its path)
+        unreadable file, malformed YAML (with file and line), a field that breaks the
+        schema (with its path; an unknown key with the closest allowed one), or a ball
+        that cannot exist (:mod:`vrcal.model.plausible`: a mass or size in the wrong
+        unit, a drop test above 20 m; with the likely unit slip)
     """
     if path is None:
         return _load_default()
@@ -135,20 +150,31 @@ def _load_default():
 
 
 def _load_file(path):
-    return validate_standards(read_yaml(path, "standards"), str(path))
+    out = validate_standards(read_yaml(path, "standards"), str(path))
+    out.path = str(path)
+    return out
+
+
+#: The keys of a standards document, of a ball's entry, of a range and of a ball's ``paper:`` block.
+_TOP_KEYS = ("schema_version", "balls")
+_BALL_KEYS = (*_REQUIRED_STR, "official", "mass_kg", "diameter_m", "circumference_m", "drop_height_m",
+              "drop_measured_to", "rebound_m", "rebound_measured_to", "source", "paper", "departures", "aliases")
+_RANGE_KEYS = ("min", "max", "nominal")
+_PAPER_KEYS = ("drop_height_m", "rebound_min_m", "rebound_max_m", "epsilon_min", "epsilon_max", "printed", "table2")
 
 
 def validate_standards(doc, where="standards"):
-    """Validate a parsed standards document and build the :class:`Ball` objects."""
+    """Validate a parsed standards document and build the :class:`Ball` objects (a :class:`Standards`)."""
     if not isinstance(doc, dict):
         raise DataError(f"{where}: top level must be a mapping with 'schema_version' and 'balls'")
+    _known_keys(doc, _TOP_KEYS, where, "")
     version = doc.get("schema_version")
     if version != SCHEMA_VERSION:
         raise DataError(f"{where}: schema_version must be {SCHEMA_VERSION}, got {version!r}")
     balls = doc.get("balls")
     if not isinstance(balls, dict) or not balls:
         raise DataError(f"{where}: 'balls' must be a non-empty mapping of ball key -> fields")
-    out = {}
+    out = Standards()
     for key, fields in balls.items():
         path = f"balls.{key}"
         if not isinstance(key, str) or not key.replace("_", "").isalnum() or key != key.lower():
@@ -166,6 +192,22 @@ def validate_standards(doc, where="standards"):
 
 def _err(where, path, msg):
     return DataError(f"{where}: {path}: {msg}")
+
+
+def _known_keys(fields, allowed, where, path):
+    """Refuse a key not in ``allowed`` -- before any required field is missed because of its typo --
+    naming the closest allowed key and all of them."""
+    unknown = [str(k) for k in fields if str(k) not in allowed]
+    if not unknown:
+        return
+    listed = f"allowed: {', '.join(sorted(allowed))}"
+    guesses = {k: closest_name(k, allowed) for k in unknown}
+    if len(unknown) == 1:
+        k = unknown[0]
+        guess = f"; did you mean '{guesses[k]}'?" if guesses[k] else ""
+        raise _err(where, f"{path}.{k}" if path else k, f"unknown key{guess} ({listed})")
+    named = ", ".join(f"'{k}'" + (f" (did you mean '{guesses[k]}'?)" if guesses[k] else "") for k in unknown)
+    raise _err(where, path or "top level", f"unknown keys {named}; {listed}")
 
 
 def _number(fields, name, where, path, *, positive=True, required=True):
@@ -192,6 +234,7 @@ def _range(fields, name, where, path, required=True):
     if not isinstance(sub, dict):
         raise _err(where, f"{path}.{name}", "must be a mapping {min: ..., max: ...}")
     p = f"{path}.{name}"
+    _known_keys(sub, _RANGE_KEYS, where, p)
     lo = _number(sub, "min", where, p)
     hi = _number(sub, "max", where, p)
     if lo > hi:
@@ -201,9 +244,6 @@ def _range(fields, name, where, path, required=True):
         nominal = 0.5 * (lo + hi)
     elif not lo <= nominal <= hi:
         raise _err(where, f"{p}.nominal", f"{nominal:g} lies outside [{lo:g}, {hi:g}]")
-    unknown = set(sub) - {"min", "max", "nominal"}
-    if unknown:
-        raise _err(where, p, f"unknown field(s) {sorted(unknown)}; allowed: ['max', 'min', 'nominal']")
     return Range(lo, hi, nominal)
 
 
@@ -224,6 +264,7 @@ def _point(fields, name, where, path):
 def _ball(key, fields, where, path):
     if not isinstance(fields, dict):
         raise _err(where, path, "must be a mapping of fields")
+    _known_keys(fields, _BALL_KEYS, where, path)
     strings = {name: _string(fields, name, where, path) for name in _REQUIRED_STR}
     official = fields.get("official", True)
     if not isinstance(official, bool):
@@ -233,12 +274,19 @@ def _ball(key, fields, where, path):
     circumference = _range(fields, "circumference_m", where, path, required=False)
     if diameter is None and circumference is None:
         raise _err(where, f"{path}.diameter_m", "missing (give diameter_m or circumference_m)")
+    size = "diameter_m" if diameter is not None else "circumference_m"
     if diameter is None:
         diameter = Range(circumference.min / math.pi, circumference.max / math.pi, circumference.nominal / math.pi)
+    check_ball_size(mass.nominal, diameter.nominal, mass_label=f"{path}.mass_kg", size_label=f"{path}.{size}",
+                    size_per_diameter=1.0 if size == "diameter_m" else math.pi, where=where, error=DataError)
     drop = _number(fields, "drop_height_m", where, path)
     drop_to = _point(fields, "drop_measured_to", where, path)
     rebound = _range(fields, "rebound_m", where, path)
     rebound_to = _point(fields, "rebound_measured_to", where, path)
+    check_drop_test_height(drop, f"{path}.drop_height_m", where=where, field="drop_height_m", error=DataError)
+    for label in ("max", "nominal"):
+        check_drop_test_height(getattr(rebound, label), f"{path}.rebound_m.{label}", where=where, field="rebound_m",
+                               error=DataError)
     D = diameter.nominal
     H_bottom = height_to_bottom_m(drop, drop_to, D)
     for label, h in (("min", rebound.min), ("max", rebound.max), ("nominal", rebound.nominal)):
@@ -264,13 +312,6 @@ def _ball(key, fields, where, path):
     if not isinstance(aliases, list) or not all(isinstance(s, str) and normalised_name(s) for s in aliases):
         raise _err(where, f"{path}.aliases", "must be a list of names")
     paper = _paper(fields.get("paper"), where, f"{path}.paper")
-    known = set(_REQUIRED_STR) | {
-        "official", "mass_kg", "diameter_m", "circumference_m", "drop_height_m", "drop_measured_to",
-        "rebound_m", "rebound_measured_to", "source", "paper", "departures", "aliases",
-    }
-    unknown = set(fields) - known
-    if unknown:
-        raise _err(where, path, f"unknown field(s) {sorted(unknown)}; allowed: {sorted(known)}")
     return Ball(
         key=key, official=official, mass_kg=mass, diameter_m=diameter, drop_height_m=drop,
         drop_measured_to=drop_to, rebound_m=rebound, rebound_measured_to=rebound_to,
@@ -284,20 +325,29 @@ def _paper(fields, where, path):
         return None
     if not isinstance(fields, dict):
         raise _err(where, path, "must be a mapping")
+    _known_keys(fields, _PAPER_KEYS, where, path)
     table2 = fields.get("table2")
     if table2 is not None:
-        if not isinstance(table2, dict) or set(table2) != {"epsilon", "x", "v"}:
+        if not isinstance(table2, dict):
             raise _err(where, f"{path}.table2", "must be null or a mapping {epsilon, x, v}")
+        _known_keys(table2, ("epsilon", "x", "v"), where, f"{path}.table2")
         table2 = {k: _number(table2, k, where, f"{path}.table2") for k in ("epsilon", "x", "v")}
-    return PaperValues(
-        drop_height_m=_number(fields, "drop_height_m", where, path),
-        rebound_min_m=_number(fields, "rebound_min_m", where, path, required=False),
-        rebound_max_m=_number(fields, "rebound_max_m", where, path, required=False),
-        epsilon_min=_number(fields, "epsilon_min", where, path, required=False),
-        epsilon_max=_number(fields, "epsilon_max", where, path, required=False),
-        printed=str(fields.get("printed", "")),
-        table2=table2,
-    )
+        _epsilon(table2, "epsilon", where, f"{path}.table2")
+    values = {k: _number(fields, k, where, path, required=k == "drop_height_m")
+              for k in ("drop_height_m", "rebound_min_m", "rebound_max_m", "epsilon_min", "epsilon_max")}
+    for k in ("drop_height_m", "rebound_min_m", "rebound_max_m"):
+        if values[k] is not None:
+            check_drop_test_height(values[k], f"{path}.{k}", where=where, field=k, error=DataError)
+    for k in ("epsilon_min", "epsilon_max"):
+        _epsilon(values, k, where, path)
+    return PaperValues(**values, printed=str(fields.get("printed", "")), table2=table2)
+
+
+def _epsilon(values, name, where, path):
+    """Refuse a coefficient of restitution above 1 (a ball that gains energy)."""
+    value = values[name]
+    if value is not None and value > 1:
+        raise _err(where, f"{path}.{name}", f"must lie in (0, 1] (a coefficient of restitution), got {value:g}")
 
 
 # --------------------------------------------------------------------------- lookup
@@ -331,10 +381,16 @@ def get_ball(key, standards=None):
     found = find_ball(key, standards)
     if found is not None:
         return found
+    path = getattr(standards, "path", None)
+    shipped = path is not None and find_ball(key, _load_default()) is not None
     names = list(standards) + [a for ball in standards.values() for a in ball.aliases]
-    close = closest_name(normalised_name(key), names, cutoff=0.5)
+    close = None if shipped else closest_name(normalised_name(key), names, cutoff=0.5)
     hint = f"; did you mean '{find_ball(close, standards).key}'?" if close else ""
-    raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
+    if path is None:
+        raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
+    copy = f"; to use the shipped '{key}', copy its entry from vrcal/standards.yaml into {path}" if shipped else ""
+    raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)}, the balls of {path}: --standards "
+                     f"replaces the shipped ones){copy}")
 
 
 # --------------------------------------------------------------------------- epsilon

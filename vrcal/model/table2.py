@@ -49,9 +49,11 @@ READINGS = {
 }
 
 UNITS_NOTE = (
-    "the paper states no units for x and v; K is reported for the numbers as printed. With x in m and "
-    "v in m/s, x/(2v) is a time [s] and K is in 1/s; v/(2x) is a rate [1/s], not a time, so under the "
-    "swapped reading K comes out in s: that reading fits the numbers but not the dimensions of Eq. (7)"
+    "the paper states no units for x and v, and the dimensions do not decide between the readings: each "
+    "divides a depth by twice a speed. Printed, the x column is the depth and v the speed: with x in m and v "
+    "in m/s, T = x/(2v) is a time [s] and K is in 1/s. Swapped, the x column holds the speed and the v column "
+    "the depth: T = v/(2x) is a time as well and K is in 1/s (basketball: 0.42 m / (2 * 5 m/s) = 0.042 s, "
+    "K = 3.87 1/s). Any one length unit for both columns (cm and cm/s) gives the same T and K"
 )
 
 RULE = ("x = R/2 (nominal radius halved); v = x/(2T) (Eq. 10) with T = -ln(epsilon)/K (Eq. 7); "
@@ -213,8 +215,9 @@ def _finding(readings, best, other):
         f"Read as {o['formula']} the rows imply K = {o['K_row_min']:.3g}..{o['K_row_max']:.3g} "
         f"(max/min {o['K_row_spread']:.2f}) and the best single K = {o['K_least_squares']:.3g} "
         f"leaves |epsilon error| up to {o['max_abs_epsilon_error']:.2g}. "
-        "The paper states no units for x and v: a change of units rescales every row's K by the "
-        "same factor, so it cannot remove the spread. vrcal follows Eq. (10) as printed, T = x/(2v)."
+        "The paper states no units for x and v: a change of units (a length unit of one column "
+        "only) rescales every row's K by the same factor, so it cannot remove the spread. "
+        "vrcal follows Eq. (10) as printed, T = x/(2v)."
     )
     return text
 
@@ -336,7 +339,9 @@ def _table_markdown(table, as_paper):
         f"- T = −ln(ε)/K (Eq. 7) with K = {K:g} 1/s.",
         "- Virtual body: x = R/2, the ball's nominal radius halved; v = x/(2T) (Eq. 10) for ε nominal; "
         "the last column gives v for ε min..max at the same x.",
-        "- The paper's own Table 2 values follow T = v/(2x) instead; see `vrcal table2 --compare-paper`.",
+        "- The paper's own Table 2 values follow T = v/(2x) instead (its x column read as a speed and its v column "
+        "as a depth: T is still a time and K comes out in 1/s, about 4.1); see `vrcal table2 --compare-paper` and "
+        "[paper.md](paper.md).",
         "",
     ]
     return "\n".join(lines)
