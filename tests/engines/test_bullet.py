@@ -185,3 +185,34 @@ def test_small_steps_pass_in_bullet_as_the_bound_says():
     assert any(n.startswith("step 0.0002 s checked in bullet (16 phases x 3 bounces)") for n in note)
     runs = E.drop_test(parse_exported("bullet", ex.text), ex.setup, 3, 4)
     assert runs.worst_error <= step_bound(ex.setup, "bullet")[0]
+
+
+def test_the_pasted_snippet_sets_the_second_ball_too():
+    """``--against tennis``: the snippet, pasted as bullet.md says (ball, ball2 and floor are the
+    user's bodies), gives the head-on basketball/tennis contact the pair's 0.5707 of Eq. 6. The
+    snippet set ball and floor only: the tennis ball kept Bullet's restitution 0 and the pair
+    bounced at 0.0000 at every speed."""
+    require_engine("bullet")
+    p = E._pybullet()
+    data = json.loads(export("basketball", "bullet", against="tennis", dt_s=5e-4).text)
+    assert "changeDynamics(ball2" in data["snippet"]
+    cid = p.connect(p.DIRECT)
+    try:
+        bp = E._Bound(p, cid)
+        (M1, R1), (M2, R2) = (data["ball"]["mass_kg"], data["ball"]["radius_m"]), (0.057, 0.0335)
+        ball = bp.createMultiBody(M1, bp.createCollisionShape(p.GEOM_SPHERE, radius=R1), basePosition=[0, 0, 2])
+        ball2 = bp.createMultiBody(M2, bp.createCollisionShape(p.GEOM_SPHERE, radius=R2),
+                                   basePosition=[R1 + R2 + 0.01, 0, 2])
+        floor = bp.createMultiBody(0, bp.createCollisionShape(p.GEOM_PLANE))
+        code = data["snippet"].replace("import pybullet as p\np.connect(p.DIRECT)\n", "")
+        exec(compile(code, "<snippet>", "exec"), {"p": bp, "ball": ball, "ball2": ball2, "floor": floor})  # noqa: S102
+        bp.setGravity(0, 0, 0)                                     # head-on, no gravity
+        v_rel = 3.0
+        bp.resetBaseVelocity(ball, [v_rel * M2 / (M1 + M2), 0, 0])
+        bp.resetBaseVelocity(ball2, [-v_rel * M1 / (M1 + M2), 0, 0])
+        for _ in range(100):
+            bp.stepSimulation()
+        e = (bp.getBaseVelocity(ball2)[0][0] - bp.getBaseVelocity(ball)[0][0]) / v_rel
+    finally:
+        p.disconnect(cid)
+    assert e == pytest.approx(data["pairs"]["basketball/tennis"], abs=0.01)

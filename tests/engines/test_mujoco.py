@@ -313,3 +313,34 @@ def test_a_calibration_that_passes_at_4_phases_is_confirmed_with_16():
     assert cal.worst_error == pytest.approx(rerun.worst_error)
     assert M.drop_test(M.model_xml(setup, cal.contact), setup, 3, 4).worst_error <= 0.01
     assert not cal.ok and cal.worst_error > 0.01
+
+
+def test_the_second_balls_floor_pair_carries_a_soft_floor():
+    """``--against tennis --floor x=0.005,v=0.3``: dropped on the floor (the first ball parked out of
+    reach), the tennis ball bounces at its pair's 0.7205 of Eq. 6 (vrcal pair), not at its rigid-floor
+    0.7449 (the pair's solref had no floor factor: measured 0.7444..0.7465)."""
+    require_engine("mujoco")
+    import mujoco
+
+    from vrcal.inverse import pair
+
+    ex = export("basketball", "mujoco", against="tennis", floor="x=0.005,v=0.3")
+    target = pair("tennis", "x=0.005,v=0.3")["epsilon"]
+    m = mujoco.MjModel.from_xml_string(ex.text)
+    R2, H, g = m.geom_size[m.geom("ball2").id][0], 0.5, -m.opt.gravity[2]
+    q1, q2 = (m.jnt_qposadr[m.body(b).jntadr[0]] for b in ("ball", "ball2"))
+    v2 = m.jnt_dofadr[m.body("ball2").jntadr[0]] + 2
+    ratios = []
+    for phase in (0.0, 0.5):
+        d = mujoco.MjData(m)
+        d.qpos[q1:q1 + 3] = [5.0, 5.0, 1e3]
+        d.qpos[q2:q2 + 3] = [0.0, 0.0, R2 + H + phase * (2 * g * H) ** 0.5 * m.opt.timestep]
+        start, apex, last = d.qpos[q2 + 2] - R2, None, 0.0
+        while apex is None:
+            mujoco.mj_step(m, d)
+            if last > 0 >= d.qvel[v2]:
+                apex = d.qpos[q2 + 2] - R2
+            last = d.qvel[v2]
+        ratios.append((apex / start) ** 0.5)
+    assert target == pytest.approx(0.7205, abs=5e-4)
+    assert np.allclose(ratios, target, atol=0.01)

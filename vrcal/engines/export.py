@@ -85,6 +85,32 @@ def combine_epsilons(eps_a, eps_b, K_per_s=DEFAULT_K_PER_S):
     return eq.epsilon_from_contact_time(T, K_per_s)
 
 
+def pair_epsilons(setup, ball2, eps_ball2):
+    """epsilon of every pair of an ``--against`` export, each from :func:`combine_epsilons` (Eq. 6 of [1]).
+
+    The floor is a body too: a compliant ``--floor`` enters both balls' floor pairs through its own
+    epsilon (its virtual body, Eq. 7), a rigid floor as 1. Every engine takes its pair values from here.
+
+    Parameters
+    ----------
+    setup : DropSetup
+        the first ball's setup (``ball_epsilon`` against a rigid floor, ``floor_epsilon``)
+    ball2 : str
+        the second ball's name
+    eps_ball2 : float
+        the second ball's epsilon against a rigid floor, in (0, 1]
+
+    Returns
+    -------
+    dict
+        ``{"BALL/floor": ..., "BALL2/floor": ..., "BALL/BALL2": ...}``
+    """
+    eps_a = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
+    return {f"{setup.ball}/floor": float(combine_epsilons(eps_a, setup.floor_epsilon)),
+            f"{ball2}/floor": float(combine_epsilons(eps_ball2, setup.floor_epsilon)),
+            f"{setup.ball}/{ball2}": float(combine_epsilons(eps_a, eps_ball2))}
+
+
 def parse_impact_speed(text):
     """``LO[:HI]`` [m/s] -> (lo, hi) floats with 0 < lo <= hi; UsageError otherwise."""
     parts = str(text).split(":")
@@ -398,12 +424,14 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             floor_too = " (a virtual body x=DEPTH,v=SPEED is a --floor)" if "=" in str(against) else ""
             raise UsageError(f"--against takes a second ball of the standards{floor_too}: {exc}") from None
         eps2 = ball_epsilon(b2).nominal
-        eps_pair = float(combine_epsilons(setup.ball_epsilon, eps2))            # the product, at any K
-        pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2, "epsilon": eps_pair,
+        pairs = pair_epsilons(setup, b2.key, eps2)
+        pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2,
+                "epsilon": pairs[f"{setup.ball}/{b2.key}"], "pairs": pairs,
                 "equation": "Eq. 6: T = T_A + T_B, epsilon = exp(-K T) = epsilon_A * epsilon_B"}
         second = DropSetup(ball=b2.key, mass_kg=b2.mass_kg.nominal, radius_m=b2.radius_m,
-                           drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=eps2, dt_s=setup.dt_s,
-                           g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2)
+                           drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=pairs[f"{b2.key}/floor"],
+                           dt_s=setup.dt_s, g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2,
+                           floor_epsilon=setup.floor_epsilon)
     module = load(eng.name)
     summary = ""
     if eng.name == "mujoco":
@@ -423,7 +451,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data = module.export_params(setup, setup.n_bounces, pair)
         data["how_chosen"] = list(setup.notes)
         if pair:
-            data["pair"] = pair
+            data["pair"] = {k: v for k, v in pair.items() if k != "pairs"}       # the pairs are data["pairs"]
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":

@@ -781,7 +781,7 @@ def export_mjcf(setup, cal, pair=None, second=None):
             f'      <geom name="ball2" type="sphere" size="{_fmt(R2)}" mass="{_fmt(second.mass_kg)}"/>',
             "    </body>",
         ]
-        pairs = [("ball2", "floor", pair_contact(pair["epsilon_ball2"], setup)),
+        pairs = [("ball2", "floor", pair_contact(pair["pairs"][f"{pair['ball2']}/floor"], setup)),
                  ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")
