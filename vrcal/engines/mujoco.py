@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import re
+import textwrap
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -769,9 +770,12 @@ def pair_contact(eps, setup):
     return contact_for(eps, "spring", setup.dt_s, w)
 
 
-def export_mjcf(setup, cal, pair=None, second=None):
-    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs)."""
+def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
+    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs; with a
+    :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the calibration holds for)."""
     header = header_lines(setup, cal)
+    if coverage is not None:
+        header[3:3] = textwrap.wrap(coverage.note(setup.tolerance), 95)
     pairs, bodies = [], []
     if pair and second is not None:
         R, R2 = setup.radius_m, second.radius_m
