@@ -370,3 +370,14 @@ def test_the_header_names_the_slowest_impact_the_calibration_holds_for():
         return M.drop_test(ex.text, trial, 1, 4).worst_error
 
     assert error_at(holds * 1.001) <= 0.01 < error_at(miss)
+
+
+def test_a_step_where_no_damping_holds_the_ball_down_names_one_that_works():
+    """RK4 at 5 ms: the tennis ball's spring adds energy at every damping; the refusal used to stop
+    there, naming no step (others do). It names one, and that step exports."""
+    require_engine("mujoco")
+    with pytest.raises(UsageError, match=r"^MuJoCo at --dt 0\.005 s \(RK4, spring contact\) misses: MuJoCo's "
+                                         r"ball bounced higher .* --dt ([0-9.e-]+) meets both") as info:
+        export("tennis", "mujoco", dt_s=5e-3, integrator="rk4")
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
+    assert export("tennis", "mujoco", dt_s=dt_ok, integrator="rk4").data["worst_error"] <= 0.01

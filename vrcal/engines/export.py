@@ -464,7 +464,6 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         checked = check_step(setup, eng.name, n_phases=n_phases)
         setup = _with_note(setup, checked)
         coverage = _checked_coverage(setup, eng.name, checked, asked_lo)
-        setup = _with_note(setup, coverage and coverage.note(setup.tolerance))
         summary = _lines(_not_run(checked), _phases_summary(checked), _coverage_summary(setup, coverage))
         data = module.export_params(setup, setup.n_bounces, pair)
         if coverage:
@@ -553,9 +552,18 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     """
     from vrcal.engines import mujoco as M
 
+    from vrcal.engines.common import StillBouncing
+
     kind, w = _contact_choice(setup, stiffness)
     refuse_constant_for_law(setup, "MuJoCo")
-    cal = M.calibrate(setup, n_phases, kind, w)
+    try:
+        cal = M.calibrate(setup, n_phases, kind, w)
+    except StillBouncing as exc:             # no damping brings it down: name a step that works, as below
+        dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
+        where = (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
+                 f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
+        raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {kind} contact) misses: "
+                         f"{exc}; {where}; see --trade-off") from None
     if cal.ok:
         return cal
     misses = []

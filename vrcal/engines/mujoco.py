@@ -775,7 +775,7 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
     :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the calibration holds for)."""
     header = header_lines(setup, cal)
     if coverage is not None:
-        header[3:3] = textwrap.wrap(coverage.note(setup.tolerance), 95)
+        header[3:3] = textwrap.wrap(coverage.note(setup.tolerance), 88)
     pairs, bodies = [], []
     if pair and second is not None:
         R, R2 = setup.radius_m, second.radius_m
