@@ -5,8 +5,10 @@ import re
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from helpers import EPSILONS, require_engine
 
+from vrcal.cli import main
 from vrcal.engines import bullet as E
 from vrcal.engines.common import CONFIRM_PHASES
 from vrcal.engines.export import check_step, export, parse_exported
@@ -185,3 +187,52 @@ def test_small_steps_pass_in_bullet_as_the_bound_says():
     assert any(n.startswith("step 0.0002 s checked in bullet (16 phases x 3 bounces)") for n in note)
     runs = E.drop_test(parse_exported("bullet", ex.text), ex.setup, 3, 4)
     assert runs.worst_error <= step_bound(ex.setup, "bullet")[0]
+
+
+def test_the_pasted_snippet_sets_the_second_ball_too():
+    """``--against tennis``: the snippet, pasted as bullet.md says (ball, ball2 and floor are the
+    user's bodies), gives the head-on basketball/tennis contact the pair's 0.5707 of Eq. 6. The
+    snippet set ball and floor only: the tennis ball kept Bullet's restitution 0 and the pair
+    bounced at 0.0000 at every speed."""
+    require_engine("bullet")
+    p = E._pybullet()
+    data = json.loads(export("basketball", "bullet", against="tennis", dt_s=5e-4).text)
+    assert "changeDynamics(ball2" in data["snippet"]
+    cid = p.connect(p.DIRECT)
+    try:
+        bp = E._Bound(p, cid)
+        (M1, R1), (M2, R2) = (data["ball"]["mass_kg"], data["ball"]["radius_m"]), (0.057, 0.0335)
+        ball = bp.createMultiBody(M1, bp.createCollisionShape(p.GEOM_SPHERE, radius=R1), basePosition=[0, 0, 2])
+        ball2 = bp.createMultiBody(M2, bp.createCollisionShape(p.GEOM_SPHERE, radius=R2),
+                                   basePosition=[R1 + R2 + 0.01, 0, 2])
+        floor = bp.createMultiBody(0, bp.createCollisionShape(p.GEOM_PLANE))
+        code = data["snippet"].replace("import pybullet as p\np.connect(p.DIRECT)\n", "")
+        exec(compile(code, "<snippet>", "exec"), {"p": bp, "ball": ball, "ball2": ball2, "floor": floor})  # noqa: S102
+        bp.setGravity(0, 0, 0)                                     # head-on, no gravity
+        v_rel = 3.0
+        bp.resetBaseVelocity(ball, [v_rel * M2 / (M1 + M2), 0, 0])
+        bp.resetBaseVelocity(ball2, [-v_rel * M1 / (M1 + M2), 0, 0])
+        for _ in range(100):
+            bp.stepSimulation()
+        e = (bp.getBaseVelocity(ball2)[0][0] - bp.getBaseVelocity(ball)[0][0]) / v_rel
+    finally:
+        p.disconnect(cid)
+    assert e == pytest.approx(data["pairs"]["basketball/tennis"], abs=0.01)
+
+
+def test_an_impact_speed_range_not_reached_is_said_with_what_the_engine_does_there():
+    """``--impact-speed 0.3:4 --bounces 2``: the bounce chain stops at 3.2 m/s; the terminal names the
+    part not covered and the error measured at 0.3 m/s (PyBullet's step-phase error there, above the
+    tolerance), and the file's notes the speeds it was checked over."""
+    require_engine("bullet")
+    result = CliRunner().invoke(main, ["export", "--mass", "5", "--diameter", "0.2", "--epsilon", "0.9",
+                                       "--impact-speed", "0.3:4", "--bounces", "2", "--engine", "bullet",
+                                       "--dt", "1e-3"])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.stderr.split())
+    m = re.search(r"covers 4\.\.([0-9.]+) m/s, not down to 0\.3 m/s; measured below it: holds down to "
+                  r"([0-9.]+) m/s; at 0\.3 m/s one bounce is off by ([0-9.]+) \((MISSES|within)", said)
+    assert m, said
+    data = json.loads(result.stdout)
+    assert any(n.startswith("checked over impact speeds 4..") for n in data["notes"])
+    assert float(m.group(3)) > 0 and (m.group(4) == "MISSES") == (float(m.group(3)) > 0.01)

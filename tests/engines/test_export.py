@@ -156,6 +156,19 @@ def test_tables_name_the_combine_modes_in_100_columns():
     assert max(len(line) for line in text.splitlines()) <= 100
 
 
+def test_tables_give_the_second_ball_its_own_material_rows():
+    """``--against tennis``: PhysX and Unity need the tennis ball's material (0.7449, Multiply) for
+    the pair's product to come out; the table had rows for the first ball and the floor only."""
+    from vrcal.inverse import pair
+
+    for floor in (None, "x=0.005,v=0.3"):
+        rows = export("basketball", "tables", against="tennis", floor=floor).data["rows"]
+        tennis = {r["engine"]: r["restitution"] for r in rows if r["body"] == "tennis"}
+        assert tennis["PhysX"] == tennis["Unity"] == pytest.approx(0.7449, abs=1e-4)
+        on_floor = pair("tennis", floor)["epsilon"] if floor else tennis["PhysX"]
+        assert tennis["Box2D"] == pytest.approx(on_floor)                   # max rule: its value on this floor
+
+
 def test_tables_refuse_a_tolerance_they_cannot_apply_to_a_constant_epsilon():
     """--tolerance was accepted and ignored by --engine tables for a constant epsilon (the value
     typed in is the target; no engine is run): refused in one line naming where it applies."""

@@ -313,3 +313,71 @@ def test_a_calibration_that_passes_at_4_phases_is_confirmed_with_16():
     assert cal.worst_error == pytest.approx(rerun.worst_error)
     assert M.drop_test(M.model_xml(setup, cal.contact), setup, 3, 4).worst_error <= 0.01
     assert not cal.ok and cal.worst_error > 0.01
+
+
+def test_the_second_balls_floor_pair_carries_a_soft_floor():
+    """``--against tennis --floor x=0.005,v=0.3``: dropped on the floor (the first ball parked out of
+    reach), the tennis ball bounces at its pair's 0.7205 of Eq. 6 (vrcal pair), not at its rigid-floor
+    0.7449 (the pair's solref had no floor factor: measured 0.7444..0.7465)."""
+    require_engine("mujoco")
+    import mujoco
+
+    from vrcal.inverse import pair
+
+    ex = export("basketball", "mujoco", against="tennis", floor="x=0.005,v=0.3")
+    target = pair("tennis", "x=0.005,v=0.3")["epsilon"]
+    m = mujoco.MjModel.from_xml_string(ex.text)
+    R2, H, g = m.geom_size[m.geom("ball2").id][0], 0.5, -m.opt.gravity[2]
+    q1, q2 = (m.jnt_qposadr[m.body(b).jntadr[0]] for b in ("ball", "ball2"))
+    v2 = m.jnt_dofadr[m.body("ball2").jntadr[0]] + 2
+    ratios = []
+    for phase in (0.0, 0.5):
+        d = mujoco.MjData(m)
+        d.qpos[q1:q1 + 3] = [5.0, 5.0, 1e3]
+        d.qpos[q2:q2 + 3] = [0.0, 0.0, R2 + H + phase * (2 * g * H) ** 0.5 * m.opt.timestep]
+        start, apex, last = d.qpos[q2 + 2] - R2, None, 0.0
+        while apex is None:
+            mujoco.mj_step(m, d)
+            if last > 0 >= d.qvel[v2]:
+                apex = d.qpos[q2 + 2] - R2
+            last = d.qvel[v2]
+        ratios.append((apex / start) ** 0.5)
+    assert target == pytest.approx(0.7205, abs=5e-4)
+    assert np.allclose(ratios, target, atol=0.01)
+
+
+def test_the_header_names_the_slowest_impact_the_calibration_holds_for():
+    """A tennis ball calibrated at its standard drop (7.1..3.9 m/s) at 1 ms, implicitfast: the damper's
+    margin (v dt/2 = 3.5 mm) makes slow impacts bounce high (from 20 mm 0.79..0.86 against 0.745). The
+    header now says the speeds it was checked over and the slowest impact measured to hold; one bounce
+    there is within the tolerance in MuJoCo, and at the miss it names it is not."""
+    require_engine("mujoco")
+    from dataclasses import replace
+
+    from vrcal.engines.export import drop_height_for_speed_m
+
+    ex = export("tennis", "mujoco", dt_s=1e-3, integrator="implicitfast")
+    m = re.search(r"checked over impact speeds ([0-9.]+)\.\.([0-9.]+) m/s; holds down to ([0-9.]+) m/s "
+                  r"\(single bounces, 4 phases\) \(at ([0-9.]+) m/s off by", " ".join(
+                      line.strip(" <!->") for line in ex.text.splitlines()[:8]))
+    assert m, ex.text[:800]
+    fastest, slowest, holds, miss = (float(x) for x in m.groups())
+    assert fastest == pytest.approx(ex.setup.impact_speeds_m_per_s[0], rel=1e-2) and holds < slowest
+    assert 0.63 < miss < holds                                # 20 mm (0.63 m/s) misses: it lies below
+
+    def error_at(v):
+        trial = replace(ex.setup, drop_height_m=drop_height_for_speed_m(v, ex.setup.g_m_per_s2), n_bounces=1)
+        return M.drop_test(ex.text, trial, 1, 4).worst_error
+
+    assert error_at(holds * 1.001) <= 0.01 < error_at(miss)
+
+
+def test_a_step_where_no_damping_holds_the_ball_down_names_one_that_works():
+    """RK4 at 5 ms: the tennis ball's spring adds energy at every damping; the refusal used to stop
+    there, naming no step (others do). It names one, and that step exports."""
+    require_engine("mujoco")
+    with pytest.raises(UsageError, match=r"^MuJoCo at --dt 0\.005 s \(RK4, spring contact\) misses: MuJoCo's "
+                                         r"ball bounced higher .* --dt ([0-9.e-]+) meets both") as info:
+        export("tennis", "mujoco", dt_s=5e-3, integrator="rk4")
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
+    assert export("tennis", "mujoco", dt_s=dt_ok, integrator="rk4").data["worst_error"] <= 0.01

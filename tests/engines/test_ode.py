@@ -226,13 +226,23 @@ def test_the_compiled_speed_law_callback_bounces_by_the_relative_normal_speed(wr
     assert apexes.size == 0 or apexes[0] < 0.01
 
 
-def test_the_compiled_pair_callback_gives_each_pair_its_own_epsilon(tmp_path):
+@pytest.mark.parametrize("floor", [None, "x=0.005,v=0.3"])
+def test_the_compiled_pair_callback_gives_each_pair_its_own_epsilon(tmp_path, floor):
     """``--against``: pasted as it is, the near callback bounces the basketball off a (fixed) tennis
     ball with the pair's 0.5707 of Eq. 6, not the basketball's 0.7662 (an earlier snippet set that on
-    every contact of ball_geom), the basketball off the floor with its own, the tennis ball with its own."""
+    every contact of ball_geom), the basketball off the floor with its own, the tennis ball with its own.
+    On a soft ``--floor`` each ball's floor pair carries the floor's epsilon too (Eq. 6; 'pairs' and the
+    callback had the balls' rigid-floor 0.766 and 0.745, where the target was 0.7411)."""
     require_engine("ode")
-    params = json.loads(export("basketball", "ode", against="tennis").text)
+    from vrcal.inverse import pair
+
+    params = json.loads(export("basketball", "ode", against="tennis", floor=floor).text)
     pairs, H = params["pairs"], params["ball"]["drop_height_m"]
+    on = (lambda ball: pair(ball, floor)["epsilon"]) if floor else (lambda ball: pair(ball, "x=0,v=1")["epsilon"])
+    assert pairs["basketball/floor"] == pytest.approx(on("basketball"), rel=1e-9)     # vrcal pair's Eq. 6
+    assert pairs["tennis/floor"] == pytest.approx(on("tennis"), rel=1e-9)
+    assert pairs["basketball/floor"] == pytest.approx(params["target_epsilon"], rel=1e-12)
+    assert f"{pairs['tennis/floor']:.6f}" in params["snippet"]
     R2, top = get_ball("tennis").radius_m, 0.5
     on_ball2 = _compiled_drop(tmp_path, params, f"ball2_geom = dCreateSphere(space, {R2}); "
                                                 f"dGeomSetPosition(ball2_geom, 0, 0, {top - R2});") - top

@@ -78,8 +78,10 @@ def require_runtime(name):
     engine = get_engine(name)
     if not engine.runs:
         runnable = ", ".join(k for k, e in ENGINES.items() if e.runs)
-        why = ("; Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce in libode "
-               "(its note says what it measured): vrcal verify --engine ode runs that drop test"
+        why = ("; Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce and threshold "
+               "in libode with the ODE export's contact (soft_erp 0, soft_cfm 1e-10), not the soft_erp and "
+               "soft_cfm Gazebo derives from the SDF's kp and kd (its note says what it measured): vrcal verify "
+               "--engine ode runs that drop test"
                if engine.name == "gazebo" else "")
         raise UsageError(f"vrcal cannot run {engine.name} (export only); verify works with: {runnable}{why}")
     return load(engine.name).version()

@@ -88,15 +88,12 @@ def export_params(setup, n_bounces=None, pair=None):
     if pair:
         out["changeDynamics"]["ball2"] = {"restitution": pair["epsilon_ball2"], "contactProcessingThreshold": 0.0,
                                           "linearDamping": 0.0, "angularDamping": 0.0, "lateralFriction": 0.0}
-        out["pairs"] = {
-            f"{setup.ball}/floor": ball_eps * setup.floor_epsilon,
-            f"{pair['ball2']}/floor": pair["epsilon_ball2"] * setup.floor_epsilon,
-            f"{setup.ball}/{pair['ball2']}": pair["epsilon"],
-        }
+        out["pairs"] = dict(pair["pairs"])      # every pair's epsilon, Eq. 6 (export.pair_epsilons)
         out["notes"].append(
             "pair: Bullet's product rule gives ball x ball2 = "
             f"{ball_eps:.6g} x {pair['epsilon_ball2']:.6g} = {ball_eps * pair['epsilon_ball2']:.6g}, "
-            f"Eq. 6 gives {pair['epsilon']:.6g}: nothing else to set"
+            f"Eq. 6 gives {pair['epsilon']:.6g}: with ball, ball2 and floor set as the snippet does, nothing "
+            "else to set"
         )
     return out
 
@@ -235,11 +232,19 @@ p.changeDynamics(ball, -1, **{ball})
 p.changeDynamics(floor, -1, **{floor})
 """
 
+#: The snippet's line for the second ball of ``--against`` (every body the export names is set).
+PY_SNIPPET_BALL2 = """# ball2 = your {name} body (Bullet's product rule then gives each pair its Eq. 6 value)
+p.changeDynamics(ball2, -1, **{ball2})
+"""
+
 
 def py_snippet(params):
     """The Python lines that apply an exported parameter set to a user's bodies (and ``vrcal_step``)."""
     text = PY_SNIPPET.format(engine=params["setPhysicsEngineParameter"], gz=params["setGravity"][2],
                              ball=params["changeDynamics"]["ball"], floor=params["changeDynamics"]["floor"])
+    if "ball2" in params["changeDynamics"]:
+        text += PY_SNIPPET_BALL2.format(name=params.get("pair", {}).get("ball2", "second ball"),
+                                        ball2=params["changeDynamics"]["ball2"])
     code = step_code(params)
     if code:
         text += "# each step: vrcal_step(ball) instead of p.stepSimulation()\n" + code

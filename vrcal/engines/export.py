@@ -85,6 +85,44 @@ def combine_epsilons(eps_a, eps_b, K_per_s=DEFAULT_K_PER_S):
     return eq.epsilon_from_contact_time(T, K_per_s)
 
 
+def pair_epsilons(setup, ball2, eps_ball2):
+    """epsilon of every pair of an ``--against`` export, each from :func:`combine_epsilons` (Eq. 6 of [1]).
+
+    The floor is a body too: a compliant ``--floor`` enters both balls' floor pairs through its own
+    epsilon (its virtual body, Eq. 7), a rigid floor as 1. Every engine takes its pair values from here.
+
+    Parameters
+    ----------
+    setup : DropSetup
+        the first ball's setup (``ball_epsilon`` against a rigid floor, ``floor_epsilon``)
+    ball2 : str
+        the second ball's name
+    eps_ball2 : float
+        the second ball's epsilon against a rigid floor, in (0, 1]
+
+    Returns
+    -------
+    dict
+        ``{"BALL/floor": ..., "BALL2/floor": ..., "BALL/BALL2": ...}``
+    """
+    eps_a = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
+    return {f"{setup.ball}/floor": float(combine_epsilons(eps_a, setup.floor_epsilon)),
+            f"{ball2}/floor": float(combine_epsilons(eps_ball2, setup.floor_epsilon)),
+            f"{setup.ball}/{ball2}": float(combine_epsilons(eps_a, eps_ball2))}
+
+
+def drop_height_for_speed_m(v_m_per_s, g_m_per_s2, k_per_m=0.0):
+    """Drop height [m] from which a ball released at rest hits at ``v_m_per_s`` [m/s].
+
+    Eq. 8 of [1] inverted, ``H = v^2 / (2 g)``; with quadratic air drag ``a = -g - k v|v|``
+    (``k_per_m`` [1/m], below the terminal speed) ``H = -ln(1 - k v^2 / g) / (2 k)``.
+    """
+    v2 = float(v_m_per_s) ** 2
+    if not k_per_m:
+        return v2 / (2.0 * g_m_per_s2)
+    return -math.log1p(-k_per_m * v2 / g_m_per_s2) / (2.0 * k_per_m)
+
+
 def parse_impact_speed(text):
     """``LO[:HI]`` [m/s] -> (lo, hi) floats with 0 < lo <= hi; UsageError otherwise."""
     parts = str(text).split(":")
@@ -205,14 +243,14 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     n = N_BOUNCES if n_bounces is None else int(n_bounces)
     if impact_speed is not None:
         lo, hi = parse_impact_speed(impact_speed) if isinstance(impact_speed, str) else impact_speed
-        H = hi * hi / (2.0 * g)
+        k = 0.0
         if drag:
             from vrcal.drop.effects import drag_constant_per_m
 
             k = float(drag_constant_per_m(drag, body.diameter_m, body.mass_kg))
             if hi * hi * k / g >= 1:
                 raise UsageError(f"--impact-speed {hi:g} m/s is above the terminal speed {math.sqrt(g / k):.3g} m/s")
-            H = -math.log1p(-k * hi * hi / g) / (2.0 * k)
+        H = drop_height_for_speed_m(hi, g, k)
         if lo < hi and n_bounces is None:
             eps_floor_guess = eps_ball
             n = 1 + math.ceil(math.log(lo / hi) / math.log(eps_floor_guess)) if eps_floor_guess < 1 else N_BOUNCES
@@ -398,17 +436,22 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             floor_too = " (a virtual body x=DEPTH,v=SPEED is a --floor)" if "=" in str(against) else ""
             raise UsageError(f"--against takes a second ball of the standards{floor_too}: {exc}") from None
         eps2 = ball_epsilon(b2).nominal
-        eps_pair = float(combine_epsilons(setup.ball_epsilon, eps2))            # the product, at any K
-        pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2, "epsilon": eps_pair,
+        pairs = pair_epsilons(setup, b2.key, eps2)
+        pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2,
+                "epsilon": pairs[f"{setup.ball}/{b2.key}"], "pairs": pairs,
                 "equation": "Eq. 6: T = T_A + T_B, epsilon = exp(-K T) = epsilon_A * epsilon_B"}
         second = DropSetup(ball=b2.key, mass_kg=b2.mass_kg.nominal, radius_m=b2.radius_m,
-                           drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=eps2, dt_s=setup.dt_s,
-                           g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2)
+                           drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=pairs[f"{b2.key}/floor"],
+                           dt_s=setup.dt_s, g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2,
+                           floor_epsilon=setup.floor_epsilon)
     module = load(eng.name)
     summary = ""
+    asked_lo = parse_impact_speed(impact_speed)[0] if isinstance(impact_speed, str) else \
+        (impact_speed[0] if impact_speed is not None else None)
     if eng.name == "mujoco":
         cal = calibrate_or_refuse(setup, stiffness, n_phases)
-        text = module.export_mjcf(setup, cal, pair, second)
+        coverage = speed_coverage(setup, "mujoco", module.export_mjcf(setup, cal), asked_lo)
+        text = module.export_mjcf(setup, cal, pair, second, coverage)
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
@@ -416,22 +459,28 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"worst eps error "
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
+        summary = _lines(summary, _coverage_summary(setup, coverage))
     elif eng.name in ("ode", "bullet"):
         checked = check_step(setup, eng.name, n_phases=n_phases)
         setup = _with_note(setup, checked)
-        summary = _not_run(checked)
+        coverage = _checked_coverage(setup, eng.name, checked, asked_lo)
+        summary = _lines(_not_run(checked), _phases_summary(checked), _coverage_summary(setup, coverage))
         data = module.export_params(setup, setup.n_bounces, pair)
+        if coverage:
+            data["notes"].insert(1, coverage.note(setup.tolerance))
         data["how_chosen"] = list(setup.notes)
         if pair:
-            data["pair"] = pair
+            data["pair"] = {k: v for k, v in pair.items() if k != "pairs"}       # the pairs are data["pairs"]
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, "Gazebo")
         checked = check_step(setup, "gazebo", n_phases=n_phases)             # Gazebo runs ODE
         setup = _with_note(setup, checked)
-        summary = _not_run(checked)
-        text = module.export_sdf(setup, pair, second, checked)
+        coverage = _checked_coverage(setup, "gazebo", checked, asked_lo)
+        summary = _lines(_not_run(checked), _phases_summary(checked), _coverage_summary(setup, coverage))
+        text = module.export_sdf(setup, pair, second, checked if coverage is None else
+                                 f"{checked}; {coverage.note(setup.tolerance)}")
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
         if setup.drop_height_m is not None:
@@ -449,6 +498,39 @@ def _above(value, limit):
         if float(text) > limit:
             return text
     return f"{value:.8g}"
+
+
+def _checked_coverage(setup, engine, checked, asked_lo):
+    """:func:`speed_coverage` of an ODE, Bullet or Gazebo export whose step was run here, else None."""
+    if checked.startswith(NOT_RUN):
+        return None
+    return speed_coverage(setup, engine, _run_params(setup, engine), asked_lo)
+
+
+def _coverage_summary(setup, coverage):
+    """The terminal's line when ``--impact-speed``'s slowest speed was not reached (else '')."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(coverage.shortfall(setup.tolerance), 100)) if coverage else ""
+
+
+#: How :func:`check_step`'s note says that the step was checked over fewer phases than it confirms with.
+FEWER_PHASES = "not confirmed over"
+
+
+def _phases_summary(note):
+    """The terminal's line when the step was checked over fewer than :data:`CONFIRM_PHASES` phases."""
+    if FEWER_PHASES not in note:
+        return ""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(f"step checked over {note.split(' phases x ')[0].rsplit('(', 1)[-1]} contact "
+                                   f"phases only, {note[note.index(FEWER_PHASES):].split(')')[0]}", 100))
+
+
+def _lines(*lines):
+    """The non-empty ``lines`` joined by newlines (the terminal's summary of an export)."""
+    return "\n".join(line for line in lines if line)
 
 
 def _not_run(note):
@@ -470,9 +552,18 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     """
     from vrcal.engines import mujoco as M
 
+    from vrcal.engines.common import StillBouncing
+
     kind, w = _contact_choice(setup, stiffness)
     refuse_constant_for_law(setup, "MuJoCo")
-    cal = M.calibrate(setup, n_phases, kind, w)
+    try:
+        cal = M.calibrate(setup, n_phases, kind, w)
+    except StillBouncing as exc:             # no damping brings it down: name a step that works, as below
+        dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
+        where = (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
+                 f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
+        raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {kind} contact) misses: "
+                         f"{exc}; {where}; see --trade-off") from None
     if cal.ok:
         return cal
     misses = []
@@ -674,9 +765,12 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                 f"{setup.dt_s:g} s moves epsilon by up to {bound:.3g} and the ball sinks up to {depth * 1e3:.3g} mm "
                 f"(limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm); {later}")
     if isinstance(runs, DropRuns) and _meets(setup, runs):
+        fewer = (f" ({FEWER_PHASES} {CONFIRM_PHASES} phases: that many would pass the run limit of "
+                 f"{get_engine('ode' if engine == 'gazebo' else engine).max_steps:d} steps)"
+                 if _phases(runs) < CONFIRM_PHASES else "")
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
-                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm)")
+                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}")
     if runs is None:
         what = (f"time step {setup.dt_s:g} s is too large for {engine}: not run here ({label} is not installed); by "
                 f"the step bound its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor")
@@ -800,21 +894,148 @@ def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
         require_runtime(name)
     except (EngineUnavailable, UsageError):
         return None
-    module = load(name)
     trial = replace(setup, dt_s=dt_s)
     try:
         check_steps(trial, n_phases, name, get_engine(name).max_steps)
     except UsageError as exc:
         return str(exc)
-    params = module.export_params(trial, trial.n_bounces)
+    try:
+        return load(name).drop_test(_run_params(trial, engine), trial, trial.n_bounces, n_phases)
+    except DataError as exc:
+        return str(exc)
+
+
+def _run_params(setup, engine):
+    """The parameters ODE (also Gazebo's SDF, with its one constant) or Bullet runs ``setup`` with."""
+    params = load("ode" if engine == "gazebo" else engine).export_params(setup, setup.n_bounces)
     if engine == "gazebo" and params.pop("restitution_law", None):       # the SDF's one constant
         from vrcal.engines.common import constant_epsilon
 
-        params["contact"]["bounce"] = constant_epsilon(trial)
-    try:
-        return module.drop_test(params, trial, trial.n_bounces, n_phases)
-    except DataError as exc:
-        return str(exc)
+        params["contact"]["bounce"] = constant_epsilon(setup)
+    return params
+
+
+#: The low-speed scan below a drop test's slowest impact (:func:`speed_coverage`): speeds halve from it,
+#: then the step between the last that held and the first that missed is split this many times.
+LOW_SPEED_HALVINGS, LOW_SPEED_SPLITS = 6, 3
+
+
+@dataclass(frozen=True)
+class SpeedCoverage:
+    """Impact speeds an export was checked over, and how far below them its contact was measured to hold.
+
+    Attributes
+    ----------
+    fastest_m_per_s, slowest_m_per_s : float
+        first and last impact speed of the drop test the export was checked (or calibrated) with
+    holds_down_to_m_per_s : float
+        the lowest single impact measured (one bounce from rest, :data:`N_PHASES` phases) at which the
+        error stays within the tolerance, every speed between it and ``slowest_m_per_s`` too
+    miss : tuple or None
+        (speed [m/s], worst error) of the fastest impact measured that missed, None when none did
+    asked_m_per_s : float or None
+        the slowest speed of ``--impact-speed LO:HI`` when the drop test did not reach it
+    at_asked : float or str or None
+        the worst error measured there (a str: why there is no measurement)
+    """
+
+    fastest_m_per_s: float
+    slowest_m_per_s: float
+    holds_down_to_m_per_s: float
+    miss: tuple | None = None
+    asked_m_per_s: float | None = None
+    at_asked: float | str | None = None
+
+    def note(self, tolerance):
+        """The line a file's header carries (< 100 columns, no two dashes: it goes into XML comments)."""
+        line = (f"checked over impact speeds {self.fastest_m_per_s:.3g}..{self.slowest_m_per_s:.3g} m/s; "
+                f"holds down to {self.holds_down_to_m_per_s:.3g} m/s (single bounces, {N_PHASES} phases)")
+        if self.miss and math.isfinite(self.miss[1]):
+            line += f" (at {self.miss[0]:.3g} m/s off by {self.miss[1]:.3g} > {tolerance:g})"
+        elif self.miss:
+            line += f" (at {self.miss[0]:.3g} m/s no bounce as the target's)"
+        return line
+
+    def shortfall(self, tolerance):
+        """What the terminal says when ``--impact-speed LO:HI``'s LO was not reached, else ''."""
+        if self.asked_m_per_s is None:
+            return ""
+        what = (f"--impact-speed: the drop test covers {self.fastest_m_per_s:.3g}..{self.slowest_m_per_s:.3g} m/s, "
+                f"not down to {self.asked_m_per_s:g} m/s; measured below it: holds down to "
+                f"{self.holds_down_to_m_per_s:.3g} m/s")
+        if isinstance(self.at_asked, str):
+            return what + f"; at {self.asked_m_per_s:g} m/s {self.at_asked}"
+        verdict = "within" if self.at_asked <= tolerance else "MISSES"
+        return what + (f"; at {self.asked_m_per_s:g} m/s one bounce is off by {self.at_asked:.3g} ({verdict} "
+                       f"--tolerance {tolerance:g})")
+
+
+def speed_coverage(setup, engine, runnable, asked_lo=None):
+    """Measure how far below the drop test's slowest impact the exported contact keeps epsilon.
+
+    Single bounces from rest (:data:`N_PHASES` phases each, the target vrcal's model) at half the
+    slowest impact speed, a quarter, ... (:data:`LOW_SPEED_HALVINGS`, while the rebound rises
+    :data:`RISE_M`), then the step between the last speed that held and the first that missed split
+    :data:`LOW_SPEED_SPLITS` times (geometrically); and once at ``asked_lo`` [m/s] when the drop
+    test did not reach it. MuJoCo's damper is tuned to the calibrated speeds (margin ``v dt/2``): a
+    slower ball falls into the margin and bounces off it higher; ODE and Bullet's bounce holds.
+
+    Parameters
+    ----------
+    setup : DropSetup
+    engine : str
+        ode, bullet, gazebo (run in libode) or mujoco
+    runnable : dict or str
+        the exported parameters (ODE, Bullet: the JSON dict; Gazebo: the ODE parameters it runs;
+        MuJoCo: the MJCF text)
+    asked_lo : float or None
+        the slowest speed of ``--impact-speed LO:HI`` [m/s]
+
+    Returns
+    -------
+    SpeedCoverage or None
+        None for a speed-dependent epsilon (its law's reference is the drop's first impact) or an
+        engine not installed here
+    """
+    if setup.restitution_exponent or setup.drop_height_m is None or runnable is None:
+        return None
+    module = load("ode" if engine == "gazebo" else engine)
+    v = setup.impact_speeds_m_per_s
+    fastest, slowest = float(v[0]), float(v[-1])
+
+    def error_at(speed):
+        trial = replace(setup, drop_height_m=drop_height_for_speed_m(speed, setup.g_m_per_s2, setup.drag_k_per_m),
+                        n_bounces=1, notes=())
+        if float(trial.model.apex_heights_m[0][-1]) < RISE_M:
+            return f"a bounce rises less than {RISE_M * 1e3:g} mm (not measured)"
+        try:
+            return float(module.drop_test(runnable, trial, 1, N_PHASES).worst_error)
+        except (DataError, UsageError) as exc:
+            return str(exc)
+
+    held, miss = slowest, None
+    for _ in range(LOW_SPEED_HALVINGS):
+        err = error_at(held / 2.0)
+        if isinstance(err, str) and "not measured" in err:
+            break
+        if isinstance(err, str) or err > setup.tolerance:
+            miss = (held / 2.0, err if not isinstance(err, str) else float("inf"))
+            break
+        held /= 2.0
+    if miss is not None:
+        for _ in range(LOW_SPEED_SPLITS):
+            mid = math.sqrt(held * miss[0])
+            err = error_at(mid)
+            if isinstance(err, float) and err <= setup.tolerance:
+                held = mid
+            else:
+                miss = (mid, err if isinstance(err, float) else float("inf"))
+    at_asked = None
+    if asked_lo is not None and asked_lo < slowest * (1 - 1e-6):
+        at_asked = error_at(asked_lo)
+    else:
+        asked_lo = None
+    return SpeedCoverage(fastest, slowest, held, miss, asked_lo, at_asked)
 
 
 def parse_exported(engine, text):

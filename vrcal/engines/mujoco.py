@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import re
+import textwrap
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -769,9 +770,12 @@ def pair_contact(eps, setup):
     return contact_for(eps, "spring", setup.dt_s, w)
 
 
-def export_mjcf(setup, cal, pair=None, second=None):
-    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs)."""
+def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
+    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs; with a
+    :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the calibration holds for)."""
     header = header_lines(setup, cal)
+    if coverage is not None:
+        header[3:3] = textwrap.wrap(coverage.note(setup.tolerance), 88)
     pairs, bodies = [], []
     if pair and second is not None:
         R, R2 = setup.radius_m, second.radius_m
@@ -781,7 +785,7 @@ def export_mjcf(setup, cal, pair=None, second=None):
             f'      <geom name="ball2" type="sphere" size="{_fmt(R2)}" mass="{_fmt(second.mass_kg)}"/>',
             "    </body>",
         ]
-        pairs = [("ball2", "floor", pair_contact(pair["epsilon_ball2"], setup)),
+        pairs = [("ball2", "floor", pair_contact(pair["pairs"][f"{pair['ball2']}/floor"], setup)),
                  ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")

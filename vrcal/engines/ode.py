@@ -108,11 +108,7 @@ def export_params(setup, n_bounces=None, pair=None):
         out["notes"].append("epsilon depends on the impact speed: the near callback sets bounce from the "
                             "ball's normal speed (formula of 'restitution_law', or interpolate its table)")
     if pair:
-        out["pairs"] = {
-            f"{setup.ball}/floor": setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon,
-            f"{pair['ball2']}/floor": pair["epsilon_ball2"],
-            f"{setup.ball}/{pair['ball2']}": pair["epsilon"],
-        }
+        out["pairs"] = dict(pair["pairs"])      # every pair's epsilon, Eq. 6 (export.pair_epsilons)
         out["notes"].append(
             f"ODE has no mixing rule: the snippet's near callback sets each contact's bounce to its pair's value "
             f"from 'pairs' (ball_geom: your {setup.ball}, ball2_geom: your {pair['ball2']}; both balls: Eq. 6, "

@@ -47,11 +47,22 @@ def table(setup, pair=None):
          "threshold_m_per_s": 0.01, "how": "floor restitution 0 (max rule)"},
     ]
     if pair:
+        ball2 = pair["ball2"]
+        for eng in ("PhysX", "Unity"):
+            rows.append({"engine": eng, "body": ball2, "restitution": pair["epsilon_ball2"], "combine": "Multiply",
+                         "threshold_m_per_s": 0.01, "how": "the second ball's material: its epsilon against a "
+                         "rigid floor, Multiply"})
+        rows.append({"engine": "Box2D", "body": ball2, "restitution": pair["pairs"][f"{ball2}/floor"],
+                     "combine": "max (built in)", "threshold_m_per_s": 0.01,
+                     "how": "the second ball's fixture: its value on this floor (floor restitution 0, max rule)"})
         rows.append({
             "engine": "Box2D", "body": pair["name"], "restitution": pair["epsilon"], "combine": "custom",
             "threshold_m_per_s": 0.01,
             "how": "max() cannot multiply: replace b2MixRestitution (v2.4, b2_contact.h) or set "
-                   "b2WorldDef.restitutionCallback (v3) to return a*b",
+                   "b2WorldDef.restitutionCallback (v3) to return a*b" + (
+                       "" if setup.floor_epsilon == 1 else
+                       f" of the balls' rigid-floor values ({setup.ball_epsilon:.4f} x {pair['epsilon_ball2']:.4f}; "
+                       "the fixtures hold each ball's value on this floor)"),
         })
         for eng in ("PhysX", "Unity"):
             rows.append({"engine": eng, "body": pair["name"], "restitution": pair["epsilon"],
