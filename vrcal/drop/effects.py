@@ -776,3 +776,31 @@ def resolve_effects(effects):
             out[name] = params
         return out
     return {get_effect(name).name: check_parameters(name, params) for name, params in effects.items()}
+
+
+def flight_expectation(mass_kg, diameter_m, g_m_per_s2, air_density_kg_per_m3=AIR_DENSITY_KG_PER_M3):
+    """What this ball's buoyancy, added mass and air drag make of its flights, for the plausibility
+    checks of a record (:func:`vrcal.measurements.plausibility.check_trajectory`).
+
+    Parameters
+    ----------
+    mass_kg, diameter_m : float
+        the ball [kg], [m]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+    air_density_kg_per_m3 : float
+        rho [kg/m^3]
+
+    Returns
+    -------
+    (g_eff_m_per_s2, k_per_m) : (float, ndarray)
+        the downward acceleration without drag (:func:`buoyant_gravity_m_per_s2`), and the drag constants
+        (:func:`drag_constant_per_m`, added mass rho V / 2) at the median of the drag coefficient's prior
+        and 2 sigma_ln either side (0.26, 0.47, 0.86: a sphere below the drag crisis, [4, 6])
+    """
+    rho = float(air_density_kg_per_m3)
+    g_eff = float(buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, rho))
+    prior = EFFECTS["air_drag"].parameter("drag_coefficient").density
+    cds = prior.center() * np.exp(np.array([-2.0, 0.0, 2.0]) * prior.sigma_ln)
+    added = 0.5 * rho * float(sphere_volume_m3(diameter_m))
+    return g_eff, np.asarray(drag_constant_per_m(cds, diameter_m, mass_kg, rho, added), dtype=float)
