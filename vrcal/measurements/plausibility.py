@@ -325,13 +325,16 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     span = float(np.ptp(y[release:])) if y.size > release else 0.0
     dragged = bool(ks) and -math.expm1(-2.0 * max(ks) * span) >= DRAG_MATTERS
     g_fit, upside, n = flight_gravity(t, y, release, sigma_m)
-    if (upside or g_fit is None) and dragged and release_fall_sign(t, y, release) > 0:
+    fall = release_fall_sign(t, y, release) if dragged else 0
+    fix = "remove --y-down" if y_down else "use --y-down"
+    if fall < 0:
+        _fail(data.source, f"the record looks upside down (the ball falls upward from its release): {fix}")
+    if fall > 0 and (upside or g_fit is None):
         # drag-dominated flights are no parabolas (and a resting tail's small bounces look like an
         # upside-down record's): the ball falls downward from its release, so it is upright
         fits = _flight_fits(t, y, 1.0, release, sigma_m)
         g_fit, upside, n = (_weighted_median_g(fits), False, len(fits)) if fits else (None, False, 0)
     if upside:
-        fix = "remove --y-down" if y_down else "use --y-down"
         _fail(data.source, f"the record looks upside down (its flights curve upward, {abs(g_fit):.3g} m/s^2): {fix}")
     if g_fit is None and not dragged:
         return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
