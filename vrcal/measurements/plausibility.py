@@ -338,7 +338,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
         _fail(data.source, f"the record looks upside down (its flights curve upward, {abs(g_fit):.3g} m/s^2): {fix}")
     if g_fit is None and not dragged:
         return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
-    expected = "" if g_exp == g_m_per_s2 else f"; {g_exp:.3g} expected of this ball's buoyancy and added mass"
+    expected = "" if g_exp == g_m_per_s2 else f"; this ball's {g_exp:.3g} with buoyancy"
     if g_fit is not None and g_fit >= 0:
         ratio = g_fit / g_exp
         text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
@@ -351,10 +351,22 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
         drag_fits = [(g, nd, k) for (g, nd), k in drag_fits if g is not None and g > 0]
         if drag_fits:
             g_d, n_d, k = min(drag_fits, key=lambda f: abs(math.log(f[0] / g_exp)))
+            drag_text = (f"g from {n_d} flight(s) with this ball's air drag (k = {k:.3g} 1/m): {g_d:.3g} m/s^2 "
+                         f"({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")
             if G_OK[0] <= g_d / g_exp <= G_OK[1]:
-                return [Finding("note", f"g from {n_d} flight(s) with this ball's air drag (k = {k:.3g} 1/m): "
-                                        f"{g_d:.3g} m/s^2 ({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")]
-        if g_fit is None:
+                return [Finding("note", drag_text)]
+            if g_fit is None or not G_WARN[0] <= ratio <= G_WARN[1]:
+                # judged by the flights of this ball, not parabolas
+                g_fit, ratio, text = g_d, g_d / g_exp, drag_text
+        elif g_fit is None:
+            # heights in another unit scale the drag constant too: flights with k / factor fall with g x factor
+            k = ks[len(ks) // 2]
+            for factor, unit, scale in LENGTH_MIXUPS:
+                g_u, _ = _drag_fit_g(segments, k / factor, sigma_m)
+                if g_u is not None and G_OK[0] <= g_u / g_exp / factor <= G_OK[1]:
+                    _fail(data.source, f"heights look like {unit}, not as read: the flights fall as this ball's "
+                                       f"would with {g_u:.3g} m/s^2 ({g_u / g_m_per_s2:.3g} x g) (write the unit in "
+                                       f"the header, e.g. 'y (mm)', or give --scale {scale:g})")
             return [Finding("note", "g cannot be checked: no flight fits a parabola or a flight with this ball's "
                                     "air drag")]
     if g_fit < 0:
@@ -366,11 +378,12 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     for factor, unit, scale in LENGTH_MIXUPS:
         if G_OK[0] <= ratio / factor <= G_OK[1]:
             _fail(data.source, f"heights look like {unit}, not as read: the flights fall with {g_fit:.3g} m/s^2 "
-                               f"({ratio:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
+                               f"({g_fit / g_m_per_s2:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
                                f"header, e.g. 'y (mm)', or give --scale {scale:g})")
     for factor, unit in ((1e-6, "ms"), (1e6, "s under a header in ms")):
         if G_OK[0] <= ratio / factor <= G_OK[1]:
-            _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 ({ratio:.3g} x g)")
+            _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 "
+                               f"({g_fit / g_m_per_s2:.3g} x g)")
     pixels = (f"; if the heights are pixels, --scale {1.0 / ratio:.3g} (m per pixel) makes the flights fall "
               f"with g at this frame rate") if ratio > 20.0 else ""
     _fail(data.source, f"{text}: the heights or the times are not in the units read (check --fs, --scale and the "
