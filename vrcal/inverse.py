@@ -21,7 +21,7 @@ from vrcal.errors import UsageError, unit_hint
 from vrcal.model import restitution as eq
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
-from vrcal.textout import number, table, wrap
+from vrcal.textout import mass, number, table, wrap
 
 _LEVELS = ("min", "nominal", "max")
 
@@ -369,7 +369,7 @@ def fit_text(result):
                 ", not the standard's drop-test window"
         else:
             who, what = f"{r['ball']}, a ball of your own", "one ε, no drop-test window"
-        text = wrap(answer) + wrap(f"{who}: m = {number(r['mass_kg'] * 1e3, 3)} g, "
+        text = wrap(answer) + wrap(f"{who}: m = {mass(r['mass_kg'])}, "
                                    f"D = {number(r['diameter_m'] * 1e3, 3)} mm; {what}")
         text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     if fixed and fixed.get("warning"):

@@ -18,7 +18,7 @@ import textwrap
 
 import numpy as np
 
-from vrcal.textout import MAX_COLUMNS, ms, number, table
+from vrcal.textout import MAX_COLUMNS, mass, ms, number, table
 
 #: File names written by ``vrcal discover --report DIR``.
 REPORT_FILES = {"text": "report.txt", "figure": "discover.png", "json": "discover.json"}
@@ -387,7 +387,7 @@ def fit_report(discovery, details=False):
         see = "the verdict and the notes" if d.warnings else "the notes"
         count, what = f"{n_data} of {d.n_read}", f"{what} fitted; see {see}"
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
-            f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
+            f"(m = {mass(float(ball.mass_kg))}, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
     lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
     if d.effects:

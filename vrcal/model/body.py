@@ -411,9 +411,18 @@ def _plausible(props, mass_kg, diameter_m):
     lo, hi = BALL_DENSITY_KG_PER_M3
     if lo <= rho <= hi:
         return props
+    from vrcal.errors import unit_hint
+
+    m, D = float(props.mass_kg), float(props.diameter_m)
+    hint = "; --mass is in kg and --diameter in m"
+    # the slips that make a ball that can exist: grams for kg, cm or mm for m, or both (the user's own values)
+    for f_m, f_d, small in ((1000, 1, "cm"), (1, 100, "cm"), (1, 1000, "mm"), (1000, 100, "cm"), (1000, 1000, "mm")):
+        if lo <= float(ball_density_kg_per_m3(m / f_m, D / f_d)) <= hi:
+            hint = ((unit_hint(m, m / f_m, "--mass", "kg", "g", f_m) if f_m > 1 else "")
+                    + (unit_hint(D, D / f_d, "--diameter", "m", small, f_d) if f_d > 1 else ""))
+            break
     what = "lighter than air" if rho < lo else "denser than any material"
-    raise UsageError(f"a ball of {props.mass_kg:g} kg and {props.diameter_m:g} m would be {what} "
-                     f"({rho:.3g} kg/m^3): --mass is in kg (57 g = 0.057) and --diameter in m (6.6 cm = 0.066)")
+    raise UsageError(f"a ball of {m:g} kg and {D:g} m would be {what} ({rho:.3g} kg/m^3){hint}")
 
 
 def _check_size(label, value, unit=""):
