@@ -520,7 +520,7 @@ def contact_time_range_s(mass_kg, diameter_m):
     """The plausible contact times of a ball [s], (shortest, longest): Hertz's time of a solid ball at the
     stiffest and softest modulus of its density class (:data:`SOLID_MODULUS_CLASSES`), or the membrane
     model of an inflated one over :data:`GAUGE_PRESSURE_RANGE_PA`, at :data:`TYPICAL_IMPACT_M_PER_S`: a
-    golf ball 0.26-6.3 ms, a steel bearing 29-47 us, a tennis ball 4.9-9.5 ms.
+    golf ball 0.25-6.3 ms, a steel bearing 29-53 us, a tennis ball 5.0-9.5 ms.
 
     Parameters
     ----------
