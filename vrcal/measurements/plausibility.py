@@ -356,8 +356,8 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
                          f"({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")
             if G_OK[0] <= g_d / g_exp <= G_OK[1]:
                 return [Finding("note", drag_text)]
-            if g_fit is None or not G_WARN[0] <= ratio <= G_WARN[1]:
-                # judged by the flights of this ball, not parabolas
+            if g_fit is None or (G_WARN[0] <= g_d / g_exp <= G_WARN[1] and not G_WARN[0] <= ratio <= G_WARN[1]):
+                # judged by the flights of this ball, not parabolas (which judge a record far off as before)
                 g_fit, ratio, text = g_d, g_d / g_exp, drag_text
         elif g_fit is None:
             # heights in another unit scale the drag constant too: flights with k / factor fall with g x factor
