@@ -22,7 +22,7 @@ from vrcal.model import restitution as eq
 from vrcal.model.plausible import check_drop_test_height
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
-from vrcal.textout import number, table, wrap
+from vrcal.textout import mass, number, table, wrap
 
 _LEVELS = ("min", "nominal", "max")
 
@@ -126,7 +126,9 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     else:
         out = _single_fit(body, K, as_paper, epsilon)
     if drop_test is not None:
+        out["notes"] = list(out.get("notes", [])) + drop_test.pop("notes", [])
         out.update(drop_test)
+    out["notes"] = list(out.get("notes", [])) + buoyancy_notes(body.mass_kg, body.diameter_m)
     eps = out["epsilon"]
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in eps}  # keyed by the epsilon level
     out["T_s"] = _bounds(T)
@@ -178,11 +180,74 @@ def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom",
     read = ", ".join(f"{what} {value:g} m to the {point}"
                      for what, point, value in (("H", drop_measured_to, drop_height_m),
                                                 ("h", rebound_measured_to, rebound_height_m)) if point != "bottom")
-    return eps, {
+    keys = {
         "epsilon_source": f"your drop test, ε = √(h/H) (Eq. 9){'; ' + read if read else ''}",
         "drop_height_m": H,
         "rebound_height_m": h,
     }
+    return eps, {**keys, **drop_test_drag(body.mass_kg, body.diameter_m, H, h)}
+
+
+#: A sphere's drag coefficient below the drag crisis, for :func:`drop_test_drag` (the median of
+#: ``air_drag``'s prior in :mod:`vrcal.drop.effects`).
+SPHERE_DRAG_COEFFICIENT = 0.47
+
+#: Shift of epsilon [1] by a sphere's drag from which :func:`drop_test_drag` notes it.
+DRAG_NOTE_EPSILON = 0.01
+
+
+def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
+    """What a sphere's air drag makes of one's own drop test: ``{}`` when it moves epsilon by less than
+    :data:`DRAG_NOTE_EPSILON`, else ``epsilon_with_drag`` (:func:`vrcal.model.restitution.
+    epsilon_from_heights_with_drag` at C_d :data:`SPHERE_DRAG_COEFFICIENT`), ``drag_coefficient`` and a
+    ``notes`` entry saying so. Eq. (9) stays the result: the ball's own C_d is not known.
+
+    Parameters
+    ----------
+    mass_kg, diameter_m : float
+        the ball [kg], [m]
+    drop_height_m, rebound_height_m : float
+        H and h to the ball's bottom [m]
+    """
+    added = 0.5 * eq.AIR_DENSITY_KG_PER_M3 * float(eq.sphere_volume_m3(diameter_m))   # the air's added mass
+    k = eq.drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, diameter_m, mass_kg, added_mass_kg=added)
+    eps = float(eq.epsilon_from_heights(rebound_height_m, drop_height_m))
+    with_drag = float(eq.epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k))
+    if abs(with_drag - eps) < DRAG_NOTE_EPSILON:
+        return {}
+    table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:g} --diameter "
+             f"{diameter_m:g}) measure the drag and the contact's ε")
+    drag = f"a sphere's C_d {SPHERE_DRAG_COEFFICIENT:g} slows it by k = {k:.3g} 1/m"
+    if with_drag > 1.0:
+        note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce rises {rebound_height_m:g}"
+                f" m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): check the mass, the diameter and "
+                f"the heights. {table}")
+    else:
+        note = (f"air drag: this ball is light for its size ({drag}); with that drag the contact's own ε is "
+                f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag). {table}")
+    return {"epsilon_with_drag": with_drag, "drag_coefficient": SPHERE_DRAG_COEFFICIENT, "notes": [note]}
+
+
+#: Air displaced over the ball's mass, rho V / m, from which :func:`buoyancy_notes` warns.
+LARGE_BUOYANCY = 0.1
+
+
+def buoyancy_notes(mass_kg, diameter_m):
+    """A warning (list of one text, else empty) when the air a ball displaces is at least
+    :data:`LARGE_BUOYANCY` of its mass: its flights fall with g (m - rho V) / (m + rho V / 2), not g.
+
+    Parameters
+    ----------
+    mass_kg, diameter_m : float
+        the ball [kg], [m]
+    """
+    ratio = eq.AIR_DENSITY_KG_PER_M3 * float(eq.sphere_volume_m3(diameter_m)) / float(mass_kg)
+    if ratio < LARGE_BUOYANCY:
+        return []
+    g_eff = (1.0 - ratio) / (1.0 + 0.5 * ratio)
+    return [f"warning: buoyancy is large: the air this ball displaces weighs {ratio:.0%} of the ball, so it "
+            f"falls with {g_eff:.2f} g (buoyancy and the air's added mass); ε from heights holds, but a "
+            f"simulation needs buoyancy and air drag, and an engine has neither"]
 
 
 def _as_body(ball):
@@ -320,7 +385,7 @@ def fit_text(result):
                 ", not the standard's drop-test window"
         else:
             who, what = f"{r['ball']}, a ball of your own", "one ε, no drop-test window"
-        text = wrap(answer) + wrap(f"{who}: m = {number(r['mass_kg'] * 1e3, 3)} g, "
+        text = wrap(answer) + wrap(f"{who}: m = {mass(r['mass_kg'])}, "
                                    f"D = {number(r['diameter_m'] * 1e3, 3)} mm; {what}")
         text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     if fixed and fixed.get("warning"):

@@ -92,6 +92,12 @@ def ms(seconds, digits=3):
     return f"{number(float(seconds) * 1e3, digits)} ms"
 
 
+def mass(kg, digits=3):
+    """A mass in grams, or in kilograms from 1 kg up: ``mass(0.0577) == '57.7 g'``, ``mass(3.0) == '3.00 kg'``."""
+    kg = float(kg)
+    return f"{number(kg, digits)} kg" if kg >= 1.0 else f"{number(kg * 1e3, digits)} g"
+
+
 def table(rows, headers, align=None, indent=""):
     """An aligned text table.
 

@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vrcal.drop.effects import flight_expectation
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
 
@@ -626,7 +627,9 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         sigma = third_difference_sigma(np.asarray(first.t_s, float), np.asarray(first.y_m, float))
     if progress is not None:
         progress(0.5, "checking the record and finding its bounces")
-    checked = plausibility.check(record, diameter, g_m_per_s2, y_down=y_down, sigma_m=sigma or 0.0)
+    g_flight, drag_per_m = flight_expectation(float(np.mean(ball.mass_kg)), diameter, g_m_per_s2)
+    checked = plausibility.check(record, diameter, g_m_per_s2, y_down=y_down, sigma_m=sigma or 0.0,
+                                 g_expected_m_per_s2=g_flight, drag_per_m=drag_per_m)
     notes += list(checked.notes)
     warnings = list(checked.warnings)
     record = checked.data

@@ -268,14 +268,17 @@ class Discovery:
         by tau), nor a little drag from a
         slightly speed-dependent one; a drop table's few heights cannot prove drag at its size, yet
         the ball has it. The final model is fitted again with them held there (its own effects free):
-        the shift of ε is a systematic uncertainty beside the fit's statistical one. Measured: the
+        the shift of ε is a systematic uncertainty beside the fit's statistical one. The contact's duration is
+        known to a band only (:func:`vrcal.drop.effects.contact_time_range_s`: the moduli of the ball's
+        density class, or an inflated ball's gauge pressures): ``epsilon_shift_range`` [lo, hi] is the
+        shift over it (``held_range``), and holds ``epsilon_shift``. Measured: the
         blue ball's phyphox records move by -0.0012 to -0.0027 for a 5 ms contact (1-3 x their +-);
         a tennis ball's phone impact times with C_d 0.55 and 5 ms contacts named a speed law with
         epsilon 0.0064 (20 sigma) low, which the held fit restores.
         """
         if self.kind == "trajectory" or self.verdict == "untested":
             return None
-        from vrcal.drop.effects import EFFECTS
+        from vrcal.drop.effects import EFFECTS, contact_time_range_s
 
         f = self.final
         added = [(effect, name) for effect, name, kinds in EXPECTED_EFFECTS
@@ -286,8 +289,21 @@ class Discovery:
         held = {f"{effect}.{name}": EFFECTS[effect].parameter(name).density.center(self.ball)
                 for effect, name in added}
         start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
-        fit = res.fit_model(f.problem, tuple(f.effects) + tuple(e for e, _ in added), start, fixed=held)
-        return {"held": held, "epsilon_shift": float(fit.baseline_values["epsilon"] - f.baseline_values["epsilon"])}
+        effects = tuple(f.effects) + tuple(e for e, _ in added)
+
+        def shift(fixed):
+            fit = res.fit_model(f.problem, effects, start, fixed=fixed)
+            return float(fit.baseline_values["epsilon"] - f.baseline_values["epsilon"])
+
+        out = {"held": held, "epsilon_shift": shift(held)}
+        key = "contact_duration.contact_time_s"
+        if key in held:
+            # the contact time is known to a band (the ball's plausible moduli or gauge pressures), not a point
+            span = contact_time_range_s(float(np.mean(self.ball.mass_kg)), float(np.mean(self.ball.diameter_m)))
+            shifts = [shift({**held, key: tau}) for tau in span]
+            out["held_range"] = {key: list(span)}
+            out["epsilon_shift_range"] = [min(shifts + [out["epsilon_shift"]]), max(shifts + [out["epsilon_shift"]])]
+        return out
 
     @property
     def fit_epsilon_uncertainty(self):

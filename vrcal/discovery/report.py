@@ -18,7 +18,7 @@ import textwrap
 
 import numpy as np
 
-from vrcal.textout import MAX_COLUMNS, number, table
+from vrcal.textout import MAX_COLUMNS, mass, ms, number, table
 
 #: File names written by ``vrcal discover --report DIR``.
 REPORT_FILES = {"text": "report.txt", "figure": "discover.png", "json": "discover.json"}
@@ -277,10 +277,19 @@ def _systematic_lines(d, sigma):
     if sys_ is None:
         return []
     shift = sys_["epsilon_shift"]
-    if abs(shift) < 0.5 * (sigma or 0.0) or abs(shift) < 5e-5:
+    band = sys_.get("epsilon_shift_range") or [shift, shift]
+    largest = max(abs(band[0]), abs(band[1]), abs(shift))
+    if largest < 0.5 * (sigma or 0.0) or largest < 5e-5:
         return []
+    ranges = sys_.get("held_range", {})
+
+    def contact(v):
+        lo, hi = ranges.get("contact_duration.contact_time_s", (v, v))
+        span = f", {ms(lo, 2)} to {ms(hi, 2)} for this kind of ball" if hi > lo else ""
+        return f"a contact of the {ms(v, 2)} expected of this ball{span}"
+
     what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
-            "contact_duration.contact_time_s": lambda v: f"a contact of the {v * 1e3:.2g} ms expected of this ball"}
+            "contact_duration.contact_time_s": contact}
     held = " and ".join(what[k](v) for k, v in sys_["held"].items())
     at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects else "")
     tail = "a systematic uncertainty beside the ± above"
@@ -288,8 +297,12 @@ def _systematic_lines(d, sigma):
         # not a small correction: two answers, one for each kind of engine
         tail = ("the contact's own restitution if the ball has that drag, for an engine that applies it; "
                 "the value above suits an engine without air drag")
-    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.4f}{at}, {shift:+.4f}; "
-            f"{tail})"]
+    # four decimals, more when the shift is smaller (two significant digits of it)
+    dec = max(4, 1 - math.floor(math.log10(largest)))
+    over = (f" ({d.epsilon + band[0]:.{dec}f} to {d.epsilon + band[1]:.{dec}f} over that range)"
+            if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
+    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.{dec}f}{at}, "
+            f"{shift:+.{dec}f}{over}; {tail})"]
 
 
 def _split_advice(d):
@@ -374,7 +387,7 @@ def fit_report(discovery, details=False):
         see = "the verdict and the notes" if d.warnings else "the notes"
         count, what = f"{n_data} of {d.n_read}", f"{what} fitted; see {see}"
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
-            f"(m = {number(float(ball.mass_kg) * 1e3, 3)} g, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
+            f"(m = {mass(float(ball.mass_kg))}, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
     lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
     if d.effects:

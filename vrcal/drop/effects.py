@@ -94,9 +94,9 @@ import numpy as np
 
 from vrcal.errors import UsageError, closest_name
 from vrcal.model.plausible import ball_density_kg_per_m3
+from vrcal.model.restitution import (  # noqa: F401 (the air's equations, here with the effects)
+    AIR_DENSITY_KG_PER_M3, drag_constant_per_m, epsilon_from_heights_with_drag, sphere_volume_m3)
 
-#: Density of dry air at 20 C and 101.325 kPa [kg/m^3], used by ``air_drag``.
-AIR_DENSITY_KG_PER_M3 = 1.204
 
 #: Data kinds the simulator can produce and the readers can read.
 KINDS = ("trajectory", "impacts", "apexes")
@@ -268,79 +268,6 @@ class Effect:
 # --------------------------------------------------------------------------- equations
 
 
-def sphere_volume_m3(diameter_m):
-    """Volume of a sphere of diameter D [m]: ``pi D^3 / 6`` [m^3]."""
-    D = np.asarray(diameter_m, dtype=float)
-    return _out(math.pi * D**3 / 6.0)
-
-
-def drag_constant_per_m(drag_coefficient, diameter_m, mass_kg, air_density_kg_per_m3=AIR_DENSITY_KG_PER_M3,
-                        added_mass_kg=0.0):
-    """Quadratic-drag constant k of ``a = -g - k v|v|`` [1/m].
-
-    Parameters
-    ----------
-    drag_coefficient : float or ndarray
-        C_d of the sphere, dimensionless, >= 0 (0.47 for a smooth sphere at 1e4 < Re < 2e5 [4])
-    diameter_m : float or ndarray
-        ball diameter D [m], > 0
-    mass_kg : float or ndarray
-        ball mass m [kg], > 0
-    air_density_kg_per_m3 : float or ndarray
-        rho [kg/m^3], default 1.204 (20 C)
-    added_mass_kg : float or ndarray
-        added mass of the air moving with the ball [kg] (0 unless ``buoyancy`` is on)
-
-    Returns
-    -------
-    k_per_m : float or ndarray
-        ``rho C_d (pi D^2 / 4) / (2 (m + m_added))`` [1/m]; the terminal speed is sqrt(g/k).
-
-    Notes
-    -----
-    Not in [1] (drag-free flights). C_d is taken constant (no drag crisis, no spin).
-    """
-    cd = np.asarray(drag_coefficient, dtype=float)
-    D = np.asarray(diameter_m, dtype=float)
-    m = np.asarray(mass_kg, dtype=float) + np.asarray(added_mass_kg, dtype=float)
-    return _out(air_density_kg_per_m3 * cd * (math.pi * D**2 / 4.0) / (2.0 * m))
-
-
-def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
-    """Coefficient of restitution from a drop test with quadratic air drag: Eq. (9) of [1] corrected.
-
-    Parameters
-    ----------
-    rebound_height_m : float or ndarray
-        apex height h of the first rebound [m], >= 0, of the ball's bottom above the floor (as H;
-        :func:`vrcal.model.restitution.height_to_bottom_m` brings a height to the centre or top there)
-    drop_height_m : float or ndarray
-        drop height H [m] of the ball's bottom above the floor, > 0 (released from rest)
-    k_per_m : float or ndarray
-        drag constant k [1/m] (:func:`drag_constant_per_m`), >= 0
-
-    Returns
-    -------
-    epsilon : float or ndarray
-        ``sqrt(expm1(2 k h) / (1 - exp(-2 k H)))``; ``sqrt(h / H)`` (Eq. 9) for k = 0
-
-    Notes
-    -----
-    Departure from [1], whose Eq. (9) ignores drag. The impact speed after a fall from
-    rest is v_t sqrt(1 - exp(-2kH)) and a rebound at speed u rises to ln(1 + k u^2/g)/(2k)
-    (v_t = sqrt(g/k)); eliminating u gives this closed form, independent of g. With C_d =
-    0.5 the drag-free Eq. (9) underestimates the contact epsilon of the standards' drop
-    tests by 0.024 (basketball, volleyball) to 0.037 (football).
-    """
-    h = np.asarray(rebound_height_m, dtype=float)
-    H = np.asarray(drop_height_m, dtype=float)
-    k = np.asarray(k_per_m, dtype=float)
-    h, H, k = np.broadcast_arrays(h, H, k)
-    pos = k > 1e-150  # smaller k change nothing in double precision (and would overflow)
-    ks = np.where(pos, k, 1.0)
-    return _out(np.where(pos, np.sqrt(np.expm1(2.0 * ks * h) / -np.expm1(-2.0 * ks * H)), np.sqrt(h / H)))
-
-
 def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per_m3):
     """Effective downward acceleration of a ball in still air with buoyancy and added mass.
 
@@ -498,13 +425,25 @@ def inflated_contact_time_s(mass_kg, diameter_m, gauge_pressure_pa=TYPICAL_GAUGE
 #: below which it is hollow (a tennis ball 370, table tennis 80, a basketball 80).
 SOLID_BALL_DENSITY_KG_PER_M3 = 600.0
 
-#: Softest effective modulus E* = E / (1 - nu^2) [Pa] of a solid ball's contact (a soft rubber), and the
-#: slowest impact speed [m/s] a bounce record holds, for :func:`solid_contact_time_s` as a bound.
-SOFT_SOLID_MODULUS_PA = 5e6
+#: Effective moduli E* = E / (1 - nu^2) [Pa] of a solid ball's contact by its mean density [kg/m^3], for
+#: :func:`expected_contact_time_s` and :func:`contact_time_range_s`: (least density, (softest, typical,
+#: stiffest), what). Rubbers, plastics, wood and clay (600-2,300 kg/m^3): putty and plasticine about 1 MPa,
+#: soft rubbers 1-10 MPa, a golf ball's core about 100 MPa (its contact: about 0.45 ms measured at 40 m/s),
+#: hard plastics (nylon, PMMA) and wood 2-3 GPa. Glass, stone, ceramics and metals (2,300 kg/m^3 and more):
+#: E* of glass 73 GPa, steel 220 GPa, tungsten carbide 600 GPa, and the contact's E* also counts the floor's
+#: compliance (a steel ball on glass 54 GPa, on steel 110 GPa). Sources: K. L. Johnson, Contact Mechanics
+#: (Cambridge 1985), Table 1 of ch. 4 and sec. 11.4; W. Goldsmith, Impact (Arnold 1960), ch. 4.
+SOLID_MODULUS_CLASSES = (
+    (600.0, (1e6, 100e6, 3e9), "rubber, plastic, wood or clay"),
+    (2300.0, (50e9, 100e9, 220e9), "glass, stone or metal"),
+)
+
+#: The slowest impact speed [m/s] a bounce record holds, for :func:`contact_time_limit_s`.
 SLOW_IMPACT_M_PER_S = 0.5
 
 
-def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOFT_SOLID_MODULUS_PA, speed_m_per_s=SLOW_IMPACT_M_PER_S):
+def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOLID_MODULUS_CLASSES[0][1][0],
+                         speed_m_per_s=SLOW_IMPACT_M_PER_S):
     """Contact time of a solid elastic ball on a rigid floor, Hertz's impact [s].
 
     Parameters
@@ -514,9 +453,9 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOFT_SOLID_MODULUS_PA, 
     diameter_m : float or ndarray
         ball diameter D [m], > 0
     modulus_pa : float or ndarray
-        effective modulus E* = E / (1 - nu^2) of the ball [Pa] (the floor rigid)
+        effective modulus E* = E / (1 - nu^2) of the contact [Pa] (default the softest solid, 1 MPa)
     speed_m_per_s : float or ndarray
-        impact speed v [m/s], > 0
+        impact speed v [m/s], > 0 (default :data:`SLOW_IMPACT_M_PER_S`)
 
     Returns
     -------
@@ -525,9 +464,7 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOFT_SOLID_MODULUS_PA, 
 
     Notes
     -----
-    With the defaults (a soft rubber at 0.5 m/s) it bounds a solid ball's contact from above: a golf
-    ball 4.3 ms (measured: about 0.5 ms at tens of m/s), where the membrane model of an inflated ball,
-    :func:`inflated_contact_time_s`, gives 7.5 ms and its bound 15 ms.
+    A 12.7 mm steel bearing (E* 100 GPa) at 2.4 m/s: 39 us; a golf ball (100 MPa) at 2 m/s: 1.0 ms.
     """
     m = np.asarray(mass_kg, dtype=float)
     R = 0.5 * np.asarray(diameter_m, dtype=float)
@@ -536,25 +473,30 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOFT_SOLID_MODULUS_PA, 
     return _out(2.868 * (m * m / (R * E * E * v)) ** 0.2)
 
 
-#: Effective modulus E* [Pa] and impact speed [m/s] of a typical solid ball's contact in a drop test, for
-#: :func:`expected_contact_time_s` (a golf ball: about 0.45 ms measured at 40 m/s, Hertz's v^(-1/5) gives
-#: 0.8 ms at 3 m/s).
-TYPICAL_SOLID_MODULUS_PA = 100e6
+#: Impact speed [m/s] of a typical drop test's contact, for :func:`expected_contact_time_s` (Hertz's
+#: v^(-1/5) makes the time depend little on it: 0.8 ms for a golf ball at 3 m/s, 1.0 ms at 2 m/s).
 TYPICAL_IMPACT_M_PER_S = 2.0
 
 
-def _solid(mass_kg, diameter_m):
-    """Whether a ball is solid: denser than :data:`SOLID_BALL_DENSITY_KG_PER_M3`."""
-    return float(ball_density_kg_per_m3(mass_kg, diameter_m)) > SOLID_BALL_DENSITY_KG_PER_M3
+def solid_moduli_pa(mass_kg, diameter_m):
+    """The effective moduli (softest, typical, stiffest) [Pa] of a ball's contact from its density
+    (:data:`SOLID_MODULUS_CLASSES`), or None for a hollow ball (lighter than
+    :data:`SOLID_BALL_DENSITY_KG_PER_M3`)."""
+    rho = float(ball_density_kg_per_m3(mass_kg, diameter_m))
+    moduli = None
+    for least, values, _ in SOLID_MODULUS_CLASSES:
+        if rho > least:
+            moduli = values
+    return moduli
 
 
 def expected_contact_time_s(mass_kg, diameter_m):
     """The contact time to expect of a ball [s]: the membrane model of an inflated ball
     (:func:`inflated_contact_time_s`, 60 kPa), or Hertz's time of a solid one
-    (:func:`solid_contact_time_s` with :data:`TYPICAL_SOLID_MODULUS_PA` at
-    :data:`TYPICAL_IMPACT_M_PER_S`) when the ball is denser than :data:`SOLID_BALL_DENSITY_KG_PER_M3`:
-    table tennis 1.9 ms, tennis 6.7 ms, basketball 11 ms, a golf ball 1.0 ms. The median of the
-    contact time's prior density.
+    (:func:`solid_contact_time_s` at the typical modulus of its density class,
+    :data:`SOLID_MODULUS_CLASSES`, at :data:`TYPICAL_IMPACT_M_PER_S`): table tennis 1.9 ms, tennis 6.7 ms,
+    basketball 11 ms, a golf ball 1.0 ms, a 12.7 mm steel bearing 40 us. The median of the contact time's
+    prior density.
 
     Parameters
     ----------
@@ -563,15 +505,41 @@ def expected_contact_time_s(mass_kg, diameter_m):
     diameter_m : float
         ball diameter [m]
     """
-    if _solid(mass_kg, diameter_m):
-        return float(solid_contact_time_s(mass_kg, diameter_m, TYPICAL_SOLID_MODULUS_PA, TYPICAL_IMPACT_M_PER_S))
+    moduli = solid_moduli_pa(mass_kg, diameter_m)
+    if moduli is not None:
+        return float(solid_contact_time_s(mass_kg, diameter_m, moduli[1], TYPICAL_IMPACT_M_PER_S))
     return float(inflated_contact_time_s(mass_kg, diameter_m))
+
+
+#: Gauge pressures [Pa] of inflated balls (a volleyball 30 kPa to a football 110 kPa), for
+#: :func:`contact_time_range_s`.
+GAUGE_PRESSURE_RANGE_PA = (30e3, 110e3)
+
+
+def contact_time_range_s(mass_kg, diameter_m):
+    """The plausible contact times of a ball [s], (shortest, longest): Hertz's time of a solid ball at the
+    stiffest and softest modulus of its density class (:data:`SOLID_MODULUS_CLASSES`), or the membrane
+    model of an inflated one over :data:`GAUGE_PRESSURE_RANGE_PA`, at :data:`TYPICAL_IMPACT_M_PER_S`: a
+    golf ball 0.25-6.3 ms, a steel bearing 29-53 us, a tennis ball 5.0-9.5 ms.
+
+    Parameters
+    ----------
+    mass_kg : float
+        ball mass [kg]
+    diameter_m : float
+        ball diameter [m]
+    """
+    moduli = solid_moduli_pa(mass_kg, diameter_m)
+    if moduli is not None:
+        return tuple(float(solid_contact_time_s(mass_kg, diameter_m, e, TYPICAL_IMPACT_M_PER_S))
+                     for e in (moduli[2], moduli[0]))
+    return tuple(float(inflated_contact_time_s(mass_kg, diameter_m, p)) for p in GAUGE_PRESSURE_RANGE_PA[::-1])
 
 
 def contact_time_limit_s(mass_kg, diameter_m):
     """Largest physical contact time of a ball [s]: twice the membrane estimate of an inflated ball
-    (:func:`inflated_contact_time_s`), or Hertz's time of a soft solid at a slow impact
-    (:func:`solid_contact_time_s`) when the ball is denser than :data:`SOLID_BALL_DENSITY_KG_PER_M3`.
+    (:func:`inflated_contact_time_s`), or Hertz's time of a solid one at the softest modulus of its density
+    class (:data:`SOLID_MODULUS_CLASSES`) and a slow impact (:data:`SLOW_IMPACT_M_PER_S`).
 
     Parameters
     ----------
@@ -580,8 +548,9 @@ def contact_time_limit_s(mass_kg, diameter_m):
     diameter_m : float
         ball diameter [m]
     """
-    if _solid(mass_kg, diameter_m):
-        return float(solid_contact_time_s(mass_kg, diameter_m))
+    moduli = solid_moduli_pa(mass_kg, diameter_m)
+    if moduli is not None:
+        return float(solid_contact_time_s(mass_kg, diameter_m, moduli[0], SLOW_IMPACT_M_PER_S))
     return 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
 
 
@@ -642,13 +611,16 @@ EFFECTS = {
                       "tennis/basketball)",
                       LogNormalPrior(expected_contact_time_s, 1.0,
                                      "half period of an inflated ball at 60 kPa gauge, Hertz's time of a "
-                                     "solid one"),
+                                     "solid one at its density class's typical modulus"),
                       limits=lambda m, D: (0.0, contact_time_limit_s(m, D))),
         ),
         equation="t_liftoff = t_impact + tau_c;  in contact a half-sine dip of (v_in + v_out) tau_c / (2 pi)",
         description="each contact lasts tau_c: the impact intervals grow by tau_c each, unlike a pure "
                     "geometric series",
-        reference="Cross, Am. J. Phys. 67, 222 (1999)",
+        reference="Cross, Am. J. Phys. 67, 222 (1999); solid balls: Hertz (Landau & Lifshitz, Theory of "
+                  "Elasticity, sec. 9) with E* by density class: rubber, plastic, wood, clay 600-2,300 kg/m^3: "
+                  "1 MPa-3 GPa (typical 100 MPa); glass, stone, metal: 50-220 GPa (typical 100 GPa) (Johnson, "
+                  "Contact Mechanics, 1985; Goldsmith, Impact, 1960)",
         kinds=("trajectory", "impacts"),
         null_values={"contact_time_s": 0.0},
         function=liftoff_time_s,
@@ -777,3 +749,31 @@ def resolve_effects(effects):
             out[name] = params
         return out
     return {get_effect(name).name: check_parameters(name, params) for name, params in effects.items()}
+
+
+def flight_expectation(mass_kg, diameter_m, g_m_per_s2, air_density_kg_per_m3=AIR_DENSITY_KG_PER_M3):
+    """What this ball's buoyancy, added mass and air drag make of its flights, for the plausibility
+    checks of a record (:func:`vrcal.measurements.plausibility.check_trajectory`).
+
+    Parameters
+    ----------
+    mass_kg, diameter_m : float
+        the ball [kg], [m]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+    air_density_kg_per_m3 : float
+        rho [kg/m^3]
+
+    Returns
+    -------
+    (g_eff_m_per_s2, k_per_m) : (float, ndarray)
+        the downward acceleration without drag (:func:`buoyant_gravity_m_per_s2`), and the drag constants
+        (:func:`drag_constant_per_m`, added mass rho V / 2) at the median of the drag coefficient's prior
+        and 2 sigma_ln either side (0.26, 0.47, 0.86: a sphere below the drag crisis, [4, 6])
+    """
+    rho = float(air_density_kg_per_m3)
+    g_eff = float(buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, rho))
+    prior = EFFECTS["air_drag"].parameter("drag_coefficient").density
+    cds = prior.center() * np.exp(np.array([-2.0, 0.0, 2.0]) * prior.sigma_ln)
+    added = 0.5 * rho * float(sphere_volume_m3(diameter_m))
+    return g_eff, np.asarray(drag_constant_per_m(cds, diameter_m, mass_kg, rho, added), dtype=float)

@@ -126,9 +126,9 @@ def check_sampling(t_s, source="data"):
         _fail(source, f"samples are {dt:.3g} s apart (a frame rate of {fs:.3g} Hz){hint}")
 
 
-def _flight_fits(t, y, sign, release, sigma):
-    """Parabolas through the flights of ``sign * y`` between its prominent minima:
-    [(curvature y'' [unit/s^2], rms residual [unit], samples)]."""
+def _flight_segments(t, y, sign, release, sigma):
+    """The flights of ``sign * y`` between its prominent minima, the samples next to a contact left out:
+    [(times from the segment's start [s], heights [unit])]."""
     z = sign * y[release:]
     tt = t[release:]
     if z.size < 8:
@@ -139,15 +139,124 @@ def _flight_fits(t, y, sign, release, sigma):
     out = []
     for a, b in zip(edges[:-1], edges[1:]):
         lo, hi = a + 2, b - 1      # leave out the samples next to a contact
-        if hi - lo < 6:
-            continue
-        ts = tt[lo:hi] - tt[lo]
-        coef, res, *_ = np.polyfit(ts, z[lo:hi], 2, full=True)
-        rms = math.sqrt(float(res[0]) / (hi - lo)) if res.size else 0.0
-        # a clean flight is a parabola to the noise; one with a small bounce (or a cusp) inside is not
-        if rms <= max(4.0 * sigma, 0.01 * float(np.ptp(z[lo:hi]))):
-            out.append((2.0 * float(coef[0]), rms, hi - lo))
+        if hi - lo >= 6:
+            out.append((tt[lo:hi] - tt[lo], z[lo:hi]))
     return out
+
+
+def _clean(rms, z, sigma):
+    """A flight fits its curve to the noise (one with a small bounce or a cusp inside does not)."""
+    return rms <= max(4.0 * sigma, 0.01 * float(np.ptp(z)))
+
+
+def _flight_fits(t, y, sign, release, sigma):
+    """Parabolas through the flights of ``sign * y`` between its prominent minima:
+    [(curvature y'' [unit/s^2], rms residual [unit], samples)]."""
+    out = []
+    for ts, z in _flight_segments(t, y, sign, release, sigma):
+        coef, res, *_ = np.polyfit(ts, z, 2, full=True)
+        rms = math.sqrt(float(res[0]) / z.size) if res.size else 0.0
+        if _clean(rms, z, sigma):
+            out.append((2.0 * float(coef[0]), rms, z.size))
+    return out
+
+
+def _weighted_median_g(fits):
+    """Minus the sample-weighted median curvature of [(curvature, rms, samples)] [m/s^2]."""
+    curv = np.array([f[0] for f in fits])
+    weights = np.array([f[2] for f in fits], dtype=float)
+    order = np.argsort(curv)
+    cum = np.cumsum(weights[order])
+    return -float(curv[order][np.searchsorted(cum, 0.5 * cum[-1])])
+
+
+def drag_flight_height_m(t_s, g_m_per_s2, k_per_m, apex_time_s, apex_height_m):
+    """Height of a ball in free flight with quadratic air drag, about its apex [m].
+
+    Parameters
+    ----------
+    t_s : float or ndarray
+        time [s]
+    g_m_per_s2 : float
+        the downward acceleration without drag [m/s^2], > 0 (g, or g less buoyancy)
+    k_per_m : float
+        drag constant k of ``a = -g - k v|v|`` [1/m], > 0
+    apex_time_s, apex_height_m : float
+        time [s] and height [m] of the apex (of the release, for a fall from rest)
+
+    Returns
+    -------
+    height_m : float or ndarray
+        ``h0 + ln cos(s) / k`` rising (s < 0), ``h0 - ln cosh(s) / k`` falling, s = sqrt(g k) (t - t0)
+
+    Notes
+    -----
+    Not in [1] (drag-free flights). The rise is cut at s = -pi/2 (an infinite launch speed).
+    """
+    s = math.sqrt(g_m_per_s2 * k_per_m) * (np.asarray(t_s, dtype=float) - apex_time_s)
+    rising = np.log(np.cos(np.clip(s, -0.5 * math.pi + 1e-9, 0.0)))
+    falling = -(np.logaddexp(s, -s) - math.log(2.0))   # -ln cosh(s), no overflow
+    out = apex_height_m + np.where(s < 0, rising, falling) / k_per_m
+    return float(out) if out.ndim == 0 else out
+
+
+def _drag_fit_g(segments, k_per_m, sigma):
+    """g that flights with drag k need, fitted to each segment (g, apex time and height free): the
+    sample-weighted median over the segments that fit to the noise, and how many did (None, 0 if none)."""
+    from scipy.optimize import least_squares
+
+    fits = []
+    for ts, z in segments:
+        a, b, c = np.polyfit(ts, z, 2)
+        t0 = float(np.clip(-b / (2.0 * a), ts[0] - ts[-1], 2.0 * ts[-1])) if a < 0 else float(ts[0])
+        x0 = (max(-2.0 * a, 0.1), t0, float(np.max(z)))
+
+        def resid(p, ts=ts, z=z):
+            return drag_flight_height_m(ts, p[0], k_per_m, p[1], p[2]) - z
+
+        try:
+            sol = least_squares(resid, x0, bounds=([1e-6, -np.inf, -np.inf], np.inf), x_scale="jac")
+        except ValueError:
+            continue
+        rms = math.sqrt(float(np.mean(sol.fun ** 2)))
+        if sol.success and _clean(rms, z, sigma):
+            fits.append((-float(sol.x[0]), rms, z.size))
+    return (_weighted_median_g(fits), len(fits)) if fits else (None, 0)
+
+
+def release_fall_sign(t_s, y_m, release_index=0):
+    """Which way the ball falls from its release, without assuming parabolic flights.
+
+    A ball let go moves away from where it was held and accelerates the same way: downward. From the
+    release to where the record has moved a quarter of its span, the direction of the motion and the
+    sign of a quadratic's curvature must agree.
+
+    Parameters
+    ----------
+    t_s, y_m : ndarray
+        sample times [s] and heights [m]
+    release_index : int
+        first sample after the still segment
+
+    Returns
+    -------
+    int
+        +1: falls as y decreases (upright); -1: as y increases (upside down); 0: cannot tell (too few
+        samples, or a record that starts moving one way and accelerating the other: thrown, or mid-flight)
+    """
+    start = max(int(release_index) - 1, 0)
+    t = np.asarray(t_s, dtype=float)[start:]
+    y = np.asarray(y_m, dtype=float)[start:]
+    span = float(np.ptp(y)) if y.size else 0.0
+    if span <= 0:
+        return 0
+    moved = np.flatnonzero(np.abs(y - y[0]) >= 0.25 * span)
+    if moved.size == 0 or moved[0] < 3:
+        return 0
+    j = int(moved[0])
+    curvature = float(np.polyfit(t[:j + 1] - t[0], y[:j + 1], 2)[0])
+    direction = float(np.sign(y[j] - y[0]))
+    return int(-direction) if direction == np.sign(curvature) else 0
 
 
 def flight_gravity(t_s, y_m, release_index=0, sigma_m=0.0):
@@ -187,29 +296,82 @@ def flight_gravity(t_s, y_m, release_index=0, sigma_m=0.0):
         fits, upside = down, True
     if not fits:
         return None, False, 0
-    curv = np.array([f[0] for f in fits])
-    weights = np.array([f[2] for f in fits], dtype=float)
-    order = np.argsort(curv)
-    cum = np.cumsum(weights[order])
-    g = -float(curv[order][np.searchsorted(cum, 0.5 * cum[-1])])
-    return g, upside, len(fits)
+    return _weighted_median_g(fits), upside, len(fits)
 
 
-def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0):
-    """Sampling, orientation and g of a trajectory: a list of :class:`Finding`, or a DataError."""
+#: Drag matters to the flights' shape when ``1 - exp(-2 k H)`` (how far below the drag-free one the squared
+#: impact speed of a fall from the record's height lies) is at least this: the orientation then is told by
+#: the fall from the release (:func:`release_fall_sign`) when the parabolas disagree, and g by flights with
+#: drag when the parabolas miss it.
+DRAG_MATTERS = 0.05
+
+
+def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0,
+                     g_expected_m_per_s2=None, drag_per_m=()):
+    """Sampling, orientation and g of a trajectory: a list of :class:`Finding`, or a DataError.
+
+    ``g_expected_m_per_s2`` is the acceleration this ball's flights should show without drag (g less
+    its buoyancy, with its added mass: ``g_m_per_s2`` when None); ``drag_per_m`` the drag constants k
+    [1/m] of this ball over the plausible drag coefficients (empty: drag not considered). The flights
+    are judged against them, not against bare g: a balloon falls with 0.59 g and its flights are no
+    parabolas.
+    """
     check_sampling(data.t_s, data.source)
-    g_fit, upside, n = flight_gravity(data.t_s, data.y_m, getattr(data, "release_index", 0) or 0, sigma_m)
-    if g_fit is None:
-        return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
-    if g_fit < 0 and not upside:
-        return [Finding("note", "g cannot be checked: the flights do not curve one way")]
+    t = np.asarray(data.t_s, dtype=float)
+    y = np.asarray(data.y_m, dtype=float)
+    release = getattr(data, "release_index", 0) or 0
+    g_exp = float(g_expected_m_per_s2 or g_m_per_s2)
+    ks = tuple(float(k) for k in np.atleast_1d(drag_per_m) if k > 0)
+    span = float(np.ptp(y[release:])) if y.size > release else 0.0
+    dragged = bool(ks) and -math.expm1(-2.0 * max(ks) * span) >= DRAG_MATTERS
+    g_fit, upside, n = flight_gravity(t, y, release, sigma_m)
+    fall = release_fall_sign(t, y, release) if dragged else 0
+    fix = "remove --y-down" if y_down else "use --y-down"
+    if fall > 0 and (upside or g_fit is None):
+        # drag-dominated flights are no parabolas (and a resting tail's small bounces look like an
+        # upside-down record's): the ball falls downward from its release, so it is upright
+        fits = _flight_fits(t, y, 1.0, release, sigma_m)
+        g_fit, upside, n = (_weighted_median_g(fits), False, len(fits)) if fits else (None, False, 0)
     if upside:
-        fix = "remove --y-down" if y_down else "use --y-down"
         _fail(data.source, f"the record looks upside down (its flights curve upward, {abs(g_fit):.3g} m/s^2): {fix}")
-    ratio = g_fit / g_m_per_s2
-    text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({ratio:.3f} x {g_m_per_s2:.4g})"
-    if G_OK[0] <= ratio <= G_OK[1]:
-        return [Finding("note", text)]
+    if fall < 0:
+        _fail(data.source, f"the record looks upside down (the ball falls upward from its release): {fix}")
+    if g_fit is None and not dragged:
+        return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
+    # named where buoyancy matters (a light ball); the judgement is against g_exp all the same
+    expected = "" if abs(g_exp / g_m_per_s2 - 1.0) < 0.05 else f"; this ball's {g_exp:.3g} with buoyancy"
+    if g_fit is not None and g_fit >= 0:
+        ratio = g_fit / g_exp
+        text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
+               f"{g_m_per_s2:.4g}{expected})"
+        if G_OK[0] <= ratio <= G_OK[1]:
+            return [Finding("note", text)]
+    if dragged:
+        segments = _flight_segments(t, y, 1.0, release, sigma_m)
+        drag_fits = [(_drag_fit_g(segments, k, sigma_m), k) for k in ks]
+        drag_fits = [(g, nd, k) for (g, nd), k in drag_fits if g is not None and g > 0]
+        if drag_fits:
+            g_d, n_d, k = min(drag_fits, key=lambda f: abs(math.log(f[0] / g_exp)))
+            drag_text = (f"g from {n_d} flight(s) with this ball's air drag (k = {k:.3g} 1/m): {g_d:.3g} m/s^2 "
+                         f"({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")
+            if G_OK[0] <= g_d / g_exp <= G_OK[1]:
+                return [Finding("note", drag_text)]
+            if g_fit is None or (G_WARN[0] <= g_d / g_exp <= G_WARN[1] and not G_WARN[0] <= ratio <= G_WARN[1]):
+                # judged by the flights of this ball, not parabolas (which judge a record far off as before)
+                g_fit, ratio, text = g_d, g_d / g_exp, drag_text
+        elif g_fit is None:
+            # heights in another unit scale the drag constant too: flights with k / factor fall with g x factor
+            k = ks[len(ks) // 2]
+            for factor, unit, scale in LENGTH_MIXUPS:
+                g_u, _ = _drag_fit_g(segments, k / factor, sigma_m)
+                if g_u is not None and G_OK[0] <= g_u / g_exp / factor <= G_OK[1]:
+                    _fail(data.source, f"heights look like {unit}, not as read: the flights fall as this ball's "
+                                       f"would with {g_u:.3g} m/s^2 ({g_u / g_m_per_s2:.3g} x g) (write the unit in "
+                                       f"the header, e.g. 'y (mm)', or give --scale {scale:g})")
+            return [Finding("note", "g cannot be checked: no flight fits a parabola or a flight with this ball's "
+                                    "air drag")]
+    if g_fit < 0:
+        return [Finding("note", "g cannot be checked: the flights do not curve one way")]
     if G_WARN[0] <= ratio <= G_WARN[1]:
         return [Finding("warning", f"{text}: the frame rate or the length scale looks off (check --fs, --scale "
                                    f"and the units in the header)")]
@@ -217,11 +379,12 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     for factor, unit, scale in LENGTH_MIXUPS:
         if G_OK[0] <= ratio / factor <= G_OK[1]:
             _fail(data.source, f"heights look like {unit}, not as read: the flights fall with {g_fit:.3g} m/s^2 "
-                               f"({ratio:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
+                               f"({g_fit / g_m_per_s2:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
                                f"header, e.g. 'y (mm)', or give --scale {scale:g})")
     for factor, unit in ((1e-6, "ms"), (1e6, "s under a header in ms")):
         if G_OK[0] <= ratio / factor <= G_OK[1]:
-            _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 ({ratio:.3g} x g)")
+            _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 "
+                               f"({g_fit / g_m_per_s2:.3g} x g)")
     pixels = (f"; if the heights are pixels, --scale {1.0 / ratio:.3g} (m per pixel) makes the flights fall "
               f"with g at this frame rate") if ratio > 20.0 else ""
     _fail(data.source, f"{text}: the heights or the times are not in the units read (check --fs, --scale and the "
@@ -332,7 +495,8 @@ def check_apexes(data, diameter_m=None, label=""):
 # --------------------------------------------------------------------------- the whole record
 
 
-def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0):
+def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0,
+          g_expected_m_per_s2=None, drag_per_m=()):
     """Every check that applies to ``data`` (one run, or :class:`vrcal.measurements.Runs`).
 
     Parameters
@@ -346,6 +510,8 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
         the reader turned the y axis over (for the upside-down hint)
     sigma_m : float
         noise of one height [m], 0 when unknown
+    g_expected_m_per_s2, drag_per_m : float or None, sequence of float
+        the ball's flights: see :func:`check_trajectory`
 
     Returns
     -------
@@ -360,6 +526,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
     """
     from vrcal.measurements.types import Runs
 
+    flights = {"g_expected_m_per_s2": g_expected_m_per_s2, "drag_per_m": drag_per_m}
     if isinstance(data, Runs):
         runs, labels, findings = [], [], []
         dropped, equal = [], False
@@ -371,7 +538,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
                 at = f" (line {int(lines[1])})" if lines is not None and "(line " not in label else ""
                 dropped.append(f"{label}{at} {run.h_m[1]:.4g} m from {run.h_m[0]:.4g} m")
                 continue
-            checked = _check_one(run, diameter_m, g_m_per_s2, y_down, sigma_m, label)
+            checked = _check_one(run, diameter_m, g_m_per_s2, y_down, sigma_m, label, flights)
             runs.append(checked.data)
             labels.append(label)
             findings += checked.findings
@@ -386,12 +553,12 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
                                                f"swapped entry? read at the ball's top: --rebound-measured-to "
                                                f"top): {'; '.join(dropped)}"))
         return Checked(replace(data, runs=tuple(runs), labels=tuple(labels)), tuple(findings))
-    return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "")
+    return _check_one(data, diameter_m, g_m_per_s2, y_down, sigma_m, "", flights)
 
 
-def _check_one(data, diameter_m, g, y_down, sigma_m, label):
+def _check_one(data, diameter_m, g, y_down, sigma_m, label, flights):
     if data.kind == "trajectory":
-        findings = check_trajectory(data, g, y_down=y_down, sigma_m=sigma_m)
+        findings = check_trajectory(data, g, y_down=y_down, sigma_m=sigma_m, **flights)
         return Checked(data, tuple(f._replace(text=f"{label}: {f.text}") if label else f for f in findings))
     if data.kind == "impacts":
         chains = getattr(data, "chains", ()) or ((0, len(data.t_s)),)

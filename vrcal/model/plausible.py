@@ -90,10 +90,12 @@ def check_ball_size(mass_kg, diameter_m, *, mass_label="--mass", size_label="--d
     if fits:
         _, label, hint = min(fits)
         text += hint
-    else:
+    else:   # both slipped (grams and centimetres or millimetres), or neither would do
+        both = [(unit_hint(m, m / 1000, short(mass_label), "kg", "g", 1000)
+                 + unit_hint(D * size_per_diameter, D * size_per_diameter / f, short(size_label), "m", u, f))
+                for f, u in ((100, "cm"), (1000, "mm")) if lo <= ball_density_kg_per_m3(m / 1000, D / f) <= hi]
         label = None
-        text += (f": {short(mass_label)} is in kg (57 g = 0.057) and {short(size_label)} in m "
-                 "(6.6 cm = 0.066)")
+        text += both[0] if both else (f": {short(mass_label)} is in kg and {short(size_label)} in m")
     if where is not None:
         text = f"{where}: {label + ': ' if label else ''}{text}"
     raise error(text)
