@@ -219,9 +219,9 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
              f"{diameter_m:g}) measure the drag and the contact's ε")
     drag = f"a sphere's C_d {SPHERE_DRAG_COEFFICIENT:g} slows it by k = {k:.3g} 1/m"
     if with_drag > 1.0:
-        note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce rises {rebound_height_m:g}"
-                f" m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): check the mass, the diameter and "
-                f"the heights. {table}")
+        note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce "
+                f"rises {rebound_height_m:g} m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): "
+                f"check the mass, the diameter and the heights. {table}")
     else:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag the contact's own ε is "
                 f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag). {table}")

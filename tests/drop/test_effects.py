@@ -263,8 +263,12 @@ def test_a_solid_balls_contact_time_follows_its_density_class():
     """One modulus (100 MPa) for every solid ball gave a 12.7 mm steel bearing 0.64 ms; Hertz with
     E* ~ 1e11 Pa gives about 37 us at 2.4 m/s (Johnson, Contact Mechanics, sec. 11.4). A 60 g, 40 mm putty
     ball (5 ms contacts planted by an independent simulator) lies inside its class's band and limit."""
-    from vrcal.drop.effects import (contact_time_limit_s, contact_time_range_s, expected_contact_time_s,
-                                    solid_contact_time_s)
+    from vrcal.drop.effects import (
+        contact_time_limit_s,
+        contact_time_range_s,
+        expected_contact_time_s,
+        solid_contact_time_s,
+    )
 
     steel = (7800 * np.pi / 6 * 0.0127 ** 3, 0.0127)
     assert solid_contact_time_s(*steel, 1e11, 2.4) == pytest.approx(37e-6, rel=0.1)

@@ -302,7 +302,8 @@ def balloon():
 
     ball = BallProperties(0.002, 0.1, "balloon")
     drops = simulate_drops(1.5, 0.7, 8, ball, release_time_s=0.5,
-                           effects={"air_drag": {"drag_coefficient": 0.47}, "buoyancy": {"air_density_kg_per_m3": 1.204}})
+                           effects={"air_drag": {"drag_coefficient": 0.47},
+                                    "buoyancy": {"air_density_kg_per_m3": 1.204}})
     cols = sample_measurement(drops, "trajectory", fs_hz=60, noise_m=0.002, rng=3)
     t = np.concatenate([cols["t"], cols["t"][-1] + np.arange(1, 19) / 60])
     y = np.concatenate([cols["y"], np.random.default_rng(4).normal(0.0, 0.002, 18)]) + 0.05

@@ -95,8 +95,11 @@ import numpy as np
 from vrcal.errors import UsageError, closest_name
 from vrcal.model.plausible import ball_density_kg_per_m3
 from vrcal.model.restitution import (  # noqa: F401 (the air's equations, here with the effects)
-    AIR_DENSITY_KG_PER_M3, drag_constant_per_m, epsilon_from_heights_with_drag, sphere_volume_m3)
-
+    AIR_DENSITY_KG_PER_M3,
+    drag_constant_per_m,
+    epsilon_from_heights_with_drag,
+    sphere_volume_m3,
+)
 
 #: Data kinds the simulator can produce and the readers can read.
 KINDS = ("trajectory", "impacts", "apexes")

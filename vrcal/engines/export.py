@@ -551,7 +551,6 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     vrcal.engines.mujoco.Calibration
     """
     from vrcal.engines import mujoco as M
-
     from vrcal.engines.common import StillBouncing
 
     kind, w = _contact_choice(setup, stiffness)

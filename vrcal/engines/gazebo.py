@@ -116,7 +116,7 @@ def export_sdf(setup, pair=None, second=None, checked=None):
         f"<!-- vrcal export: {setup.ball}, target epsilon {setup.epsilon:.6f} "
         + ("on a rigid floor.\n" if setup.floor_epsilon == 1 else
            f"with its floor (floor epsilon {setup.floor_epsilon:.6f}, Eq. 6).\n")
-        + 
+        +
         "     Gazebo classic (ODE) uses bounce = min(ball, floor) and bounce_vel = min(thresholds):\n"
         "     the floor is set to 1 so the ball's coefficient is the one used; impacts slower than\n"
         f"     the threshold ({BOUNCE_VEL_M_PER_S} m/s) do not bounce (SDF's default 100000 m/s never bounces).\n"

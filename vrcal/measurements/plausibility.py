@@ -379,8 +379,8 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     for factor, unit, scale in LENGTH_MIXUPS:
         if G_OK[0] <= ratio / factor <= G_OK[1]:
             _fail(data.source, f"heights look like {unit}, not as read: the flights fall with {g_fit:.3g} m/s^2 "
-                               f"({g_fit / g_m_per_s2:.3g} x g) and the drop would be {drop:.3g} m (write the unit in the "
-                               f"header, e.g. 'y (mm)', or give --scale {scale:g})")
+                               f"({g_fit / g_m_per_s2:.3g} x g) and the drop would be {drop:.3g} m "
+                               f"(write the unit in the header, e.g. 'y (mm)', or give --scale {scale:g})")
     for factor, unit in ((1e-6, "ms"), (1e6, "s under a header in ms")):
         if G_OK[0] <= ratio / factor <= G_OK[1]:
             _fail(data.source, f"times look like {unit}: the flights fall with {g_fit:.3g} m/s^2 "

@@ -203,7 +203,8 @@ def difference_flags(cmp):
     if cmp.simultaneous:
         t, pairs = cmp.simultaneous[0]
         lines.append(f"order dependence: at t = {t:.4g} s {ea} resolved {len(pairs)} touching contacts one after "
-                     f"another ({', '.join(pairs)}: sequential impulses), {'ODE' if eb == 'ode' else eb}'s LCP solves them together in one "
+                     f"another ({', '.join(pairs)}: sequential impulses), "
+                     f"{'ODE' if eb == 'ode' else eb}'s LCP solves them together in one "
                      "step -- for touching balls (Newton's cradle) the two give different, equally momentum-"
                      "conserving outcomes")
     return lines
@@ -244,7 +245,8 @@ def comparison_text(cmp, max_rows=5):
         text += "  no matched apexes\n"
     if cmp.states:
         tol_p, tol_v = state_tolerances(cmp.dt_s)
-        text += wrap(f"{len(cmp.states)} bodies, largest |Δposition| = {number(cmp.max_position_difference_m * 1e3, 3)} "
+        largest = number(cmp.max_position_difference_m * 1e3, 3)
+        text += wrap(f"{len(cmp.states)} bodies, largest |Δposition| = {largest} "
                      f"mm (horizontal too; tolerance {tol_p * 1e3:g} mm, end velocity {tol_v:g} m/s)", first="  ")
     for line in difference_flags(cmp):
         text += wrap(line, first="  ")
