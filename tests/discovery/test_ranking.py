@@ -12,7 +12,7 @@ import shutil
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from helpers import shared_file
+from helpers import EXAMPLES, shared_file
 
 from vrcal.cli import main
 from vrcal.discovery import residuals as res
@@ -530,6 +530,44 @@ def test_what_every_ball_has_but_impact_times_cannot_resolve_is_a_systematic_of_
     cols = sample_measurement(simulate_drops(1.2, 0.75, 4, tennis, release_time_s=0.2), "trajectory", noise_m=0.001,
                               rng=0)
     assert discover(Trajectory(cols["t"], cols["y"], "track"), tennis).systematic is None
+
+
+def _hertzian_drop_table(tmp_path, seed):
+    """A table-tennis ball's drop table in closed form (independent of vrcal's simulator): quadratic drag
+    at C_d 0.40 (a smooth sphere's C_d(Re) at 2-5 m/s) and epsilon(v) = 1 - 0.08 (v / 4 m/s)^0.2 (a
+    viscoelastic ball, Kuwabara & Kono), drops 0.2-1.5 m, three trials each, read to 1 mm."""
+    m, D, g, rho = 0.0027, 0.040, 9.80665, 1.204
+    k = rho * 0.40 * np.pi * D**2 / 4 / (2 * m)
+    v_t = np.sqrt(g / k)
+    H = np.repeat([0.2, 0.4, 0.7, 1.0, 1.5], 3)
+    v = v_t * np.sqrt(-np.expm1(-2 * k * H))
+    eps = 1 - 0.08 * (v / 4.0) ** 0.2
+    h = np.log1p(k * (eps * v) ** 2 / g) / (2 * k) + np.random.default_rng(seed).normal(0, 0.001, H.size)
+    path = tmp_path / f"hertz{seed}.csv"
+    path.write_text("H (m),h (m)\n" + "".join(f"{a:.3f},{b:.3f}\n" for a, b in zip(H, h)))
+    return path, (lambda speed: 1 - 0.08 * (speed / 4.0) ** 0.2)
+
+
+@pytest.mark.parametrize("seed", [0, 2])   # seed 1 names an offset of 24 mm beside drag (eps 0.918)
+def test_a_drop_tables_unresolved_speed_law_is_a_systematic_and_held_only_where_the_data_allow_it(tmp_path, seed):
+    """Drag and a speed-dependent epsilon both take more from the higher drops: a drop table names drag
+    alone (C_d too high) with epsilon high by 0.01-0.02. Held at a viscoelastic ball's p = 1/5, the
+    systematic line comes back near the truth; a table of a ball of constant epsilon rejects p = 1/5
+    (chi-square far above the final model's), and no line is printed for it."""
+    from vrcal.discovery.ranking import discover_file
+
+    path, truth = _hertzian_drop_table(tmp_path, seed)
+    d = discover_file(str(path), "table_tennis")
+    key = "velocity_dependent_restitution.exponent"
+    assert d.effects == ["air_drag"], d.effects
+    assert key in d.systematic["held"] and "excluded" not in d.systematic
+    at_ref = truth(d.reference_speed)
+    assert abs(d.epsilon - at_ref) > 0.008                                    # the named fit alone is off
+    assert abs(d.epsilon + d.systematic["epsilon_shift"] - at_ref) < 0.4 * abs(d.epsilon - at_ref)
+    assert "speed-dependent epsilon (p 0.2), which these data do not resolve" in " ".join(fit_report(d).split())
+    constant = discover_file(str(EXAMPLES / "data" / "drop-table.csv"), "table_tennis")
+    assert constant.systematic["excluded"][key] > 9.0 and constant.systematic["held"] == {}
+    assert "speed-dependent epsilon (p" not in fit_report(constant)
 
 
 def test_the_epsilon_uncertainty_holds_the_bounces_scatter():

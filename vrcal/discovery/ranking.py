@@ -126,9 +126,18 @@ CONFUSABLE = {
 SPREAD_SEPARATES = 1.5
 
 #: Effects every ball has, held at their prior's median by :attr:`Discovery.systematic` when a record of
-#: these kinds does not resolve them: (effect, parameter, kinds).
+#: these kinds does not resolve them: (effect, parameter, kinds). A speed law's exponent differs from
+#: material to material (near 0 for some), so it is held only where the data allow it
+#: (:data:`HELD_IF_ALLOWED`).
 EXPECTED_EFFECTS = (("air_drag", "drag_coefficient", ("impacts", "apexes")),
+                    ("velocity_dependent_restitution", "exponent", ("apexes",)),
                     ("contact_duration", "contact_time_s", ("impacts",)))
+
+#: Of :data:`EXPECTED_EFFECTS`, those :attr:`Discovery.systematic` holds only when the record does not
+#: reject the held value (its chi-square at most ``Thresholds.indistinguishable_chi2`` above the final
+#: model's): a drop table of a ball of constant epsilon excludes a viscoelastic p = 1/5 (chi2 +34 on
+#: ``examples/data/drop-table.csv``), one of a Hertzian ping-pong ball does not (+0.2 to +1.5).
+HELD_IF_ALLOWED = frozenset({"velocity_dependent_restitution"})
 
 #: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
 VERDICTS = ("explained", "unexplained", "untested", "suspect input")
@@ -263,11 +272,15 @@ class Discovery:
 
         Held (when not named, :data:`EXPECTED_EFFECTS`): air drag at a smooth sphere's C_d (the prior's
         median, 0.47) for impact times and apex heights, and for impact times the contact's duration
-        expected of the ball (its prior's median, :func:`vrcal.drop.effects.expected_contact_time_s`).
+        expected of the ball (its prior's median, :func:`vrcal.drop.effects.expected_contact_time_s`);
+        for apex heights a viscoelastic ball's speed-dependent epsilon (p = 1/5, the prior's median)
+        when the data allow it (:data:`HELD_IF_ALLOWED`; else ``excluded``: {key: chi-square increase}).
         Impact times cannot tell a contact of duration tau from a higher epsilon (each interval grows
         by tau), nor a little drag from a
         slightly speed-dependent one; a drop table's few heights cannot prove drag at its size, yet
-        the ball has it. The final model is fitted again with them held there (its own effects free):
+        the ball has it, nor tell drag from a speed law (both take more from the higher drops: a
+        Hertzian ping-pong ball's table named drag alone at C_d 0.465 for 0.39-0.42, epsilon 0.934
+        for 0.916-0.931; held at p = 1/5 it gives 0.921 at 5.4 m/s). The final model is fitted again with them held there (its own effects free):
         the shift of ε is a systematic uncertainty beside the fit's statistical one. The contact's duration is
         known to a band only (:func:`vrcal.drop.effects.contact_time_range_s`: the moduli of the ball's
         density class, or an inflated ball's gauge pressures): ``epsilon_shift_range`` [lo, hi] is the
@@ -289,6 +302,19 @@ class Discovery:
         held = {f"{effect}.{name}": EFFECTS[effect].parameter(name).density.center(self.ball)
                 for effect, name in added}
         start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
+        excluded = {}
+        sigma2 = self.reference_sigma ** 2
+        for effect, name in added:
+            if effect in HELD_IF_ALLOWED:
+                key = f"{effect}.{name}"
+                alone = res.fit_model(f.problem, tuple(f.effects) + (effect,), start, fixed={key: held[key]})
+                increase = (alone.rss - f.rss) / sigma2
+                if increase > self.thresholds.indistinguishable_chi2:
+                    excluded[key] = float(increase)
+                    del held[key]
+        added = [(effect, name) for effect, name in added if f"{effect}.{name}" in held]
+        if not added:
+            return {"held": {}, "epsilon_shift": 0.0, "excluded": excluded} if excluded else None
         effects = tuple(f.effects) + tuple(e for e, _ in added)
 
         def shift(fixed):
@@ -296,6 +322,8 @@ class Discovery:
             return float(fit.baseline_values["epsilon"] - f.baseline_values["epsilon"])
 
         out = {"held": held, "epsilon_shift": shift(held)}
+        if excluded:
+            out["excluded"] = excluded
         key = "contact_duration.contact_time_s"
         if key in held:
             # the contact time is known to a band (the ball's plausible moduli or gauge pressures), not a point

@@ -289,9 +289,12 @@ def _systematic_lines(d, sigma):
         return f"a contact of the {ms(v, 2)} expected of this ball{span}"
 
     what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
-            "contact_duration.contact_time_s": contact}
+            "contact_duration.contact_time_s": contact,
+            "velocity_dependent_restitution.exponent":
+                lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
     held = " and ".join(what[k](v) for k, v in sys_["held"].items())
-    at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects else "")
+    at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects
+          or "velocity_dependent_restitution.exponent" in sys_["held"] else "")
     tail = "a systematic uncertainty beside the ± above"
     if "air_drag.drag_coefficient" in sys_["held"] and abs(shift) > max(0.01, 3 * (sigma or 0.0)):
         # not a small correction: two answers, one for each kind of engine
