@@ -276,15 +276,15 @@ class Discovery:
         for apex heights a viscoelastic ball's speed-dependent epsilon (p = 1/5, the prior's median)
         when the data allow it (:data:`HELD_IF_ALLOWED`; else ``excluded``: {key: chi-square increase}).
         Impact times cannot tell a contact of duration tau from a higher epsilon (each interval grows
-        by tau), nor a little drag from a
-        slightly speed-dependent one; a drop table's few heights cannot prove drag at its size, yet
-        the ball has it, nor tell drag from a speed law (both take more from the higher drops: a
-        Hertzian ping-pong ball's table named drag alone at C_d 0.465 for 0.39-0.42, epsilon 0.934
-        for 0.916-0.931; held at p = 1/5 it gives 0.921 at 5.4 m/s). The final model is fitted again with them held there (its own effects free):
-        the shift of ε is a systematic uncertainty beside the fit's statistical one. The contact's duration is
-        known to a band only (:func:`vrcal.drop.effects.contact_time_range_s`: the moduli of the ball's
-        density class, or an inflated ball's gauge pressures): ``epsilon_shift_range`` [lo, hi] is the
-        shift over it (``held_range``), and holds ``epsilon_shift``. Measured: the
+        by tau), nor a little drag from a slightly speed-dependent one; a drop table's few heights
+        cannot prove drag at its size, yet the ball has it, nor tell drag from a speed law (both take
+        more from the higher drops: a Hertzian ping-pong ball's table named drag alone at C_d 0.465
+        for 0.39-0.42, epsilon 0.934 for 0.916-0.931; held at p = 1/5 it gives 0.921 at 5.4 m/s).
+        The final model is fitted again with them held there (its own effects free): the shift of ε
+        is a systematic uncertainty beside the fit's statistical one. The contact's duration is
+        known to a band only (:func:`vrcal.drop.effects.contact_time_range_s`: the moduli of the
+        ball's density class, or an inflated ball's gauge pressures): ``epsilon_shift_range`` [lo,
+        hi] is the shift over it (``held_range``), and holds ``epsilon_shift``. Measured: the
         blue ball's phyphox records move by -0.0012 to -0.0027 for a 5 ms contact (1-3 x their +-);
         a tennis ball's phone impact times with C_d 0.55 and 5 ms contacts named a speed law with
         epsilon 0.0064 (20 sigma) low, which the held fit restores.
