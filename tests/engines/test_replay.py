@@ -62,7 +62,7 @@ def test_cli_replay_writes_the_figure_and_needs_from(pingpong, tmp_path):
     result = CliRunner().invoke(main, ["verify", "--from", doc, "--against", record, "--fs", "100", "--engine",
                                        "mujoco", "--dt", "1e-3", "--plot", str(png)])
     assert result.exit_code == 0, result.output
-    assert "of the rise or 3 x the noise sigma" in result.output
+    assert "of the rise or 3 sigma: yes" in result.output
     assert png.stat().st_size > 10_000
     result = CliRunner().invoke(main, ["verify", "--against", record, "--engine", "mujoco"])
     assert result.exit_code == 2 and "give --from too" in result.output

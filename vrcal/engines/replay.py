@@ -439,12 +439,11 @@ def format_replay(r):
     text = head + table(rows, ["rebound", "measured m", "rise mm"] + [label + " m" for _, label in names])
     text += "gap (RMS)  " + "   ".join(f"{label} {1e3 * r.gaps_m[key]:.3g} mm" for key, label in names) + "\n"
     k, err, diff, _allowed = r.worst_apex()
-    text += (f"engine apexes within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} x the noise sigma "
-             f"{1e3 * r.noise_m:.3g} mm: {'yes' if r.within_goal else 'no'} "
-             f"(worst: rebound {k}, {1e3 * diff:+.3g} mm, {100 * err:+.1f} %)\n")
+    text += (f"engine apexes within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} sigma: "
+             f"{'yes' if r.within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = {100 * err:+.1f} %)\n")
     import textwrap
 
-    for n in [*r.notes, f"noise: {r.noise_source}"]:
+    for n in [*r.notes, f"noise sigma {1e3 * r.noise_m:.3g} mm: {r.noise_source}"]:
         text += "\n".join(textwrap.wrap(f"note: {n}", 100, subsequent_indent="  ", break_on_hyphens=False)) + "\n"
     return text
 
