@@ -44,8 +44,11 @@ CONTACT_SOFT_CFM = 1e-10
 #: user's joints together, alone.
 CONTACT_SOFT_ERP = 0.0
 
-#: The contact flags of the ball's contacts.
-CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM")
+#: The contact flags of the ball's contacts. ``dContactApprox1``: a friction axis's limit is mu times
+#: the normal force (without it ODE takes mu as a force in newtons); the snippet's near callback adds
+#: ``dContactFDir1`` along the slip, so that a slip in any direction meets mu N (Coulomb), not up to
+#: sqrt(2) mu N on ODE's two default axes. With the exported mu = 0 neither changes a drop.
+CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM", "dContactApprox1")
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -98,7 +101,9 @@ def export_params(setup, n_bounces=None, pair=None):
             f"soft_cfm = {CONTACT_SOFT_CFM:g} on the ball's contacts (dContactSoftCFM): a soft contact eats "
             "energy (CFM 1e-5 lowers epsilon by about 1.5 %)",
             "friction is not set by vrcal: mu = 0 makes the ball's contacts frictionless (it slides, never "
-            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip)",
+            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip); with "
+            "dContactApprox1 it is a coefficient (limit mu N), and the snippet points fdir1 along the slip, so "
+            "a slip in any direction meets mu N (ODE's own two axes give up to 1.41 mu N on a diagonal one)",
         ],
     }
     out.update(effect_params(setup))
