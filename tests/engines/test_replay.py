@@ -90,7 +90,8 @@ def test_a_replay_runs_the_users_file_and_fails_when_its_apexes_miss(pingpong, t
     replay_args = ["verify", "--from", doc, "--against", record, "--fs", "100", "--engine", "ode"]
     result = CliRunner().invoke(main, replay_args + ["--file", str(good)])
     assert result.exit_code == 0, result.output
-    assert f"engine: {good}" in " ".join(result.output.split()) and "noise sigma" in result.output and ": yes (worst" in result.output
+    assert f"engine: {good}" in " ".join(result.output.split())
+    assert "noise sigma" in result.output and ": yes (worst" in result.output
     tampered = json.loads(good.read_text())
     tampered["contact"]["bounce"] = 0.5
     bad = tmp_path / "tampered.json"
