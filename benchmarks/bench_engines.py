@@ -135,7 +135,7 @@ def pingpong(record, engines):
         with open(path, "w") as f:
             json.dump(result.as_dict(), f)
         print(f"\nping-pong video replayed from its discover result ({', '.join(result.effects)}); "
-              "rebound apexes vs the measured ones [%]:")
+              "rebound apexes vs the measured ones [% of the rise]:")
         print(f"{'engine':<8} {'dt [s]':>8} {'export':>24} {'vrcal model':>24} {'constant eps':>24} {'gap mm':>7}")
         for name in engines:
             for dt in ((2e-3, 1e-3, 1e-4) if name == "mujoco" else (5e-4, 1e-4)):

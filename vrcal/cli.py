@@ -874,9 +874,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
             click.echo(f"wrote {plot_file}", err=True)
         emit(format_replay(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
         if not result.within_goal:
-            k, err = result.worst_apex()
-            click.echo(f"vrcal: error: the engine's rebound {k} apex is {100 * err:+.1f} % from the measured one "
-                       f"(goal: within {100 * result.apex_goal:g} %)", err=True)
+            click.echo(f"vrcal: error: {result.failure()}", err=True)
             return 1
         return 0
     if plot_file:

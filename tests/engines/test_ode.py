@@ -26,8 +26,8 @@ def test_exported_settings_reproduce_epsilon_in_ode(eps):
 def test_json_has_the_documented_fields():
     data = json.loads(export("tennis", "ode").text)
     contact = data["contact"]
-    assert contact["mode"] == ["dContactBounce", "dContactSoftERP", "dContactSoftCFM"]
-    assert contact["mode_value"] == 4 | 8 | 16
+    assert contact["mode"] == ["dContactBounce", "dContactSoftERP", "dContactSoftCFM", "dContactApprox1"]
+    assert contact["mode_value"] == 4 | 8 | 16 | 0x7000
     assert contact["soft_erp"] == 0.0 and 0 < contact["soft_cfm"] <= 1e-10
     assert set(data["world"]) == {"dt", "gravity", "step"}               # the world's ERP and CFM stay the user's
     assert data["world"]["dt"] == 1e-3 and data["world"]["gravity"][2] == -9.80665
@@ -120,7 +120,7 @@ def test_drag_and_speed_dependent_epsilon_run_in_ode(write_discover):
         0.5 * 1.204 * 0.4 * np.pi * 0.02 ** 2, rel=1e-6)
     law = params["restitution_law"]
     assert law["table"]["epsilon"][0] > law["table"]["epsilon"][-1]        # slower impacts, more elastic
-    assert "dBodyAddForce" in params["snippet"] and "pow(vn /" in params["snippet"]
+    assert "dBodyAddForce" in params["snippet"] and "pow(fabs(vn) /" in params["snippet"]
     runs = E.drop_test(params, ex.setup, 3, 2)
     assert runs.worst_error < 0.01
     assert np.max(np.abs(runs.apex_relative_errors)) < 0.01
@@ -140,7 +140,8 @@ typedef struct { int mode; dReal mu, mu2, rho, rho2, rhoN, bounce, bounce_vel, s
 typedef struct { dVector3 pos, normal; dReal depth; dGeomID g1, g2; int side1, side2; } dContactGeom;
 typedef struct { dSurfaceParameters surface; dContactGeom geom; dVector3 fdir1; } dContact;
 typedef struct { dReal mass; dVector3 c; dMatrix3 I; } dMass;
-enum { dContactMu2 = 1, dContactFDir1 = 2, dContactBounce = 4, dContactSoftERP = 8, dContactSoftCFM = 16 };
+enum { dContactMu2 = 1, dContactFDir1 = 2, dContactBounce = 4, dContactSoftERP = 8, dContactSoftCFM = 16,
+       dContactApprox1 = 0x7000 };
 typedef void dNearCallback(void *, dGeomID, dGeomID);
 int dInitODE2(unsigned); dWorldID dWorldCreate(void); dSpaceID dHashSpaceCreate(dSpaceID);
 dJointGroupID dJointGroupCreate(int); dBodyID dBodyCreate(dWorldID);
@@ -159,8 +160,18 @@ void dBodyGetPointVel(dBodyID, dReal, dReal, dReal, dVector3); void dBodyAddForc
 """
 
 
-def _compiled_drop(tmp_path, params, setup_c):
-    """Compile the exported C snippet into a drop of its ball on a plane and run it: apex heights [m]."""
+#: After each step of :func:`_compiled_drop`: print the bottom's height at each apex (3 at most).
+APEX_PROBE_C = """{ const dReal *p = dBodyGetPosition(ball), *v = dBodyGetLinearVel(ball);
+      if (prev_v > 0 && v[2] <= 0) { k++; printf("%.9f\\n", p[2] - {R}); }
+      prev_v = v[2]; }"""
+
+
+def _compiled_drop(tmp_path, params, setup_c, *, callback_edit=None, probe_c=None, n_steps=None):
+    """Compile the exported C snippet into a drop of its ball on a plane and run it: apex heights [m].
+
+    ``callback_edit(text)`` edits the near callback (as a user sets mu); ``probe_c`` replaces the
+    apex probe run after each step (it prints what the test reads) and ``n_steps`` the steps run.
+    """
     import os
     import shutil
     import subprocess
@@ -175,6 +186,7 @@ def _compiled_drop(tmp_path, params, setup_c):
     lib = lib if os.path.isabs(lib) else f"-l:{lib}"
     snippet, ball = params["snippet"], params["ball"]
     callback, _, rest = snippet.partition("/* world:")
+    callback = callback_edit(callback) if callback_edit else callback
     gravity, _, each_step = ("/* world:" + rest).partition("/* each step: */")
     R, H, m = ball["radius_m"], ball["drop_height_m"], ball["mass_kg"]
     source = f"""#include <stdio.h>
@@ -192,11 +204,9 @@ int main(void) {{
   dBodySetPosition(ball, 0, 0, {H} + {R});
   {setup_c}
   {gravity}
-  for (i = 0; i < {int(4.0 / params["world"]["dt"])} && k < 3; i++) {{
+  for (i = 0; i < {n_steps or int(4.0 / params["world"]["dt"])} && k < 3; i++) {{
     {each_step}
-    {{ const dReal *p = dBodyGetPosition(ball), *v = dBodyGetLinearVel(ball);
-      if (prev_v > 0 && v[2] <= 0) {{ k++; printf("%.9f\\n", p[2] - {R}); }}
-      prev_v = v[2]; }}
+    {probe_c or APEX_PROBE_C.replace("{R}", str(R))}
   }}
   return 0;
 }}
@@ -224,6 +234,32 @@ def test_the_compiled_speed_law_callback_bounces_by_the_relative_normal_speed(wr
     # eps(v) = 1 - 0.41 (v / 4.43)^0.6 < 0 above 19.5 m/s: thrown down at 25 m/s the ball stays down
     apexes = _compiled_drop(tmp_path, params, "dBodySetLinearVel(ball, 0, 0, -25.0);")
     assert apexes.size == 0 or apexes[0] < 0.01
+
+
+@pytest.mark.parametrize("direction", [(1.0, 0.0), (2 ** -0.5, 2 ** -0.5)])
+def test_the_compiled_callback_gives_coulombs_friction_on_a_diagonal_slip(tmp_path, direction):
+    """With the user's mu set in the pasted callback, a ball slid at 4 m/s along the floor slows by
+    mu g while it slips (Coulomb: mu N against the slip), whatever the slip's direction, and ends
+    rolling at 5/7 of it. ODE's own friction axes cap each at mu N, so a diagonal slip got up to
+    1.41 mu N (3.17 m/s after 0.2 s, not 3.41); the snippet now sets fdir1 along the slip."""
+    require_engine("ode")
+    params = json.loads(export("basketball", "ode").text)
+    R, mu, g = params["ball"]["radius_m"], 0.3, -params["world"]["gravity"][2]
+    assert "dContactFDir1" in params["snippet"]
+
+    def set_mu(callback):
+        assert "c[i].surface.mu = 0.0;" in callback
+        return callback.replace("c[i].surface.mu = 0.0;", f"c[i].surface.mu = {mu};")
+
+    vx, vy = 4.0 * direction[0], 4.0 * direction[1]
+    start = f"dBodySetPosition(ball, 0, 0, {R}); dBodySetLinearVel(ball, {vx}, {vy}, 0);"
+    probe = ('if (i == 199 || i == 1999) { const dReal *v = dBodyGetLinearVel(ball); '
+             'printf("%.9f\\n%.9f\\n", v[0], v[1]); }')
+    v = _compiled_drop(tmp_path, params, start, callback_edit=set_mu, probe_c=probe, n_steps=2000).reshape(2, 2)
+    sliding, rolling = np.hypot(*v.T)
+    assert sliding == pytest.approx(4.0 - mu * g * 0.2, abs=0.02)         # still slipping at 0.2 s
+    assert rolling == pytest.approx(4.0 * 5 / 7, abs=0.02)                # rolling: 5/7 v0 (I = 2/5 m R^2)
+    assert np.allclose(v / np.hypot(*v.T)[:, None], direction, atol=1e-6)  # along the slip it was thrown in
 
 
 @pytest.mark.parametrize("floor", [None, "x=0.005,v=0.3"])

@@ -44,8 +44,11 @@ CONTACT_SOFT_CFM = 1e-10
 #: user's joints together, alone.
 CONTACT_SOFT_ERP = 0.0
 
-#: The contact flags of the ball's contacts.
-CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM")
+#: The contact flags of the ball's contacts. ``dContactApprox1``: a friction axis's limit is mu times
+#: the normal force (without it ODE takes mu as a force in newtons); the snippet's near callback adds
+#: ``dContactFDir1`` along the slip, so that a slip in any direction meets mu N (Coulomb), not up to
+#: sqrt(2) mu N on ODE's two default axes. With the exported mu = 0 neither changes a drop.
+CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM", "dContactApprox1")
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -98,7 +101,9 @@ def export_params(setup, n_bounces=None, pair=None):
             f"soft_cfm = {CONTACT_SOFT_CFM:g} on the ball's contacts (dContactSoftCFM): a soft contact eats "
             "energy (CFM 1e-5 lowers epsilon by about 1.5 %)",
             "friction is not set by vrcal: mu = 0 makes the ball's contacts frictionless (it slides, never "
-            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip)",
+            "rolls); a vertical drop ignores it: set surface.mu to your surface's (dInfinity: no slip); with "
+            "dContactApprox1 it is a coefficient (limit mu N), and the snippet points fdir1 along the slip, so "
+            "a slip in any direction meets mu N (ODE's own two axes give up to 1.41 mu N on a diagonal one)",
         ],
     }
     out.update(effect_params(setup))
@@ -233,8 +238,24 @@ static void near_callback(void *data, dGeomID o1, dGeomID o2)
     int i, n;
 {choose}    n = dCollide(o1, o2, 4, &c[0].geom, sizeof(dContact));
     for (i = 0; i < n; i++) {{
+        /* body 1's velocity relative to body 2's at the contact point: vn normal, u the slip */
+        dVector3 v1 = {{0, 0, 0}}, v2 = {{0, 0, 0}};
+        const dReal *q = c[i].geom.pos, *nrm = c[i].geom.normal;
+        dReal u[3], vn, slip;
+        int k;
+        if (dGeomGetBody(o1)) dBodyGetPointVel(dGeomGetBody(o1), q[0], q[1], q[2], v1);
+        if (dGeomGetBody(o2)) dBodyGetPointVel(dGeomGetBody(o2), q[0], q[1], q[2], v2);
+        for (k = 0; k < 3; k++) u[k] = v1[k] - v2[k];
+        vn = u[0]*nrm[0] + u[1]*nrm[1] + u[2]*nrm[2];
+        for (k = 0; k < 3; k++) u[k] -= vn*nrm[k];
+        slip = sqrt(u[0]*u[0] + u[1]*u[1] + u[2]*u[2]);
         c[i].surface.mode = {mode};
         c[i].surface.mu = {mu};             /* frictionless: your mu here (a drop ignores it) */
+        if (slip > 1e-9) {{   /* friction's first axis along the slip: mu N against it (Coulomb);
+               ODE's own two axes cap each at mu N: up to 1.41 mu N on a diagonal slip */
+            c[i].surface.mode |= dContactFDir1;
+            for (k = 0; k < 3; k++) c[i].fdir1[k] = u[k] / slip;
+        }}
         c[i].surface.bounce = {bounce}
 {law}        c[i].surface.bounce_vel = {bounce_vel};    /* m/s: slower impacts do not bounce */
         c[i].surface.soft_erp = {soft_erp};       /* this contact only: no ERP push-out */
@@ -275,14 +296,8 @@ PAIR_C = """\
 
 LAW_C = """\
         {guard}{{  /* epsilon at this impact: eps(v) = 1 - (1 - eps_1)(v / v_1)^p, clamped to [0, 1],
-               v = the normal speed of one body relative to the other at the contact point */
-            dVector3 v1 = {{0, 0, 0}}, v2 = {{0, 0, 0}};
-            const dReal *q = c[i].geom.pos, *nrm = c[i].geom.normal;
-            dReal vn, e;
-            if (dGeomGetBody(o1)) dBodyGetPointVel(dGeomGetBody(o1), q[0], q[1], q[2], v1);
-            if (dGeomGetBody(o2)) dBodyGetPointVel(dGeomGetBody(o2), q[0], q[1], q[2], v2);
-            vn = fabs((v1[0] - v2[0])*nrm[0] + (v1[1] - v2[1])*nrm[1] + (v1[2] - v2[2])*nrm[2]);
-            e = 1 - (1 - {eps_ref})*pow(vn / {v_ref}, {p});
+               v = |vn|, the normal speed of one body relative to the other at the contact point */
+            dReal e = 1 - (1 - {eps_ref})*pow(fabs(vn) / {v_ref}, {p});
             c[i].surface.bounce = e < 0 ? 0 : (e > 1 ? 1 : e);
         }}
 """

@@ -27,8 +27,16 @@ from vrcal.engines import get_engine, load, require_runtime
 from vrcal.engines.common import DEFAULT_TOLERANCE
 from vrcal.errors import DataError, UsageError
 
-#: Each rebound apex of the engine should lie within this fraction of the measured one.
+#: Each rebound apex of the engine should lie within this fraction of the measured rebound's rise
+#: (its height above the contact level) ...
 APEX_GOAL = 0.03
+#: ... or within this many noise sigmas of the measured apex (a sampled, noisy maximum).
+APEX_NOISE_SIGMAS = 3.0
+#: A measured apex is compared only when it rises this many noise sigmas above the contact level
+#: (the largest of a flight's worth of noisy samples of a ball at rest rises about 2-3 sigmas) ...
+REST_NOISE_SIGMAS = 5.0
+#: ... and at least this much [m] (the 1 mm an export's bounces must rise).
+MIN_RISE_M = 1e-3
 
 
 @dataclass
@@ -46,11 +54,23 @@ class Replay:
     curves : dict
         ``{"engine" | "vrcal" | "constant": heights at t_s [m]}``
     apex_measured_m : ndarray (n_rebounds,)
+        the highest sample of each compared rebound flight [m]
     apexes : dict
-        ``{name: apex heights of each rebound [m]}``
+        ``{name: each model's own apex of each compared rebound [m]}`` (NaN: the model has no
+        such rebound: its ball is at rest by then)
     gaps_m : dict
         ``{name: RMS of model - data after release [m]}``
     notes : list of str
+    contact_level_m : float
+        height of the tracked point with the ball's bottom on the floor (the discover result's
+        floor level plus its height offset) [m]: rises are measured from it
+    noise_m : float
+        the record's noise sigma [m] (discover's, else the RMS of data - vrcal model)
+    noise_source : str
+    rebounds : ndarray of int
+        the compared rebounds' numbers (from 1)
+    left_at_rest : int
+        measured rebound flights left out: they rise less than :attr:`min_rise_m`
     """
 
     engine: str
@@ -64,33 +84,94 @@ class Replay:
     apexes: dict
     gaps_m: dict
     notes: list = field(default_factory=list)
-
-    def apex_errors(self, name):
-        """(model apex / measured apex - 1) of each rebound."""
-        return np.asarray(self.apexes[name]) / self.apex_measured_m - 1.0
-
-    @property
-    def within_goal(self):
-        """Every engine rebound apex within :data:`APEX_GOAL` of the measured one."""
-        return bool(np.all(np.abs(self.apex_errors("engine")) <= APEX_GOAL))
+    contact_level_m: float = 0.0
+    noise_m: float = 0.0
+    noise_source: str = ""
+    rebounds: np.ndarray = None
+    left_at_rest: int = 0
 
     apex_goal = APEX_GOAL
 
+    @property
+    def rise_m(self):
+        """Each compared rebound's measured rise above the contact level [m]."""
+        return self.apex_measured_m - self.contact_level_m
+
+    @property
+    def min_rise_m(self):
+        """The rise a measured apex needs to be compared [m]: 5 noise sigmas, at least 1 mm."""
+        return max(REST_NOISE_SIGMAS * self.noise_m, MIN_RISE_M)
+
+    @property
+    def allowed_m(self):
+        """Each rebound's allowed |model - measured| apex [m]: 3 % of its rise, or 3 noise sigmas."""
+        return np.maximum(APEX_GOAL * self.rise_m, APEX_NOISE_SIGMAS * self.noise_m)
+
+    def apex_differences(self, name):
+        """(model apex - measured apex) of each rebound [m]; a model at rest: minus the rise."""
+        model = np.asarray(self.apexes[name], dtype=float)
+        return np.where(np.isfinite(model), model, self.contact_level_m) - self.apex_measured_m
+
+    def apex_errors(self, name):
+        """(model apex - measured apex) / measured rise of each rebound."""
+        return self.apex_differences(name) / self.rise_m
+
+    @property
+    def within_goal(self):
+        """Every engine rebound apex within :attr:`allowed_m` of the measured one."""
+        return bool(np.all(np.abs(self.apex_differences("engine")) <= self.allowed_m))
+
     def worst_apex(self):
-        """(rebound number from 1, relative error) of the engine's apex farthest from the measured one."""
-        errors = self.apex_errors("engine")
-        k = int(np.argmax(np.abs(errors)))
-        return k + 1, float(errors[k])
+        """(rebound number, relative error, difference [m], allowed [m]) of the engine's apex
+        farthest from the measured one in units of its allowance."""
+        diff = self.apex_differences("engine")
+        k = int(np.argmax(np.abs(diff) / self.allowed_m))
+        return int(self.rebounds[k]), float(self.apex_errors("engine")[k]), float(diff[k]), float(self.allowed_m[k])
+
+    def failure(self):
+        """One line saying how the worst engine apex misses its goal ('' within the goal)."""
+        if self.within_goal:
+            return ""
+        k, err, diff, allowed = self.worst_apex()
+        return (f"the engine's rebound {k} apex is {1e3 * diff:+.3g} mm ({100 * err:+.1f} % of the "
+                f"{1e3 * self.rise_m[list(self.rebounds).index(k)]:.3g} mm rise) from the measured one "
+                f"(goal: within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} x the noise, "
+                f"{1e3 * allowed:.3g} mm)")
 
     def as_dict(self):
         return {
             "engine": self.engine, "engine_version": self.engine_version, "dt_s": self.dt_s,
+            "rebounds": [int(k) for k in self.rebounds],
             "apex_measured_m": self.apex_measured_m.tolist(),
-            "apex_m": {k: np.asarray(v).tolist() for k, v in self.apexes.items()},
+            "contact_level_m": self.contact_level_m, "rise_m": self.rise_m.tolist(),
+            "noise_m": self.noise_m, "noise_source": self.noise_source, "min_rise_m": self.min_rise_m,
+            "left_at_rest": self.left_at_rest,
+            "apex_m": {k: [None if not math.isfinite(x) else x for x in np.asarray(v, dtype=float).tolist()]
+                       for k, v in self.apexes.items()},
             "apex_relative_error": {k: self.apex_errors(k).tolist() for k in self.apexes},
-            "gap_m": dict(self.gaps_m), "apex_goal": APEX_GOAL, "within_goal": self.within_goal,
-            "notes": list(self.notes),
+            "apex_allowed_m": self.allowed_m.tolist(),
+            "gap_m": dict(self.gaps_m), "apex_goal": APEX_GOAL, "apex_noise_sigmas": APEX_NOISE_SIGMAS,
+            "within_goal": self.within_goal, "notes": list(self.notes),
         }
+
+
+def model_apexes(y_m, n, prominence_m):
+    """The first ``n`` rebound apexes [m] of a model's heights ``y_m`` (after its release): its own
+    local maxima that stand out by ``prominence_m``, NaN where it has fewer (its ball at rest)."""
+    from scipy.signal import find_peaks
+
+    peaks, _ = find_peaks(np.asarray(y_m, dtype=float), prominence=prominence_m)
+    out = np.full(n, math.nan)
+    out[:min(n, peaks.size)] = np.asarray(y_m)[peaks[:n]]
+    return out
+
+
+def record_noise(doc, residual_m):
+    """(noise sigma [m], where it is from): discover's noise of the record, else ``residual_m``."""
+    noise = doc.get("noise_floor")
+    if doc.get("gap_unit", "m") == "m" and isinstance(noise, (int, float)) and math.isfinite(noise) and noise > 0:
+        return float(noise), f"discover's, {doc.get('noise_source') or 'from the record'}"
+    return float(residual_m), "RMS of data - vrcal model"
 
 
 def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None, floor_m=None, doc=None):
@@ -222,10 +303,6 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     n_bounces = int(impacts.size)
     flights = _flights(t, impacts, t_end)
     measured = [_apex_in(t, y, a, b) for a, b in flights]
-    complete = [k for k, (_, ok) in enumerate(measured) if ok]
-    if not complete:
-        raise DataError(f"{against}: no complete rebound flight in the record to compare apexes with")
-    apex_measured = np.array([measured[k][0] for k in complete])
     # a record without a floor: its contact level, fitted with every model of discover (0 with a floor)
     level = float(doc["floor_level_m"]) if isinstance(doc.get("floor_level_m"), (int, float)) else 0.0
     curves = {"vrcal": drops.height_m(t)[0] + level}
@@ -267,14 +344,40 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         tz = release + setup.dt_s * np.arange(z.size)
         curve = np.where(t < release, setup.drop_height_m, np.interp(t, tz, z)) + offset
         curves[name] = curve
-    apexes = {}
-    for name, curve in curves.items():
-        apexes[name] = np.array([_apex_in(t, curve, *flights[k])[0] for k in complete])
     gaps = {name: float(np.sqrt(np.mean((curve[i0:] - y[i0:]) ** 2))) for name, curve in curves.items()}
     notes = notes + [f"gap: RMS of model - data over the {t.size - i0} samples after release"]
-    if len(complete) < len(flights):
-        notes.append(f"{len(flights) - len(complete)} rebound flight(s) not complete in the record: no apex compared")
-    return Replay(eng.name, version, engine_run[0].dt_s, t, y, i0, curves, apex_measured, apexes, gaps, notes)
+    # the rest level: the tracked point with the ball on the floor; only rebounds that rise clearly
+    # above it (5 noise sigmas) are compared: a ball at rest is no rebound
+    contact = level + (float(effects.get("height_offset", {}).get("offset_m", 0.0)) if "height_offset" in effects
+                       else 0.0)
+    noise, noise_source = record_noise(doc, gaps["vrcal"])
+    r = Replay(eng.name, version, engine_run[0].dt_s, t, y, i0, curves, np.zeros(0), {}, gaps, notes,
+               contact_level_m=contact, noise_m=noise, noise_source=noise_source)
+    kept, at_rest, incomplete = [], 0, 0
+    for k, (apex, ok) in enumerate(measured):
+        if at_rest or not apex - contact >= r.min_rise_m:
+            at_rest += 1                     # a ball at rest, or hops within the noise: and so every later one
+        elif ok:
+            kept.append(k)
+        else:
+            incomplete += 1
+    if not kept:
+        raise DataError(f"{against}: no complete rebound flight in the record rises {1e3 * r.min_rise_m:.3g} mm "
+                        f"({REST_NOISE_SIGMAS:g} x the noise, at least {1e3 * MIN_RISE_M:g} mm) above the contact "
+                        f"level {contact:.4g} m: no apex to compare")
+    r.rebounds = np.array(kept) + 1
+    r.apex_measured_m = np.array([measured[k][0] for k in kept])
+    r.left_at_rest = at_rest
+    n = max(kept) + 1
+    for name, curve in curves.items():
+        r.apexes[name] = model_apexes(curve, n, 0.25 * r.min_rise_m)[kept]
+    if incomplete:
+        notes.append(f"{incomplete} rebound flight(s) not complete in the record: no apex compared")
+    if at_rest:
+        notes.append(f"{at_rest} rebound apex(es) left out: they rise less than {1e3 * r.min_rise_m:.3g} mm "
+                     f"({REST_NOISE_SIGMAS:g} x the noise, at least {1e3 * MIN_RISE_M:g} mm) above the contact level "
+                     f"(the ball at rest, or hops within the noise)")
+    return r
 
 
 def _file_run(engine, text, file_name, from_json, props, model, common, notes):
@@ -323,22 +426,25 @@ def format_replay(r):
 
     names = [("engine", f"{r.engine} export"), ("vrcal", "vrcal model"), ("constant", "constant eps")]
     head = (f"replay in {r.engine} {r.engine_version}, dt {r.dt_s:g} s: {len(r.apex_measured_m)} rebound apex(es), "
-            f"{r.t_s.size - r.release_index} samples after release\n")
+            f"{r.t_s.size - r.release_index} samples after release\n"
+            f"rise: apex above the contact level {r.contact_level_m:.4g} m (the tracked point, ball on the floor); "
+            f"% of the rise\n")
     rows = []
     for k, measured in enumerate(r.apex_measured_m):
-        row = [str(k + 1), f"{measured:.4f}"]
+        row = [str(r.rebounds[k]), f"{measured:.4f}", f"{1e3 * r.rise_m[k]:.1f}"]
         for key, _ in names:
-            row.append(f"{r.apexes[key][k]:.4f} ({100 * r.apex_errors(key)[k]:+.1f} %)")
+            apex = r.apexes[key][k]
+            row.append(f"{apex:.4f} ({100 * r.apex_errors(key)[k]:+.1f} %)" if math.isfinite(apex) else "at rest")
         rows.append(row)
-    text = head + table(rows, ["rebound", "measured m"] + [label + " m" for _, label in names])
+    text = head + table(rows, ["rebound", "measured m", "rise mm"] + [label + " m" for _, label in names])
     text += "gap (RMS)  " + "   ".join(f"{label} {1e3 * r.gaps_m[key]:.3g} mm" for key, label in names) + "\n"
-    worst = float(np.max(np.abs(r.apex_errors("engine"))))
-    text += (f"engine apexes within {100 * APEX_GOAL:g} % of the measured ones: "
-             f"{'yes' if r.within_goal else 'no'} (worst {100 * worst:.1f} %)\n")
+    k, err, diff, _allowed = r.worst_apex()
+    text += (f"engine apexes within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} sigma: "
+             f"{'yes' if r.within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = {100 * err:+.1f} %)\n")
     import textwrap
 
-    for n in r.notes:
-        text += "\n".join(textwrap.wrap(f"note: {n}", 100, subsequent_indent="  ")) + "\n"
+    for n in [*r.notes, f"noise sigma {1e3 * r.noise_m:.3g} mm: {r.noise_source}"]:
+        text += "\n".join(textwrap.wrap(f"note: {n}", 100, subsequent_indent="  ", break_on_hyphens=False)) + "\n"
     return text
 
 
