@@ -427,8 +427,8 @@ def format_replay(r):
     names = [("engine", f"{r.engine} export"), ("vrcal", "vrcal model"), ("constant", "constant eps")]
     head = (f"replay in {r.engine} {r.engine_version}, dt {r.dt_s:g} s: {len(r.apex_measured_m)} rebound apex(es), "
             f"{r.t_s.size - r.release_index} samples after release\n"
-            f"rise: apex above the contact level {r.contact_level_m:.4g} m (the tracked point, ball on the floor); "
-            f"% of the rise\n")
+            f"% of the rise above the contact level ({r.contact_level_m * 1e3:.1f} mm: the tracked point with "
+            f"the ball on the floor)\n")
     rows = []
     for k, measured in enumerate(r.apex_measured_m):
         row = [str(r.rebounds[k]), f"{measured:.4f}", f"{1e3 * r.rise_m[k]:.1f}"]
