@@ -4,7 +4,10 @@ Registry
 --------
 :data:`ENGINES` maps an engine name to an :class:`Engine` entry: the module that writes its
 file, the file format, whether vrcal can run it (``runs``), the package that provides it and
-the install hint used in :class:`vrcal.errors.EngineUnavailable`. ``mujoco`` and ``bullet``
+the install hint used in :class:`vrcal.errors.EngineUnavailable`, the name people know it by
+(``label``), the engine whose runtime checks its file (``runs_in``: Gazebo's SDF runs in ODE, so
+an export checks it in libode; :func:`runtime` gives that entry), whether its file holds one
+constant epsilon (``one_epsilon``: no speed law) and why vrcal does not run it (``not_run``). ``mujoco`` and ``bullet``
 come from PyPI (``pip install 'vrcal[engines]'``); ``ode`` is the system's C library (Debian
 ``libode8``) loaded with ctypes by :mod:`vrcal.engines.ode_ctypes`; ``gazebo`` and ``tables``
 (PhysX/Unity/Box2D) are exported only, no runtime is needed or used.
@@ -31,22 +34,30 @@ class Engine:
     default_dt_s: float
     description: str
     max_steps: int = 0  # most engine steps of one drop test (0: vrcal does not run it)
+    label: str = ""     # how people name it (notes, messages)
+    runs_in: str = ""   # the engine whose runtime checks its file ("": none)
+    one_epsilon: bool = False  # its file holds one constant epsilon (no speed law)
+    not_run: str = ""   # why vrcal does not run it, for the refusal of verify (after a '; ')
 
 
 ENGINES = {
     "mujoco": Engine("mujoco", "vrcal.engines.mujoco", "xml", True, "mujoco (PyPI)",
                      "pip install mujoco (or pip install 'vrcal[engines]')", 2e-3,
-                     "MJCF, contact calibrated in MuJoCo", 4_000_000),
+                     "MJCF, contact calibrated in MuJoCo", 4_000_000, label="MuJoCo", runs_in="mujoco"),
     "ode": Engine("ode", "vrcal.engines.ode", "json", True, "libode8 (Debian)",
                   "apt-get install libode8", 1e-3,
-                  "bounce, world settings (JSON, C)", 1_000_000),
+                  "bounce, world settings (JSON, C)", 1_000_000, label="ODE", runs_in="ode"),
     "bullet": Engine("bullet", "vrcal.engines.bullet", "json", True, "pybullet (PyPI)",
                      "pip install pybullet (or pip install 'vrcal[engines]')", 1.0 / 240.0,
-                     "changeDynamics etc. (JSON, Python)", 400_000),
+                     "changeDynamics etc. (JSON, Python)", 400_000, label="PyBullet", runs_in="bullet"),
     "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 1e-3,
-                     "SDF 1.7 world (ODE physics)"),
+                     "SDF 1.7 world (ODE physics)", label="Gazebo", runs_in="ode", one_epsilon=True,
+                     not_run="Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce and "
+                             "threshold in libode with the ODE export's contact (soft_erp 0, soft_cfm 1e-10), not "
+                             "the soft_erp and soft_cfm Gazebo derives from the SDF's kp and kd (its note says what "
+                             "it measured): vrcal verify --engine ode runs that drop test"),
     "tables": Engine("tables", "vrcal.engines.tables", "text", False, "none (export only)", "", 1e-3,
-                     "PhysX, Unity, Box2D values"),
+                     "PhysX, Unity, Box2D values", label="PhysX, Unity and Box2D", one_epsilon=True),
 }
 
 
@@ -65,6 +76,15 @@ def load(name):
     return importlib.import_module(get_engine(name).module)
 
 
+def runtime(name):
+    """The registry entry of the engine whose runtime checks ``name``'s file (Gazebo: ODE); UsageError
+    for an engine whose file no runtime checks (tables)."""
+    engine = get_engine(name)
+    if not engine.runs_in:
+        raise UsageError(f"vrcal runs no engine for {engine.name}'s file")
+    return get_engine(engine.runs_in)
+
+
 def require_runtime(name):
     """Check that vrcal can run engine ``name`` here; returns its version string.
 
@@ -78,11 +98,7 @@ def require_runtime(name):
     engine = get_engine(name)
     if not engine.runs:
         runnable = ", ".join(k for k, e in ENGINES.items() if e.runs)
-        why = ("; Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce and threshold "
-               "in libode with the ODE export's contact (soft_erp 0, soft_cfm 1e-10), not the soft_erp and "
-               "soft_cfm Gazebo derives from the SDF's kp and kd (its note says what it measured): vrcal verify "
-               "--engine ode runs that drop test"
-               if engine.name == "gazebo" else "")
+        why = f"; {engine.not_run}" if engine.not_run else ""
         raise UsageError(f"vrcal cannot run {engine.name} (export only); verify works with: {runnable}{why}")
     return load(engine.name).version()
 

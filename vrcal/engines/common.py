@@ -245,8 +245,12 @@ NOT_RUN = "not run"
 
 
 def engine_label(engine):
-    """How a note names the engine that runs ``engine``'s file: ODE (also Gazebo's), PyBullet, MuJoCo."""
-    return {"ode": "ODE", "gazebo": "ODE", "bullet": "PyBullet", "mujoco": "MuJoCo"}.get(engine, engine)
+    """How a note names the engine that runs ``engine``'s file: ODE (also Gazebo's), PyBullet, MuJoCo
+    (the ``label`` of its :func:`vrcal.engines.runtime` entry); ``engine`` itself for any other name."""
+    from vrcal.engines import ENGINES
+
+    entry = ENGINES.get(engine)
+    return ENGINES[entry.runs_in].label if entry is not None and entry.runs_in else engine
 
 
 def step_note(setup, engine):
@@ -260,13 +264,16 @@ def step_note(setup, engine):
     setup starts with :data:`NOT_RUN`) nothing was checked, and the line says so. The MuJoCo and
     Gazebo lines go into XML comments, which may not hold two dashes: they name no option.
     """
+    from vrcal.engines import get_engine
+
     if engine == "mujoco":
         return f"valid at timestep {setup.dt_s:g} s only (the contact is tuned to it): export again for another"
+    verified = get_engine(engine).runs          # vrcal verify runs the file itself (not Gazebo's SDF)
     if any(note.startswith(NOT_RUN) for note in setup.notes):
         line = f"NOT checked at step {setup.dt_s:g} s: not run, {engine_label(engine)} is not installed here"
-        return line if engine == "gazebo" else line + "; vrcal verify --file F runs it"
+        return line + "; vrcal verify --file F runs it" if verified else line
     line = f"checked at step {setup.dt_s:g} s only (another, even a smaller one, can miss)"
-    return line if engine == "gazebo" else line + "; vrcal verify --file F --dt DT runs it at DT"
+    return line + "; vrcal verify --file F --dt DT runs it at DT" if verified else line
 
 
 def drag_force_coefficient_kg_per_m(setup):

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vrcal.engines import get_engine, load
+from vrcal.engines import get_engine, load, runtime
 from vrcal.engines.common import (
     CONFIRM_PHASES,
     DEFAULT_TOLERANCE,
@@ -474,7 +474,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":
-        refuse_constant_for_law(setup, "Gazebo")
+        refuse_constant_for_law(setup, eng.label)
         checked = check_step(setup, "gazebo", n_phases=n_phases)             # Gazebo runs ODE
         setup = _with_note(setup, checked)
         coverage = _checked_coverage(setup, "gazebo", checked, asked_lo)
@@ -484,7 +484,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
         if setup.drop_height_m is not None:
-            refuse_constant_for_law(setup, "PhysX, Unity and Box2D")
+            refuse_constant_for_law(setup, eng.label)
         data = {"engine": "tables", "rows": module.table(setup, pair)}
         text = module.format_table(setup, pair)
     return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
@@ -753,19 +753,20 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     """
     bound, depth = step_bound(setup, engine)
     within = bound <= setup.tolerance and depth <= setup.penetration_limit_m
-    label = "ODE" if engine in ("ode", "gazebo") else engine
+    run_in = runtime(engine)
+    # refusals name ODE by its label, PyBullet by its registry name (as docs/engines/bullet.md shows)
+    label = run_in.label if run_in.name == "ode" else run_in.name
     runs = _run_confirmed(setup, engine, setup.dt_s, n_phases)
     if within and runs is None:
         name = engine_label(engine)
-        later = ("export again where it is: the export runs the SDF's contact in libode" if engine == "gazebo" else
-                 f"vrcal verify --file F runs the drop test where {name} is installed")
-        install = get_engine("ode" if engine == "gazebo" else engine).install
-        return (f"{NOT_RUN}: {name} is not installed here ({install}); by the step bound alone, step "
+        later = (f"vrcal verify --file F runs the drop test where {name} is installed" if get_engine(engine).runs
+                 else "export again where it is: the export runs the SDF's contact in libode")
+        return (f"{NOT_RUN}: {name} is not installed here ({run_in.install}); by the step bound alone, step "
                 f"{setup.dt_s:g} s moves epsilon by up to {bound:.3g} and the ball sinks up to {depth * 1e3:.3g} mm "
                 f"(limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm); {later}")
     if isinstance(runs, DropRuns) and _meets(setup, runs):
         fewer = (f" ({FEWER_PHASES} {CONFIRM_PHASES} phases: that many would pass the run limit of "
-                 f"{get_engine('ode' if engine == 'gazebo' else engine).max_steps:d} steps)"
+                 f"{run_in.max_steps:d} steps)"
                  if _phases(runs) < CONFIRM_PHASES else "")
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
@@ -858,9 +859,9 @@ def _run_confirmed(setup, engine, dt_s, n_phases=N_PHASES):
     runs = _run_in_engine(setup, engine, dt_s, n_phases)
     if not (isinstance(runs, DropRuns) and _meets(setup, runs) and n_phases < CONFIRM_PHASES):
         return runs
-    name = "ode" if engine == "gazebo" else engine
+    run_in = runtime(engine)
     try:
-        check_steps(replace(setup, dt_s=dt_s), CONFIRM_PHASES, name, get_engine(name).max_steps)
+        check_steps(replace(setup, dt_s=dt_s), CONFIRM_PHASES, run_in.name, run_in.max_steps)
     except UsageError:
         return runs
     return _run_in_engine(setup, engine, dt_s, CONFIRM_PHASES)
@@ -888,26 +889,26 @@ def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
     from vrcal.engines.common import check_steps
     from vrcal.errors import EngineUnavailable
 
-    name = "ode" if engine == "gazebo" else engine
+    run_in = runtime(engine)
     try:
-        require_runtime(name)
+        require_runtime(run_in.name)
     except (EngineUnavailable, UsageError):
         return None
     trial = replace(setup, dt_s=dt_s)
     try:
-        check_steps(trial, n_phases, name, get_engine(name).max_steps)
+        check_steps(trial, n_phases, run_in.name, run_in.max_steps)
     except UsageError as exc:
         return str(exc)
     try:
-        return load(name).drop_test(_run_params(trial, engine), trial, trial.n_bounces, n_phases)
+        return load(run_in.name).drop_test(_run_params(trial, engine), trial, trial.n_bounces, n_phases)
     except DataError as exc:
         return str(exc)
 
 
 def _run_params(setup, engine):
     """The parameters ODE (also Gazebo's SDF, with its one constant) or Bullet runs ``setup`` with."""
-    params = load("ode" if engine == "gazebo" else engine).export_params(setup, setup.n_bounces)
-    if engine == "gazebo" and params.pop("restitution_law", None):       # the SDF's one constant
+    params = load(runtime(engine).name).export_params(setup, setup.n_bounces)
+    if get_engine(engine).one_epsilon and params.pop("restitution_law", None):   # e.g. the SDF's one constant
         from vrcal.engines.common import constant_epsilon
 
         params["contact"]["bounce"] = constant_epsilon(setup)
@@ -998,7 +999,7 @@ def speed_coverage(setup, engine, runnable, asked_lo=None):
     """
     if setup.restitution_exponent or setup.drop_height_m is None or runnable is None:
         return None
-    module = load("ode" if engine == "gazebo" else engine)
+    module = load(runtime(engine).name)
     v = setup.impact_speeds_m_per_s
     fastest, slowest = float(v[0]), float(v[-1])
 
