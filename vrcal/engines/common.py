@@ -357,6 +357,43 @@ def check_steps(setup, n_phases, engine, max_steps, what="the drop test"):
     return steps
 
 
+def confirmed(first, passed, setup, n_phases, engine, max_steps, rerun):
+    """The confirmation of a drop test that passed: run again over :data:`CONFIRM_PHASES` contact
+    phases, and those runs decide (4 phases sample the contact's place in its step too coarsely to
+    bound a slow last bounce: measured in ODE, PyBullet and MuJoCo, see :data:`CONFIRM_PHASES`).
+
+    Parameters
+    ----------
+    first : object
+        the result at ``n_phases`` (a DropRuns, a MuJoCo calibration, or why there is none)
+    passed : bool
+        whether ``first`` meets both limits (only a pass is confirmed)
+    setup : DropSetup
+        the drop test at the step it ran at (for the run limit)
+    n_phases : int
+        contact phases ``first`` ran over (none more: no confirmation)
+    engine : str
+        the engine, for :func:`check_steps`
+    max_steps : int
+        its run limit: when :data:`CONFIRM_PHASES` phases would pass it, ``first`` stands (its phase
+        count is what a note or a refusal names)
+    rerun : callable
+        ``rerun(n_phases)``: the result over that many phases
+
+    Returns
+    -------
+    object
+        ``rerun(CONFIRM_PHASES)``, or ``first`` where no confirmation runs
+    """
+    if not passed or n_phases >= CONFIRM_PHASES:
+        return first
+    try:
+        check_steps(setup, CONFIRM_PHASES, engine, max_steps)
+    except UsageError:
+        return first
+    return rerun(CONFIRM_PHASES)
+
+
 def _round_up(x):
     """``x`` rounded up to two significant digits, as text."""
     mag = 10.0 ** (math.floor(math.log10(x)) - 1)

@@ -38,6 +38,7 @@ from vrcal.engines.common import (
     check_dt,
     check_epsilon,
     check_positive,
+    confirmed,
     engine_label,
     round_down,
 )
@@ -849,22 +850,12 @@ def passing_step(setup, engine, start_s, n_phases=N_PHASES, ratio=STEP_RATIO, tr
 
 
 def _run_confirmed(setup, engine, dt_s, n_phases=N_PHASES):
-    """:func:`_run_in_engine` at ``n_phases``; a step that meets both limits there is run again with
-    :data:`CONFIRM_PHASES` phases (when more), and those runs decide: 4 phases sample the contact's
-    place in its step too coarsely to bound a slow last bounce (measured in ODE, PyBullet and MuJoCo,
-    see :data:`CONFIRM_PHASES`). When the run limit leaves no room for the confirmation, the runs of
-    ``n_phases`` stand (their phase count is what a note or a refusal names)."""
-    from vrcal.engines.common import check_steps
-
+    """:func:`_run_in_engine` at ``n_phases``, confirmed over :data:`CONFIRM_PHASES` phases where a
+    step meets both limits (:func:`vrcal.engines.common.confirmed`, as MuJoCo's calibration is)."""
     runs = _run_in_engine(setup, engine, dt_s, n_phases)
-    if not (isinstance(runs, DropRuns) and _meets(setup, runs) and n_phases < CONFIRM_PHASES):
-        return runs
     run_in = runtime(engine)
-    try:
-        check_steps(replace(setup, dt_s=dt_s), CONFIRM_PHASES, run_in.name, run_in.max_steps)
-    except UsageError:
-        return runs
-    return _run_in_engine(setup, engine, dt_s, CONFIRM_PHASES)
+    return confirmed(runs, isinstance(runs, DropRuns) and _meets(setup, runs), replace(setup, dt_s=dt_s), n_phases,
+                     run_in.name, run_in.max_steps, lambda phases: _run_in_engine(setup, engine, dt_s, phases))
 
 
 def _phases(runs):

@@ -47,12 +47,12 @@ import numpy as np
 from scipy.optimize import brentq
 
 from vrcal.engines.common import (
-    CONFIRM_PHASES,
     N_PHASES,
     DropRuns,
     RunsSummary,
     StillBouncing,
     check_steps,
+    confirmed,
     drag_atol,
     drop_runs,
     drop_window_s,
@@ -559,17 +559,15 @@ def _confirmed(cal, n_phases):
     is judged by (4 phases under-sample a slow last bounce: a 200 g, 70 mm ball of epsilon 0.45
     from 0.5 m at 0.7 ms, 0.0047 with 4 phases, 0.0119 with 16 and with 64)."""
     setup = cal.setup
-    if not cal.ok or n_phases >= CONFIRM_PHASES:
-        return cal
-    try:
-        check_steps(setup, CONFIRM_PHASES, "MuJoCo", MAX_STEPS)
-    except UsageError:
-        return cal
-    targets = setup.epsilons
-    at_least = float(np.max(targets)) if np.ptp(targets) > 0 else None
-    model = load_model(model_xml(setup, cal.contact))
-    runs = drop_test(model, setup, setup.n_bounces, CONFIRM_PHASES, at_least=at_least)
-    return replace(cal, runs=runs, evaluations=cal.evaluations + 1)
+
+    def rerun(phases):
+        targets = setup.epsilons
+        at_least = float(np.max(targets)) if np.ptp(targets) > 0 else None
+        model = load_model(model_xml(setup, cal.contact))
+        runs = drop_test(model, setup, setup.n_bounces, phases, at_least=at_least)
+        return replace(cal, runs=runs, evaluations=cal.evaluations + 1)
+
+    return confirmed(cal, cal.ok, setup, n_phases, "MuJoCo", MAX_STEPS, rerun)
 
 
 def _calibrate_at(setup, n_phases, kind, w, margin):
