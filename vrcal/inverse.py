@@ -20,7 +20,7 @@ import numpy as np
 from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
 from vrcal.model.plausible import check_drop_test_height
-from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
+from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_integer, check_K
 from vrcal.model.standards import ball_epsilon, get_ball
 from vrcal.textout import mass, number, table, wrap
 
@@ -43,9 +43,8 @@ def family(T_s, x_max_m, n):
     -------
     x_m, v_m_per_s : ndarray
     """
-    if int(n) < 1:
-        raise UsageError(f"--n must be at least 1, got {n}")
-    x = np.linspace(x_max_m / n, x_max_m, int(n))
+    n = check_integer(n, "--n")
+    x = np.linspace(x_max_m / n, x_max_m, n)
     return x, np.asarray(eq.virtual_speed_m_per_s(x, T_s))
 
 

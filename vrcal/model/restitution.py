@@ -88,11 +88,21 @@ def check_number(value, what, lo=0.0, hi=math.inf, *, lo_open=True, hi_open=Fals
     """
     x = real_number(value)
     if x is None:
-        raise UsageError(f"{what} must be a number {_bound(lo, hi, lo_open, hi_open)}{_unit(unit)}, "
+        raise UsageError(f"{what} must be a number{_unit(_bound(lo, hi, lo_open, hi_open))}{_unit(unit)}, "
                          f"got {_brief(value)}")
     if not _inside(np.float64(x), lo, hi, lo_open, hi_open):
         raise UsageError(_refusal(what, x, lo, hi, lo_open, hi_open, _unit(unit)))
     return x
+
+
+def check_integer(value, what, lo=1):
+    """One whole number >= ``lo`` as an int (an int, a numpy integer, or a float with no fraction such as
+    2.0); :class:`UsageError` naming ``what`` otherwise (a bool, 2.5, '3')."""
+    x = real_number(value)
+    if x is None or not math.isfinite(x) or x != int(x) or x < lo:
+        shown = _show(x) if x is not None else _brief(value)
+        raise UsageError(f"{what} must be an integer >= {lo}, got {shown}")
+    return int(x)
 
 
 def check_array(what, value, lo=0.0, hi=math.inf, *, lo_open=True, hi_open=False, unit="", where=None,
@@ -126,7 +136,7 @@ def check_array(what, value, lo=0.0, hi=math.inf, *, lo_open=True, hi_open=False
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise UsageError(f"{what} must be numbers {_bound(lo, hi, lo_open, hi_open)}{_unit(unit)}, "
+        raise UsageError(f"{what} must be numbers{_unit(_bound(lo, hi, lo_open, hi_open))}{_unit(unit)}, "
                          f"got {_brief(value)}") from None
     bad = ~_inside(arr, lo, hi, lo_open, hi_open, allow_inf)
     if where is not None:
@@ -146,7 +156,7 @@ def _inside(arr, lo, hi, lo_open, hi_open, allow_inf=False):
 
 def _bound(lo, hi, lo_open, hi_open):
     if hi == math.inf:
-        return f"{'>' if lo_open else '>='} {_show(lo)}"
+        return "" if lo == -math.inf else f"{'>' if lo_open else '>='} {_show(lo)}"
     return f"in {'(' if lo_open else '['}{_show(lo)}, {_show(hi)}{')' if hi_open else ']'}"
 
 
@@ -159,7 +169,7 @@ def _refusal(what, x, lo, hi, lo_open, hi_open, suffix="", allow_inf=False):
     if hi != math.inf:
         return f"{what} must lie in {_bound(lo, hi, lo_open, hi_open)[3:]}{suffix}, got {_show(x)}"
     finite = "finite " if math.isinf(x) and not allow_inf else ""   # nan: "must be a number" says it
-    return f"{what} must be a {finite}number {_bound(lo, hi, lo_open, hi_open)}{suffix}, got {_show(x)}"
+    return f"{what} must be a {finite}number{_unit(_bound(lo, hi, lo_open, hi_open))}{suffix}, got {_show(x)}"
 
 
 def _show(x):
