@@ -168,8 +168,8 @@ def _refusal(what, x, lo, hi, lo_open, hi_open, suffix="", allow_inf=False):
     """The message for a number ``x`` outside the interval (or not finite); ``suffix`` follows the bound."""
     if hi != math.inf:
         return f"{what} must lie in {_bound(lo, hi, lo_open, hi_open)[3:]}{suffix}, got {_show(x)}"
-    finite = "finite " if math.isinf(x) and not allow_inf else ""   # nan: "must be a number" says it
-    return f"{what} must be a {finite}number{_unit(_bound(lo, hi, lo_open, hi_open))}{suffix}, got {_show(x)}"
+    infinite = ", not a finite number" if math.isinf(x) and not allow_inf else ""   # nan: "must be a number" says it
+    return f"{what} must be a number{_unit(_bound(lo, hi, lo_open, hi_open))}{suffix}, got {_show(x)}{infinite}"
 
 
 def _show(x):
