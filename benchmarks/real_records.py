@@ -116,7 +116,7 @@ def apex_epsilon(data, mass_kg, diameter_m, g=9.80665):
         apexes.append(float(np.polyval(p, -p[1] / (2 * p[0]))))
     h = np.asarray(apexes[:3]) - floor
     kd = float(drag_constant_per_m(0.47, diameter_m, mass_kg))
-    eps = [float(epsilon_from_heights_with_drag(h[i + 1], h[i], kd)) for i in range(h.size - 1)]
+    eps = [float(epsilon_from_heights_with_drag(h[i + 1], h[i], kd, allow_above_one=True)) for i in range(h.size - 1)]
     return float(np.mean(eps)), len(eps)
 
 

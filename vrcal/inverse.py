@@ -20,7 +20,7 @@ import numpy as np
 from vrcal.errors import UsageError
 from vrcal.model import restitution as eq
 from vrcal.model.plausible import check_drop_test_height
-from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_K
+from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_integer, check_K, check_number
 from vrcal.model.standards import ball_epsilon, get_ball
 from vrcal.textout import mass, number, table, wrap
 
@@ -43,9 +43,9 @@ def family(T_s, x_max_m, n):
     -------
     x_m, v_m_per_s : ndarray
     """
-    if int(n) < 1:
-        raise UsageError(f"--n must be at least 1, got {n}")
-    x = np.linspace(x_max_m / n, x_max_m, int(n))
+    n = check_integer(n, "--n")
+    x_max_m = check_number(x_max_m, "x_max_m", unit="[m]")
+    x = np.linspace(x_max_m / n, x_max_m, n)
     return x, np.asarray(eq.virtual_speed_m_per_s(x, T_s))
 
 
@@ -212,7 +212,8 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
     added = 0.5 * eq.AIR_DENSITY_KG_PER_M3 * float(eq.sphere_volume_m3(diameter_m))   # the air's added mass
     k = eq.drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, diameter_m, mass_kg, added_mass_kg=added)
     eps = float(eq.epsilon_from_heights(rebound_height_m, drop_height_m))
-    with_drag = float(eq.epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k))
+    with_drag = float(eq.epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k,
+                                                        allow_above_one=True))
     if abs(with_drag - eps) < DRAG_NOTE_EPSILON:
         return {}
     table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:g} --diameter "

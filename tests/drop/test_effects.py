@@ -19,6 +19,7 @@ from vrcal.drop.effects import (
     parse_effect_spec,
     resolve_effects,
     restitution_at_speed,
+    solid_contact_time_s,
 )
 from vrcal.drop.simulate import sample_measurement, simulate_drops
 from vrcal.errors import UsageError
@@ -294,3 +295,25 @@ def test_the_flights_of_a_light_ball_are_expected_below_g():
     assert ks[0] < ks[1] < ks[2] and ks[1] == pytest.approx(0.96, rel=0.02)
     g_golf, _ = flight_expectation(0.0459, 0.0427, 9.80665)
     assert 0.998 < g_golf / 9.80665 < 1.0
+
+
+# --------------------------------------------------------------------------- the equations check their inputs
+
+
+@pytest.mark.parametrize("call", [
+    lambda: restitution_at_speed(1.5, 2.0, 4.0, 0.0), lambda: restitution_at_speed(-0.5, 2.0, 4.0, 0.0),
+    lambda: restitution_at_speed(0.8, 0.0, 4.0, 0.2), lambda: restitution_at_speed(0.8, 1.0, 0.0, 0.2),
+    lambda: restitution_at_speed(0.8, -1.0, 4.0, 0.2), lambda: buoyant_gravity_m_per_s2(9.81, 0.04, 0.0, 1.204),
+    lambda: inflated_contact_time_s(0.6, 0.24, 0.0), lambda: solid_contact_time_s(0.046, 0.0427, 100e6, 0.0),
+])
+def test_effect_equations_refuse_what_has_no_meaning(call):
+    with np.errstate(all="raise"):
+        with pytest.raises(UsageError):
+            call()
+
+
+@given(eps=st.floats(1e-6, 1.0), v_ref=st.floats(0.1, 20.0))
+@settings(max_examples=100, deadline=None)
+def test_the_null_speed_law_gives_eps_ref_at_any_speed_zero_included(eps, v_ref):
+    with np.errstate(all="raise"):
+        assert restitution_at_speed(eps, np.array([0.0, 0.5 * v_ref, v_ref]), v_ref, 0.0).tolist() == [eps] * 3

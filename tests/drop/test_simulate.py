@@ -374,3 +374,32 @@ def test_observations_of_each_kind():
         observations(d, "trajectory")
     with pytest.raises(UsageError, match="unknown format"):
         observations(d, "video")
+
+
+# --------------------------------------------------------------------------- the closed forms' inputs
+
+
+@pytest.mark.parametrize("call", [
+    lambda: fall_from_rest(-1.0, G, 0.0), lambda: fall_from_rest(1.0, 0.0, 0.0), lambda: fall_from_rest(1.0, G, -0.02),
+    lambda: flight_up_down(-1.0, G, 0.02), lambda: distance_fallen_m(-1.0, G, 0.02),
+])
+def test_closed_forms_refuse_negative_heights_speeds_times_and_drag(call):
+    with np.errstate(all="raise"):
+        with pytest.raises(UsageError):
+            call()
+
+
+@given(H=st.floats(0.0, 10.0), k=st.one_of(st.just(0.0), st.floats(1e-6, 1.0)))
+@settings(max_examples=50, deadline=None)
+def test_closed_forms_give_floats_for_scalars_and_the_same_numbers_for_arrays(H, k):
+    t, v = fall_from_rest(H, G, k)
+    flight = flight_up_down(v, G, k)
+    assert all(type(x) is float for x in (t, v, *flight))
+    ta, va = fall_from_rest(np.full(2, H), G, k)
+    assert ta.tolist() == [t, t] and va.tolist() == [v, v]
+    assert [a.tolist() for a in flight_up_down(np.full(2, v), G, k)] == [[x, x] for x in flight]
+
+
+def test_height_m_takes_one_time():
+    d = simulate_drops(1.0, 0.8, 2, BallProperties(0.058, 0.067))
+    assert d.height_m(0.1).tolist() == d.height_m(np.array([0.1])).tolist()

@@ -133,3 +133,80 @@ def test_round_trip_epsilon_to_virtual_body_and_back(eps, K, x):
 def test_eq9_is_inverse_of_apex_law(h_over_H, H):
     eps = eq.epsilon_from_heights(h_over_H * H, H)
     assert eps ** 2 * H == pytest.approx(h_over_H * H, rel=1e-12, abs=1e-15)
+
+
+# --------------------------------------------------------------------------- the shared input checks
+
+REAL_SCALARS = [4, 4.0, np.float64(4.0), np.float32(4.0), np.int64(4), np.array(4.0), np.array(4, dtype=np.int32)]
+
+
+@pytest.mark.parametrize("value", REAL_SCALARS, ids=lambda v: type(v).__name__ + str(getattr(v, "dtype", "")))
+def test_any_real_scalar_is_a_number(value):
+    assert eq.real_number(value) == 4.0 and type(eq.check_K(value)) is float
+
+
+@pytest.mark.parametrize("value", [True, np.bool_(True), "4", [4.0], np.array([4.0]), 4 + 0j, None])
+def test_what_is_no_real_scalar_is_refused_and_named(value):
+    assert eq.real_number(value) is None
+    with pytest.raises(UsageError, match=r"K must be a number > 0 \[1/s\], got "):
+        eq.check_K(value)
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True, width=64))
+@settings(max_examples=200, deadline=None)
+def test_a_refusal_shows_the_value_refused(x):
+    """The message's number is the one refused (repr precision), never '?' and never a rounded one."""
+    try:
+        eq.contact_time_from_epsilon_s(x, 4.0)
+    except UsageError as exc:
+        shown = str(exc).split("got ")[1].split(",")[0]
+        assert not (0 < x <= 1)
+        assert float(shown) == x or (math.isnan(x) and shown == "nan")
+    else:
+        assert 0 < x <= 1
+
+
+def test_a_masked_check_names_an_infinite_value():
+    with pytest.raises(UsageError, match="where x_m > 0, got inf, not a finite number"):
+        eq.contact_time_single_s(0.02, math.inf)
+
+
+def test_sphere_volume_and_drag_constant_refuse_what_no_ball_has():
+    for call in (lambda: eq.sphere_volume_m3(-1.0), lambda: eq.drag_constant_per_m(0.5, 0.067, 0.0),
+                 lambda: eq.drag_constant_per_m(-0.5, 0.067, 0.058), lambda: eq.drag_constant_per_m(0.5, 0.067, -1.0),
+                 lambda: eq.drag_constant_per_m(0.5, 0.067, 0.058, -1.204)):
+        with pytest.raises(UsageError):
+            call()
+
+
+@given(h=st.one_of(st.just(0.0), st.floats(1e-6, 3.0)), H=st.floats(0.01, 3.0),
+       k=st.one_of(st.just(0.0), st.floats(1e-9, 0.5)))
+@settings(max_examples=200, deadline=None)
+def test_with_drag_epsilon_is_in_the_unit_interval_or_refused(h, H, k):
+    """Default: an epsilon in [0, 1] or a UsageError; allow_above_one gives the same number where it is <= 1."""
+    loose = eq.epsilon_from_heights_with_drag(h, H, k, allow_above_one=True)
+    assert loose >= math.sqrt(h / H) * (1 - 1e-12)          # drag only adds to Eq. (9)
+    if loose <= 1.0:
+        assert eq.epsilon_from_heights_with_drag(h, H, k) == loose
+    else:
+        with pytest.raises(UsageError, match="exceeds drop height|no ball rebounds"):
+            eq.epsilon_from_heights_with_drag(h, H, k)
+
+
+@pytest.mark.parametrize("h, H, k", [(-0.1, 1.0, 0.01), (0.5, 0.0, 0.01), (0.5, 1.0, -0.5), (0.5, 1.0, math.inf),
+                                     (math.nan, 1.0, 0.01)])
+def test_with_drag_refuses_bad_heights_and_drag(h, H, k):
+    with pytest.raises(UsageError):
+        eq.epsilon_from_heights_with_drag(h, H, k, allow_above_one=True)
+
+
+def test_with_drag_beyond_double_precision_is_refused_not_overflowed():
+    with np.errstate(all="raise"):
+        with pytest.raises(UsageError, match="no ball rebounds"):
+            eq.epsilon_from_heights_with_drag(1.0, 2.0, 1e3)
+
+
+@pytest.mark.parametrize("n", [2.5, True, "3", 0, -1])
+def test_a_count_must_be_a_whole_number(n):
+    with pytest.raises(UsageError, match="must be an integer >= 1"):
+        eq.check_integer(n, "n")

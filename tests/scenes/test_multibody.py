@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vrcal.errors import UsageError
 from vrcal.scenes import multibody as mb
 from vrcal.scenes.spec import validate_scene
 
@@ -406,3 +407,25 @@ def test_sliding_never_adds_energy_and_a_rolling_ball_keeps_its_energy():
 def test_without_friction_a_ball_slides_on_for_ever():
     res = mb.simulate_scene(sliding_scene(mu=0.0))
     assert res.velocity_m_per_s[-1, 0, 0] == 2.0
+
+
+# --------------------------------------------------------------------------- the equations' inputs
+
+
+@pytest.mark.parametrize("call", [
+    lambda: mb.normal_impulse_N_s(-3.0, 1.5, _N, 0.058, _I, _R, np.inf, _Z, _O),
+    lambda: mb.normal_impulse_N_s(-3.0, -0.1, _N, 0.058, _I, _R, np.inf, _Z, _O),
+    lambda: mb.normal_impulse_N_s(-3.0, 0.8, _N, 0.0, _I, _R, np.inf, _Z, _O),
+    lambda: mb.normal_impulse_N_s(-3.0, 0.8, _N, np.inf, _Z, _R, np.inf, _Z, _O),
+    lambda: mb.friction_impulse_N_s([0.5, 0, 0], 0.1, -0.3, 40.0),
+    lambda: mb.friction_impulse_N_s([0.5, 0, 0], 0.1, 0.3, 0.0),
+    lambda: mb.floor_sliding_friction([1.0, 0, 0], 0.3, 9.81, 0.0335, 0.0),
+])
+def test_impulses_refuse_epsilon_outside_0_1_negative_friction_and_massless_bodies(call):
+    with np.errstate(all="raise"):
+        with pytest.raises(UsageError):
+            call()
+
+
+_N, _R, _O, _Z = np.array([0, 0, 1.0]), np.array([0, 0, -0.0335]), np.zeros(3), np.zeros((3, 3))
+_I = np.eye(3) / (2 / 3 * 0.058 * 0.0335**2)

@@ -511,7 +511,7 @@ def rebounds_beyond_drag(runs, ball):
     for i, run in enumerate(runs):
         h = np.asarray(run.h_m, dtype=float)
         if h.size >= 2 and h[0] > max(h[1], HIGHEST_LAB_DROP_M) and h[1] > 0 and \
-                float(epsilon_from_heights_with_drag(h[1], h[0], k)) > 1.0:
+                float(epsilon_from_heights_with_drag(h[1], h[0], k, allow_above_one=True)) > 1.0:
             bad.append((i, h[0], h[1]))
     if not bad:
         return []

@@ -210,7 +210,7 @@ def _epsilon_with_typical_drag(d):
 
     run = d.runs[0]
     k = drag_constant_per_m(0.47, float(d.ball.diameter_m), float(d.ball.mass_kg))
-    return float(epsilon_from_heights_with_drag(run.h_m[1], run.h_m[0], k))
+    return float(epsilon_from_heights_with_drag(run.h_m[1], run.h_m[0], k, allow_above_one=True))
 
 
 def engine_advice(discovery):

@@ -96,6 +96,8 @@ from vrcal.errors import UsageError, closest_name
 from vrcal.model.plausible import ball_density_kg_per_m3
 from vrcal.model.restitution import (  # noqa: F401 (the air's equations, here with the effects)
     AIR_DENSITY_KG_PER_M3,
+    _out,
+    check_array,
     drag_constant_per_m,
     epsilon_from_heights_with_drag,
     sphere_volume_m3,
@@ -277,7 +279,7 @@ def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per
     Parameters
     ----------
     g_m_per_s2 : float or ndarray
-        gravitational acceleration [m/s^2]
+        gravitational acceleration [m/s^2], > 0
     diameter_m : float or ndarray
         ball diameter D [m], > 0
     mass_kg : float or ndarray
@@ -288,7 +290,13 @@ def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per
     Returns
     -------
     g_eff_m_per_s2 : float or ndarray
-        ``g (m - rho V) / (m + rho V / 2)``, V = pi D^3 / 6 [m^3]
+        ``g (m - rho V) / (m + rho V / 2)``, V = pi D^3 / 6 [m^3]; negative for a ball lighter than
+        the air it displaces (it rises)
+
+    Raises
+    ------
+    UsageError
+        if a value is not finite or outside its range above
 
     Notes
     -----
@@ -299,10 +307,17 @@ def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per
     2.2 %, 2.2 %, 3.2 %, 2.3 % and 0.5 % below g. Without drag it leaves the apex ratios
     unchanged (they are energy ratios); it shows in the shape of a trajectory.
     """
-    V = np.asarray(sphere_volume_m3(diameter_m), dtype=float)
-    rho = np.asarray(air_density_kg_per_m3, dtype=float)
-    m = np.asarray(mass_kg, dtype=float)
-    return _out(np.asarray(g_m_per_s2, dtype=float) * (m - rho * V) / (m + 0.5 * rho * V))
+    g = check_array("g_m_per_s2", g_m_per_s2)
+    D = check_array("diameter_m", diameter_m)
+    m = check_array("mass_kg", mass_kg)
+    rho = check_array("air_density_kg_per_m3", air_density_kg_per_m3, lo_open=False)
+    return _out(_buoyant_gravity_m_per_s2(g, D, m, rho))
+
+
+def _buoyant_gravity_m_per_s2(g, D, m, rho):
+    """:func:`buoyant_gravity_m_per_s2` of checked arrays (the simulator's inner call)."""
+    V = math.pi * D**3 / 6.0
+    return g * (m - rho * V) / (m + 0.5 * rho * V)
 
 
 def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_per_s, exponent):
@@ -313,16 +328,21 @@ def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_pe
     epsilon_ref : float or ndarray
         epsilon at the reference speed, in (0, 1]
     impact_speed_m_per_s : float or ndarray
-        impact speed v [m/s], > 0
+        impact speed v [m/s], > 0 (>= 0 where p = 0: the constant epsilon needs no speed)
     reference_speed_m_per_s : float or ndarray
         reference speed v_ref [m/s], > 0; vrcal uses each drop's first impact speed
     exponent : float or ndarray
-        p, dimensionless; 0 gives the constant epsilon of [1], 1/5 the viscoelastic law [2]
+        p, dimensionless, finite; 0 gives the constant epsilon of [1], 1/5 the viscoelastic law [2]
 
     Returns
     -------
     epsilon : float or ndarray
-        ``1 - (1 - eps_ref) (v / v_ref)^p``, clipped to [1e-6, 1]
+        ``1 - (1 - eps_ref) (v / v_ref)^p``, clipped to [1e-6, 1]; exactly eps_ref where p = 0
+
+    Raises
+    ------
+    UsageError
+        if a value is not finite or outside its range above
 
     Notes
     -----
@@ -331,12 +351,20 @@ def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_pe
     order [2], so slower (later) bounces are more elastic. With v_ref = the first impact
     speed, eps_ref is the epsilon a drop test measures on its first bounce (Eq. 9).
     """
-    eps = np.asarray(epsilon_ref, dtype=float)
-    ratio = np.asarray(impact_speed_m_per_s, dtype=float) / np.asarray(reference_speed_m_per_s, dtype=float)
-    p = np.asarray(exponent, dtype=float)
+    eps = check_array("epsilon_ref", epsilon_ref, 0.0, 1.0)
+    p = check_array("exponent", exponent, -math.inf, lo_open=False)
+    v = check_array("impact_speed_m_per_s", impact_speed_m_per_s, lo_open=False)
+    check_array("impact_speed_m_per_s", v, where=p != 0, where_text="where exponent != 0")
+    v_ref = check_array("reference_speed_m_per_s", reference_speed_m_per_s)
+    with np.errstate(divide="ignore", invalid="ignore"):   # v = 0 where p = 0: where() keeps eps_ref
+        return _out(_restitution_at_speed(eps, v, v_ref, p))
+
+
+def _restitution_at_speed(eps, v, v_ref, p):
+    """:func:`restitution_at_speed` of checked arrays (the simulator's inner loop)."""
     # eps - (1 - eps)((v/v_ref)^p - 1): exactly eps_ref at p = 0 and at v = v_ref
-    eps_v = eps - (1.0 - eps) * np.expm1(p * np.log(ratio))
-    return _out(np.where(p == 0, eps, np.clip(eps_v, 1e-6, 1.0)))
+    eps_v = eps - (1.0 - eps) * np.expm1(p * np.log(v / v_ref))
+    return np.where(p == 0, eps, np.clip(eps_v, 1e-6, 1.0))
 
 
 def observed_height_m(bottom_height_m, offset_m):
@@ -418,9 +446,9 @@ def inflated_contact_time_s(mass_kg, diameter_m, gauge_pressure_pa=TYPICAL_GAUGE
     median of the contact time's prior density of a hollow ball (which is wide: sigma_ln 1;
     :func:`expected_contact_time_s`); it is no model of solid balls.
     """
-    m = np.asarray(mass_kg, dtype=float)
-    D = np.asarray(diameter_m, dtype=float)
-    p = np.asarray(gauge_pressure_pa, dtype=float)
+    m = check_array("mass_kg", mass_kg)
+    D = check_array("diameter_m", diameter_m)
+    p = check_array("gauge_pressure_pa", gauge_pressure_pa)
     return _out(math.pi * np.sqrt(m / (math.pi * D * p)))
 
 
@@ -456,7 +484,7 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOLID_MODULUS_CLASSES[0
     diameter_m : float or ndarray
         ball diameter D [m], > 0
     modulus_pa : float or ndarray
-        effective modulus E* = E / (1 - nu^2) of the contact [Pa] (default the softest solid, 1 MPa)
+        effective modulus E* = E / (1 - nu^2) of the contact [Pa], > 0 (default the softest solid, 1 MPa)
     speed_m_per_s : float or ndarray
         impact speed v [m/s], > 0 (default :data:`SLOW_IMPACT_M_PER_S`)
 
@@ -469,10 +497,10 @@ def solid_contact_time_s(mass_kg, diameter_m, modulus_pa=SOLID_MODULUS_CLASSES[0
     -----
     A 12.7 mm steel bearing (E* 100 GPa) at 2.4 m/s: 39 us; a golf ball (100 MPa) at 2 m/s: 1.0 ms.
     """
-    m = np.asarray(mass_kg, dtype=float)
-    R = 0.5 * np.asarray(diameter_m, dtype=float)
-    E = np.asarray(modulus_pa, dtype=float)
-    v = np.asarray(speed_m_per_s, dtype=float)
+    m = check_array("mass_kg", mass_kg)
+    R = 0.5 * check_array("diameter_m", diameter_m)
+    E = check_array("modulus_pa", modulus_pa)
+    v = check_array("speed_m_per_s", speed_m_per_s)
     return _out(2.868 * (m * m / (R * E * E * v)) ** 0.2)
 
 
@@ -555,11 +583,6 @@ def contact_time_limit_s(mass_kg, diameter_m):
     if moduli is not None:
         return float(solid_contact_time_s(mass_kg, diameter_m, moduli[0], SLOW_IMPACT_M_PER_S))
     return 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
-
-
-def _out(value):
-    arr = np.asarray(value, dtype=float)
-    return float(arr) if arr.ndim == 0 else arr
 
 
 # --------------------------------------------------------------------------- the registry

@@ -36,15 +36,20 @@ import math
 import numpy as np
 
 from vrcal.drop.effects import (
-    buoyant_gravity_m_per_s2,
-    drag_constant_per_m,
+    _buoyant_gravity_m_per_s2,
+    _restitution_at_speed,
     resolve_effects,
-    restitution_at_speed,
-    sphere_volume_m3,
 )
 from vrcal.errors import UsageError
 from vrcal.model.body import ball_properties
-from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.model.restitution import (
+    AIR_DENSITY_KG_PER_M3,
+    STANDARD_GRAVITY_M_PER_S2,
+    _drag_constant_per_m,
+    _out,
+    check_array,
+    check_integer,
+)
 
 #: Output formats of :func:`sample_measurement` and ``vrcal simulate --format``.
 FORMATS = ("trajectory", "impacts", "apexes")
@@ -70,6 +75,12 @@ def _safe_k(k):
     return pos, np.where(pos, k, 1.0)
 
 
+def _flight_inputs(what, value, g_m_per_s2, k_per_m):
+    """(value >= 0, g > 0, k >= 0) checked and broadcast: the closed forms' public boundary."""
+    return np.broadcast_arrays(check_array(what, value, lo_open=False), check_array("g_m_per_s2", g_m_per_s2),
+                               check_array("k_per_m", k_per_m, lo_open=False))
+
+
 def fall_from_rest(drop_height_m, g_m_per_s2, k_per_m):
     """Fall time and landing speed of a ball released from rest at height H.
 
@@ -84,11 +95,21 @@ def fall_from_rest(drop_height_m, g_m_per_s2, k_per_m):
 
     Returns
     -------
-    t_s, v_m_per_s : ndarray
+    t_s, v_m_per_s : float or ndarray
         ``acosh(exp(k H)) / sqrt(g k)`` and ``v_t sqrt(1 - exp(-2 k H))``; for k = 0
-        ``sqrt(2 H / g)`` and ``sqrt(2 g H)`` (Eq. (8) of [1]).
+        ``sqrt(2 H / g)`` and ``sqrt(2 g H)`` (Eq. (8) of [1]). Floats for scalar input.
+
+    Raises
+    ------
+    UsageError
+        if a value is not finite or outside its range above
     """
-    H, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (drop_height_m, g_m_per_s2, k_per_m)))
+    return tuple(_out(a) for a in _fall_from_rest(*_flight_inputs("drop_height_m", drop_height_m, g_m_per_s2,
+                                                                   k_per_m)))
+
+
+def _fall_from_rest(H, g, k):
+    """:func:`fall_from_rest` of checked arrays of one shape (the simulator's call)."""
     pos, ks = _safe_k(k)
     s = np.sqrt(-np.expm1(-2.0 * ks * H))
     t = np.where(pos, (ks * H + np.log1p(s)) / np.sqrt(g * ks), np.sqrt(2.0 * H / g))
@@ -110,11 +131,16 @@ def flight_up_down(speed_m_per_s, g_m_per_s2, k_per_m):
 
     Returns
     -------
-    t_up_s, apex_m, t_down_s, v_land_m_per_s : ndarray
+    t_up_s, apex_m, t_down_s, v_land_m_per_s : float or ndarray
         with z = u sqrt(k/g): ``atan(z)/sqrt(gk)``, ``ln(1+z^2)/(2k)``, ``asinh(z)/sqrt(gk)``,
-        ``u/sqrt(1+z^2)``; for k = 0: ``u/g``, ``u^2/(2g)``, ``u/g``, ``u``.
+        ``u/sqrt(1+z^2)``; for k = 0: ``u/g``, ``u^2/(2g)``, ``u/g``, ``u``. Floats for scalar input.
+
+    Raises
+    ------
+    UsageError
+        if a value is not finite or outside its range above (a flight leaves the floor upward)
     """
-    u, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (speed_m_per_s, g_m_per_s2, k_per_m)))
+    u, g, k = _flight_inputs("speed_m_per_s", speed_m_per_s, g_m_per_s2, k_per_m)
     pos, ks = _safe_k(k)
     z = u * np.sqrt(ks / g)
     sgk = np.sqrt(g * ks)
@@ -122,35 +148,38 @@ def flight_up_down(speed_m_per_s, g_m_per_s2, k_per_m):
     apex = np.where(pos, np.log1p(z * z) / (2.0 * ks), u * u / (2.0 * g))
     t_down = np.where(pos, np.arcsinh(z) / sgk, u / g)
     v_land = np.where(pos, u / np.sqrt(1.0 + z * z), u)
-    return t_up, apex, t_down, v_land
+    return _out(t_up), _out(apex), _out(t_down), _out(v_land)
 
 
 def height_rising_m(tau_s, speed_m_per_s, g_m_per_s2, k_per_m):
     """Height of a ball tau after leaving the floor upward at speed u (valid up to the apex).
 
     Returns ``ln(cos b + z sin b) / k`` with b = tau sqrt(gk), z = u sqrt(k/g), written as
-    ``log1p(z sin b - 2 sin^2(b/2)) / k``; ``u tau - g tau^2 / 2`` for k = 0 [m].
+    ``log1p(z sin b - 2 sin^2(b/2)) / k``; ``u tau - g tau^2 / 2`` for k = 0 [m] (tau >= 0, u >= 0,
+    g > 0, k >= 0; a float for scalar input).
     """
-    tau, u, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (tau_s, speed_m_per_s,
-                                                                              g_m_per_s2, k_per_m)))
+    tau, (u, g, k) = check_array("tau_s", tau_s, lo_open=False), _flight_inputs("speed_m_per_s", speed_m_per_s,
+                                                                                g_m_per_s2, k_per_m)
+    tau, u, g, k = np.broadcast_arrays(tau, u, g, k)
     pos, ks = _safe_k(k)
     b = tau * np.sqrt(g * ks)
     z = u * np.sqrt(ks / g)
     with np.errstate(invalid="ignore", divide="ignore"):
         drag = np.log1p(z * np.sin(b) - 2.0 * np.sin(0.5 * b) ** 2) / ks
-    return np.where(pos, drag, u * tau - 0.5 * g * tau * tau)
+    return _out(np.where(pos, drag, u * tau - 0.5 * g * tau * tau))
 
 
 def distance_fallen_m(tau_s, g_m_per_s2, k_per_m):
-    """Distance fallen from rest after tau: ``ln cosh(tau sqrt(gk)) / k``; ``g tau^2 / 2`` for k = 0 [m]."""
-    tau, g, k = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (tau_s, g_m_per_s2, k_per_m)))
+    """Distance fallen from rest after tau: ``ln cosh(tau sqrt(gk)) / k``; ``g tau^2 / 2`` for k = 0 [m]
+    (tau >= 0, g > 0, k >= 0; a float for scalar input)."""
+    tau, g, k = _flight_inputs("tau_s", tau_s, g_m_per_s2, k_per_m)
     pos, ks = _safe_k(k)
     b = np.abs(tau) * np.sqrt(g * ks)
     small = np.minimum(b, 1.0)
     large = np.maximum(b, 1.0)
     logcosh = np.where(b < 1.0, np.log1p(2.0 * np.sinh(0.5 * small) ** 2),
                        large + np.log1p(np.exp(-2.0 * large)) - math.log(2.0))
-    return np.where(pos, logcosh / ks, 0.5 * g * tau * tau)
+    return _out(np.where(pos, logcosh / ks, 0.5 * g * tau * tau))
 
 
 def _flight_kernel(g, k):
@@ -226,12 +255,12 @@ class Drops:
 
         Parameters
         ----------
-        t_s : ndarray
-            (n_t,) sample times shared by all drops, or (n_drops, n_t) [s]
+        t_s : float or ndarray
+            one time, (n_t,) sample times shared by all drops, or (n_drops, n_t) [s]
 
         Returns
         -------
-        y_m : ndarray (n_drops, n_t)
+        y_m : ndarray (n_drops, n_t)  ((n_drops, 1) for one time)
             the ball's bottom plus ``offset_m``. Before release the ball is held still at
             H; during a contact of duration tau_c it dips below the floor level in a half
             sine, ``-A sin(pi (t - t_impact) / tau_c)`` with ``A = (v_in + v_out) tau_c / (2 pi)``
@@ -239,6 +268,8 @@ class Drops:
             out); after the landing that ends the last flight it rests on the floor (bottom at 0).
         """
         t = np.asarray(t_s, dtype=float)
+        if t.ndim == 0:
+            t = t.reshape(1)
         if t.ndim == 1:
             t = np.broadcast_to(t, (self.n_drops, t.size))
         if t.ndim != 2 or t.shape[0] != self.n_drops:
@@ -373,9 +404,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     series ``t_n = t_1 + 2 t_1 (eps + ... + eps^(n-1))``, ``t_1 = sqrt(2 H / g)`` after release.
     """
     props = ball_properties(ball)
-    if isinstance(n_bounces, bool) or int(n_bounces) != n_bounces or int(n_bounces) < 1:
-        raise UsageError(f"n_bounces must be an integer >= 1, got {n_bounces}")
-    n = int(n_bounces)
+    n = check_integer(n_bounces, "n_bounces")
     eff = resolve_effects(effects)
     shapes = [np.shape(a) for a in (drop_height_m, epsilon, g_m_per_s2, release_time_s, props.mass_kg,
                                     props.diameter_m)]
@@ -409,12 +438,12 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     if rho_b is None:
         g, added = g0, 0.0
     else:
-        g = np.asarray(buoyant_gravity_m_per_s2(g0, D, m, rho_b))
-        added = 0.5 * rho_b * np.asarray(sphere_volume_m3(D))
+        g = _buoyant_gravity_m_per_s2(g0, D, m, rho_b)
+        added = 0.5 * rho_b * (math.pi * D**3 / 6.0)
         if np.any(g <= 0):
             raise UsageError("buoyancy: the ball is lighter than the air it displaces (it would not fall)")
     cd = param("air_drag", "drag_coefficient")
-    k = np.zeros(N) if cd is None else np.asarray(drag_constant_per_m(cd, D, m, added_mass_kg=added)) * np.ones(N)
+    k = np.zeros(N) if cd is None else _drag_constant_per_m(cd, D, m + added, AIR_DENSITY_KG_PER_M3) * np.ones(N)
     tc = param("contact_duration", "contact_time_s")
     p = param("velocity_dependent_restitution", "exponent")
     offset = param("height_offset", "offset_m")
@@ -433,12 +462,12 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
     apex_h = np.empty((N, n + 1))
     apex_t[:, 0] = t0
     apex_h[:, 0] = H
-    t_fall, v_land = fall_from_rest(H, g, k)
+    t_fall, v_land = _fall_from_rest(H, g, k)
     flight = _flight_kernel(g, k)
     for j in range(n):
         impact_t[:, j] = apex_t[:, j] + t_fall
         impact_v[:, j] = v_land
-        e = eps if p is None else restitution_at_speed(eps, v_land, impact_v[:, 0] if v_ref is None else v_ref, p)
+        e = eps if p is None else _restitution_at_speed(eps, v_land, impact_v[:, 0] if v_ref is None else v_ref, p)
         eps_used[:, j] = e
         u = e * v_land
         rebound_v[:, j] = u

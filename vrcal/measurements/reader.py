@@ -39,6 +39,7 @@ from vrcal.measurements.table import (
     strip_cell,
 )
 from vrcal.measurements.types import Runs
+from vrcal.model.restitution import check_number
 
 # --------------------------------------------------------------------------- registry and entry point
 
@@ -237,6 +238,9 @@ def read_measurement(path, fmt=None, **options):
     unknown = sorted(set(options) - set(READER_OPTIONS) - set(RECORDING_OPTIONS))
     if unknown:
         raise UsageError(f"unknown reader option(s) {', '.join(unknown)} (known: {', '.join(READER_OPTIONS)})")
+    for key, what, unit in (("fs_hz", "--fs", "[Hz]"), ("scale_m_per_px", "--scale", "[m/px]")):
+        if options.get(key) is not None:
+            options[key] = check_number(options[key], what, unit=unit)
     name = fmt or _detect_recording(path)
     if name is not None and FORMATS[name].recording:
         passed = {k: v for k, v in options.items() if k not in ("y_down", "sheet") and v is not None}

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from vrcal.errors import UsageError
 from vrcal.model.plausible import check_ball_size
-from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2, check_number
 from vrcal.model.standards import find_ball, get_ball, load_standards, normalised_name
 
 
@@ -72,8 +72,8 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
         the standard's Ball when ``name`` is one, else None
     """
     standards = load_standards() if standards is None else standards
-    _check_size("--mass", mass_kg, "[kg]")
-    _check_size("--diameter", diameter_m, "[m]")
+    mass_kg = _check_size("--mass", mass_kg, "[kg]")
+    diameter_m = _check_size("--diameter", diameter_m, "[m]")
     std = find_ball(name, standards)
     if std is not None:
         props = BallProperties.from_ball(std)
@@ -202,8 +202,7 @@ class Body:
         Raises UsageError for a ``g_m_per_s2`` that is not a number > 0.
         """
         if g_m_per_s2 is not None:
-            _check_size("--g", g_m_per_s2, "[m/s^2]")
-            return float(g_m_per_s2)
+            return _check_size("--g", g_m_per_s2, "[m/s^2]")
         if self.discovered is not None:
             return float(self.discovered["g_m_per_s2"])
         return STANDARD_GRAVITY_M_PER_S2
@@ -251,8 +250,8 @@ def describe_body(ball=None, *, mass_kg=None, diameter_m=None, from_json=None, s
     >>> describe_body(mass_kg=0.0459, diameter_m=0.0427).name
     'ball'
     """
-    _check_size("--mass", mass_kg, "[kg]")
-    _check_size("--diameter", diameter_m, "[m]")
+    mass_kg = _check_size("--mass", mass_kg, "[kg]")
+    diameter_m = _check_size("--diameter", diameter_m, "[m]")
     if from_json is not None:
         doc = read_discover_json(from_json)
         found = doc["ball"]
@@ -392,9 +391,8 @@ def _plausible(props, mass_kg, diameter_m):
 
 
 def _check_size(label, value, unit=""):
-    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
-                              or not math.isfinite(value) or value <= 0):
-        raise UsageError(f"{label} must be a number > 0{' ' + unit if unit else ''}, got {value}")
+    """``value`` as a float (None stays None): any real number > 0 (:func:`vrcal.model.restitution.check_number`)."""
+    return None if value is None else check_number(value, label, unit=unit)
 
 
 def _obj(doc, key, where):

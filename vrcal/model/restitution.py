@@ -26,6 +26,7 @@ Departures from [1]
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -44,52 +45,164 @@ DEFAULT_K_PER_S = 4.0
 POINT_OFFSET_DIAMETERS = {"bottom": 0.0, "centre": 0.5, "top": 1.0}
 
 
+def real_number(value):
+    """The float of one real number, else None.
+
+    Parameters
+    ----------
+    value : object
+        a Python int or float, a numpy integer or floating scalar, or a 0-d array of one; a bool
+        (True is no rate or mass), a string, a complex number or an array of several values is
+        not one
+
+    Returns
+    -------
+    float or None
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return None
+    if isinstance(value, np.ndarray):
+        return float(value) if value.ndim == 0 and value.dtype.kind in "iuf" else None
+    return float(value) if isinstance(value, numbers.Real) else None
+
+
+def check_number(value, what, lo=0.0, hi=math.inf, *, lo_open=True, hi_open=False, unit=""):
+    """One finite real number in an interval, as a float; :class:`UsageError` naming ``what`` otherwise.
+
+    Parameters
+    ----------
+    value : object
+        any real scalar (:func:`real_number`): int, float, numpy scalar, 0-d array; not a bool
+    what : str
+        its name in the message (``"K"``, ``"--mass"``)
+    lo, hi : float
+        the interval's ends (default: > 0)
+    lo_open, hi_open : bool
+        whether each end is excluded
+    unit : str
+        shown after the bound, e.g. ``"[1/s]"``
+
+    Returns
+    -------
+    float
+    """
+    x = real_number(value)
+    if x is None:
+        raise UsageError(f"{what} must be a number{_unit(_bound(lo, hi, lo_open, hi_open))}{_unit(unit)}, "
+                         f"got {_brief(value)}")
+    if not _inside(np.float64(x), lo, hi, lo_open, hi_open):
+        raise UsageError(_refusal(what, x, lo, hi, lo_open, hi_open, _unit(unit)))
+    return x
+
+
+def check_integer(value, what, lo=1):
+    """One whole number >= ``lo`` as an int (an int, a numpy integer, or a float with no fraction such as
+    2.0); :class:`UsageError` naming ``what`` otherwise (a bool, 2.5, '3')."""
+    x = real_number(value)
+    if x is None or not math.isfinite(x) or x != int(x) or x < lo:
+        shown = _show(x) if x is not None else _brief(value)
+        raise UsageError(f"{what} must be an integer >= {lo}, got {shown}")
+    return int(x)
+
+
+def check_array(what, value, lo=0.0, hi=math.inf, *, lo_open=True, hi_open=False, unit="", where=None,
+                where_text="", allow_inf=False):
+    """Numbers (a scalar or an array) in an interval, as a float ndarray; :class:`UsageError` naming
+    ``what`` and the first value refused otherwise.
+
+    Parameters
+    ----------
+    what : str
+        the parameter's name in the message (``"x_m"``)
+    value : float or array_like
+        the numbers
+    lo, hi : float
+        the interval's ends (default: > 0)
+    lo_open, hi_open : bool
+        whether each end is excluded
+    unit : str
+        shown after the bound
+    where : ndarray of bool, optional
+        check only these entries (broadcast with ``value``)
+    where_text : str
+        says where in the message (``"where x_m > 0"``)
+    allow_inf : bool
+        accept +inf (a static body's mass); nan is always refused
+
+    Returns
+    -------
+    ndarray of float
+    """
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what} must be numbers{_unit(_bound(lo, hi, lo_open, hi_open))}{_unit(unit)}, "
+                         f"got {_brief(value)}") from None
+    bad = ~_inside(arr, lo, hi, lo_open, hi_open, allow_inf)
+    if where is not None:
+        bad = bad & where
+    if np.any(bad):
+        shown = np.broadcast_to(arr, bad.shape)[bad]
+        raise UsageError(_refusal(what, float(shown.flat[0]), lo, hi, lo_open, hi_open,
+                                  _unit(unit) + _unit(where_text), allow_inf))
+    return arr
+
+
+def _inside(arr, lo, hi, lo_open, hi_open, allow_inf=False):
+    ok = (arr > lo) if lo_open else (arr >= lo)
+    ok &= (arr < hi) if hi_open else (arr <= hi)
+    return ok & (np.isfinite(arr) | (allow_inf & (arr == np.inf)))
+
+
+def _bound(lo, hi, lo_open, hi_open):
+    if hi == math.inf:
+        return "" if lo == -math.inf else f"{'>' if lo_open else '>='} {_show(lo)}"
+    return f"in {'(' if lo_open else '['}{_show(lo)}, {_show(hi)}{')' if hi_open else ']'}"
+
+
+def _unit(unit):
+    return f" {unit}" if unit else ""
+
+
+def _refusal(what, x, lo, hi, lo_open, hi_open, suffix="", allow_inf=False):
+    """The message for a number ``x`` outside the interval (or not finite); ``suffix`` follows the bound."""
+    if hi != math.inf:
+        return f"{what} must lie in {_bound(lo, hi, lo_open, hi_open)[3:]}{suffix}, got {_show(x)}"
+    infinite = ", not a finite number" if math.isinf(x) and not allow_inf else ""   # nan: "must be a number" says it
+    return f"{what} must be a number{_unit(_bound(lo, hi, lo_open, hi_open))}{suffix}, got {_show(x)}{infinite}"
+
+
+def _show(x):
+    """A number as short as :g when that is the value itself, else at repr precision (the value refused)."""
+    x = float(x)
+    short = f"{x:g}"
+    return short if float(short) == x or not math.isfinite(x) else repr(x)
+
+
+def _brief(value):
+    """What was given instead of a number, short."""
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    if isinstance(value, (bool, np.bool_)):
+        return f"{value} (a bool)"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def check_K(K_per_s):
-    """K [1/s] as a float; UsageError unless it is a finite number > 0."""
-    if not (isinstance(K_per_s, (int, float)) and math.isfinite(K_per_s) and K_per_s > 0):
-        raise UsageError(f"K must be a finite number > 0 [1/s], got {K_per_s!r}")
-    return float(K_per_s)
+    """K [1/s] as a float; UsageError unless it is one finite real number > 0 (:func:`check_number`)."""
+    return check_number(K_per_s, "K", unit="[1/s]")
 
 
 def check_epsilon(epsilon, what="epsilon"):
     """Return epsilon as a float in (0, 1]; :class:`UsageError` naming ``what`` otherwise."""
-    try:
-        e = float(epsilon)
-    except (TypeError, ValueError):
-        raise UsageError(f"{what} must be a number in (0, 1], got {epsilon!r}") from None
-    if not (math.isfinite(e) and 0.0 < e <= 1.0):
-        raise UsageError(f"{what} must lie in (0, 1], got {e:g}")
-    return e
+    return check_number(epsilon, what, 0.0, 1.0)
 
 
 def _out(value):
     """Return a Python float for 0-d results, the array otherwise."""
     arr = np.asarray(value, dtype=float)
     return float(arr) if arr.ndim == 0 else arr
-
-
-def _positive(name, value, allow_zero=False):
-    arr = np.asarray(value, dtype=float)
-    bad = ~np.isfinite(arr) | ((arr < 0) if allow_zero else (arr <= 0))
-    if np.any(bad):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise UsageError(f"{name} must be a finite number {bound}, got {_show(arr[bad])}")
-    return arr
-
-
-def _show(bad):
-    flat = np.ravel(bad)
-    return f"{flat[0]:g}" if flat.size else "?"
-
-
-def _epsilon_in_unit_interval(epsilon, allow_zero=False):
-    eps = np.asarray(epsilon, dtype=float)
-    low_ok = (eps >= 0) if allow_zero else (eps > 0)
-    bad = ~np.isfinite(eps) | ~low_ok | (eps > 1)
-    if np.any(bad):
-        interval = "[0, 1]" if allow_zero else "(0, 1]"
-        raise UsageError(f"epsilon must lie in {interval}, got {_show(eps[bad])}")
-    return eps
 
 
 def contact_time_pair_s(x_a_m, v_a_m_per_s, x_b_m, v_b_m_per_s):
@@ -134,12 +247,10 @@ def contact_time_single_s(x_m, v_m_per_s):
     T_s : float or ndarray
         ``x / (2 v)`` [s]; 0 where x = 0.
     """
-    x = _positive("x_m", x_m, allow_zero=True)
-    v = np.asarray(v_m_per_s, dtype=float)
+    x = check_array("x_m", x_m, lo_open=False)
+    v = check_array("v_m_per_s", v_m_per_s, where=x > 0, where_text="where x_m > 0")
     x, v = np.broadcast_arrays(x, v)
     needs_v = x > 0
-    if np.any(needs_v & ~(np.isfinite(v) & (v > 0))):
-        raise UsageError(f"v_m_per_s must be a finite number > 0 where x_m > 0, got {_show(v[needs_v & ~(v > 0)])}")
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(needs_v, x / (2.0 * np.where(needs_v, v, 1.0)), 0.0)
     return _out(t)
@@ -158,10 +269,11 @@ def epsilon_from_contact_time(T_s, K_per_s):
     Returns
     -------
     epsilon : float or ndarray
-        ``exp(-K T)``, dimensionless, in (0, 1]
+        ``exp(-K T)``, dimensionless, in (0, 1]; 0 where K T > 745, the underflow of double
+        precision (the smallest epsilon it holds is about 5e-324, K T = 744.4)
     """
-    T = _positive("T_s", T_s, allow_zero=True)
-    K = _positive("K_per_s", K_per_s)
+    T = check_array("T_s", T_s, lo_open=False)
+    K = check_array("K_per_s", K_per_s)
     return _out(np.exp(-K * T))
 
 
@@ -180,8 +292,8 @@ def contact_time_from_epsilon_s(epsilon, K_per_s):
     T_s : float or ndarray
         ``-ln(epsilon) / K`` [s]
     """
-    eps = _epsilon_in_unit_interval(epsilon)
-    K = _positive("K_per_s", K_per_s)
+    eps = check_array("epsilon", epsilon, 0.0, 1.0)
+    K = check_array("K_per_s", K_per_s)
     return _out(-np.log(eps) / K + 0.0)   # + 0.0: epsilon = 1 gives 0, not -0
 
 
@@ -245,8 +357,8 @@ def virtual_speed_m_per_s(x_m, T_s):
     v_m_per_s : float or ndarray
         ``x / (2 T)`` [m/s]
     """
-    x = _positive("x_m", x_m)
-    T = _positive("T_s", T_s)
+    x = check_array("x_m", x_m)
+    T = check_array("T_s", T_s)
     return _out(x / (2.0 * T))
 
 
@@ -265,8 +377,8 @@ def virtual_depth_m(v_m_per_s, T_s):
     x_m : float or ndarray
         ``2 v T`` [m]
     """
-    v = _positive("v_m_per_s", v_m_per_s)
-    T = _positive("T_s", T_s, allow_zero=True)
+    v = check_array("v_m_per_s", v_m_per_s)
+    T = check_array("T_s", T_s, lo_open=False)
     return _out(2.0 * v * T)
 
 
@@ -295,8 +407,8 @@ def epsilon_from_heights(rebound_height_m, drop_height_m):
     -----
     Eq. (9) ignores air drag; see :mod:`vrcal.drop.effects` for the correction.
     """
-    h = _positive("rebound height h", rebound_height_m, allow_zero=True)
-    H = _positive("drop height H", drop_height_m)
+    h = check_array("rebound height h", rebound_height_m, lo_open=False)
+    H = check_array("drop height H", drop_height_m)
     h, H = np.broadcast_arrays(h, H)
     if np.any(h > H):
         i = np.flatnonzero(np.ravel(h > H))[0]
@@ -322,8 +434,8 @@ def impact_speed_m_per_s(drop_height_m, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     v_m_per_s : float or ndarray
         ``sqrt(2 g H)`` [m/s]
     """
-    H = _positive("drop height", drop_height_m, allow_zero=True)
-    g = _positive("g_m_per_s2", g_m_per_s2)
+    H = check_array("drop height", drop_height_m, lo_open=False)
+    g = check_array("g_m_per_s2", g_m_per_s2)
     return _out(np.sqrt(2.0 * g * H))
 
 
@@ -353,7 +465,7 @@ def height_to_bottom_m(height_m, measured_to, diameter_m):
     """
     if measured_to not in POINT_OFFSET_DIAMETERS:
         raise UsageError(f"measured_to must be one of {sorted(POINT_OFFSET_DIAMETERS)}, got {measured_to!r}")
-    D = _positive("diameter_m", diameter_m)
+    D = check_array("diameter_m", diameter_m)
     h = np.asarray(height_m, dtype=float)
     return _out(h - POINT_OFFSET_DIAMETERS[measured_to] * D)
 
@@ -366,8 +478,33 @@ AIR_DENSITY_KG_PER_M3 = 1.204
 
 
 def sphere_volume_m3(diameter_m):
-    """Volume of a sphere of diameter D [m]: ``pi D^3 / 6`` [m^3]."""
-    D = np.asarray(diameter_m, dtype=float)
+    """Volume of a sphere of diameter D.
+
+    Parameters
+    ----------
+    diameter_m : float or ndarray
+        sphere diameter D [m], > 0
+
+    Returns
+    -------
+    volume_m3 : float or ndarray
+        ``pi D^3 / 6`` [m^3]
+
+    Raises
+    ------
+    UsageError
+        if a diameter is not a finite number > 0
+
+    Notes
+    -----
+    Not in [1]; the air a ball displaces (``buoyancy``) and its added mass rho V / 2.
+
+    Examples
+    --------
+    >>> round(sphere_volume_m3(0.067) * 1e6, 2)   # a tennis ball [cm^3]
+    157.48
+    """
+    D = check_array("diameter_m", diameter_m)
     return _out(math.pi * D**3 / 6.0)
 
 
@@ -384,26 +521,42 @@ def drag_constant_per_m(drag_coefficient, diameter_m, mass_kg, air_density_kg_pe
     mass_kg : float or ndarray
         ball mass m [kg], > 0
     air_density_kg_per_m3 : float or ndarray
-        rho [kg/m^3], default 1.204 (20 C)
+        rho [kg/m^3], >= 0, default 1.204 (20 C)
     added_mass_kg : float or ndarray
-        added mass of the air moving with the ball [kg] (0 unless ``buoyancy`` is on)
+        added mass of the air moving with the ball [kg], >= 0 (0 unless ``buoyancy`` is on)
 
     Returns
     -------
     k_per_m : float or ndarray
-        ``rho C_d (pi D^2 / 4) / (2 (m + m_added))`` [1/m]; the terminal speed is sqrt(g/k).
+        ``rho C_d (pi D^2 / 4) / (2 (m + m_added))`` [1/m], >= 0; the terminal speed is sqrt(g/k).
+
+    Raises
+    ------
+    UsageError
+        if a value is not finite or outside its range above
 
     Notes
     -----
     Not in [1] (drag-free flights). C_d is taken constant (no drag crisis, no spin).
     """
-    cd = np.asarray(drag_coefficient, dtype=float)
-    D = np.asarray(diameter_m, dtype=float)
-    m = np.asarray(mass_kg, dtype=float) + np.asarray(added_mass_kg, dtype=float)
-    return _out(air_density_kg_per_m3 * cd * (math.pi * D**2 / 4.0) / (2.0 * m))
+    cd = check_array("drag_coefficient", drag_coefficient, lo_open=False)
+    D = check_array("diameter_m", diameter_m)
+    rho = check_array("air_density_kg_per_m3", air_density_kg_per_m3, lo_open=False)
+    m = check_array("mass_kg", mass_kg) + check_array("added_mass_kg", added_mass_kg, lo_open=False)
+    return _out(_drag_constant_per_m(cd, D, m, rho))
 
 
-def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
+def _drag_constant_per_m(cd, D, m, rho):
+    """:func:`drag_constant_per_m` of checked arrays (m the mass with the added mass)."""
+    return rho * cd * (math.pi * D**2 / 4.0) / (2.0 * m)
+
+
+#: Rounding allowed above epsilon = 1 by :func:`epsilon_from_heights_with_drag` (the closed form of a
+#: drop at epsilon 1 gives 1 only to a few units in the last place).
+EPSILON_ROUNDING = 1e-12
+
+
+def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m, *, allow_above_one=False):
     """Coefficient of restitution from a drop test with quadratic air drag: Eq. (9) of [1] corrected.
 
     Parameters
@@ -415,11 +568,22 @@ def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
         drop height H [m] of the ball's bottom above the floor, > 0 (released from rest)
     k_per_m : float or ndarray
         drag constant k [1/m] (:func:`drag_constant_per_m`), >= 0
+    allow_above_one : bool
+        return an epsilon > 1 instead of raising: heights that no ball of epsilon <= 1 reaches
+        with this drag (h > H, or too little lost for the drag), for a caller that tells the user
+        what that means (``inf`` where it exceeds double precision)
 
     Returns
     -------
     epsilon : float or ndarray
-        ``sqrt(expm1(2 k h) / (1 - exp(-2 k H)))``; ``sqrt(h / H)`` (Eq. 9) for k = 0
+        ``sqrt(expm1(2 k h) / (1 - exp(-2 k H)))``; ``sqrt(h / H)`` (Eq. 9) for k = 0. In (0, 1]
+        (up to :data:`EPSILON_ROUNDING`) unless ``allow_above_one``.
+
+    Raises
+    ------
+    UsageError
+        if a height or k is negative or not finite, H = 0, or (without ``allow_above_one``)
+        h > H or epsilon > 1: with drag a ball of epsilon 1 rises less than it fell.
 
     Notes
     -----
@@ -429,10 +593,21 @@ def epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k_per_m):
     0.5 the drag-free Eq. (9) underestimates the contact epsilon of the standards' drop
     tests by 0.024 (basketball, volleyball) to 0.037 (football).
     """
-    h = np.asarray(rebound_height_m, dtype=float)
-    H = np.asarray(drop_height_m, dtype=float)
-    k = np.asarray(k_per_m, dtype=float)
+    h = check_array("rebound height h", rebound_height_m, lo_open=False)
+    H = check_array("drop height H", drop_height_m)
+    k = check_array("drag constant k_per_m", k_per_m, lo_open=False)
     h, H, k = np.broadcast_arrays(h, H, k)
     pos = k > 1e-150  # smaller k change nothing in double precision (and would overflow)
     ks = np.where(pos, k, 1.0)
-    return _out(np.where(pos, np.sqrt(np.expm1(2.0 * ks * h) / -np.expm1(-2.0 * ks * H)), np.sqrt(h / H)))
+    with np.errstate(over="ignore"):   # exp(2 k h) beyond double precision: epsilon = inf, far above 1
+        eps = np.where(pos, np.sqrt(np.expm1(2.0 * ks * h) / -np.expm1(-2.0 * ks * H)), np.sqrt(h / H))
+    above = eps > 1.0 + EPSILON_ROUNDING
+    if not allow_above_one and np.any(above):
+        i = np.flatnonzero(np.ravel(above))[0]
+        hi, Hi, ki = (float(np.ravel(a)[i]) for a in (h, H, k))
+        if hi > Hi:
+            raise UsageError(f"rebound height h = {_show(hi)} m exceeds drop height H = {_show(Hi)} m: "
+                             "a ball cannot rebound higher than it fell")
+        raise UsageError(f"with air drag k = {_show(ki)} 1/m no ball rebounds h = {_show(hi)} m from H = "
+                         f"{_show(Hi)} m (epsilon would be {float(np.ravel(eps)[i]):.6g} > 1)")
+    return _out(eps)

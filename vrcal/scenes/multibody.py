@@ -47,7 +47,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vrcal.errors import DataError
+from vrcal.errors import DataError, UsageError
+from vrcal.model.restitution import check_array
 from vrcal.scenes.spec import SceneContact, SceneResult
 
 #: Two surfaces closer than this [m] are in contact.
@@ -91,7 +92,7 @@ def inverse_effective_mass_per_kg(direction, mass_a_kg, inv_inertia_a_per_kg_m2,
     direction : array_like, shape (..., 3)
         unit vector of the impulse (the contact normal n for Eq. 5) [-]
     mass_a_kg, mass_b_kg : float or ndarray
-        masses M_a, M_b [kg]; ``np.inf`` for a static body (the floor)
+        masses M_a, M_b [kg], > 0; ``np.inf`` for a static body (the floor), not both
     inv_inertia_a_per_kg_m2, inv_inertia_b_per_kg_m2 : array_like, shape (..., 3, 3)
         inverse inertia tensors I_a^-1, I_b^-1 in world axes [1/(kg m^2)]; zeros for a static body
     r_a_m, r_b_m : array_like, shape (..., 3)
@@ -104,9 +105,14 @@ def inverse_effective_mass_per_kg(direction, mass_a_kg, inv_inertia_a_per_kg_m2,
     """
     d = np.asarray(direction, dtype=float)
     ra, rb = np.asarray(r_a_m, dtype=float), np.asarray(r_b_m, dtype=float)
+    m_a = check_array("mass_a_kg", mass_a_kg, allow_inf=True)
+    m_b = check_array("mass_b_kg", mass_b_kg, allow_inf=True)
     term_a = _dot(d, np.cross(_matvec(inv_inertia_a_per_kg_m2, np.cross(ra, d)), ra))
     term_b = _dot(d, np.cross(_matvec(inv_inertia_b_per_kg_m2, np.cross(rb, d)), rb))
-    k = 1.0 / np.asarray(mass_a_kg, dtype=float) + 1.0 / np.asarray(mass_b_kg, dtype=float) + term_a + term_b
+    k = 1.0 / m_a + 1.0 / m_b + term_a + term_b
+    if np.any(~(k > 0)):
+        raise UsageError("no impulse between two static bodies (both masses infinite, no inverse inertia): "
+                         "1/M_a + 1/M_b + ... must be > 0")
     return float(k) if np.ndim(k) == 0 else k
 
 
@@ -124,7 +130,7 @@ def normal_impulse_N_s(v_rel_m_per_s, epsilon, normal, mass_a_kg, inv_inertia_a_
     normal : array_like, shape (..., 3)
         unit contact normal n, pointing from body b towards body a [-]
     mass_a_kg, mass_b_kg : float or ndarray
-        masses [kg]; ``np.inf`` for a static body (the floor)
+        masses [kg], > 0; ``np.inf`` for a static body (the floor), not both
     inv_inertia_a_per_kg_m2, inv_inertia_b_per_kg_m2 : array_like, shape (..., 3, 3)
         inverse inertia tensors in world axes [1/(kg m^2)]; zeros for a static body
     r_a_m, r_b_m : array_like, shape (..., 3)
@@ -139,7 +145,8 @@ def normal_impulse_N_s(v_rel_m_per_s, epsilon, normal, mass_a_kg, inv_inertia_a_
     """
     k = inverse_effective_mass_per_kg(normal, mass_a_kg, inv_inertia_a_per_kg_m2, r_a_m, mass_b_kg,
                                       inv_inertia_b_per_kg_m2, r_b_m)
-    j = -(1.0 + np.asarray(epsilon, dtype=float)) * np.asarray(v_rel_m_per_s, dtype=float) / k
+    eps = check_array("epsilon", epsilon, 0.0, 1.0, lo_open=False)
+    j = -(1.0 + eps) * check_array("v_rel_m_per_s", v_rel_m_per_s, -np.inf, lo_open=False) / k
     return float(j) if np.ndim(j) == 0 else j
 
 
@@ -155,7 +162,7 @@ def friction_impulse_N_s(slip_velocity_m_per_s, j_N_s, mu, k_tangential_per_kg):
     mu : float or ndarray
         Coulomb friction coefficient [-], >= 0
     k_tangential_per_kg : float or ndarray
-        :func:`inverse_effective_mass_per_kg` along the slip direction [1/kg]
+        :func:`inverse_effective_mass_per_kg` along the slip direction [1/kg], > 0
 
     Returns
     -------
@@ -166,8 +173,8 @@ def friction_impulse_N_s(slip_velocity_m_per_s, j_N_s, mu, k_tangential_per_kg):
     """
     u = np.asarray(slip_velocity_m_per_s, dtype=float)
     speed = np.linalg.norm(u, axis=-1)
-    stick = speed / np.asarray(k_tangential_per_kg, dtype=float)
-    size = np.minimum(stick, np.asarray(mu, dtype=float) * np.asarray(j_N_s, dtype=float))
+    stick = speed / check_array("k_tangential_per_kg", k_tangential_per_kg)
+    size = np.minimum(stick, check_array("mu", mu, lo_open=False) * check_array("j_N_s", j_N_s, lo_open=False))
     with np.errstate(invalid="ignore", divide="ignore"):
         unit = np.where(speed[..., None] > 0, u / np.where(speed > 0, speed, 1.0)[..., None], 0.0)
     return -size[..., None] * unit
@@ -188,11 +195,11 @@ def floor_sliding_friction(slip_velocity_m_per_s, mu, g_m_per_s2, radius_m, iner
     mu : float
         Coulomb friction coefficient [-], >= 0
     g_m_per_s2 : float
-        gravitational acceleration [m/s^2]
+        gravitational acceleration [m/s^2], > 0
     radius_m : float or ndarray
-        sphere radius R [m]
+        sphere radius R [m], > 0
     inertia_factor : float or ndarray
-        k in I = k m R^2 [-] (2/3 hollow shell, 2/5 solid sphere)
+        k in I = k m R^2 [-], > 0 (2/3 hollow shell, 2/5 solid sphere)
 
     Returns
     -------
@@ -211,7 +218,10 @@ def floor_sliding_friction(slip_velocity_m_per_s, mu, g_m_per_s2, radius_m, iner
     """
     u = np.asarray(slip_velocity_m_per_s, dtype=float)
     speed = np.linalg.norm(u, axis=-1)
-    k = np.asarray(inertia_factor, dtype=float)
+    mu = check_array("mu", mu, lo_open=False)
+    g_m_per_s2 = check_array("g_m_per_s2", g_m_per_s2)
+    radius_m = check_array("radius_m", radius_m)
+    k = check_array("inertia_factor", inertia_factor)
     with np.errstate(invalid="ignore", divide="ignore"):
         unit = np.where(speed[..., None] > 0, u / np.where(speed > 0, speed, 1.0)[..., None], 0.0)
         rate = mu * g_m_per_s2 * (1.0 + 1.0 / k)
