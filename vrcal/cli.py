@@ -461,7 +461,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
                    "height_offset, buoyancy.")
 @g_option()
 @click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
-              help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
+              help="Frame rate of a trajectory or video, sample rate of a sound [Hz] (wav: 8000-384000, what "
+                   "'vrcal track' reads; video: 10 or more, at most 10,000 frames).")
 @click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
 @click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
@@ -566,10 +567,10 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --details --json result.json --report out
       vrcal discover heights.csv --mass 0.0459 --diameter 0.0427
-      vrcal discover heights.csv --ball tennis --rebound-measured-to top   (rebounds read at the ball's top)
+      vrcal discover heights.csv --ball tennis --rebound-measured-to top   # rebounds read at the ball's top
       vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
-      vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
-      vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
+      vrcal discover drop.wav --ball tennis          # a sound recording: see 'vrcal track'
+      vrcal discover drop.mp4 --ball tennis          # a video; needs vrcal[video]
     """
     import os
 
