@@ -808,7 +808,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
                    "--drop-height run it at your step, gravity, height; body and contact options are refused).")
-@click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
+@click.option("--against", "against", type=opt.INPUT_FILE, default=None,
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
               help="--against: the record's format (as discover's --format).")
