@@ -55,6 +55,8 @@ class VrcalGroup(click.Group):
                 named = [a for a in (sys.argv[1:] if args is None else list(args)) if a in self.commands]
                 command = f"vrcal {named[0]}" if named else command
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
+            if isinstance(exc, click.NoSuchOption) and exc.option_name in ("-o", "--output"):
+                hint = _NO_OUTPUT_OPTION.get(command.split(" ")[-1], hint)
             click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
         except click.Abort as exc:
@@ -77,6 +79,11 @@ class VrcalGroup(click.Group):
             ctx.exit(130)
 
 
+#: What ``-o`` given to a command without it is told (click's "No such option: -o" is kept).
+_NO_OUTPUT_OPTION = {
+    "verify": " (verify prints its report: --format json for the machine file, > FILE to keep it)",
+    "discover": " (discover writes its files with --json FILE and --report DIR)",
+}
 #: click >= 8.2 raises this for a group called without a command (8.1 printed the help itself).
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 #: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
@@ -499,6 +506,11 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
     body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
     drop = dict(drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m, v_m_per_s=v_m_per_s,
                 effects=list(effects), still_s=still_s, g_m_per_s2=g_m_per_s2)
+    if output not in (None, "-"):
+        from vrcal.textout import file_format
+
+        written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
+        file_format(output, (written,), written)
     if fmt in ("wav", "video"):
         from vrcal.drop.render import simulate_recording
         from vrcal.errors import UsageError
@@ -660,12 +672,14 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
       vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
       vrcal track sideways.mp4 --ball tennis --rotate 90 -o drop.csv
     """
-    import os
-
     from vrcal.fileio import figure_bytes, write_files
     from vrcal.measurements.recording import track as track_recording
     from vrcal.measurements.recording import track_figure
+    from vrcal.textout import file_format
 
+    if output not in (None, "-"):
+        file_format(output, ("csv",), "csv")
+    plot_fmt = file_format(plot_file, ("png", "pdf", "svg"), "png") if plot_file else None
     if ball is not None and diameter_m is None:
         diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
@@ -678,7 +692,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 
         fig = track_figure(result)
         try:
-            files[plot_file] = figure_bytes(fig, os.path.splitext(plot_file)[1].lstrip(".") or "png", dpi=110)
+            files[plot_file] = figure_bytes(fig, plot_fmt, dpi=110)
         finally:
             plt.close(fig)
     if output not in (None, "-"):
@@ -697,6 +711,9 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 # (export and verify commands go here)
 
 _ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "physx", "unity", "box2d"]
+#: The format of each engine's own file (what ``export -o FILE``'s extension may name besides json).
+_ENGINE_FILE_FORMAT = {"mujoco": "xml", "ode": "json", "bullet": "json", "gazebo": "sdf", "tables": "text"}
+_ENGINE_ALIASES = {"pybullet": "bullet", "physx": "tables", "unity": "tables", "box2d": "tables"}
 
 
 def _engine_options(f):
@@ -773,15 +790,18 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     from vrcal.engines.export import export, format_trade_off
     from vrcal.engines.export import trade_off as run_trade_off
     from vrcal.fileio import check_writable, dumps
-    from vrcal.textout import choose_format, machine_document
+    from vrcal.textout import choose_format, file_format, machine_document
 
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
                    K_per_s=K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
                    from_json=from_json, integrator=integrator,
                    tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
-    form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
+    form = choose_format(fmt, None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
+        if fmt is None:   # the extension chooses between the engine's own file and the json machine file
+            native = _ENGINE_FILE_FORMAT[_ENGINE_ALIASES.get(engine.lower(), engine.lower())]
+            form = "json" if file_format(output, (native, "json"), native) == "json" != native else "text"
         check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:
         setup, rows = run_trade_off(ball, engine, against=against, stiffness=stiffness, **options)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vrcal.errors import UsageError
+from vrcal.textout import wrap
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,7 @@ class Tracked:
             d = self.detail
             head = (f"{m.source}: ball tracked in {m.t_s.size} frames, t = {m.t_s[0]:.3f} .. {m.t_s[-1]:.3f} s, "
                     f"heights up to {np.max(m.y_m):.3f} m ({d.scale_m_per_px * 1e3:.4g} mm/px)")
-        return "\n".join([head] + [f"  {n}" for n in m.notes]) + "\n"
+        return wrap(head, rest="  ") + "".join(wrap(n, first="  ", rest="    ") for n in m.notes)
 
 
 def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
@@ -84,7 +85,8 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
 
 
 def _comments(title, notes):
-    return "".join(f"# {line}\n" for line in [title, *notes])
+    """``#`` comment lines, each at most 100 columns (a long note goes on over several, each starting '# ')."""
+    return "".join(wrap(line, first="# ", rest="#   " if i else "# ") for i, line in enumerate([title, *notes]))
 
 
 def impacts_text(st):
