@@ -356,7 +356,8 @@ def plot():
 
 
 def _output_dir(path):
-    """The -o directory of ``plot curves``, checked: it exists, or its parent does (it is created then)."""
+    """The -o directory of ``plot curves``, checked: a directory, or nothing yet (it is created then, with its
+    missing parents, as every command creates an output directory: ``scene -o``, ``discover --report``)."""
     from pathlib import Path
 
     from vrcal.errors import UsageError
@@ -366,15 +367,12 @@ def _output_dir(path):
         return d
     if d.exists():
         raise UsageError(f"-o '{d}' exists and is not a directory")
-    parent = d.parent if str(d.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"cannot create -o '{d}': its parent directory '{parent}' does not exist")
     return d
 
 
 @plot.command("curves", short_help="Write Figs. 4-7 of the paper as PNGs.")
 @click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=".", show_default=True,
-              help="Directory for the PNGs (created if its parent exists).")
+              help="Directory for the PNGs (created, with missing parents).")
 @K_OPTION
 @click.option("--ball", default="basketball", show_default=True, help="Ball of Fig. 7.")
 @click.option("--as-paper", is_flag=True, help="Fig. 7 uses the paper's Table 1 heights as printed.")
@@ -525,7 +523,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 
 
 @main.command()
-@click.argument("data", nargs=-1, required=True, type=opt.INPUT_FILE)
+@click.argument("data", nargs=-1, required=True, type=opt.INPUT_FILE_OR_STDIN)
 @click.option("--ball", default=None,
               help="A ball of the standards (or any name with --mass and --diameter); without it give --mass and "
                    "--diameter.")
@@ -589,28 +587,38 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     from vrcal.discovery.ranking import discover_file
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import dumps, figure_bytes, write_files
+    from vrcal.measurements.reader import spooled
 
     def progress(rnd, i, n, name):
         if not quiet:
             click.echo(f"discover: round {rnd}, candidate {i}/{n}: fitting {name}", err=True)
 
-    result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
-                           g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
-                           y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
-                           read_options={"progress": None if quiet else tracking_progress("discover"),
-                                         "rotate": None if rotate is None else int(rotate)},
-                           drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
-    text = fit_report(result, details=details)
+    with contextlib.ExitStack() as stack:   # stdin ('-') or a FIFO: read once into a temporary copy
+        readable = [stack.enter_context(spooled(d)) for d in data]
+        result = discover_file(readable, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
+                               g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
+                               y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+                               sheet=sheet,
+                               read_options={"progress": None if quiet else tracking_progress("discover"),
+                                             "rotate": None if rotate is None else int(rotate)},
+                               drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
+
+    def named(text):   # the inputs as the user named them (not their temporary copies)
+        for copy, given in zip(readable, data):
+            text = text.replace(copy, given) if copy != given else text
+        return text
+
+    text = named(fit_report(result, details=details))
     for warning in result.warnings:
-        click.echo(f"vrcal: warning: {warning}", err=True)
-    files = {json_file: dumps(result.as_dict(), "json")} if json_file and json_file != "-" else {}
+        click.echo(f"vrcal: warning: {named(warning)}", err=True)
+    files = {json_file: named(dumps(result.as_dict(), "json"))} if json_file and json_file != "-" else {}
     if report_dir:
-        files[os.path.join(report_dir, REPORT_FILES["text"])] = fit_report(result, details=True)
-        files[os.path.join(report_dir, REPORT_FILES["json"])] = dumps(result.as_dict(), "json")
+        files[os.path.join(report_dir, REPORT_FILES["text"])] = named(fit_report(result, details=True))
+        files[os.path.join(report_dir, REPORT_FILES["json"])] = named(dumps(result.as_dict(), "json"))
         files[os.path.join(report_dir, REPORT_FILES["figure"])] = figure_bytes(discovery_figure(result), dpi=120)
     write_files(files, directories=[report_dir] if report_dir else [])  # all of them or none
     if json_file == "-":
-        click.echo(dumps(result.as_dict(), "json"), nl=False)
+        click.echo(named(dumps(result.as_dict(), "json")), nl=False)
     elif json_file:
         click.echo(f"wrote {json_file}", err=True)
     if report_dir:
@@ -634,7 +642,7 @@ def tracking_progress(command):
 
 
 @main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
-@click.argument("recording", type=opt.INPUT_FILE)
+@click.argument("recording", type=opt.INPUT_FILE_OR_STDIN)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,

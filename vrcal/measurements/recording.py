@@ -64,6 +64,21 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
     -------
     Tracked
     """
+    from vrcal.measurements.reader import spooled
+
+    with spooled(path) as readable:
+        tracked = _track(readable, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
+                         scale_m_per_px=scale_m_per_px, progress=progress, g_m_per_s2=g_m_per_s2, rotate=rotate)
+    if readable == str(path):
+        return tracked
+    import dataclasses   # read from a copy of stdin or a FIFO: name the input as the user did
+
+    m = tracked.measurement
+    m = dataclasses.replace(m, source=str(path), notes=tuple(n.replace(readable, str(path)) for n in m.notes))
+    return dataclasses.replace(tracked, measurement=m, text=tracked.text.replace(readable, str(path)))
+
+
+def _track(path, fmt, *, diameter_m, roi, color, fps, scale_m_per_px, progress, g_m_per_s2, rotate):
     from vrcal.measurements import sound, video
     from vrcal.measurements.reader import _detect_recording
 
