@@ -120,7 +120,7 @@ MAX_STREAM_BYTES = 2 << 30
 def spooled(path):
     """A path that can be opened more than once for the input ``path``.
 
-    A regular file is itself. stdin (``-``), a FIFO or a pipe (``/dev/stdin``) can be read once
+    A regular file (or a device) is itself. stdin (``-``), a FIFO or a pipe (``/dev/stdin``) can be read once
     only, and a recording is opened several times (its first bytes tell its format, then a
     decoder reads it): its bytes (at most :data:`MAX_STREAM_BYTES`) are copied once into a
     temporary file of the same name, removed afterwards. An error about the copy names ``path``.
@@ -134,8 +134,14 @@ def spooled(path):
     import sys
     import tempfile
 
+    import stat
+
     path = str(path)
-    if path != "-" and (not os.path.exists(path) or os.path.isfile(path)):
+    try:
+        piped = path == "-" or stat.S_ISFIFO(os.stat(path).st_mode)
+    except OSError:
+        piped = False    # the reader says what is wrong
+    if not piped:        # a regular file, or a device (/dev/zero: the readers' size limits apply)
         yield path
         return
     name = "stdin" if path == "-" or os.path.basename(path) == "stdin" else os.path.basename(path)
