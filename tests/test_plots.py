@@ -156,10 +156,9 @@ def test_cli_bad_input(tmp_path, args, code, text):
 
 
 def test_cli_unwritable_output(tmp_path):
-    missing = tmp_path / "no" / "such"
+    missing = tmp_path / "no" / "such"   # created with its parents, as scene -o and discover --report do
     result = run("plot", "curves", "-o", str(missing))
-    assert result.exit_code == 2 and "parent directory" in result.output
-    assert len(result.output.strip().splitlines()) == 1 and not missing.parent.exists()
+    assert result.exit_code == 0 and len(list(missing.glob("*.png"))) == 4
     afile = tmp_path / "f"
     afile.write_text("x")
     result = run("plot", "curves", "-o", str(afile))

@@ -55,6 +55,8 @@ class VrcalGroup(click.Group):
                 named = [a for a in (sys.argv[1:] if args is None else list(args)) if a in self.commands]
                 command = f"vrcal {named[0]}" if named else command
             hint = f" (see '{command} --help')" if isinstance(exc, click.UsageError) else ""
+            if isinstance(exc, click.NoSuchOption) and exc.option_name in ("-o", "--output"):
+                hint = _NO_OUTPUT_OPTION.get(command.split(" ")[-1], hint)
             click.echo(f"vrcal: error: {_one_line(exc.format_message())}{hint}", err=True)
             sys.exit(exc.exit_code)
         except click.Abort as exc:
@@ -77,6 +79,11 @@ class VrcalGroup(click.Group):
             ctx.exit(130)
 
 
+#: What ``-o`` given to a command without it is told (click's "No such option: -o" is kept).
+_NO_OUTPUT_OPTION = {
+    "verify": " (verify prints its report: --format json for the machine file, > FILE to keep it)",
+    "discover": " (discover writes its files with --json FILE and --report DIR)",
+}
 #: click >= 8.2 raises this for a group called without a command (8.1 printed the help itself).
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 #: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
@@ -349,7 +356,8 @@ def plot():
 
 
 def _output_dir(path):
-    """The -o directory of ``plot curves``, checked: it exists, or its parent does (it is created then)."""
+    """The -o directory of ``plot curves``, checked: a directory, or nothing yet (it is created then, with its
+    missing parents, as every command creates an output directory: ``scene -o``, ``discover --report``)."""
     from pathlib import Path
 
     from vrcal.errors import UsageError
@@ -359,15 +367,12 @@ def _output_dir(path):
         return d
     if d.exists():
         raise UsageError(f"-o '{d}' exists and is not a directory")
-    parent = d.parent if str(d.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"cannot create -o '{d}': its parent directory '{parent}' does not exist")
     return d
 
 
 @plot.command("curves", short_help="Write Figs. 4-7 of the paper as PNGs.")
 @click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=".", show_default=True,
-              help="Directory for the PNGs (created if its parent exists).")
+              help="Directory for the PNGs (created, with missing parents).")
 @K_OPTION
 @click.option("--ball", default="basketball", show_default=True, help="Ball of Fig. 7.")
 @click.option("--as-paper", is_flag=True, help="Fig. 7 uses the paper's Table 1 heights as printed.")
@@ -461,7 +466,8 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
                    "height_offset, buoyancy.")
 @g_option()
 @click.option("--fs", "fs_hz", type=opt.RATE_HZ, default=None, show_default="240 (trajectory), 48000 (wav), 30 (video)",
-              help="Frame rate of a trajectory or video, sample rate of a sound [Hz].")
+              help="Frame rate of a trajectory or video, sample rate of a sound [Hz] (wav: 8000-384000, what "
+                   "'vrcal track' reads; video: 10 or more, at most 10,000 frames).")
 @click.option("--noise", "noise_m", type=opt.NOISE_M, default=0.0, show_default=True,
               help="Gaussian noise on heights [m].")
 @click.option("--jitter", "jitter_s", type=opt.JITTER_S, default=0.0, show_default=True,
@@ -498,6 +504,11 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
     body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
     drop = dict(drop_height_m=drop_m, n_bounces=bounces, epsilon=epsilon, K_per_s=K, x_m=x_m, v_m_per_s=v_m_per_s,
                 effects=list(effects), still_s=still_s, g_m_per_s2=g_m_per_s2)
+    if output not in (None, "-"):
+        from vrcal.textout import file_format
+
+        written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
+        file_format(output, (written,), written)
     if fmt in ("wav", "video"):
         from vrcal.drop.render import simulate_recording
         from vrcal.errors import UsageError
@@ -512,7 +523,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 
 
 @main.command()
-@click.argument("data", nargs=-1, required=True, type=opt.INPUT_FILE)
+@click.argument("data", nargs=-1, required=True, type=opt.INPUT_FILE_OR_STDIN)
 @click.option("--ball", default=None,
               help="A ball of the standards (or any name with --mass and --diameter); without it give --mass and "
                    "--diameter.")
@@ -566,38 +577,48 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
       vrcal discover drop.csv --ball tennis
       vrcal discover drop.csv --ball tennis --details --json result.json --report out
       vrcal discover heights.csv --mass 0.0459 --diameter 0.0427
-      vrcal discover heights.csv --ball tennis --rebound-measured-to top   (rebounds read at the ball's top)
+      vrcal discover heights.csv --ball tennis --rebound-measured-to top   # rebounds read at the ball's top
       vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
-      vrcal discover drop.wav --ball tennis          (a sound recording: see 'vrcal track')
-      vrcal discover drop.mp4 --ball tennis          (a video; needs vrcal[video])
+      vrcal discover drop.wav --ball tennis          # a sound recording: see 'vrcal track'
+      vrcal discover drop.mp4 --ball tennis          # a video; needs vrcal[video]
     """
     import os
 
     from vrcal.discovery.ranking import discover_file
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import dumps, figure_bytes, write_files
+    from vrcal.measurements.reader import spooled
 
     def progress(rnd, i, n, name):
         if not quiet:
             click.echo(f"discover: round {rnd}, candidate {i}/{n}: fitting {name}", err=True)
 
-    result = discover_file(list(data), ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
-                           g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
-                           y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise, sheet=sheet,
-                           read_options={"progress": None if quiet else tracking_progress("discover"),
-                                         "rotate": None if rotate is None else int(rotate)},
-                           drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
-    text = fit_report(result, details=details)
+    with contextlib.ExitStack() as stack:   # stdin ('-') or a FIFO: read once into a temporary copy
+        readable = [stack.enter_context(spooled(d)) for d in data]
+        result = discover_file(readable, ball, fmt=fmt, mass_kg=mass_kg, diameter_m=diameter_m,
+                               g_m_per_s2=g_m_per_s2, standards=standards_of(ctx), scale_m_per_px=scale_m_per_px,
+                               y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
+                               sheet=sheet,
+                               read_options={"progress": None if quiet else tracking_progress("discover"),
+                                             "rotate": None if rotate is None else int(rotate)},
+                               drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
+
+    def named(text):   # the inputs as the user named them (not their temporary copies)
+        for copy, given in zip(readable, data):
+            text = text.replace(copy, given) if copy != given else text
+        return text
+
+    text = named(fit_report(result, details=details))
     for warning in result.warnings:
-        click.echo(f"vrcal: warning: {warning}", err=True)
-    files = {json_file: dumps(result.as_dict(), "json")} if json_file and json_file != "-" else {}
+        click.echo(f"vrcal: warning: {named(warning)}", err=True)
+    files = {json_file: named(dumps(result.as_dict(), "json"))} if json_file and json_file != "-" else {}
     if report_dir:
-        files[os.path.join(report_dir, REPORT_FILES["text"])] = fit_report(result, details=True)
-        files[os.path.join(report_dir, REPORT_FILES["json"])] = dumps(result.as_dict(), "json")
+        files[os.path.join(report_dir, REPORT_FILES["text"])] = named(fit_report(result, details=True))
+        files[os.path.join(report_dir, REPORT_FILES["json"])] = named(dumps(result.as_dict(), "json"))
         files[os.path.join(report_dir, REPORT_FILES["figure"])] = figure_bytes(discovery_figure(result), dpi=120)
     write_files(files, directories=[report_dir] if report_dir else [])  # all of them or none
     if json_file == "-":
-        click.echo(dumps(result.as_dict(), "json"), nl=False)
+        click.echo(named(dumps(result.as_dict(), "json")), nl=False)
     elif json_file:
         click.echo(f"wrote {json_file}", err=True)
     if report_dir:
@@ -621,7 +642,7 @@ def tracking_progress(command):
 
 
 @main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
-@click.argument("recording", type=opt.INPUT_FILE)
+@click.argument("recording", type=opt.INPUT_FILE_OR_STDIN)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
@@ -659,12 +680,14 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
       vrcal track drop.mp4 --diameter 0.0687 --color green --roi 800,0,400,1080
       vrcal track sideways.mp4 --ball tennis --rotate 90 -o drop.csv
     """
-    import os
-
     from vrcal.fileio import figure_bytes, write_files
     from vrcal.measurements.recording import track as track_recording
     from vrcal.measurements.recording import track_figure
+    from vrcal.textout import file_format
 
+    if output not in (None, "-"):
+        file_format(output, ("csv",), "csv")
+    plot_fmt = file_format(plot_file, ("png", "pdf", "svg"), "png") if plot_file else None
     if ball is not None and diameter_m is None:
         diameter_m = body_of(ctx, ball, ball_label="--ball", from_label=None).diameter_m
     result = track_recording(recording, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
@@ -677,7 +700,7 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 
         fig = track_figure(result)
         try:
-            files[plot_file] = figure_bytes(fig, os.path.splitext(plot_file)[1].lstrip(".") or "png", dpi=110)
+            files[plot_file] = figure_bytes(fig, plot_fmt, dpi=110)
         finally:
             plt.close(fig)
     if output not in (None, "-"):
@@ -696,6 +719,9 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 # (export and verify commands go here)
 
 _ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "physx", "unity", "box2d"]
+#: The format of each engine's own file (what ``export -o FILE``'s extension may name besides json).
+_ENGINE_FILE_FORMAT = {"mujoco": "xml", "ode": "json", "bullet": "json", "gazebo": "sdf", "tables": "text"}
+_ENGINE_ALIASES = {"pybullet": "bullet", "physx": "tables", "unity": "tables", "box2d": "tables"}
 
 
 def _engine_options(f):
@@ -772,15 +798,18 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     from vrcal.engines.export import export, format_trade_off
     from vrcal.engines.export import trade_off as run_trade_off
     from vrcal.fileio import check_writable, dumps
-    from vrcal.textout import choose_format, machine_document
+    from vrcal.textout import choose_format, file_format, machine_document
 
     options = dict(epsilon=epsilon, dt_s=dt_s, floor=floor, standards=standards_of(ctx),
                    K_per_s=K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
                    from_json=from_json, integrator=integrator,
                    tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
-    form = choose_format(fmt, output if fmt else None, default="text", allowed=("text", "json"))
+    form = choose_format(fmt, None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
+        if fmt is None:   # the extension chooses between the engine's own file and the json machine file
+            native = _ENGINE_FILE_FORMAT[_ENGINE_ALIASES.get(engine.lower(), engine.lower())]
+            form = "json" if file_format(output, (native, "json"), native) == "json" != native else "text"
         check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:
         setup, rows = run_trade_off(ball, engine, against=against, stiffness=stiffness, **options)
@@ -807,7 +836,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
                    "--drop-height run it at your step, gravity, height; body and contact options are refused).")
-@click.option("--against", "against", type=click.Path(dir_okay=False), default=None,
+@click.option("--against", "against", type=opt.INPUT_FILE, default=None,
               help="With --from: replay this measured record (the file discover read) in the engine.")
 @click.option("--data-format", "data_fmt", default=None,
               help="--against: the record's format (as discover's --format).")

@@ -5,6 +5,7 @@ A failed run leaves no partial output file behind.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import signal
@@ -197,6 +198,37 @@ def _commit(renames):
     finally:
         if old is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextlib.contextmanager
+def temporary_beside(path):
+    """A temporary path beside ``path`` with the same suffix, for a writer that takes a file name
+    (OpenCV picks the container by the suffix): renamed to ``path`` with the usual mode (0666 less
+    the umask, as :func:`write_files` gives) when the block succeeds, removed when it fails.
+
+    Raises
+    ------
+    UsageError
+        the directory does not exist or cannot be written (exit status 2)
+    """
+    import tempfile
+
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=directory)
+    except OSError as exc:
+        raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    os.close(fd)
+    try:
+        yield tmp
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600
+        _commit([(path, tmp)])
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
 
 
 def _umask():

@@ -229,6 +229,8 @@ POSITIVE_COUNT = Count(1, None)
 #: An input file: a missing file or a directory is a usage error (exit 2), said while the command
 #: line is parsed ("Path 'x.csv' does not exist"), before any work.
 INPUT_FILE = click.Path(exists=True, dir_okay=False)
+#: An input file that may be '-' (stdin, read once into a temporary copy: vrcal.measurements.reader.spooled).
+INPUT_FILE_OR_STDIN = click.Path(exists=True, dir_okay=False, allow_dash=True)
 
 #: The points of a ball a height can be measured to (``--drop-measured-to``, ``--rebound-measured-to``; the
 #: keys of vrcal.model.restitution.POINT_OFFSET_DIAMETERS, and "center" for "centre").

@@ -30,8 +30,17 @@ SCHEMA_VERSION = 1
 EXTENSIONS = {".json": "json", ".yaml": "yaml", ".yml": "yaml", ".txt": "text", ".csv": "csv", ".md": "markdown"}
 
 
+#: Every file extension vrcal reads or writes, and the format it names: an ``-o`` file whose extension
+#: names a format the command does not write is refused (:func:`file_format`).
+KNOWN_EXTENSIONS = {**EXTENSIONS, ".xml": "xml", ".mjcf": "xml", ".sdf": "sdf", ".world": "sdf",
+                    ".wav": "wav", ".wave": "wav", ".avi": "video", ".mp4": "video", ".m4v": "video",
+                    ".mov": "video", ".mkv": "video", ".png": "png", ".pdf": "pdf", ".svg": "svg", ".gif": "gif",
+                    ".xlsx": "xlsx", ".xls": "xls", ".tsv": "tsv"}
+
+
 def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml")):
-    """The output format: ``--format`` when given, else the ``-o`` file's extension, else ``default``.
+    """The output format: ``--format`` when given, else the ``-o`` file's extension
+    (:func:`file_format`), else ``default``.
 
     Parameters
     ----------
@@ -40,24 +49,68 @@ def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml"))
     output : str or None
         the ``-o`` path ('-' or None is stdout)
     default : str
-        what people get on stdout
+        what people get on stdout, and an ``-o`` file whose extension names no format
     allowed : tuple of str
         the formats the command can write
 
     Raises
     ------
     UsageError
-        a ``--format`` the command cannot write
+        a ``--format`` the command cannot write; an ``-o`` extension that names one
     """
     if fmt is not None:
         if fmt not in allowed:
             raise UsageError(f"unknown --format '{fmt}' (known: {', '.join(allowed)})")
         return fmt
     if output not in (None, "-"):
-        by_ext = EXTENSIONS.get(Path(str(output)).suffix.lower())
-        if by_ext in allowed:
-            return by_ext
+        return file_format(output, allowed, default)
     return default
+
+
+def file_format(output, allowed, default):
+    """The format an ``-o`` file gets from its extension -- the one rule of every command.
+
+    An extension of :data:`KNOWN_EXTENSIONS` whose format is in ``allowed`` chooses it; one whose
+    format the command cannot write is a usage error naming the formats (and extensions) it
+    writes; an extension vrcal does not know (or none) gets ``default``, and a warning (one line
+    on stderr, ``vrcal: warning: ...``) says which format was written.
+
+    Parameters
+    ----------
+    output : str
+        the ``-o`` path
+    allowed : tuple of str
+        the formats the command writes (names of :data:`KNOWN_EXTENSIONS`' values; others,
+        such as a ``text`` table written to a file of any name, are fine too)
+    default : str
+        the format of a file whose extension names none
+
+    Raises
+    ------
+    UsageError
+        the extension names a format not in ``allowed``
+    """
+    import warnings
+
+    suffix = Path(str(output)).suffix.lower()
+    named = KNOWN_EXTENSIONS.get(suffix)
+    if named in allowed:
+        return named
+    if named is not None:
+        raise UsageError(f"-o '{output}': a {suffix} file is {named}, which this command does not write; it "
+                         f"writes {writes_text(allowed)}")
+    warnings.warn(f"-o '{output}': the extension '{suffix}' names no format vrcal knows: wrote {default}"
+                  if suffix else f"-o '{output}': no extension: wrote {default}", UserWarning, stacklevel=2)
+    return default
+
+
+def writes_text(formats):
+    """``'text (.txt), json (.json), yaml (.yaml, .yml)'``: formats and the extensions that choose them."""
+    parts = []
+    for f in dict.fromkeys(formats):
+        exts = [e for e, k in KNOWN_EXTENSIONS.items() if k == f]
+        parts.append(f"{f} ({', '.join(exts)})" if exts else f)
+    return ", ".join(parts)
 
 
 def machine_document(data):

@@ -257,7 +257,7 @@ def test_cli_export_json_format_is_a_machine_document():
     (["tennis", "--engine", "ode", "--integrator", "rk4"], 2, "--integrator applies to MuJoCo only"),
 ])
 def test_cli_export_bad_input_is_a_one_line_error(tmp_path, args, code, message):
-    out = tmp_path / "x.out"
+    out = tmp_path / "x.json"
     result = run("export", *args, "-o", out)
     assert result.exit_code == code, result.output
     assert result.output.strip().splitlines() == [f"vrcal: error: {result.output.split('vrcal: error: ')[1].strip()}"]

@@ -26,10 +26,7 @@ fps repeats every fourth source frame).
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -176,24 +173,6 @@ def write_wav(path, x, fs_hz, *, bits=16):
 # --------------------------------------------------------------------------- video
 
 
-@contextlib.contextmanager
-def _temporary_beside(path):
-    """A temporary path beside ``path`` with the same suffix (OpenCV picks the container by it),
-    renamed to ``path`` when the block succeeds and removed when it fails."""
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise UsageError(f"cannot write '{path}': directory '{directory}' does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=directory)
-    os.close(fd)
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 @dataclass(frozen=True)
 class VideoScene:
     """Camera and scene of a synthetic video."""
@@ -273,6 +252,11 @@ def video_truth(drops, scene, diameter_m, n_frames):
 CODEC_OF_SUFFIX = {".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}
 
 
+def video_duration_s(drops):
+    """Length of a synthetic video by default [s]: 0.4 s after the landing of the last bounce."""
+    return float(drops.landing_times_s[0]) + 0.4
+
+
 def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None, seed=0, fourcc=None,
                  progress=None):
     """Write a synthetic video of a simulated drop (see the module docstring) and return the truth.
@@ -310,7 +294,7 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
         fourcc = CODEC_OF_SUFFIX.get(Path(path).suffix.lower(), "MJPG")
     rng = np.random.default_rng(seed)
     if duration_s is None:
-        duration_s = float(drops.landing_times_s[0]) + 0.4
+        duration_s = video_duration_s(drops)
     n_frames = int(round(duration_s * scene.fps))
     t, row, col, src = video_truth(drops, scene, diameter_m, n_frames)
     r_px = 0.5 * diameter_m / scene.m_per_px
@@ -318,7 +302,9 @@ def render_video(path, drops, diameter_m, *, scene=VideoScene(), duration_s=None
     ball = np.asarray(scene.ball_bgr, dtype=np.float32)
     shade_rows = np.arange(scene.height, dtype=np.float32)
     src_fps = scene.fps * (scene.repeat_every - 1) / scene.repeat_every if scene.repeat_every else scene.fps
-    with _temporary_beside(path) as tmp:
+    from vrcal.fileio import temporary_beside
+
+    with temporary_beside(path) as tmp:
         writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*fourcc), scene.fps, (scene.width, scene.height))
         if not writer.isOpened():
             raise UsageError(f"OpenCV cannot write '{path}' with codec {fourcc}")
@@ -368,6 +354,46 @@ ROOM = SoundScene(noise_rms=0.001, hum_amplitude=0.01, echoes=((0.005, 0.4),), l
 CAMERA = VideoScene(noise_sd=2.0, blur=True)
 
 
+#: Sample rates of ``vrcal simulate --format wav`` [Hz]: from the lowest that ``vrcal track`` reads
+#: (:data:`vrcal.measurements.sound.MIN_SAMPLE_RATE_HZ`) to 384 kHz, the highest of audio interfaces.
+WAV_RATE_HZ = (8000.0, 384000.0)
+#: Lowest frame rate of ``vrcal simulate --format video`` [Hz]: below it ``vrcal track`` gets too few
+#: frames of a flight (a 5 fps video of a tennis ball's drop gives 4 frames; a trajectory needs 20).
+MIN_VIDEO_RATE_HZ = 10.0
+#: Most frames of ``vrcal simulate --format video``: at 640x480 a frame takes about 3 kB (Motion JPEG) and
+#: 10 ms to render here, so 10,000 frames are about 30 MB and two minutes (1000 fps for a 10 s drop).
+MAX_VIDEO_FRAMES = 10_000
+
+
+def check_recording_rate(kind, fs_hz, drops):
+    """Refuse up front (one-line UsageError) a ``--fs`` that gives a recording vrcal cannot track, or
+    a video with more than :data:`MAX_VIDEO_FRAMES` frames.
+
+    Parameters
+    ----------
+    kind : {"wav", "video"}
+    fs_hz : float
+        sample rate [Hz] of the sound, frame rate [Hz] of the video
+    drops : Drops
+        the simulated drop (its length sets the video's frame count)
+    """
+    if kind == "wav":
+        lo, hi = WAV_RATE_HZ
+        if not lo <= fs_hz <= hi:
+            raise UsageError(f"--fs {fs_hz:g} Hz: a WAV takes a sample rate of {lo:.0f} to {hi:.0f} Hz "
+                             f"({lo:.0f} Hz is the lowest 'vrcal track' reads; 48000 by default)")
+        return
+    if fs_hz < MIN_VIDEO_RATE_HZ:
+        raise UsageError(f"--fs {fs_hz:g} Hz: a video takes a frame rate of {MIN_VIDEO_RATE_HZ:g} Hz or more "
+                         f"(fewer frames than 'vrcal track' needs of a flight; 30 by default)")
+    duration = video_duration_s(drops)
+    n_frames = int(round(duration * fs_hz))
+    if n_frames > MAX_VIDEO_FRAMES:
+        top = math.floor(MAX_VIDEO_FRAMES / duration)
+        raise UsageError(f"--fs {fs_hz:g} Hz: {n_frames:,} video frames, more than the limit of {MAX_VIDEO_FRAMES:,}: "
+                         f"lower --fs (at most {top} Hz for this {duration:.2f} s drop) or --bounces")
+
+
 def simulate_recording(path, ball, kind, *, fs_hz=None, seed=0, standards=None, **drop):
     """Simulate one drop (:func:`vrcal.drop.simulate.simulate_drop`) and write its sound or video.
 
@@ -395,7 +421,10 @@ def simulate_recording(path, ball, kind, *, fs_hz=None, seed=0, standards=None, 
     """
     from vrcal.drop.simulate import simulate_drop
 
+    if kind not in ("wav", "video"):
+        raise UsageError(f"unknown recording kind '{kind}' (wav, video)")
     drops, props = simulate_drop(ball, standards=standards, **drop)
+    check_recording_rate(kind, float(fs_hz or (48000.0 if kind == "wav" else 30.0)), drops)
     t = drops.impact_times_s[0]
     if kind == "wav":
         fs = int(fs_hz or 48000)
@@ -414,4 +443,3 @@ def simulate_recording(path, ball, kind, *, fs_hz=None, seed=0, standards=None, 
         truth = render_video(path, drops, D, scene=scene, seed=seed)
         return (f"wrote {path}: {truth['t_s'].size} frames at {scene.fps:g} fps, {scene.width}x{scene.height} px, "
                 f"ball {truth['diameter_px']:.1f} px wide")
-    raise UsageError(f"unknown recording kind '{kind}' (wav, video)")

@@ -23,6 +23,7 @@ from vrcal.engines import get_engine
 from vrcal.engines.common import metadata, step_note, stepped_drop_test
 from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError
+from vrcal.textout import SCHEMA_VERSION
 
 #: Bounce threshold [m/s] (Bullet's default 0.2): a contact whose normal speed is below it gets no
 #: restitution (``restitutionCurve`` in Bullet's constraint solvers).
@@ -39,6 +40,16 @@ CONTACT_SLOP_M = 0.0
 PYBULLET_CONTACT_SLOP_M = 1e-5
 
 
+#: Units of the keys named as the engine's API names them (pasted into its calls as they are, so not
+#: renamed with a unit): key path -> unit ('1' = dimensionless), written as the file's "units" map.
+ENGINE_KEY_UNITS = {"changeDynamics.*.restitution": "1", "changeDynamics.*.contactProcessingThreshold": "m",
+                  "changeDynamics.*.linearDamping": "1", "changeDynamics.*.angularDamping": "1",
+                  "changeDynamics.*.lateralFriction": "1", "setPhysicsEngineParameter.fixedTimeStep": "s",
+                  "setPhysicsEngineParameter.restitutionVelocityThreshold": "m/s",
+                  "setPhysicsEngineParameter.contactSlop": "m", "setPhysicsEngineParameter.contactERP": "1",
+                  "setGravity": "m/s^2"}
+
+
 def export_params(setup, n_bounces=None, pair=None):
     """``changeDynamics`` / ``setPhysicsEngineParameter`` keyword arguments (JSON-ready dict), and
     from a discover result ``drag`` and ``restitution_law`` (applied by the snippet's ``vrcal_step``)."""
@@ -49,6 +60,8 @@ def export_params(setup, n_bounces=None, pair=None):
                          f"impact speed {v_last:.3g} m/s")
     ball_eps = setup.ball_epsilon if setup.ball_epsilon is not None else setup.epsilon
     out = {
+        "schema_version": SCHEMA_VERSION,
+        "units": ENGINE_KEY_UNITS,
         "engine": "bullet",
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
                  "drop_height_m": setup.drop_height_m},

@@ -29,6 +29,7 @@ from vrcal.engines.common import (
     stepped_drop_test,
 )
 from vrcal.errors import UsageError
+from vrcal.textout import SCHEMA_VERSION
 
 #: Smallest incoming speed that bounces [m/s].
 BOUNCE_VEL_M_PER_S = 0.01
@@ -49,6 +50,13 @@ CONTACT_SOFT_ERP = 0.0
 #: ``dContactFDir1`` along the slip, so that a slip in any direction meets mu N (Coulomb), not up to
 #: sqrt(2) mu N on ODE's two default axes. With the exported mu = 0 neither changes a drop.
 CONTACT_MODE = ("dContactBounce", "dContactSoftERP", "dContactSoftCFM", "dContactApprox1")
+
+
+#: Units of the keys named as the engine's API names them (pasted into its calls as they are, so not
+#: renamed with a unit): key path -> unit ('1' = dimensionless), written as the file's "units" map.
+ENGINE_KEY_UNITS = {"world.dt": "s", "world.gravity": "m/s^2", "contact.bounce": "1 (epsilon)",
+                  "contact.bounce_vel": "m/s", "contact.mu": "1", "contact.soft_erp": "1",
+                  "contact.soft_cfm": "m/(N s) (CFM = 1/(dt kp + kd), ODE manual)"}
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -75,6 +83,8 @@ def export_params(setup, n_bounces=None, pair=None):
     if BOUNCE_VEL_M_PER_S >= v_last:
         raise UsageError(f"bounce_vel {BOUNCE_VEL_M_PER_S} m/s is not below the last impact speed {v_last:.3g} m/s")
     out = {
+        "schema_version": SCHEMA_VERSION,
+        "units": ENGINE_KEY_UNITS,
         "engine": "ode",
         "ball": {"name": setup.ball, "mass_kg": setup.mass_kg, "radius_m": setup.radius_m,
                  "drop_height_m": setup.drop_height_m},

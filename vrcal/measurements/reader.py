@@ -7,6 +7,7 @@ parsed like any text table.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from typing import Callable, NamedTuple
@@ -110,6 +111,58 @@ def detect_format(path):
         return name
     excel.check_workbook_name(path)
     return _detect_below_title(_units_into_header(_load(path))[0])[1]
+
+
+#: Largest input read from a pipe, a FIFO or stdin ('-') [bytes] (a phone's video of a drop is tens of MB).
+MAX_STREAM_BYTES = 2 << 30
+
+
+@contextlib.contextmanager
+def spooled(path):
+    """A path that can be opened more than once for the input ``path``.
+
+    A regular file (or a device) is itself. stdin (``-``), a FIFO or a pipe (``/dev/stdin``) can be read once
+    only, and a recording is opened several times (its first bytes tell its format, then a
+    decoder reads it): its bytes (at most :data:`MAX_STREAM_BYTES`) are copied once into a
+    temporary file of the same name, removed afterwards. An error about the copy names ``path``.
+
+    Yields
+    ------
+    str
+        the path to read
+    """
+    import shutil
+    import sys
+    import tempfile
+
+    import stat
+
+    path = str(path)
+    try:
+        piped = path == "-" or stat.S_ISFIFO(os.stat(path).st_mode)
+    except OSError:
+        piped = False    # the reader says what is wrong
+    if not piped:        # a regular file, or a device (/dev/zero: the readers' size limits apply)
+        yield path
+        return
+    name = "stdin" if path == "-" or os.path.basename(path) == "stdin" else os.path.basename(path)
+    with tempfile.TemporaryDirectory(prefix="vrcal-") as tmp:
+        copy = os.path.join(tmp, name)
+        try:
+            with (open(path, "rb") if path != "-" else contextlib.nullcontext(sys.stdin.buffer)) as src, \
+                    open(copy, "wb") as dst:
+                n = 0
+                while chunk := src.read(1 << 20):
+                    n += len(chunk)
+                    if n > MAX_STREAM_BYTES:
+                        raise DataError(f"{path}: more than {MAX_STREAM_BYTES >> 30} GiB; save it to a file")
+                    dst.write(chunk)
+        except OSError as exc:
+            raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        try:
+            yield copy
+        except (DataError, UsageError) as exc:
+            raise type(exc)(str(exc).replace(copy, path)) from None
 
 
 def _detect_recording(path):

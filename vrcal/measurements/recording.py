@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vrcal.errors import UsageError
+from vrcal.textout import wrap
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,7 @@ class Tracked:
             d = self.detail
             head = (f"{m.source}: ball tracked in {m.t_s.size} frames, t = {m.t_s[0]:.3f} .. {m.t_s[-1]:.3f} s, "
                     f"heights up to {np.max(m.y_m):.3f} m ({d.scale_m_per_px * 1e3:.4g} mm/px)")
-        return "\n".join([head] + [f"  {n}" for n in m.notes]) + "\n"
+        return wrap(head, rest="  ") + "".join(wrap(n, first="  ", rest="    ") for n in m.notes)
 
 
 def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, scale_m_per_px=None, progress=None,
@@ -63,6 +64,21 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
     -------
     Tracked
     """
+    from vrcal.measurements.reader import spooled
+
+    with spooled(path) as readable:
+        tracked = _track(readable, fmt, diameter_m=diameter_m, roi=roi, color=color, fps=fps,
+                         scale_m_per_px=scale_m_per_px, progress=progress, g_m_per_s2=g_m_per_s2, rotate=rotate)
+    if readable == str(path):
+        return tracked
+    import dataclasses   # read from a copy of stdin or a FIFO: name the input as the user did
+
+    m = tracked.measurement
+    m = dataclasses.replace(m, source=str(path), notes=tuple(n.replace(readable, str(path)) for n in m.notes))
+    return dataclasses.replace(tracked, measurement=m, text=tracked.text.replace(readable, str(path)))
+
+
+def _track(path, fmt, *, diameter_m, roi, color, fps, scale_m_per_px, progress, g_m_per_s2, rotate):
     from vrcal.measurements import sound, video
     from vrcal.measurements.reader import _detect_recording
 
@@ -84,7 +100,8 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
 
 
 def _comments(title, notes):
-    return "".join(f"# {line}\n" for line in [title, *notes])
+    """``#`` comment lines, each at most 100 columns (a long note goes on over several, each starting '# ')."""
+    return "".join(wrap(line, first="# ", rest="#   " if i else "# ") for i, line in enumerate([title, *notes]))
 
 
 def impacts_text(st):

@@ -76,6 +76,10 @@ SNR = 5.0                #: ... and this many times the noise level (the median 
 REFRACTORY_S = 4e-3      #: candidates closer than this are one event [s]
 RATIO_TOLERANCE = 0.12   #: relative deviation of an interval from the chain's predicted one
 MIN_IMPACTS = 3          #: fewest impacts a recording must give
+#: Lowest sample rate read [Hz]: telephone sound, the lowest standard rate. The onsets are found above the
+#: 1 kHz high-pass (:data:`HIGHPASS_HZ`), where an impact's click lies; below 8 kHz little of that band is left
+#: (a phone records at 44.1 or 48 kHz).
+MIN_SAMPLE_RATE_HZ = 8000.0
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
 WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
 PRE_ECHO_S = 6e-3        #: longest span a lossy codec smears an impact's noise before it (a 256-sample block) [s]
@@ -776,6 +780,9 @@ def track_sound(path, *, progress=None):
     if progress:
         progress(0.0, "reading the sound")
     x, fs, what, lossy = read_audio(path)
+    if fs < MIN_SAMPLE_RATE_HZ:
+        raise DataError(f"{path}: sampled at {fs:g} Hz, below the {MIN_SAMPLE_RATE_HZ:.0f} Hz vrcal reads (an impact's "
+                        f"click lies above {HIGHPASS_HZ:.0f} Hz); record at 44.1 or 48 kHz")
     n = x.shape[0]
     if n < int(0.05 * fs):
         raise DataError(f"{path}: the recording is only {n / fs * 1e3:.0f} ms long; record the whole drop")

@@ -80,7 +80,9 @@ Times, scale, floor and the y axis
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -134,10 +136,16 @@ def _sound_only(head, path):
 
 
 def _cv2():
+    """OpenCV, with its own log and FFmpeg's silenced (a corrupt file's 'moov atom not found' would come
+    before vrcal's one-line error)."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")   # AV_LOG_QUIET, read when FFmpeg first opens a file
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")
     try:
         import cv2
     except ImportError:
         raise UsageError(VIDEO_HINT) from None
+    with contextlib.suppress(AttributeError):
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     return cv2
 
 

@@ -355,7 +355,8 @@ def read_discover_json(path):
 
 
 def read_limited(path, max_bytes, what):
-    """The bytes of a regular file of at most ``max_bytes``; DataError (one line) otherwise.
+    """The bytes of a regular file of at most ``max_bytes``; DataError (one line) otherwise, and
+    UsageError (exit 2, as for a missing FILE argument) when nothing is at ``path``.
 
     ``what`` names the expected content in the message ("a discover result").
     """
@@ -363,7 +364,11 @@ def read_limited(path, max_bytes, what):
 
     from vrcal.errors import DataError
 
+    from vrcal.errors import UsageError
+
     p = Path(path)
+    if not p.exists():   # a missing input file is a usage error, worded as click's for a FILE argument
+        raise UsageError(f"File '{path}' does not exist.")
     try:
         if not p.is_file():
             raise DataError(f"{path}: not a file")

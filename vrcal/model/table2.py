@@ -285,11 +285,11 @@ def _f(value, spec):
     return format(value, spec)
 
 
-def _sig(value, digits=6):
-    """Round to ``digits`` significant digits (stable text across platforms); inf and None kept."""
+def _sig(value):
+    """A number of a machine file (csv, json, yaml) at full precision (``repr``); inf as text, None kept."""
     if value is None or not math.isfinite(value):
         return None if value is None else str(value)
-    return float(f"{value:.{digits}g}")
+    return float(value)
 
 
 def _rounded(obj):
@@ -460,8 +460,9 @@ def table2_text(standards, K_per_s=DEFAULT_K_PER_S, fmt="text", compare=False, a
     Returns
     -------
     str
-        deterministic text ending in a newline; numbers at fixed precision (text, markdown) or
-        rounded to 6 significant digits (csv, json, yaml; json and yaml carry ``schema_version``).
+        deterministic text ending in a newline; numbers at fixed precision (text, markdown) or at
+        full precision (csv, json, yaml: Python's shortest round-trip ``repr``; json and yaml carry
+        ``schema_version``).
     """
     if fmt not in FORMATS:
         raise UsageError(f"unknown format '{fmt}' (known: {', '.join(FORMATS)})")
