@@ -125,6 +125,9 @@ def test_round_trips_into_discover_simulate_track_stdin(tmp_path):
     doc = json.loads(piped.stdout)
     assert doc["reader"]["files"] == ["-"] if "reader" in doc else "-" in piped.stdout.decode()
     assert "vrcal-" not in piped.stdout.decode()
+    text = vrcal("discover", "-", "--ball", "tennis", "-q", cwd=tmp_path, stdin=impacts.read_bytes())
+    head = text.stdout.decode().splitlines()[0]   # wrapped with '-' in it, not the temporary copy's path
+    assert head.startswith("vrcal discover: - (impacts") and head.endswith("D = 67.0 mm)"), head
 
 
 def test_track_summary_and_comments_fit_100_columns(tmp_path):

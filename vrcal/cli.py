@@ -588,6 +588,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import dumps, figure_bytes, write_files
     from vrcal.measurements.reader import spooled
+    from vrcal.textout import wrap
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -608,7 +609,10 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
             text = text.replace(copy, given) if copy != given else text
         return text
 
-    text = named(fit_report(result, details=details))
+    text = fit_report(result, details=details)
+    if readable != list(data):   # the heading names the input: wrap it again with the user's name in it
+        head, sep, rest = text.partition("\n\n")
+        text = wrap(named(" ".join(head.split("\n")))).rstrip("\n") + sep + named(rest)
     for warning in result.warnings:
         click.echo(f"vrcal: warning: {named(warning)}", err=True)
     files = {json_file: named(dumps(result.as_dict(), "json"))} if json_file and json_file != "-" else {}

@@ -909,3 +909,24 @@ def test_a_phones_export_in_the_class_language_is_read(tmp_path, header):
     got = read_measurement(write(tmp_path, "de.csv", header + "\n" + "\n".join(rows) + "\n"))
     assert got.kind == "impacts"
     np.testing.assert_allclose(got.t_s, t, rtol=1e-8)
+
+
+def test_a_vrcal_scenes_trajectories_are_read_as_the_bottoms_height_of_one_body(tmp_path):
+    """vrcal's own writer, read back: NAME-trajectories.csv of `vrcal scene` has t_s, body, x_m, y_m
+    (horizontal), z_m, bottom_m. One body: its bottom_m is the height (Figure 8's basketball gives its
+    0.766 back); several bodies: one line naming them (it used to read y_m, always 0: 'no fall')."""
+    runner = CliRunner()
+    for scene in ("figure8-basketball", "stack-drop"):
+        result = runner.invoke(main, ["scene", str(EXAMPLES / f"{scene}.yaml"), "-o", str(tmp_path / scene),
+                                      "--no-animation"])
+        assert result.exit_code == 0, result.output
+    one = read_measurement(str(tmp_path / "figure8-basketball" / "figure8-basketball-trajectories.csv"))
+    assert isinstance(one, Trajectory) and one.y_m[0] == pytest.approx(1.8)
+    assert any("bottom_m" in n for n in one.notes)
+    found = runner.invoke(main, ["discover", str(tmp_path / "figure8-basketball" /
+                                                 "figure8-basketball-trajectories.csv"), "--ball", "basketball",
+                                 "-q", "--json", "-"])
+    assert found.exit_code == 0, found.output
+    assert '"epsilon": 0.7661' in found.stdout
+    with pytest.raises(DataError, match=r"2 bodies \(basketball, tennis\)"):
+        read_measurement(str(tmp_path / "stack-drop" / "stack-drop-trajectories.csv"))

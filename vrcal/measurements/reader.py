@@ -131,11 +131,9 @@ def spooled(path):
     str
         the path to read
     """
-    import shutil
+    import stat
     import sys
     import tempfile
-
-    import stat
 
     path = str(path)
     try:

@@ -71,7 +71,7 @@ def track(path, fmt=None, *, diameter_m=None, roi=None, color=None, fps=None, sc
                          scale_m_per_px=scale_m_per_px, progress=progress, g_m_per_s2=g_m_per_s2, rotate=rotate)
     if readable == str(path):
         return tracked
-    import dataclasses   # read from a copy of stdin or a FIFO: name the input as the user did
+    import dataclasses  # read from a copy of stdin or a FIFO: name the input as the user did
 
     m = tracked.measurement
     m = dataclasses.replace(m, source=str(path), notes=tuple(n.replace(readable, str(path)) for n in m.notes))

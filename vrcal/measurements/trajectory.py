@@ -210,6 +210,19 @@ def _run_labels(pairs):
     return labels
 
 
+def _one_scene_body(path, table):
+    """``table`` of ``vrcal scene``'s NAME-trajectories.csv (``t_s, body, x_m, y_m, z_m, bottom_m, ...``;
+    its ``y_m`` is horizontal) as a t, y table of the bottom's height, when it holds one body; a
+    DataError naming the bodies when it holds several (each is another ball: keep one's rows)."""
+    body = find_column(table.cols, ("body",))
+    bodies = list(dict.fromkeys(cells[body.index].strip() for _, cells in table.rows))
+    if len(bodies) > 1:
+        fail(path, table.header_line, f"a vrcal scene's trajectories of {len(bodies)} bodies ({', '.join(bodies)}): "
+                                      "each is another ball; keep the rows of one (its bottom_m is read as the height)")
+    t, bottom = find_column(table.cols, TIME_NAMES), find_column(table.cols, ("bottom",))
+    return table._replace(cols=[c for c in (t, bottom._replace(name="y")) if c is not None], numeric=None)
+
+
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     notes = ["format: trajectory (t, y columns)"]
     if header_columns(text) is None:
@@ -217,6 +230,9 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes.append("no header: two columns read as t [s], y [m]")
     else:
         table = parse_table(text)
+    if {"body", "bottom"} <= {c.name for c in table.cols}:
+        table = _one_scene_body(text.path, table)
+        notes.append("a vrcal scene's trajectories: the ball's bottom (bottom_m) read as the height")
     pairs = side_by_side_runs(text.path, table)
     if pairs is not None:
         labels = _run_labels(pairs)

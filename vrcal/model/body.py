@@ -362,9 +362,7 @@ def read_limited(path, max_bytes, what):
     """
     from pathlib import Path
 
-    from vrcal.errors import DataError
-
-    from vrcal.errors import UsageError
+    from vrcal.errors import DataError, UsageError
 
     p = Path(path)
     if not p.exists():   # a missing input file is a usage error, worded as click's for a FILE argument
