@@ -237,3 +237,15 @@ def test_help_examples_are_runnable_as_written():
 def test_plot_curves_creates_missing_parents(tmp_path):
     out = tmp_path / "nodir" / "figs"
     assert run("plot", "curves", "-o", out).exit_code == 0 and len(list(out.glob("*.png"))) == 4
+
+
+def test_simulates_extension_chooses_a_recording_without_format(tmp_path):
+    """`vrcal simulate tennis -o drop.wav` writes the WAV the extension names (it was refused: 'does not
+    write wav'); with --format impacts the .wav is refused naming what that format writes."""
+    wav = tmp_path / "drop.wav"
+    result = run("simulate", "tennis", "-o", wav)
+    assert result.exit_code == 0, result.output
+    assert wav.read_bytes()[:4] == b"RIFF"
+    refused = run("simulate", "tennis", "--format", "impacts", "-o", tmp_path / "x.wav")
+    assert refused.exit_code == 2 and "--format impacts writes csv, not wav" in refused.output
+    assert not (tmp_path / "x.wav").exists()

@@ -507,8 +507,21 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
     if output not in (None, "-"):
         from vrcal.textout import file_format
 
-        written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
-        file_format(output, (written,), written)
+        if ctx.get_parameter_source("fmt") is not click.core.ParameterSource.COMMANDLINE:
+            # no --format: the file's extension chooses among what simulate writes (drop.wav: a WAV)
+            chosen = file_format(output, ("csv", "wav", "video"), "csv")
+            fmt = chosen if chosen in ("wav", "video") else fmt
+        else:
+            from pathlib import Path
+
+            from vrcal.errors import UsageError
+            from vrcal.textout import KNOWN_EXTENSIONS
+
+            written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
+            named = KNOWN_EXTENSIONS.get(Path(str(output)).suffix.lower())
+            if named is not None and named != written:
+                raise UsageError(f"-o '{output}': --format {fmt} writes {written}, not {named}")
+            file_format(output, (written,), written)
     if fmt in ("wav", "video"):
         from vrcal.drop.render import simulate_recording
         from vrcal.errors import UsageError
