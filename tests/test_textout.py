@@ -23,7 +23,8 @@ def test_choose_format_by_option_then_extension():
     assert choose_format(None, "out.json") == "json"
     assert choose_format(None, "out.YML") == "yaml"
     assert choose_format("yaml", "out.json") == "yaml"
-    assert choose_format(None, "out.dat") == "text"
+    with pytest.warns(UserWarning, match="names no format vrcal knows: wrote text"):
+        assert choose_format(None, "out.dat") == "text"
     with pytest.raises(UsageError, match="known: text, json, yaml"):
         choose_format("xml", None)
 
