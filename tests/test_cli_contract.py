@@ -249,3 +249,19 @@ def test_simulates_extension_chooses_a_recording_without_format(tmp_path):
     refused = run("simulate", "tennis", "--format", "impacts", "-o", tmp_path / "x.wav")
     assert refused.exit_code == 2 and "--format impacts writes csv, not wav" in refused.output
     assert not (tmp_path / "x.wav").exists()
+
+
+def test_names_a_user_would_type_for_csv_data_and_sdf_are_written(tmp_path):
+    """CSV data in a .txt file (as Tracker and phyphox write it) and an SDF world in .xml were refused by
+    the -o rule; a MuJoCo export's JSON summary given to verify says what verify needs."""
+    ap = tmp_path / "ap.txt"
+    assert run("simulate", "table_tennis", "--format", "apexes", "-o", ap).exit_code == 0
+    assert ap.read_text().startswith("bounce,h")
+    sdf = tmp_path / "tennis.xml"
+    assert run("export", "tennis", "--engine", "gazebo", "-o", sdf).exit_code == 0
+    assert "<sdf" in sdf.read_text()
+    assert run("fit", "basketball", "-o", tmp_path / "f.csv").exit_code == 2    # fit writes no CSV
+    summary = tmp_path / "x.json"
+    assert run("export", "basketball", "--engine", "mujoco", "-o", summary).exit_code == 0
+    result = run("verify", "--engine", "mujoco", "--file", summary)
+    assert result.exit_code == 1 and "export it with -o FILE.xml" in result.output

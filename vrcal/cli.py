@@ -515,11 +515,11 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
             from pathlib import Path
 
             from vrcal.errors import UsageError
-            from vrcal.textout import KNOWN_EXTENSIONS
+            from vrcal.textout import COMPATIBLE_FORMATS, KNOWN_EXTENSIONS
 
             written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
             named = KNOWN_EXTENSIONS.get(Path(str(output)).suffix.lower())
-            if named is not None and named != written:
+            if named is not None and named != written and (named, written) not in COMPATIBLE_FORMATS:
                 raise UsageError(f"-o '{output}': --format {fmt} writes {written}, not {named}")
             file_format(output, (written,), written)
     if fmt in ("wav", "video"):

@@ -38,6 +38,10 @@ KNOWN_EXTENSIONS = {**EXTENSIONS, ".xml": "xml", ".mjcf": "xml", ".sdf": "sdf", 
                     ".xlsx": "xlsx", ".xls": "xls", ".tsv": "tsv"}
 
 
+#: (extension's format, format written) pairs an ``-o`` file may hold: CSV data is text, SDF is XML.
+COMPATIBLE_FORMATS = frozenset({("text", "csv"), ("xml", "sdf")})
+
+
 def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml")):
     """The output format: ``--format`` when given, else the ``-o`` file's extension
     (:func:`file_format`), else ``default``.
@@ -96,6 +100,9 @@ def file_format(output, allowed, default):
     named = KNOWN_EXTENSIONS.get(suffix)
     if named in allowed:
         return named
+    for kind in allowed:   # a .txt file of CSV data (as Tracker and phyphox write), an SDF world in .xml
+        if (named, kind) in COMPATIBLE_FORMATS:
+            return kind
     if named is not None:
         raise UsageError(f"-o '{output}': a {suffix} file is {named}, which this command does not write; it "
                          f"writes {writes_text(allowed)}")

@@ -176,6 +176,9 @@ def read_mjcf(text):
     from defusedxml import DefusedXmlException
     from defusedxml import ElementTree as DET
 
+    if text.lstrip().startswith("{"):   # `vrcal export --engine mujoco -o x.json` writes the export's summary
+        raise DataError("not an MJCF file: a JSON file (the export's summary from -o FILE.json or --format json); "
+                        "verify runs the model: export it with -o FILE.xml")
     try:
         root = DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException as exc:
