@@ -340,6 +340,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
         return [Finding("note", "g cannot be checked: no flight has 7 samples clear of the contacts")]
     # named where buoyancy matters (a light ball); the judgement is against g_exp all the same
     expected = "" if abs(g_exp / g_m_per_s2 - 1.0) < 0.05 else f"; this ball's {g_exp:.3g} with buoyancy"
+    ratio = None     # the parabolas' g over the expected one, when they curve downward
     if g_fit is not None and g_fit >= 0:
         ratio = g_fit / g_exp
         text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
@@ -356,7 +357,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
                          f"({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")
             if G_OK[0] <= g_d / g_exp <= G_OK[1]:
                 return [Finding("note", drag_text)]
-            if g_fit is None or (G_WARN[0] <= g_d / g_exp <= G_WARN[1] and not G_WARN[0] <= ratio <= G_WARN[1]):
+            if ratio is None or (G_WARN[0] <= g_d / g_exp <= G_WARN[1] and not G_WARN[0] <= ratio <= G_WARN[1]):
                 # judged by the flights of this ball, not parabolas (which judge a record far off as before)
                 g_fit, ratio, text = g_d, g_d / g_exp, drag_text
         elif g_fit is None:
