@@ -512,16 +512,8 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
             chosen = file_format(output, ("csv", "wav", "video"), "csv")
             fmt = chosen if chosen in ("wav", "video") else fmt
         else:
-            from pathlib import Path
-
-            from vrcal.errors import UsageError
-            from vrcal.textout import COMPATIBLE_FORMATS, KNOWN_EXTENSIONS
-
             written = {"wav": "wav", "video": "video"}.get(fmt, "csv")
-            named = KNOWN_EXTENSIONS.get(Path(str(output)).suffix.lower())
-            if named is not None and named != written and (named, written) not in COMPATIBLE_FORMATS:
-                raise UsageError(f"-o '{output}': --format {fmt} writes {written}, not {named}")
-            file_format(output, (written,), written)
+            file_format(output, (written,), written, given=f"--format {fmt}")
     if fmt in ("wav", "video"):
         from vrcal.drop.render import simulate_recording
         from vrcal.errors import UsageError
@@ -736,9 +728,6 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
 # (export and verify commands go here)
 
 _ENGINE_NAMES = ["mujoco", "ode", "bullet", "pybullet", "gazebo", "tables", "physx", "unity", "box2d"]
-#: The format of each engine's own file (what ``export -o FILE``'s extension may name besides json).
-_ENGINE_FILE_FORMAT = {"mujoco": "xml", "ode": "json", "bullet": "json", "gazebo": "sdf", "tables": "text"}
-_ENGINE_ALIASES = {"pybullet": "bullet", "physx": "tables", "unity": "tables", "box2d": "tables"}
 
 
 def _engine_options(f):
@@ -825,7 +814,9 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     form = choose_format(fmt, None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
         if fmt is None:   # the extension chooses between the engine's own file and the json machine file
-            native = _ENGINE_FILE_FORMAT[_ENGINE_ALIASES.get(engine.lower(), engine.lower())]
+            from vrcal.engines import get_engine
+
+            native = get_engine(engine).fmt          # the engine's own file (the registry's format)
             form = "json" if file_format(output, (native, "json"), native) == "json" != native else "text"
         check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:

@@ -71,7 +71,7 @@ def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml"))
     return default
 
 
-def file_format(output, allowed, default):
+def file_format(output, allowed, default, given=None):
     """The format an ``-o`` file gets from its extension -- the one rule of every command.
 
     An extension of :data:`KNOWN_EXTENSIONS` whose format is in ``allowed`` chooses it; one whose
@@ -88,6 +88,8 @@ def file_format(output, allowed, default):
         such as a ``text`` table written to a file of any name, are fine too)
     default : str
         the format of a file whose extension names none
+    given : str or None
+        the option that fixed the format (``--format impacts``): the refusal then names it
 
     Raises
     ------
@@ -103,6 +105,8 @@ def file_format(output, allowed, default):
     for kind in allowed:   # a .txt file of CSV data (as Tracker and phyphox write), an SDF world in .xml
         if (named, kind) in COMPATIBLE_FORMATS:
             return kind
+    if named is not None and given is not None:
+        raise UsageError(f"-o '{output}': {given} writes {allowed[0]}, not {named}")
     if named is not None:
         raise UsageError(f"-o '{output}': a {suffix} file is {named}, which this command does not write; it "
                          f"writes {writes_text(allowed)}")

@@ -451,7 +451,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         (impact_speed[0] if impact_speed is not None else None)
     if eng.name == "mujoco":
         cal = calibrate_or_refuse(setup, stiffness, n_phases)
-        coverage = speed_coverage(setup, "mujoco", module.export_mjcf(setup, cal), asked_lo)
+        # compiled once: each of the scan's drops runs the same model
+        coverage = speed_coverage(setup, "mujoco", module.load_model(module.export_mjcf(setup, cal)), asked_lo)
         text = module.export_mjcf(setup, cal, pair, second, coverage)
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
@@ -462,10 +463,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"{cal.hover_m * 1e3:.3g} mm")
         summary = _lines(summary, _coverage_summary(setup, coverage))
     elif eng.name in ("ode", "bullet"):
-        checked = check_step(setup, eng.name, n_phases=n_phases)
-        setup = _with_note(setup, checked)
-        coverage = _checked_coverage(setup, eng.name, checked, asked_lo)
-        summary = _lines(_not_run(checked), _phases_summary(checked), _coverage_summary(setup, coverage))
+        setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
         data = module.export_params(setup, setup.n_bounces, pair)
         if coverage:
             data["notes"].insert(1, coverage.note(setup.tolerance))
@@ -476,10 +474,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         text = dumps(data, "json")
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, eng.label)
-        checked = check_step(setup, "gazebo", n_phases=n_phases)             # Gazebo runs ODE
-        setup = _with_note(setup, checked)
-        coverage = _checked_coverage(setup, "gazebo", checked, asked_lo)
-        summary = _lines(_not_run(checked), _phases_summary(checked), _coverage_summary(setup, coverage))
+        setup, checked, coverage, summary = _checked_export(setup, "gazebo", n_phases, asked_lo)  # runs in ODE
         text = module.export_sdf(setup, pair, second, checked if coverage is None else
                                  f"{checked}; {coverage.note(setup.tolerance)}")
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
@@ -539,9 +534,14 @@ def _not_run(note):
     return note if note.startswith(NOT_RUN) else ""
 
 
-def _with_note(setup, note):
-    """The setup with ``note`` appended to its notes (unchanged for None)."""
-    return setup if note is None else replace(setup, notes=setup.notes + (note,))
+def _checked_export(setup, engine, n_phases, asked_lo):
+    """The drop test of an ODE, PyBullet or Gazebo export at its step (:func:`check_step`) and the speeds
+    it holds down to: (setup with the check's note, the note, the coverage or None, the terminal's lines)."""
+    checked = check_step(setup, engine, n_phases=n_phases)
+    setup = replace(setup, notes=setup.notes + (checked,))
+    coverage = _checked_coverage(setup, engine, checked, asked_lo)
+    return setup, checked, coverage, _lines(_not_run(checked), _phases_summary(checked),
+                                            _coverage_summary(setup, coverage))
 
 
 def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
@@ -556,14 +556,17 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
 
     kind, w = _contact_choice(setup, stiffness)
     refuse_constant_for_law(setup, "MuJoCo")
+
+    def step_that_works():
+        dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
+        return (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
+                f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
+
     try:
         cal = M.calibrate(setup, n_phases, kind, w)
     except StillBouncing as exc:             # no damping brings it down: name a step that works, as below
-        dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
-        where = (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
-                 f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
         raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {kind} contact) misses: "
-                         f"{exc}; {where}; see --trade-off") from None
+                         f"{exc}; {step_that_works()}; see --trade-off") from None
     if cal.ok:
         return cal
     misses = []
@@ -572,11 +575,8 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
-    dt_ok, ok = M.suggest_dt(setup, n_phases, kind, w)
-    where = (f"--dt {dt_ok:g} meets both (checked in MuJoCo: error {ok.worst_error:.3g}, "
-             f"{ok.depth_m * 1e3:.3g} mm)" if dt_ok else "no step down to the run limit meets both")
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
-                     f"misses: {'; '.join(misses)}; {where}; see --trade-off")
+                     f"misses: {'; '.join(misses)}; {step_that_works()}; see --trade-off")
 
 
 def refuse_constant_for_law(setup, engine):
@@ -978,7 +978,7 @@ def speed_coverage(setup, engine, runnable, asked_lo=None):
         ode, bullet, gazebo (run in libode) or mujoco
     runnable : dict or str
         the exported parameters (ODE, Bullet: the JSON dict; Gazebo: the ODE parameters it runs;
-        MuJoCo: the MJCF text)
+        MuJoCo: the MJCF text or its compiled model)
     asked_lo : float or None
         the slowest speed of ``--impact-speed LO:HI`` [m/s]
 
