@@ -178,7 +178,8 @@ def answer(discovery):
             parts.append(f"The paper's constant-epsilon model leaves a gap of {after} ({_noise_text(d)}), and "
                          f"no effect of the registry explains it.")
     if d.cut:
-        parts.append(f"{_effects_phrase(d.cut)[0].upper() + _effects_phrase(d.cut)[1:]} would also matter but "
+        cut = _effects_phrase(d.cut)
+        parts.append(f"{cut[0].upper() + cut[1:]} would also matter but "
                      f"{'is' if len(d.cut) == 1 else 'are'} not named: at most {d.max_effects} effect(s) are named "
                      f"(max_effects); the values here lack {'it' if len(d.cut) == 1 else 'them'}.")
     elif v == "unexplained" and d.effects:

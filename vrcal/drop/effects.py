@@ -465,7 +465,7 @@ SOLID_BALL_DENSITY_KG_PER_M3 = 600.0
 #: compliance (a steel ball on glass 54 GPa, on steel 110 GPa). Sources: K. L. Johnson, Contact Mechanics
 #: (Cambridge 1985), Table 1 of ch. 4 and sec. 11.4; W. Goldsmith, Impact (Arnold 1960), ch. 4.
 SOLID_MODULUS_CLASSES = (
-    (600.0, (1e6, 100e6, 3e9), "rubber, plastic, wood or clay"),
+    (SOLID_BALL_DENSITY_KG_PER_M3, (1e6, 100e6, 3e9), "rubber, plastic, wood or clay"),
     (2300.0, (50e9, 100e9, 220e9), "glass, stone or metal"),
 )
 

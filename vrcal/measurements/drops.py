@@ -89,9 +89,8 @@ _HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "ape
 _TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
 #: ... or by an ordinal before it (``1st bounce``, ``Second rebound``, ``3rd bounce height``).
-_ORDINAL = re.compile(r"^(?:(\d+)\s*(?:st|nd|rd|th)|(first|second|third|fourth|fifth|sixth|seventh|eighth|ninth|"
-                      r"tenth))\s+(?:rebound|bounce)(?:\s+height)?$")
 _ORDINAL_WORDS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
+_ORDINAL = re.compile(rf"^(?:(\d+)\s*(?:st|nd|rd|th)|({'|'.join(_ORDINAL_WORDS)}))\s+(?:rebound|bounce)(?:\s+height)?$")
 #: Names of a column that numbers the trials or rows (read by no one, and no note needed).
 _INDEX_NAMES = ("trial", "trials", "trial #", "trial no", "trial number", "run", "n", "no", "nr", "#", "number",
                 "index", "versuch", "essai", "intento", "prova", "attempt", "try", "test", "measurement")

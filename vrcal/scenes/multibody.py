@@ -289,8 +289,7 @@ class _State:
         self.v = self.v + a * dt
         self.ang = self.ang + self.w[:, 1] * dt + 0.5 * self.alpha[:, 1] * dt * dt
         self.w = self.w + self.alpha * dt
-        self.t_roll = self.t_roll - dt
-        self.t += dt
+        self.t += dt            # t_roll needs no update: update_sliding sets it after every event
 
     def snapshot(self):
         return (self.t, self.p.copy(), self.v.copy(), self.w.copy(), self.ang.copy(), self.rest.copy(),

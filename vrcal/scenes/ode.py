@@ -220,9 +220,9 @@ def _run(O, lib, scene, dt_s):
             touching_now.add(key)
             b1 = lib.dGeomGetBody(o1)
             b2 = lib.dGeomGetBody(o2) if j != -1 else None
-            nrm = np.array(geoms[0].geom.normal[:3])   # from body b (or the floor) towards body a
             feedback = None
             if key not in touching_prev:
+                nrm = np.array(geoms[0].geom.normal[:3])   # from body b (or the floor) towards body a
                 va = np.array(O.vec3(lib.dBodyGetLinearVel(b1)))
                 vb = np.array(O.vec3(lib.dBodyGetLinearVel(b2))) if b2 else np.zeros(3)
                 approach = float(-nrm @ (va - vb))
