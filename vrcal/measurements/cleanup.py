@@ -578,7 +578,8 @@ def _after_missed(dt, r, tolerance, max_missed):
     """
     ratio = dt[1:-1] / (r * dt[:-2])
     spans = np.cumsum(r ** np.arange(max_missed + 1))[1:]           # 1+r, 1+r+r^2, ...
-    miss = np.abs(np.log(ratio[:, None] / spans[None, :]))
+    with np.errstate(divide="ignore", invalid="ignore"):   # a zero interval fits no span (nan or inf: no fit)
+        miss = np.abs(np.log(ratio[:, None] / spans[None, :]))
     j = np.argmin(miss, axis=1)
     fits = (miss[np.arange(j.size), j] < np.log1p(tolerance)) & (ratio > 1.0 + tolerance)
     return np.where(fits, dt[:-2] * r ** (j + 3.0), np.inf)
