@@ -188,10 +188,6 @@ def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom",
     return eps, {**keys, **drop_test_drag(body.mass_kg, body.diameter_m, H, h)}
 
 
-#: A sphere's drag coefficient below the drag crisis, for :func:`drop_test_drag` (the median of
-#: ``air_drag``'s prior in :mod:`vrcal.drop.effects`).
-SPHERE_DRAG_COEFFICIENT = 0.47
-
 #: Shift of epsilon [1] by a sphere's drag from which :func:`drop_test_drag` notes it.
 DRAG_NOTE_EPSILON = 0.01
 
@@ -199,8 +195,9 @@ DRAG_NOTE_EPSILON = 0.01
 def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
     """What a sphere's air drag makes of one's own drop test: ``{}`` when it moves epsilon by less than
     :data:`DRAG_NOTE_EPSILON`, else ``epsilon_with_drag`` (:func:`vrcal.model.restitution.
-    epsilon_from_heights_with_drag` at C_d :data:`SPHERE_DRAG_COEFFICIENT`), ``drag_coefficient`` and a
-    ``notes`` entry saying so. Eq. (9) stays the result: the ball's own C_d is not known.
+    epsilon_from_heights_with_drag` at C_d :data:`vrcal.model.restitution.SPHERE_DRAG_COEFFICIENT`, with the
+    added mass), ``drag_coefficient`` and a ``notes`` entry saying so. Eq. (9) stays the result: the
+    ball's own C_d is not known.
 
     Parameters
     ----------
@@ -209,8 +206,8 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
     drop_height_m, rebound_height_m : float
         H and h to the ball's bottom [m]
     """
-    added = 0.5 * eq.AIR_DENSITY_KG_PER_M3 * float(eq.sphere_volume_m3(diameter_m))   # the air's added mass
-    k = eq.drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, diameter_m, mass_kg, added_mass_kg=added)
+    cd = eq.SPHERE_DRAG_COEFFICIENT
+    k = eq.drag_constant_per_m(cd, diameter_m, mass_kg, added_mass_kg=eq.added_mass_kg(diameter_m))
     eps = float(eq.epsilon_from_heights(rebound_height_m, drop_height_m))
     with_drag = float(eq.epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k,
                                                         allow_above_one=True))
@@ -218,7 +215,7 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
         return {}
     table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:g} --diameter "
              f"{diameter_m:g}) measure the drag and the contact's ε")
-    drag = f"a sphere's C_d {SPHERE_DRAG_COEFFICIENT:g} slows it by k = {k:.3g} 1/m"
+    drag = f"a sphere's C_d {cd:g} slows it by k = {k:.3g} 1/m"
     if with_drag > 1.0:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce "
                 f"rises {rebound_height_m:g} m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): "
@@ -226,7 +223,7 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
     else:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag the contact's own ε is "
                 f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag). {table}")
-    return {"epsilon_with_drag": with_drag, "drag_coefficient": SPHERE_DRAG_COEFFICIENT, "notes": [note]}
+    return {"epsilon_with_drag": with_drag, "drag_coefficient": cd, "notes": [note]}
 
 
 #: Air displaced over the ball's mass, rho V / m, from which :func:`buoyancy_notes` warns.

@@ -102,6 +102,7 @@ SCALAR_VS_ARRAY = [
     (eq.virtual_depth_m, ([0.1, 0.3], [0.05, 0.0])),
     (eq.epsilon_from_heights, ([0.5, 1.2], [1.0, 2.0])),
     (eq.impact_speed_m_per_s, ([0.5, 1.8], [9.81, 1.62])),
+    (eq.added_mass_kg, ([0.04, 0.24], [1.204, 0.0])),
 ]
 
 
@@ -171,8 +172,15 @@ def test_a_masked_check_names_an_infinite_value():
         eq.contact_time_single_s(0.02, math.inf)
 
 
+def test_added_mass_is_half_the_displaced_air():
+    """Landau & Lifshitz Sec. 11: a sphere carries rho V / 2 along; 0.75 % of a table-tennis ball's 2.7 g."""
+    assert eq.added_mass_kg(0.04) == pytest.approx(0.5 * 1.204 * math.pi * 0.04**3 / 6, rel=1e-15)
+    assert eq.added_mass_kg(0.04) / 0.0027 == pytest.approx(0.0075, abs=1e-4)
+
+
 def test_sphere_volume_and_drag_constant_refuse_what_no_ball_has():
-    for call in (lambda: eq.sphere_volume_m3(-1.0), lambda: eq.drag_constant_per_m(0.5, 0.067, 0.0),
+    for call in (lambda: eq.sphere_volume_m3(-1.0), lambda: eq.added_mass_kg(0.04, -1.0),
+                 lambda: eq.drag_constant_per_m(0.5, 0.067, 0.0),
                  lambda: eq.drag_constant_per_m(-0.5, 0.067, 0.058), lambda: eq.drag_constant_per_m(0.5, 0.067, -1.0),
                  lambda: eq.drag_constant_per_m(0.5, 0.067, 0.058, -1.204)):
         with pytest.raises(UsageError):

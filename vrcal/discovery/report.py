@@ -18,6 +18,7 @@ import textwrap
 
 import numpy as np
 
+from vrcal.model.restitution import SPHERE_DRAG_COEFFICIENT
 from vrcal.textout import MAX_COLUMNS, mass, ms, number, table
 
 #: File names written by ``vrcal discover --report DIR``.
@@ -167,8 +168,8 @@ def answer(discovery):
         if v == "unexplained":
             parts.append(f"Yet it leaves a gap of {after} ({_noise_text(d)}): it does not reproduce this record.")
         if d.kind == "apexes":
-            parts.append(f"With a sphere's air drag (C_d = 0.47) the same heights give epsilon = "
-                         f"{_epsilon_with_typical_drag(d):.4f}.")
+            parts.append(f"With a sphere's air drag (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights give "
+                         f"epsilon = {_epsilon_with_typical_drag(d):.4f}.")
     else:
         if v == "explained":
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
@@ -206,11 +207,13 @@ def answer(discovery):
 
 
 def _epsilon_with_typical_drag(d):
-    """ε of the first two apexes of the first run with the drag of a sphere (C_d 0.47): Eq. (9) corrected."""
-    from vrcal.drop.effects import drag_constant_per_m, epsilon_from_heights_with_drag
+    """ε of the first two apexes of the first run with the drag of a sphere (:data:`vrcal.model.restitution.
+    SPHERE_DRAG_COEFFICIENT`, its added mass included, as ``vrcal fit`` says): Eq. (9) corrected."""
+    from vrcal.drop.effects import added_mass_kg, drag_constant_per_m, epsilon_from_heights_with_drag
 
     run = d.runs[0]
-    k = drag_constant_per_m(0.47, float(d.ball.diameter_m), float(d.ball.mass_kg))
+    D = float(d.ball.diameter_m)
+    k = drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, D, float(d.ball.mass_kg), added_mass_kg=added_mass_kg(D))
     return float(epsilon_from_heights_with_drag(run.h_m[1], run.h_m[0], k, allow_above_one=True))
 
 

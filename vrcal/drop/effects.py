@@ -96,7 +96,10 @@ from vrcal.errors import UsageError, closest_name
 from vrcal.model.plausible import ball_density_kg_per_m3
 from vrcal.model.restitution import (  # noqa: F401 (the air's equations, here with the effects)
     AIR_DENSITY_KG_PER_M3,
+    SPHERE_DRAG_COEFFICIENT,
+    _added_mass_kg,
     _out,
+    added_mass_kg,
     check_array,
     drag_constant_per_m,
     epsilon_from_heights_with_drag,
@@ -316,8 +319,8 @@ def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per
 
 def _buoyant_gravity_m_per_s2(g, D, m, rho):
     """:func:`buoyant_gravity_m_per_s2` of checked arrays (the simulator's inner call)."""
-    V = math.pi * D**3 / 6.0
-    return g * (m - rho * V) / (m + 0.5 * rho * V)
+    added = _added_mass_kg(D, rho)
+    return g * (m - 2.0 * added) / (m + added)
 
 
 def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_per_s, exponent):
@@ -594,7 +597,8 @@ EFFECTS = {
         parameters=(
             Parameter("drag_coefficient", "1", 0.5, (0.0, 3.0), (0.1, 1.0),
                       "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)",
-                      LogNormalPrior(0.47, 0.3, "sphere below the drag crisis (Achenbach 1972; Mehta 1985)"),
+                      LogNormalPrior(SPHERE_DRAG_COEFFICIENT, 0.3,
+                                     "sphere below the drag crisis (Achenbach 1972; Mehta 1985)"),
                       limits=(0.2, 1.0)),
         ),
         equation="a = -g - k v|v|,  k = rho C_d pi D^2 / (8 m),  rho = 1.204 kg/m^3",
@@ -801,5 +805,5 @@ def flight_expectation(mass_kg, diameter_m, g_m_per_s2, air_density_kg_per_m3=AI
     g_eff = float(buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, rho))
     prior = EFFECTS["air_drag"].parameter("drag_coefficient").density
     cds = prior.center() * np.exp(np.array([-2.0, 0.0, 2.0]) * prior.sigma_ln)
-    added = 0.5 * rho * float(sphere_volume_m3(diameter_m))
-    return g_eff, np.asarray(drag_constant_per_m(cds, diameter_m, mass_kg, rho, added), dtype=float)
+    return g_eff, np.asarray(drag_constant_per_m(cds, diameter_m, mass_kg, rho, added_mass_kg(diameter_m, rho)),
+                             dtype=float)

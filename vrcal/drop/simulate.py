@@ -45,6 +45,7 @@ from vrcal.model.body import ball_properties
 from vrcal.model.restitution import (
     AIR_DENSITY_KG_PER_M3,
     STANDARD_GRAVITY_M_PER_S2,
+    _added_mass_kg,
     _drag_constant_per_m,
     _out,
     check_array,
@@ -439,7 +440,7 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         g, added = g0, 0.0
     else:
         g = _buoyant_gravity_m_per_s2(g0, D, m, rho_b)
-        added = 0.5 * rho_b * (math.pi * D**3 / 6.0)
+        added = _added_mass_kg(D, rho_b)
         if np.any(g <= 0):
             raise UsageError("buoyancy: the ball is lighter than the air it displaces (it would not fall)")
     cd = param("air_drag", "drag_coefficient")

@@ -855,7 +855,7 @@ def _run_confirmed(setup, engine, dt_s, n_phases=N_PHASES):
     runs = _run_in_engine(setup, engine, dt_s, n_phases)
     run_in = runtime(engine)
     return confirmed(runs, isinstance(runs, DropRuns) and _meets(setup, runs), replace(setup, dt_s=dt_s), n_phases,
-                     run_in.name, run_in.max_steps, lambda phases: _run_in_engine(setup, engine, dt_s, phases))
+                     run_in.label, run_in.max_steps, lambda phases: _run_in_engine(setup, engine, dt_s, phases))
 
 
 def _phases(runs):
@@ -887,7 +887,7 @@ def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
         return None
     trial = replace(setup, dt_s=dt_s)
     try:
-        check_steps(trial, n_phases, run_in.name, run_in.max_steps)
+        check_steps(trial, n_phases, run_in.label, run_in.max_steps)
     except UsageError as exc:
         return str(exc)
     try:

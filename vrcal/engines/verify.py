@@ -92,7 +92,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                           max_penetration_m=max_penetration_m, n_bounces=asked)
-        check_steps(pre, n_phases, eng.name, eng.max_steps)
+        check_steps(pre, n_phases, eng.label, eng.max_steps)
         ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, n_bounces=asked, **options)
         loaded = runnable = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
         setup = ex.setup
@@ -102,7 +102,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     from vrcal.engines.export import _check_bounces_reachable
 
     _check_bounces_reachable(setup)
-    check_steps(setup, n_phases, eng.name, eng.max_steps)
+    check_steps(setup, n_phases, eng.label, eng.max_steps)
     try:
         runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
     except DataError as exc:
