@@ -96,6 +96,14 @@ def test_eq5_sphere_on_floor_reduces_to_m_times_velocity_change():
     assert j == pytest.approx(1.7 * 0.5 * 3.0, rel=1e-14)
 
 
+def test_eq5_never_pulls_bodies_that_already_separate():
+    """A contact only pushes: separating (v_rel > 0) or grazing bodies get j = 0, not Eq. (5)'s negative value."""
+    j = mb.normal_impulse_N_s(np.array([-3.0, 0.0, 2.0]), 0.7, [0, 0, 1.0], 0.5, np.eye(3) / 0.002, [0, 0, -0.1],
+                              np.inf, np.zeros((3, 3)), np.zeros(3))
+    assert j.tolist() == pytest.approx([1.7 * 0.5 * 3.0, 0.0, 0.0], abs=1e-15)
+    assert np.all(j >= 0)
+
+
 # --------------------------------------------------------------------------- sphere-sphere impacts in the simulator
 
 

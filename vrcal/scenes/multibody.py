@@ -141,12 +141,14 @@ def normal_impulse_N_s(v_rel_m_per_s, epsilon, normal, mass_a_kg, inv_inertia_a_
     j_N_s : float or ndarray
         ``-(1 + epsilon) v_rel / (1/M_a + 1/M_b + n.[(I_a^-1 (r_a x n)) x r_a] + n.[(I_b^-1 (r_b x n)) x r_b])``
         [N s]; body a receives +j n, body b receives -j n. Afterwards the normal relative
-        velocity is exactly ``-epsilon v_rel`` (Eq. 3 of [1], sign as in Baraff's notes).
+        velocity is exactly ``-epsilon v_rel`` (Eq. 3 of [1], sign as in Baraff's notes). 0 where the
+        bodies already separate (``v_rel >= 0``): a contact only pushes (Eq. 5 as printed would pull).
     """
     k = inverse_effective_mass_per_kg(normal, mass_a_kg, inv_inertia_a_per_kg_m2, r_a_m, mass_b_kg,
                                       inv_inertia_b_per_kg_m2, r_b_m)
     eps = check_array("epsilon", epsilon, 0.0, 1.0, lo_open=False)
-    j = -(1.0 + eps) * check_array("v_rel_m_per_s", v_rel_m_per_s, -np.inf, lo_open=False) / k
+    v_rel = check_array("v_rel_m_per_s", v_rel_m_per_s, -np.inf, lo_open=False)
+    j = -(1.0 + eps) * np.minimum(v_rel, 0.0) / k
     return float(j) if np.ndim(j) == 0 else j
 
 
