@@ -171,7 +171,7 @@ def answer(discovery):
             parts.append(f"With a sphere's air drag (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights give "
                          f"epsilon = {_epsilon_with_typical_drag(d):.4f}.")
     else:
-        if v == "explained":
+        if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
                          f"{pm(d.epsilon, d.final.uncertainty('epsilon'))}. Its gap, {after}, is within what the "
                          f"record allows: {_noise_text(d)}. No effect of the registry is needed.")
@@ -236,10 +236,10 @@ def engine_advice(discovery):
         out.extend(shown)
         if not d.rounds and d.verdict != "unexplained":
             out.append(f"(nothing tested: an engine without air drag reproduces {RECORD_OF_KIND[d.kind]} with it)")
-        elif d.verdict == "explained" and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
+        elif d.reproduces and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
             out.append("The baseline suffices: this constant epsilon reproduces the record in an engine without "
                        "air drag (with drag, the value above).")
-        elif d.verdict == "explained":
+        elif d.reproduces:
             out.append("The baseline suffices: this constant epsilon reproduces the record in any engine.")
         else:
             out.append("The baseline does not reproduce the record to its noise (see above); this is the constant "
