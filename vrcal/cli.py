@@ -549,6 +549,10 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
                    "when the heights are clearly not floor-referenced).")
+@click.option("--surface", type=opt.SURFACE, default="rigid", show_default=True,
+              help="What the floor is: rigid (concrete, stone, a plate: the ball sets the contact time) or soft "
+                   "(a stack of paper, a foam or gym mat, carpet, turf, sand: contacts of up to 50 ms are "
+                   "physical).")
 @click.option("--noise", type=opt.DATA_NOISE, default=None,
               help="Noise of one datum, in m for heights or s for impact times, whatever unit the file uses "
                    "(5 mm: 0.005) [default: estimated from a trajectory; 0.2 ms for impacts, 2 mm for apexes].")
@@ -566,8 +570,8 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
 @click.pass_context
-def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, rotate, floor_m, noise,
-             drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir, quiet):
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, rotate, floor_m,
+             surface, noise, drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir, quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
@@ -584,6 +588,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
       vrcal discover heights.csv --mass 0.0459 --diameter 0.0427
       vrcal discover heights.csv --ball tennis --rebound-measured-to top   # rebounds read at the ball's top
       vrcal discover run80cm.csv run100cm.csv --ball golf --mass 0.0459 --diameter 0.0427
+      vrcal discover marble.csv --mass 0.0054 --diameter 0.016 --surface soft   # dropped on a paper stack
       vrcal discover drop.wav --ball tennis          # a sound recording: see 'vrcal track'
       vrcal discover drop.mp4 --ball tennis          # a video; needs vrcal[video]
     """
@@ -607,7 +612,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                                sheet=sheet,
                                read_options={"progress": None if quiet else tracking_progress("discover"),
                                              "rotate": None if rotate is None else int(rotate)},
-                               drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
+                               drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to,
+                               surface=surface)
 
     def named(text):   # the inputs as the user named them (not their temporary copies)
         for copy, given in zip(readable, data):

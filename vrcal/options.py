@@ -261,6 +261,10 @@ class BallPoint(click.Choice):
 
 BALL_POINT = BallPoint()
 
+#: The floor a ball bounces on (``vrcal discover --surface``; vrcal.drop.effects.SURFACES, written out so that
+#: the CLI starts without importing the effects; a test keeps the two equal).
+SURFACE = NamedChoice(["rigid", "soft"])
+
 #: Degrees a video is turned clockwise before tracking (``--rotate``; the keys of
 #: vrcal.measurements.video.ROTATIONS).
 ROTATION = click.Choice(["0", "90", "180", "270"])

@@ -317,3 +317,31 @@ def test_effect_equations_refuse_what_has_no_meaning(call):
 def test_the_null_speed_law_gives_eps_ref_at_any_speed_zero_included(eps, v_ref):
     with np.errstate(all="raise"):
         assert restitution_at_speed(eps, np.array([0.0, 0.5 * v_ref, v_ref]), v_ref, 0.0).tolist() == [eps] * 3
+
+
+def test_a_soft_floor_widens_the_contact_time_to_tens_of_ms():
+    """A glass marble on a stack of paper stays 8 ms down (200 fps video, MTrack2 tracks); Hertz on a rigid
+    floor allows it 0.06 ms. On a soft floor the floor's compliance is in series with the ball's: the limit,
+    the prior's median and the band grow to the soft floor's tens of ms; a rigid floor keeps the ball's."""
+    from vrcal.drop.effects import (EFFECTS, SOFT_FLOOR_CONTACT_TIME_S, contact_time_limit_s, contact_time_range_s,
+                                    expected_contact_time_s, on_floor_s, surface_of)
+
+    marble, tennis = (0.0054, 0.016), (0.0577, 0.067)
+    assert contact_time_limit_s(*marble) < 1e-4 < 0.008 < 0.05 <= contact_time_limit_s(*marble, "soft")
+    assert contact_time_limit_s(*tennis, "soft") > contact_time_limit_s(*tennis) > 0.01
+    assert expected_contact_time_s(*marble, "soft") == pytest.approx(
+        np.hypot(expected_contact_time_s(*marble), SOFT_FLOOR_CONTACT_TIME_S[1]))
+    lo, hi = contact_time_range_s(*marble, "soft")
+    assert lo < 0.008 < hi and (lo, hi) > contact_time_range_s(*marble)
+    np.testing.assert_allclose(on_floor_s(np.array([3.0, 0.0]), 4.0), [5.0, 4.0])
+    tau = EFFECTS["contact_duration"].parameter("contact_time_s")
+    soft = BallProperties(*marble, "marble", surface="soft")
+    assert surface_of(soft) == "soft" and surface_of(BallProperties(*marble)) == "rigid"
+    assert tau.physical_limits(soft)[1] == pytest.approx(contact_time_limit_s(*marble, "soft"))
+    assert tau.density.center(soft) == pytest.approx(expected_contact_time_s(*marble, "soft"))
+    # the hint names the soft floor only where the floor was said to be rigid
+    effect = EFFECTS["contact_duration"]
+    assert "--surface soft" in effect.check_for("trajectory") and "--surface soft" not in effect.check_for(
+        "trajectory", "soft")
+    with pytest.raises(UsageError, match="valid: rigid, soft"):
+        contact_time_limit_s(*marble, "mud")

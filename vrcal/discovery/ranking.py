@@ -291,7 +291,7 @@ class Discovery:
         """
         if self.kind == "trajectory" or self.verdict == "untested":
             return None
-        from vrcal.drop.effects import EFFECTS, contact_time_range_s
+        from vrcal.drop.effects import EFFECTS, contact_time_range_s, surface_of
 
         f = self.final
         added = [(effect, name) for effect, name, kinds in EXPECTED_EFFECTS
@@ -327,7 +327,8 @@ class Discovery:
         key = "contact_duration.contact_time_s"
         if key in held:
             # the contact time is known to a band (the ball's plausible moduli or gauge pressures), not a point
-            span = contact_time_range_s(float(np.mean(self.ball.mass_kg)), float(np.mean(self.ball.diameter_m)))
+            span = contact_time_range_s(float(np.mean(self.ball.mass_kg)), float(np.mean(self.ball.diameter_m)),
+                                        surface_of(self.ball))
             shifts = [shift({**held, key: tau}) for tau in span]
             out["held_range"] = {key: list(span)}
             out["epsilon_shift_range"] = [min(shifts + [out["epsilon_shift"]]), max(shifts + [out["epsilon_shift"]])]
@@ -461,7 +462,7 @@ class Discovery:
         return out
 
     def _unphysical(self):
-        from vrcal.drop.effects import EFFECTS
+        from vrcal.drop.effects import EFFECTS, surface_of
 
         out, seen = [], set()
         for c in sorted(self.candidates, key=lambda c: c.fit.gap):
@@ -476,7 +477,8 @@ class Discovery:
                     continue
                 seen.add((effect, param))
                 out.append((c, {"effect": effect, "parameter": param, "value": value, "limits": list(limits),
-                                "gap": c.fit.judged_gap, "check": EFFECTS[effect].check_for(self.kind)}))
+                                "gap": c.fit.judged_gap,
+                                "check": EFFECTS[effect].check_for(self.kind, surface_of(self.ball))}))
         return out
 
     def gap_per_bounce(self):
@@ -656,7 +658,7 @@ class Discovery:
                      "decimation": int(self.decimation), "n_read": int(self.n_read or self.baseline.n)},
             "reader": dict(self.reader),
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
-                     "diameter_m": float(self.ball.diameter_m)},
+                     "diameter_m": float(self.ball.diameter_m), "surface": getattr(self.ball, "surface", "rigid")},
             "g_m_per_s2": self.g_m_per_s2,
             "notes": self.all_notes,
         }
@@ -1168,7 +1170,8 @@ def _unresolved(fit, names):
 
 
 def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=None, thresholds=None,
-             progress=None, max_effects=None, floor_m=None, noise=None, y_down=False, reader=None, stages=None):
+             progress=None, max_effects=None, floor_m=None, noise=None, y_down=False, reader=None, stages=None,
+             surface=None):
     """Name the effects that the constant-ε baseline misses in ``data``.
 
     Parameters
@@ -1205,6 +1208,10 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     stages : callable, optional
         ``stages(fraction, message)`` called as the record is prepared (noise, decimation, bounces)
         and before the fits (``vrcal discover`` shows them on a terminal from the first second on)
+    surface : {"rigid", "soft"} or None
+        the floor (:data:`vrcal.drop.effects.SURFACES`); None: the ball's own (``BallProperties.surface``,
+        rigid by default). A soft floor (paper, a mat, turf, sand) holds the ball longer: the contact time's
+        physical limits and prior widen to its tens of ms (:func:`vrcal.drop.effects.contact_time_limit_s`)
 
     Returns
     -------
@@ -1216,11 +1223,13 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         a record that cannot be fitted as it is (:mod:`vrcal.measurements.plausibility`)
     """
     from vrcal.discovery.prepare import prepare
-    from vrcal.drop.effects import EFFECTS
+    from vrcal.drop.effects import EFFECTS, check_surface, contact_time_limit_s, surface_of
     from vrcal.model.body import ball_properties
 
     th = thresholds or Thresholds()
     ball = ball_properties(ball)
+    if surface is not None:
+        ball = replace(ball, surface=check_surface(surface))
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         raise UsageError(f"noise must be a number > 0 in the data's unit, got {noise:g}")
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
@@ -1248,6 +1257,12 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     sigma_floor, noise_source = chosen_noise(data, prepared, noise)
     floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in res._runs_of(data))
     notes = list(prepared.notes)
+    if surface_of(ball) == "soft" and "contact_duration" in pool:
+        limit = EFFECTS["contact_duration"].parameter("contact_time_s").physical_limits(ball)[1]
+        notes.append(f"the floor is soft (--surface soft): contacts of up to {limit * 1e3:.3g} ms are physical "
+                     f"(on a rigid floor up to "
+                     f"{contact_time_limit_s(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m))) * 1e3:.3g}"
+                     f" ms)")
     nuisance = ()
     shifts = prepared.floor_shifts_m
     if kind == "trajectory" and floor_m is None and shifts and all(s != 0.0 for s in shifts):
@@ -1327,7 +1342,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         notes.append(f"{e['effect']}: {e['parameter']} held at its physical limit {e['limit']:.4g}; the best fit "
                      f"beyond the limits has {e['unconstrained']:.4g} and a chi2 lower by {e['chi2']:.2g}"
                      + (" (within the noise: the data cannot reject the limit)" if within else "")
-                     + f"; a value at the edge of what is physical: {EFFECTS[e['effect']].check_for(found.kind)}")
+                     + "; a value at the edge of what is physical: "
+                     + EFFECTS[e['effect']].check_for(found.kind, surface_of(ball)))
     return found
 
 
@@ -1539,7 +1555,8 @@ def _odds(delta_score):
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
                   standards=None, scale_m_per_px=None, y_down=False, fs_hz=None, progress=None, floor_m=None,
-                  noise=None, sheet=None, read_options=None, drop_measured_to=None, rebound_measured_to=None):
+                  noise=None, sheet=None, read_options=None, drop_measured_to=None, rebound_measured_to=None,
+                  surface=None):
     """Read measurement file(s) and run :func:`discover` on them (what ``vrcal discover`` calls).
 
     Parameters
@@ -1573,6 +1590,8 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
         the point of the ball that drop and rebound heights were measured to
         (:func:`vrcal.discovery.prepare.heights_to_bottom`; heights only). Given, a height offset is
         not tried: the point is known. None: not stated, the bottom, and a height offset is tried
+    surface : {"rigid", "soft"} or None
+        the floor, see :func:`discover`
 
     Returns
     -------
@@ -1600,4 +1619,4 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     stated = drop_measured_to is not None or rebound_measured_to is not None
     candidates = [e for e in res.applicable_effects("apexes") if e != "height_offset"] if stated else None
     return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
-                    y_down=turned, reader=reader, stages=stages, candidates=candidates)
+                    y_down=turned, reader=reader, stages=stages, candidates=candidates, surface=surface)

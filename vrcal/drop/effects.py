@@ -74,7 +74,9 @@ Physical limits (hard; ``Parameter.limits``)
 * ``contact_duration.contact_time_s``: 0 to twice the membrane estimate
   :func:`inflated_contact_time_s` of the ball (its size and a 60 kPa gauge pressure): a
   factor 2 covers 15-240 kPa and the wall's stiffness; a shorter contact (a solid ball)
-  is always physical;
+  is always physical. These assume a rigid floor; on a soft one (``surface="soft"``: a stack of
+  paper, a foam or gym mat, carpet, turf, sand) the floor sets the contact: up to
+  :data:`SOFT_FLOOR_CONTACT_TIME_S` (50 ms), :func:`contact_time_limit_s`;
 * ``height_offset.offset_m``: -D to D + max(0.1 D, 5 mm): the tracked point lies on the ball
   (bottom 0, centre D/2, top D), give or take a mis-set floor line;
 * ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day).
@@ -123,11 +125,13 @@ class LogNormalPrior:
     basis: str = ""
 
     def center(self, ball=None):
-        """The median [parameter unit] (for this ball when it depends on the ball)."""
+        """The median [parameter unit] (for this ball, and the floor it bounces on, when it depends on
+        them: ``median(mass [kg], diameter [m], surface)``)."""
         if callable(self.median):
             if ball is None:
                 raise UsageError("this prior depends on the ball: give its mass and diameter")
-            return float(self.median(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m))))
+            return float(self.median(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)),
+                                     surface_of(ball)))
         return float(self.median)
 
     def pdf(self, x, ball=None):
@@ -212,13 +216,13 @@ class Parameter:
 
     def physical_limits(self, ball=None):
         """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
-        depend on it: ``limits`` is then a function of (mass [kg], diameter [m])); ``bounds``
-        when none are set."""
+        depend on it: ``limits`` is then a function of (mass [kg], diameter [m], surface: the floor,
+        :func:`surface_of`)); ``bounds`` when none are set."""
         lim = self.limits if self.limits is not None else self.bounds
         if callable(lim):
             if ball is None:
                 raise UsageError(f"the limits of {self.name} depend on the ball: give its mass and diameter")
-            lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)))
+            lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)), surface_of(ball))
         return float(lim[0]), float(lim[1])
 
     def prior_pdf(self, x, ball=None):
@@ -253,11 +257,14 @@ class Effect:
     function: object = field(default=None, compare=False, repr=False)
     check: str = ""
     check_by_kind: dict = field(default_factory=dict, compare=False)
+    check_rigid: str = ""
 
-    def check_for(self, kind):
+    def check_for(self, kind, surface="rigid"):
         """What to check in input of ``kind`` ("trajectory", "impacts", "apexes") when the effect would
-        fit only with an unphysical value."""
-        return self.check_by_kind.get(kind, self.check)
+        fit only with an unphysical value; on a floor said to be rigid (``surface``, :data:`SURFACES`) it
+        adds ``check_rigid`` (a soft floor to declare)."""
+        text = self.check_by_kind.get(kind, self.check)
+        return text + self.check_rigid if surface == "rigid" and self.check_rigid else text
 
     @property
     def defaults(self):
@@ -524,13 +531,58 @@ def solid_moduli_pa(mass_kg, diameter_m):
     return moduli
 
 
-def expected_contact_time_s(mass_kg, diameter_m):
+#: The floors a ball may bounce on (``vrcal discover --surface``): "rigid" (concrete, stone, a wooden or
+#: steel plate: the ball sets its contact time, :func:`solid_contact_time_s`, :func:`inflated_contact_time_s`)
+#: or "soft" (a stack of paper, a foam or gym mat, carpet, turf, sand: the floor sets it,
+#: :data:`SOFT_FLOOR_CONTACT_TIME_S`).
+SURFACES = ("rigid", "soft")
+
+#: Contact times of a ball on a soft floor [s]: (shortest, typical, longest). There the floor, not the ball,
+#: gives way: the ball sinks into it by delta and rises again, a half-sine of tau = pi delta / v at the impact
+#: speed v (the dip of this module's contact, :func:`liftoff_time_s`): 1-10 mm at 1-3 m/s give 1-30 ms.
+#: Measured: a 16 mm glass marble on a stack of 100 sheets of paper stays 1.7 frames at 200 fps (8 ms) down
+#: (XS06, "Bouncing on Paper", github.com/XS06, 2025, ImageJ MTrack2 tracks); a golf ball on a green is
+#: rigid beside the turf, whose compliance sets the bounce (S. W. Biber et al., "Measurements and linearized
+#: models for golf ball bounce on a green", Sports Eng. 26 (2023), doi:10.1007/s12283-023-00442-4; S. J.
+#: Haake, thesis, Aston 1989: spring-damper turf). The longest, 50 ms (the fitter's bound): a marble sinking
+#: its radius at 0.5 m/s; a typical 10 ms.
+SOFT_FLOOR_CONTACT_TIME_S = (0.002, 0.01, 0.05)
+
+
+def surface_of(ball):
+    """The floor ``ball`` bounces on (its ``surface`` attribute, :data:`SURFACES`; "rigid" without one)."""
+    return check_surface(getattr(ball, "surface", "rigid"))
+
+
+def check_surface(surface):
+    """``surface`` when it is one of :data:`SURFACES`; UsageError naming them otherwise."""
+    if surface not in SURFACES:
+        raise UsageError(f"unknown surface {surface!r} (valid: {', '.join(SURFACES)})")
+    return surface
+
+
+def on_floor_s(ball_s, floor_s):
+    """Contact time of a ball on a floor that gives way too [s]: the two springs in series, whose half
+    periods add in quadrature (tau = pi sqrt(m (1/k_ball + 1/k_floor)) for linear springs).
+
+    Parameters
+    ----------
+    ball_s : float or ndarray
+        the ball's contact time on a rigid floor [s], >= 0
+    floor_s : float or ndarray
+        a rigid ball's contact time on the floor [s], >= 0
+    """
+    return _out(np.hypot(check_array("ball_s", ball_s, lo_open=False), check_array("floor_s", floor_s, lo_open=False)))
+
+
+def expected_contact_time_s(mass_kg, diameter_m, surface="rigid"):
     """The contact time to expect of a ball [s]: the membrane model of an inflated ball
     (:func:`inflated_contact_time_s`, 60 kPa), or Hertz's time of a solid one
     (:func:`solid_contact_time_s` at the typical modulus of its density class,
     :data:`SOLID_MODULUS_CLASSES`, at :data:`TYPICAL_IMPACT_M_PER_S`): table tennis 1.9 ms, tennis 6.7 ms,
-    basketball 11 ms, a golf ball 1.0 ms, a 12.7 mm steel bearing 40 us. The median of the contact time's
-    prior density.
+    basketball 11 ms, a golf ball 1.0 ms, a 12.7 mm steel bearing 40 us. On a soft floor (``surface``
+    "soft") that time and the soft floor's typical 10 ms (:data:`SOFT_FLOOR_CONTACT_TIME_S`) in series
+    (:func:`on_floor_s`). The median of the contact time's prior density.
 
     Parameters
     ----------
@@ -538,11 +590,15 @@ def expected_contact_time_s(mass_kg, diameter_m):
         ball mass [kg]
     diameter_m : float
         ball diameter [m]
+    surface : {"rigid", "soft"}
+        the floor (:data:`SURFACES`)
     """
     moduli = solid_moduli_pa(mass_kg, diameter_m)
     if moduli is not None:
-        return float(solid_contact_time_s(mass_kg, diameter_m, moduli[1], TYPICAL_IMPACT_M_PER_S))
-    return float(inflated_contact_time_s(mass_kg, diameter_m))
+        own = float(solid_contact_time_s(mass_kg, diameter_m, moduli[1], TYPICAL_IMPACT_M_PER_S))
+    else:
+        own = float(inflated_contact_time_s(mass_kg, diameter_m))
+    return own if check_surface(surface) == "rigid" else float(on_floor_s(own, SOFT_FLOOR_CONTACT_TIME_S[1]))
 
 
 #: Gauge pressures [Pa] of inflated balls (a volleyball 30 kPa to a football 110 kPa), for
@@ -550,11 +606,13 @@ def expected_contact_time_s(mass_kg, diameter_m):
 GAUGE_PRESSURE_RANGE_PA = (30e3, 110e3)
 
 
-def contact_time_range_s(mass_kg, diameter_m):
+def contact_time_range_s(mass_kg, diameter_m, surface="rigid"):
     """The plausible contact times of a ball [s], (shortest, longest): Hertz's time of a solid ball at the
     stiffest and softest modulus of its density class (:data:`SOLID_MODULUS_CLASSES`), or the membrane
     model of an inflated one over :data:`GAUGE_PRESSURE_RANGE_PA`, at :data:`TYPICAL_IMPACT_M_PER_S`: a
-    golf ball 0.25-6.3 ms, a steel bearing 29-53 us, a tennis ball 5.0-9.5 ms.
+    golf ball 0.25-6.3 ms, a steel bearing 29-53 us, a tennis ball 5.0-9.5 ms. On a soft floor
+    (``surface`` "soft") each in series with the soft floor's shortest and longest
+    (:data:`SOFT_FLOOR_CONTACT_TIME_S`, :func:`on_floor_s`).
 
     Parameters
     ----------
@@ -562,18 +620,26 @@ def contact_time_range_s(mass_kg, diameter_m):
         ball mass [kg]
     diameter_m : float
         ball diameter [m]
+    surface : {"rigid", "soft"}
+        the floor (:data:`SURFACES`)
     """
     moduli = solid_moduli_pa(mass_kg, diameter_m)
     if moduli is not None:
-        return tuple(float(solid_contact_time_s(mass_kg, diameter_m, e, TYPICAL_IMPACT_M_PER_S))
-                     for e in (moduli[2], moduli[0]))
-    return tuple(float(inflated_contact_time_s(mass_kg, diameter_m, p)) for p in GAUGE_PRESSURE_RANGE_PA[::-1])
+        own = tuple(float(solid_contact_time_s(mass_kg, diameter_m, e, TYPICAL_IMPACT_M_PER_S))
+                    for e in (moduli[2], moduli[0]))
+    else:
+        own = tuple(float(inflated_contact_time_s(mass_kg, diameter_m, p)) for p in GAUGE_PRESSURE_RANGE_PA[::-1])
+    if check_surface(surface) == "rigid":
+        return own
+    return tuple(float(on_floor_s(t, f)) for t, f in zip(own, SOFT_FLOOR_CONTACT_TIME_S[::2]))
 
 
-def contact_time_limit_s(mass_kg, diameter_m):
+def contact_time_limit_s(mass_kg, diameter_m, surface="rigid"):
     """Largest physical contact time of a ball [s]: twice the membrane estimate of an inflated ball
     (:func:`inflated_contact_time_s`), or Hertz's time of a solid one at the softest modulus of its density
-    class (:data:`SOLID_MODULUS_CLASSES`) and a slow impact (:data:`SLOW_IMPACT_M_PER_S`).
+    class (:data:`SOLID_MODULUS_CLASSES`) and a slow impact (:data:`SLOW_IMPACT_M_PER_S`). On a soft floor
+    (``surface`` "soft") that in series with the soft floor's longest, 50 ms (:data:`SOFT_FLOOR_CONTACT_TIME_S`,
+    :func:`on_floor_s`).
 
     Parameters
     ----------
@@ -581,11 +647,15 @@ def contact_time_limit_s(mass_kg, diameter_m):
         ball mass [kg]
     diameter_m : float
         ball diameter [m]
+    surface : {"rigid", "soft"}
+        the floor (:data:`SURFACES`)
     """
     moduli = solid_moduli_pa(mass_kg, diameter_m)
     if moduli is not None:
-        return float(solid_contact_time_s(mass_kg, diameter_m, moduli[0], SLOW_IMPACT_M_PER_S))
-    return 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
+        own = float(solid_contact_time_s(mass_kg, diameter_m, moduli[0], SLOW_IMPACT_M_PER_S))
+    else:
+        own = 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
+    return own if check_surface(surface) == "rigid" else float(on_floor_s(own, SOFT_FLOOR_CONTACT_TIME_S[2]))
 
 
 # --------------------------------------------------------------------------- the registry
@@ -642,7 +712,7 @@ EFFECTS = {
                       LogNormalPrior(expected_contact_time_s, 1.0,
                                      "half period of an inflated ball at 60 kPa gauge, Hertz's time of a "
                                      "solid one at its density class's typical modulus"),
-                      limits=lambda m, D: (0.0, contact_time_limit_s(m, D))),
+                      limits=lambda m, D, surface="rigid": (0.0, contact_time_limit_s(m, D, surface))),
         ),
         equation="t_liftoff = t_impact + tau_c;  in contact a half-sine dip of (v_in + v_out) tau_c / (2 pi)",
         description="each contact lasts tau_c: the impact intervals grow by tau_c each, unlike a pure "
@@ -657,6 +727,7 @@ EFFECTS = {
         check="check the frame rate or time scale, and the ball's mass and diameter",
         check_by_kind={"impacts": "check the time unit of the file, for impacts missed or heard twice, and the "
                                   "ball's mass and diameter"},
+        check_rigid=", or the floor is soft (paper, a mat, carpet, turf, sand): --surface soft",
     ),
     "height_offset": Effect(
         name="height_offset",
@@ -665,7 +736,7 @@ EFFECTS = {
                       "tracked point above the ball's bottom: D/2 for the centre, D for the top, or a mis-set "
                       "floor line",
                       TrackedPointPrior(basis="ITTF (bottom), video trackers (centre), FIBA (top)"),
-                      limits=lambda m, D: (-D, D + max(0.1 * D, 0.005))),
+                      limits=lambda m, D, surface="rigid": (-D, D + max(0.1 * D, 0.005))),
         ),
         equation="y_observed = y_bottom + offset",
         description="the tracked point is not the bottom of the ball (or the floor line is mis-set): "

@@ -33,11 +33,15 @@ class BallProperties:
         ball diameter [m], > 0
     name : str
         label used in reports
+    surface : {"rigid", "soft"}
+        the floor it bounces on (:data:`vrcal.drop.effects.SURFACES`): a soft one (paper, a mat, turf,
+        sand) holds it longer, which widens the contact time's physical limits
     """
 
     mass_kg: float
     diameter_m: float
     name: str = "ball"
+    surface: str = "rigid"
 
     @classmethod
     def from_ball(cls, ball):
