@@ -638,7 +638,7 @@ def test_a_column_naming_different_balls_is_refused_with_their_names(tmp_path):
     p = write(tmp_path, "balls.csv", "Ball,Drop height (cm),Bounce height (cm)\nTennis,100,55\nGolf,100,70\n"
                                      "Ping pong,100,78\nTennis,50,28\n")
     with pytest.raises(DataError, match=r"balls.csv:1: column 'Ball' names 3 different balls \(Tennis, Golf, Ping "
-                                        r"pong\): one epsilon cannot describe them all; put each one's rows in a "
+                                        r"pong\): one epsilon cannot describe them all; put each ball's rows in a "
                                         r"file of its own"):
         read_measurement(p)
     p = write(tmp_path, "floors.csv", "Surface;H (cm);h (cm)\nwood;100;55\ntiles;100;60\n")

@@ -19,8 +19,16 @@ The header names which column is which (case matters only for ``H`` and ``h``):
   rebound``, ...) are trials when their values
   agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
   when each is clearly below the one before; the notes say which;
+* a column headed just as a height (``Height (cm)``, ``Höhe``: :data:`_PLAIN_HEIGHTS`) is the drop height
+  when the other height columns are rebounds with a length unit (``Height (cm), Rebound height (cm)``,
+  ``Height (cm), Bounce (cm)``, ``Height (cm), Bounce 1 (cm), Bounce 2 (cm)``); a rebound column without any
+  drop-height column is an error saying so;
 * other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are not read;
-  a column of numbers other than a trial number is named in a note.
+  a column of numbers other than a trial number is named in a note, and so is a column of text, with its
+  values when they differ from row to row (the rows may be different balls); when its name says it holds
+  the ball or the surface (:data:`BALL_WORDS`, :data:`SURFACE_WORDS`) differing values are an error: one
+  epsilon cannot describe several balls (:func:`_unread_notes`);
+* a row without its first rebound (an empty cell) is skipped with a note naming its line.
 
 Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
 ``drop_cm``; ``drop_in``, ``H_in``: inches, with a note, where a trajectory's ``y_in`` keeps its name,
@@ -336,8 +344,8 @@ def _unread_notes(path, table, ignored):
         elif _has_word(c.name, BALL_WORDS + SURFACE_WORDS):
             what = "balls" if _has_word(c.name, BALL_WORDS) else "surfaces"
             fail(path, table.header_line, f"column '{name}' names {len(values)} different {what} ({shown}): one "
-                                          f"epsilon cannot describe them all; put each one's rows in a file of its "
-                                          f"own (to fit them as one on purpose, leave the column out)")
+                                          f"epsilon cannot describe them all; put each {what[:-1]}'s rows in a file "
+                                          f"of its own (to fit them as one on purpose, leave the column out)")
         else:
             notes.append(f"column '{name}' not read: its text differs between rows ({shown}); if the rows are "
                          f"different balls or surfaces, one epsilon does not describe them: put each one's rows in "
