@@ -594,7 +594,8 @@ def test_a_drop_table_with_further_rebounds_and_a_unit_given_once(tmp_path):
     ("Height (cm),Bounce (cm)", ["100,64", "50,32", "150,96"], [(1.0, 0.64), (0.5, 0.32), (1.5, 0.96)]),
     ("Height (cm),Bounce 1 (cm),Bounce 2 (cm),Bounce 3 (cm)", ["100,64,65,63", "50,32,33,31"],
      [(1.0, 0.64), (1.0, 0.65), (1.0, 0.63), (0.5, 0.32), (0.5, 0.33), (0.5, 0.31)]),
-    ("Versuch;Höhe (cm);Sprunghöhe (cm)", ["1;100;64", "2;50;32,5"], [(1.0, 0.64), (0.5, 0.325)])])
+    ("Versuch;Höhe (cm);Sprunghöhe (cm)", ["1;100;64", "2;50;32,5"], [(1.0, 0.64), (0.5, 0.325)]),
+    ("Height (cm),Rebound height", ["100,64", "50,32.5"], [(1.0, 0.64), (0.5, 0.325)])])
 def test_a_height_beside_rebound_columns_is_the_drop_height(tmp_path, header, rows, runs):
     """A class heads its sheet 'Height (cm), Rebound height (cm)' (or 'Bounce (cm)', 'Bounce 1 (cm)', ...): 'no
     time column: give the frame rate with --fs HZ', 'bounce number 32.5 is not an integer' and 'bounce number
@@ -620,7 +621,8 @@ def test_a_bounce_column_in_a_length_unit_is_no_bounce_number_of_an_apex_file(tm
         read_measurement(p, "apexes")
 
 
-@pytest.mark.parametrize("header", ["Trial,Rebound height (cm)", "Ball height (cm),Bounce (cm)"])
+@pytest.mark.parametrize("header", ["Trial,Rebound height (cm)", "Ball height (cm),Bounce (cm)",
+                                    "Trial,Rebound height"])
 def test_a_rebound_without_a_drop_height_column_says_so(tmp_path, monkeypatch, header):
     """A rebound column but no drop height: 'no time column: give the frame rate with --fs' or 'cannot tell the
     layout' before."""

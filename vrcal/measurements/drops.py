@@ -154,9 +154,17 @@ def _height_columns(cols):
     # a class's 'Height (cm), Rebound height (cm)': the height beside the rebounds is the drop height
     plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS), None)
     found = None if plain is None else _rebound_columns(plain, heights)
-    if found is None or not all(c.unit for c in _rebounds_of(found)):
+    if found is None or not all(c.unit or _names_rebound(c) for c in _rebounds_of(found)):
         return None
     return found
+
+
+def _names_rebound(c):
+    """True when column ``c`` is a rebound height by its name alone, without a unit: a word of a rebound and
+    one of a height (``Rebound height``, ``Bounce height``, ``Rückprallhöhe``, ``hauteur du rebond``), or
+    ``rebound``; not a bare ``bounce`` (an apex file's bounce number), ``Bounce time`` nor ``h1``."""
+    folded = _folded(c.name)
+    return _has_word(c.name, REBOUND_WORDS) and (c.name in REBOUND_NAMES or any(w in folded for w in _HEIGHT_WORDS))
 
 
 def _rebounds_of(found):
@@ -165,11 +173,13 @@ def _rebounds_of(found):
 
 
 def _rebound_without_drop(cols):
-    """The first column named as a rebound height with a length unit (``Rebound height (cm)``, ``Bounce
-    (cm)``) of a table that has no drop-height column (:func:`_height_columns` is None), else None."""
+    """The first column that is a rebound height by its length unit (``Rebound height (cm)``, ``Bounce (cm)``)
+    or its name (:func:`_names_rebound`) of a table that has no drop-height column (:func:`_height_columns` is
+    None), else None."""
     if _height_columns(cols) is not None:
         return None
-    return next((c for c in cols if c.unit and _length_unit(c) and _has_word(c.name, REBOUND_WORDS)), None)
+    return next((c for c in cols if _length_unit(c) and ((c.unit and _has_word(c.name, REBOUND_WORDS))
+                                                         or (not c.unit and _names_rebound(c)))), None)
 
 
 def _rebound_columns(drop, heights):
@@ -392,7 +402,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if found is None:
         rebound = _rebound_without_drop(cols)
         if rebound is not None:
-            fail(path, table.header_line, f"no drop-height column: name it e.g. 'Drop height ({rebound.unit})' "
+            fail(path, table.header_line, f"no drop-height column: name it e.g. 'Drop height ({rebound.unit or 'cm'})' "
                                           f"(column '{rebound.raw}' is the rebound height)")
         fail(path, table.header_line, NAMING)
     if not table.rows:
