@@ -338,7 +338,9 @@ def _unread_notes(path, table, ignored):
         notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
     ignored = [c for c in ignored if c.raw not in derived]
     cells = {c.index: _filled_cells(table, c) for c in ignored}
-    words = {i: list(dict.fromkeys(v for v in cells[i] if to_float(v, table.decimal_comma) is None)) for i in cells}
+    # a column with a word in it: its distinct cells (numbers too), in their order
+    words = {i: list(dict.fromkeys(v)) if any(to_float(c, table.decimal_comma) is None for c in v) else []
+             for i, v in cells.items()}
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
