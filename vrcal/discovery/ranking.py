@@ -315,11 +315,9 @@ class Discovery:
         added = [(effect, name) for effect, name in added if f"{effect}.{name}" in held]
         if not added:
             return {"held": {}, "epsilon_shift": 0.0, "excluded": excluded} if excluded else None
-        effects = tuple(f.effects) + tuple(e for e, _ in added)
 
         def shift(fixed):
-            fit = res.fit_model(f.problem, effects, start, fixed=fixed)
-            return float(fit.baseline_values["epsilon"] - f.baseline_values["epsilon"])
+            return self.held_epsilon(fixed) - float(f.baseline_values["epsilon"])
 
         out = {"held": held, "epsilon_shift": shift(held)}
         if excluded:
@@ -333,6 +331,33 @@ class Discovery:
             out["held_range"] = {key: list(span)}
             out["epsilon_shift_range"] = [min(shifts + [out["epsilon_shift"]]), max(shifts + [out["epsilon_shift"]])]
         return out
+
+    def held_epsilon(self, held):
+        """ε of the final model fitted again, over all the runs, with the parameters ``held`` ({parameter key:
+        value}; their effects added to the final model's in that order) held there. One fit per set, kept: the
+        report's sentences, :attr:`systematic` and :attr:`epsilon_with_sphere_drag` read the same number."""
+        key = tuple((k, float(v)) for k, v in held.items())
+        kept = self.__dict__.setdefault("_held_epsilons", {})
+        if key not in kept:
+            f = self.final
+            added = tuple(dict.fromkeys(k.split(".")[0] for k in held if k.split(".")[0] not in f.effects))
+            start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
+            fit = res.fit_model(f.problem, tuple(f.effects) + added, start, fixed=dict(held))
+            kept[key] = float(fit.baseline_values["epsilon"])
+        return kept[key]
+
+    @property
+    def epsilon_with_sphere_drag(self):
+        """ε with a smooth sphere's air drag (C_d :data:`vrcal.model.restitution.SPHERE_DRAG_COEFFICIENT`, the
+        median of the drag's prior; its added mass included) held in the final model, fitted over all the runs:
+        the contact's own ε if the ball has the drag every ball has (:meth:`held_epsilon`). None for a
+        trajectory (which resolves drag) and when air drag is named (its fitted C_d then holds)."""
+        if self.kind == "trajectory" or "air_drag" in self.final.effects:
+            return None
+        from vrcal.drop.effects import EFFECTS
+
+        key = "air_drag.drag_coefficient"
+        return self.held_epsilon({key: EFFECTS["air_drag"].parameter("drag_coefficient").density.center(self.ball)})
 
     @property
     def fit_epsilon_uncertainty(self):
@@ -625,6 +650,7 @@ class Discovery:
             "epsilon_uncertainty_independent_errors": self.fit_epsilon_uncertainty,
             "epsilon_baseline": self.epsilon_baseline,
             "epsilon_systematic": self.systematic,
+            "epsilon_with_sphere_drag": self.epsilon_with_sphere_drag,
             "epsilon_reference_speed_m_per_s": self.reference_speed,
             "impact_speed_range_m_per_s": [lo, hi],
             "speeds_too_narrow": self.speeds_too_narrow,
