@@ -155,3 +155,9 @@ def test_the_measurement_formats_of_the_cli_are_the_readers():
     from vrcal.measurements.reader import FORMATS
 
     assert tuple(FORMATS) == opt.MEASUREMENT_FORMATS
+
+
+def test_the_surfaces_of_the_cli_are_the_registrys():
+    from vrcal.drop.effects import SURFACES
+
+    assert tuple(opt.SURFACE.choices) == SURFACES

@@ -323,8 +323,15 @@ def test_a_soft_floor_widens_the_contact_time_to_tens_of_ms():
     """A glass marble on a stack of paper stays 8 ms down (200 fps video, MTrack2 tracks); Hertz on a rigid
     floor allows it 0.06 ms. On a soft floor the floor's compliance is in series with the ball's: the limit,
     the prior's median and the band grow to the soft floor's tens of ms; a rigid floor keeps the ball's."""
-    from vrcal.drop.effects import (EFFECTS, SOFT_FLOOR_CONTACT_TIME_S, contact_time_limit_s, contact_time_range_s,
-                                    expected_contact_time_s, on_floor_s, surface_of)
+    from vrcal.drop.effects import (
+        EFFECTS,
+        SOFT_FLOOR_CONTACT_TIME_S,
+        contact_time_limit_s,
+        contact_time_range_s,
+        expected_contact_time_s,
+        on_floor_s,
+        surface_of,
+    )
 
     marble, tennis = (0.0054, 0.016), (0.0577, 0.067)
     assert contact_time_limit_s(*marble) < 1e-4 < 0.008 < 0.05 <= contact_time_limit_s(*marble, "soft")
