@@ -7,6 +7,7 @@ benchmarks/bench_discover.py; here 8-12 seeds per case keep the file fast.
 """
 
 import json
+import math
 import shutil
 
 import numpy as np
@@ -930,3 +931,51 @@ def test_a_hard_ball_on_a_soft_floor_gets_its_epsilon_with_surface_soft(tmp_path
     assert soft_cli.exit_code == 0 and json.loads(soft_cli.output)["effects"] == ["contact_duration"]
     bad = runner.invoke(main, ["discover", str(path), "--mass", "0.0054", "--diameter", "0.016", "--surface", "sofft"])
     assert bad.exit_code == 2 and "did you mean 'soft'" in bad.output
+
+
+def _bounces_of_their_own(epsilons, drop_height_m=1.0, fs_hz=240.0, noise_m=3e-4, seed=0, g=9.80665):
+    """A drag-free drop whose k-th bounce has its own epsilon (``epsilons[k]``): a ball that scatters from
+    bounce to bounce, which no effect of the registry describes."""
+    t = np.arange(0.0, 10.0, 1.0 / fs_hz)
+    y = np.full(t.size, drop_height_m)
+    start, v0, h0 = 0.2, 0.0, drop_height_m
+    for k in range(len(epsilons) + 1):
+        flight = (v0 + math.sqrt(v0 * v0 + 2.0 * g * h0)) / g
+        inside = (t >= start) & (t < start + flight)
+        y[inside] = h0 + v0 * (t[inside] - start) - 0.5 * g * (t[inside] - start) ** 2
+        if k < len(epsilons):
+            start, v0, h0 = start + flight, -epsilons[k] * (v0 - g * flight), 0.0
+    keep = t < start + flight
+    noisy = y[keep] + np.random.default_rng(seed).normal(0.0, noise_m, int(keep.sum()))
+    return Trajectory(t_s=t[keep], y_m=noisy, source="scatter")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_an_unexplained_trajectorys_epsilon_uncertainty_covers_the_truth(seed):
+    """Bounces that scatter by 3 % about 0.75: no model reproduces them ("unexplained"), and the fit's ±,
+    which takes its residuals as independent, misses the bounces' mean by tens of itself. The ± the report
+    gives adds the bounces' own speed ratios' disagreement with the model, and covers it."""
+    rng = np.random.default_rng(100 + seed)
+    epsilons = 0.75 * (1.0 + 0.03 * rng.standard_normal(6))
+    ball = BallProperties(0.0577, 0.067, "tennis")
+    d = discover(_bounces_of_their_own(epsilons, seed=seed), ball)
+    truth = float(np.mean(epsilons))
+    assert d.verdict == "unexplained"
+    own = d.final.uncertainty("epsilon")
+    assert abs(d.epsilon - truth) > 5 * own
+    assert d.bounce_spread is not None and d.epsilon_uncertainty == pytest.approx(math.hypot(own, d.bounce_spread))
+    assert abs(d.epsilon - truth) < 2 * d.epsilon_uncertainty
+    out = d.as_dict()
+    assert out["epsilon_uncertainty"] == pytest.approx(d.epsilon_uncertainty)
+    assert out["epsilon_uncertainty_fit"] == pytest.approx(own)
+    assert out["epsilon_uncertainty_basis"] == "fit and bounce speed ratios"
+    assert len(out["bounce_epsilons"]) >= 4
+    assert "The ± of epsilon is widened" in " ".join(fit_report(d).split())
+
+
+def test_an_explained_trajectory_keeps_the_fits_uncertainty():
+    ball = BallProperties(0.0577, 0.067, "tennis")
+    d = discover(_bounces_of_their_own([0.75] * 6), ball)
+    assert d.verdict == "explained" and d.bounce_spread is None
+    assert d.epsilon_uncertainty == d.final.uncertainty("epsilon") and d.epsilon_uncertainty_basis == "fit"
+    assert d.bounce_epsilons and all(abs(b["epsilon"] - b["epsilon_model"]) < 0.02 for b in d.bounce_epsilons)

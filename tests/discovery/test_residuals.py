@@ -564,3 +564,19 @@ def test_a_record_that_starts_in_the_fall_and_misses_an_apex_is_fitted():
     result = discover(data, TENNIS)
     assert result.epsilon == pytest.approx(0.75, abs=0.002)
     assert not result.effects
+
+
+@pytest.mark.parametrize("fs_hz, noise_m, tolerance", [(240.0, 3e-4, 0.02), (1000.0, 3e-4, 0.01)])
+def test_each_bounces_speed_ratio_is_its_epsilon(fs_hz, noise_m, tolerance):
+    """Free parabolas through the flights next to each contact give that bounce's epsilon (a drag-free drop
+    at 0.75), within a few of its standard errors, and more precisely as the frame rate grows."""
+    ball = BallProperties(0.0577, 0.067, "tennis")
+    drops = simulate_drops(1.0, 0.75, 6, ball, release_time_s=0.2)
+    cols = sample_measurement(drops, "trajectory", fs_hz=fs_hz, noise_m=noise_m, rng=2)
+    found = res.bounce_speed_ratios(cols["t"], cols["y"])
+    assert found.shape[1] == 4 and found.shape[0] >= 4
+    np.testing.assert_allclose(found[:, 0], drops.impact_times_s[0][:found.shape[0]], atol=2.0 / fs_hz)
+    np.testing.assert_allclose(found[:, 2], 0.75, atol=tolerance)
+    assert np.all(np.abs(found[:, 2] - 0.75) < 4.0 * found[:, 3] + 1e-3)
+    # the speed in is the impact speed, falling bounce by bounce by epsilon
+    np.testing.assert_allclose(found[:, 1], drops.impact_speeds_m_per_s[0][:found.shape[0]], rtol=0.03)

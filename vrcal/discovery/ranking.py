@@ -369,6 +369,63 @@ class Discovery:
             return self.final.uncertainty("epsilon")
         return float(own[[p.key for p in self.final.layout].index("epsilon")])
 
+    @functools.cached_property
+    def bounce_epsilons(self):
+        """Each bounce's own speed ratio in a trajectory, and the final model's as the same estimator reads it
+        off the model's heights at the same samples (:func:`vrcal.discovery.residuals.bounce_speed_ratios`:
+        the speeds in and out where free parabolas through the flights on either side meet; read off both,
+        the estimator's own bias -- drag bending a flight, a contact's duration -- cancels in the
+        difference): [{"run", "time_s", "impact_speed_m_per_s", "epsilon", "epsilon_standard_error",
+        "epsilon_model"}]; [] for impact times and heights."""
+        if self.kind != "trajectory":
+            return []
+        out = []
+        for r, run in enumerate(self.runs):
+            t, start = np.asarray(run.t_s, dtype=float), int(getattr(run, "release_index", 0) or 0)
+            found = res.bounce_speed_ratios(t, run.y_m, start)
+            model = res.bounce_speed_ratios(t, self.final.predict_at(t, run=r), start)
+            if not found.size or not model.size:
+                continue
+            for tc, v_in, ratio, se in found:
+                k = int(np.argmin(np.abs(model[:, 0] - tc)))
+                if abs(model[k, 0] - tc) > 0.25 * (tc - t[start]) / (k + 1):   # no such bounce in the model
+                    continue
+                out.append({"run": r, "time_s": float(tc), "impact_speed_m_per_s": float(v_in),
+                            "epsilon": float(ratio), "epsilon_standard_error": float(se),
+                            "epsilon_model": float(model[k, 2])})
+        return out
+
+    @property
+    def epsilon_uncertainty(self):
+        """The 1-sigma of ε the report gives. A trajectory the final model does not reproduce ("unexplained")
+        leaves residuals that are structure, not independent noise: the fit's (JᵀJ)⁻¹ σ² (σ from the
+        residuals: Birge's ratio is in it) rests on n independent samples where the misfit moves whole
+        flights together (a marble on paper: 0.75002 ± 0.00054 at a gap 70.6 times the noise; its speeds
+        say 0.737). There the fit's ± and :attr:`bounce_spread` add in quadrature; else the fit's own
+        (:attr:`epsilon_uncertainty_basis` says which)."""
+        u = self.final.uncertainty("epsilon")
+        spread = self.bounce_spread
+        return u if spread is None else float(math.hypot(u, spread))
+
+    @property
+    def bounce_spread(self):
+        """The largest difference between a bounce's own ε and the final model's at it (:attr:`bounce_epsilons`)
+        beyond that bounce's standard error (sqrt(d^2 - se^2)), when it widens :attr:`epsilon_uncertainty`
+        (an "unexplained" trajectory), else None. The largest, not the RMS: with a speed law the reported ε
+        is the first bounce's, and a misfit bends the law (a height-dependent scale planted on a constant
+        0.75: the law's 0.738 at the first bounce, its own speeds 0.749, the bounces' RMS 0.0065)."""
+        if self.kind != "trajectory" or not self.bounce_epsilons or self.verdict != "unexplained":
+            return None
+        excess = [(b["epsilon"] - b["epsilon_model"]) ** 2 - b["epsilon_standard_error"] ** 2
+                  for b in self.bounce_epsilons]
+        return float(math.sqrt(max(max(excess), 0.0)))
+
+    @property
+    def epsilon_uncertainty_basis(self):
+        """What :attr:`epsilon_uncertainty` rests on: "fit" (the residuals taken as independent; for impact
+        times with the bounces' scatter) or "fit and bounce speed ratios" (an unexplained trajectory)."""
+        return "fit" if self.bounce_spread is None else "fit and bounce speed ratios"
+
     @property
     def judged_baseline(self):
         """The baseline as the candidates were judged against it (:attr:`judged`, else :attr:`baseline`)."""
@@ -646,8 +703,11 @@ class Discovery:
             "gap_unit": self.unit,
             "gap_per_bounce": {"before": [float(v) for v in before], "after": [float(v) for v in after]},
             "epsilon": self.epsilon,
-            "epsilon_uncertainty": self.final.uncertainty("epsilon"),
+            "epsilon_uncertainty": self.epsilon_uncertainty,
+            "epsilon_uncertainty_basis": self.epsilon_uncertainty_basis,
+            "epsilon_uncertainty_fit": self.final.uncertainty("epsilon"),
             "epsilon_uncertainty_independent_errors": self.fit_epsilon_uncertainty,
+            "bounce_epsilons": self.bounce_epsilons,
             "epsilon_baseline": self.epsilon_baseline,
             "epsilon_systematic": self.systematic,
             "epsilon_with_sphere_drag": self.epsilon_with_sphere_drag,

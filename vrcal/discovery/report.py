@@ -225,14 +225,24 @@ def engine_advice(discovery):
     d = discovery
     f = d.final
     eps = d.epsilon
-    u = f.uncertainty("epsilon")
+    u = d.epsilon_uncertainty
     out = []
     if d.verdict == "suspect input":
         out.append("(check the input first: these values assume it is right)")
     widened = (f"± with the bounces' scatter, {d.fit_epsilon_uncertainty:.2g} if the times' errors were independent"
-               if u > 1.5 * d.fit_epsilon_uncertainty else "")
+               if d.kind == "impacts" and u > 1.5 * d.fit_epsilon_uncertainty else "")
+    spread = d.bounce_spread
+    by_bounces = [] if spread is None else [
+        f"The ± of epsilon is widened from the fit's {f.uncertainty('epsilon'):.2g} to {u:.2g}: the model does not "
+        f"reproduce the record, so its residuals are not independent; a bounce's own speed ratio (out/in) "
+        f"differs from the model's by up to {spread:.2g} beyond its uncertainty ({len(d.bounce_epsilons)} "
+        f"bounce{'s' if len(d.bounce_epsilons) > 1 else ''}: "
+        + ", ".join(f"{b['epsilon']:.3f} for {b['epsilon_model']:.3f} at {b['impact_speed_m_per_s']:.2f} m/s"
+                    for b in d.bounce_epsilons[:6])
+        + (", ..." if len(d.bounce_epsilons) > 6 else "") + ")."]
     if not d.effects:
         out.append(f"epsilon = {pm(eps, u)}" + (f"  ({widened})" if widened else ""))
+        out.extend(by_bounces)
         shown = _systematic_lines(d, u)
         out.extend(shown)
         if not d.rounds and d.verdict != "unexplained":
@@ -254,6 +264,7 @@ def engine_advice(discovery):
         out.append("choose the value at the impact speeds of your simulation.")
     else:
         out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution" + (f"; {widened})" if widened else ")"))
+    out.extend(by_bounces)
     out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():

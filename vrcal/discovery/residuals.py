@@ -962,6 +962,76 @@ def impacts_in_trajectory(t_s, y_m, release_index=0, sigma_m=None):
     return prominent_minima(seg, max(8.0 * sigma_m, 0.005 * span, 1e-9)) + r
 
 
+#: Share of each flight's rise next to a contact whose samples give its speed in :func:`bounce_speed_ratios`:
+#: the samples below this fraction of the flight's apex above the contact (0.97: 83 % of the way to the
+#: apex in time; a 240 fps video's 0.3 mm of noise leaves about 0.007 of scatter in a bounce's ratio, and
+#: a still segment at the drop height is never taken for the fall).
+SPEED_WINDOW_HEIGHT = 0.97
+
+
+def bounce_speed_ratios(t_s, y_m, release_index=0, height_fraction=SPEED_WINDOW_HEIGHT):
+    """Each bounce's own epsilon from a trajectory: its speeds in and out, where free parabolas through the
+    flights on either side meet.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        sample times [s]
+    y_m : ndarray
+        heights [m] (any offset)
+    release_index : int
+        first sample of the free fall
+    height_fraction : float
+        on each side of a contact, the samples next to it (its lowest left out) that lie below this fraction
+        of the flight's apex above the contact are fitted
+
+    Returns
+    -------
+    ndarray, (n_bounces, 4)
+        per bounce seen (:func:`impacts_in_trajectory`): time where the two parabolas meet [s], the speed
+        in [m/s], the ratio out/in [1] and its standard error from the parabolas' scatter [1]; bounces with
+        fewer than 5 samples on a side, or whose parabolas do not fall in and rise out, are left out
+
+    Notes
+    -----
+    Model-free: no drag, contact time, speed law or floor level is assumed, and a length scale that
+    drifts across the picture scales both speeds of a bounce alike where they are taken. The speeds are
+    those where the parabolas meet: a contact of tau lowers that point by about g tau^2 / 8, raising both
+    speeds by g tau / 2 (0.04 m/s for 8 ms); drag bends the flights. Read off a model's heights at the same
+    samples, the same estimator has the same bias (:attr:`vrcal.discovery.ranking.Discovery.bounce_epsilons`).
+    """
+    t, y = np.asarray(t_s, dtype=float), np.asarray(y_m, dtype=float)
+    minima = [int(m) for m in impacts_in_trajectory(t, y, release_index)]
+    edges = [int(release_index)] + minima + [t.size]
+    out = []
+
+    def side(m, stop, step):
+        """Samples from next to the contact ``m`` towards ``stop`` (exclusive) while below the share of the
+        apex between them."""
+        seg = y[m + step:stop:step] if step > 0 or stop > 0 else y[m - 1::-1]
+        if seg.size == 0:
+            return np.array([], dtype=int)
+        above = seg >= y[m] + height_fraction * (float(np.max(seg)) - y[m])
+        n = int(np.argmax(above)) if above.any() else seg.size
+        return np.sort(m + step * np.arange(1, n + 1))
+
+    for k, m in enumerate(minima):
+        before, after = side(m, edges[k], -1), side(m, edges[k + 2], 1)
+        if before.size < 5 or after.size < 5:
+            continue
+        (p_in, c_in), (p_out, c_out) = (np.polyfit(t[i], y[i], 2, cov=True) for i in (before, after))
+        roots = [x.real for x in np.roots(np.polysub(p_in, p_out))
+                 if abs(x.imag) < 1e-12 and t[before[0]] <= x.real <= t[after[-1]]]
+        tc = min(roots, key=lambda x: abs(x - t[m])) if roots else float(t[m])
+        v_in, v_out = np.polyval(np.polyder(p_in), tc), np.polyval(np.polyder(p_out), tc)
+        if v_in < 0 < v_out:
+            grad = np.array([2.0 * tc, 1.0, 0.0])   # d(v)/d(coefficients) at tc
+            rel = math.sqrt(float(grad @ c_in @ grad) / v_in ** 2 + float(grad @ c_out @ grad) / v_out ** 2)
+            ratio = float(v_out / -v_in)
+            out.append((float(tc), float(-v_in), ratio, ratio * rel))
+    return np.array(out, dtype=float).reshape(-1, 4)
+
+
 def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Starting values {drop_height_m, release_time_s, epsilon} read from the data (one run).
 
