@@ -541,8 +541,9 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("--format", "fmt", type=click.Choice(opt.MEASUREMENT_FORMATS), default=None, metavar="FORMAT",
               help=f"Format of DATA (default: detected from the file): {', '.join(opt.MEASUREMENT_FORMATS)} "
                    "(docs/measurements.md).")
-@click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook, or table of a zip archive of CSV files "
-              "(default: 'All', else the first table).")
+@click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook, table of a zip archive of CSV files "
+              "(default: 'All', else the first table), or track of an ImageJ MTrack2 export (its number; default: "
+              "the one that moves most up and down).")
 @click.option("--scale", "scale_m_per_px", type=opt.SCALE_M_PER_PX, default=None,
               help="Metres per pixel of a video track.")
 @click.option("--y-down", is_flag=True, help="The data's y axis points down (image coordinates).")

@@ -271,5 +271,5 @@ ROTATION = click.Choice(["0", "90", "180", "270"])
 
 #: The measurement formats of ``--format`` (the keys of vrcal.measurements.reader.FORMATS, written out
 #: so that the CLI starts without importing the readers; a test keeps the two equal).
-MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "tracker", "phyphox-collision", "drops", "apexes",
-                       "trajectory", "impacts", "sound", "video")
+MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "mtrack2", "tracker", "phyphox-collision", "drops",
+                       "apexes", "trajectory", "impacts", "sound", "video")

@@ -19,6 +19,7 @@ from vrcal.measurements import (
     drops,
     excel,
     impacts,
+    mtrack2,
     phyphox_collision,
     pixels_ref,
     sound,
@@ -69,6 +70,9 @@ FORMATS = {
     "vernier": Format(vernier.detect, vernier.parse,
                       "Vernier text export (Logger Pro 'Export As Text'): 'Vernier Format 2', a description, the data "
                       "set, long names, short names and/or units, then tab-separated numbers"),
+    "mtrack2": Format(mtrack2.detect, mtrack2.parse,
+                      "ImageJ MTrack2 export: header 'Frame, X1, Y1, Flag1, ...', a 'Tracks 1 to N' line, pixels with "
+                      "image y down (needs --fs and --scale; --sheet N reads track N)"),
     "tracker": Format(tracker.detect, tracker.parse,
                       "Tracker data export: line 1 the track name (mass_A), then columns t, x, y "
                       "(tab, space, comma or semicolon)"),
@@ -302,14 +306,20 @@ def read_measurement(path, fmt=None, **options):
     sheet = options.pop("sheet", None)
     if fmt is None:
         excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
-    text = _load(path, sheet)
+    container = excel.container_kind(path) in ("xlsx", "xls", "zip")
+    text = _load(path, sheet if container else None)
     title = None
     text, units_note = _units_into_header(text, name)
     if name is None:
         text, name, title = _detect_below_title(text)
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
-    data = FORMATS[name].parser(text, **parsed)
+    if sheet is not None and not container:
+        if name != "mtrack2":
+            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks, zip archives and MTrack2 exports "
+                             f"(a track's number) only")
+        parsed["track"] = sheet
+    data = _parse(FORMATS, name, text, parsed, given=fmt is not None)
     kind = data.runs[0].kind if isinstance(data, Runs) else data.kind
     unused = [flag for flag, key in (("--fs", "fs_hz"), ("--scale", "scale_m_per_px"), ("--y-down", "y_down"))
               if options.get(key) and kind != "trajectory"]
@@ -323,6 +333,22 @@ def read_measurement(path, fmt=None, **options):
     if any(said):
         data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))
     return data
+
+
+def _parse(formats, name, text, options, given):
+    """``formats[name].parser(text, **options)``; when the format was given (``--format``) and its parser
+    refuses a file another format reads, the error says which (an MTrack2 export read as a Tracker one was
+    told '7 cells but the header names 4 columns')."""
+    try:
+        return formats[name].parser(text, **options)
+    except DataError as exc:
+        if not given:
+            raise
+        other = next((o for o, fmt in formats.items() if o != name and not fmt.recording and fmt.detector(text)),
+                     None)
+        if other is None:
+            raise
+        raise DataError(f"{exc} (the file reads as {other}: --format {other})") from None
 
 
 def _load(path, sheet=None):
