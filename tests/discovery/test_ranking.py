@@ -979,3 +979,27 @@ def test_an_explained_trajectory_keeps_the_fits_uncertainty():
     assert d.verdict == "explained" and d.bounce_spread is None
     assert d.epsilon_uncertainty == d.final.uncertainty("epsilon") and d.epsilon_uncertainty_basis == "fit"
     assert d.bounce_epsilons and all(abs(b["epsilon"] - b["epsilon_model"]) < 0.02 for b in d.bounce_epsilons)
+
+
+def test_the_speeds_covered_are_those_of_bounces_the_record_shows():
+    """The model simulates bounces beyond the record: a track that ends in the second fall quoted the
+    second impact (after its end), and a ball come to rest quoted its model's bounces in the jitter of the
+    rest. The speeds covered are the record's bounces only."""
+    ball = BallProperties(0.0054, 0.016, "marble")
+    drops = simulate_drops(0.19, 0.75, 4, ball, release_time_s=0.1)
+    cols = sample_measurement(drops, "trajectory", fs_hz=200.0, noise_m=3e-5, rng=4)
+    t_imp, v_imp = drops.impact_times_s[0], drops.impact_speeds_m_per_s[0]
+    # the track ends in the second fall, before the second impact
+    cut = cols["t"] < t_imp[1] - 0.03
+    d = discover(Trajectory(t_s=cols["t"][cut], y_m=cols["y"][cut], source="cut"), ball)
+    assert d.speed_range() == pytest.approx((v_imp[0], v_imp[0]), rel=0.01)
+    assert d.as_dict()["impact_speed_range_m_per_s"] == pytest.approx([v_imp[0], v_imp[0]], rel=0.01)
+    # at rest after the fourth impact: 50 samples of jitter on the floor
+    last = cols["t"] <= t_imp[3]
+    t_rest = cols["t"][last][-1] + np.arange(1, 51) / 200.0
+    y_rest = np.random.default_rng(5).normal(0.0, 3e-5, t_rest.size)
+    rest = Trajectory(t_s=np.concatenate([cols["t"][last], t_rest]),
+                      y_m=np.concatenate([cols["y"][last], y_rest]), source="rest")
+    d = discover(rest, ball)
+    lo, hi = d.speed_range()
+    assert hi == pytest.approx(v_imp[0], rel=0.02) and lo >= 0.9 * v_imp[3]
