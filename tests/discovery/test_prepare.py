@@ -170,3 +170,22 @@ def read_measurement_of(relpath):
     from vrcal.measurements import read_measurement
 
     return read_measurement(str(ROOT / relpath))
+
+
+@pytest.mark.parametrize("distortion", [1.0, -1.0])
+def test_a_flight_bent_by_a_scale_that_changes_across_the_picture_names_the_scale(distortion):
+    """A lens's distortion: the length scale changes with the height in the picture (planted: heights
+    scaled by 1 + a (y - 0.1 m)), so the high first fall bends otherwise than the low flights and is cut;
+    the reason names the scale beside a hand at release, with the spread of the flights' apparent g."""
+    ball = BallProperties(0.0054, 0.016, "marble")
+    drops = simulate_drops(0.19, 0.7, 5, ball, release_time_s=0.1)
+    cols = sample_measurement(drops, "trajectory", fs_hz=200.0, noise_m=2e-5, rng=0)
+    y = cols["y"] * (1.0 + distortion * (cols["y"] - 0.1))
+    d = discover(Trajectory(t_s=cols["t"], y_m=y, source="lens"), ball)
+    cut = [n for n in d.all_notes if "no free flight" in n]
+    assert cut and all("the length scale changes across the picture (a lens's distortion, perspective" in n
+                       for n in cut)
+    assert all("the flights' g ranges" in n for n in cut)
+    # an undistorted record of the same drop cuts nothing
+    clean = discover(Trajectory(t_s=cols["t"], y_m=cols["y"], source="clean"), ball)
+    assert not [n for n in clean.all_notes if "no free flight" in n]

@@ -49,6 +49,10 @@ RESOLVED_SIGMAS = 20.0
 #: and out of line with the other flights of the record by as many (:func:`unfree_flights`).
 FREE_FLIGHT_SIGMAS = 5.0
 
+#: Relative spread of the flights' apparent g above which the reason a flight is no free flight quotes it (a
+#: length scale that changes across the picture makes the high flights' g differ from the low ones').
+SCALE_SPREAD = 0.03
+
 #: Fewest samples of a flight (clear of its contacts) whose jerk is judged.
 FREE_FLIGHT_MIN_SAMPLES = 7
 
@@ -288,9 +292,10 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
 
     Returns
     -------
-    list of (jerk [m/s^3], standard error [m/s^3], mean speed [m/s], first sample, last sample) or
-    None for a flight with fewer than :data:`FREE_FLIGHT_MIN_SAMPLES` samples clear of its
-    contacts (the sample next to each contact is left out)
+    list of (jerk [m/s^3], standard error [m/s^3], mean speed [m/s], first sample, last sample, g [m/s^2]:
+    the flight's downward acceleration at its middle) or None for a flight with fewer than
+    :data:`FREE_FLIGHT_MIN_SAMPLES` samples clear of its contacts (the sample next to each contact is
+    left out)
     """
     t = np.asarray(t_s, dtype=float)
     y = np.asarray(y_m, dtype=float)
@@ -319,7 +324,7 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
         var = np.linalg.inv(basis.T @ basis)[0, 0] * sd * sd
         speed = np.abs(np.polyval(np.polyder(coef), u)) / half
         out.append((6.0 * float(coef[0]) / half ** 3, 6.0 * math.sqrt(float(var)) / half ** 3, float(np.mean(speed)),
-                    int(idx[0]), int(idx[-1])))
+                    int(idx[0]), int(idx[-1]), -2.0 * float(coef[1]) / half ** 2))
     return out
 
 
@@ -331,6 +336,9 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     :data:`FREE_FLIGHT_SIGMAS` standard errors, or match the drag constant the other flights show
     within as many: a length scale that drifts across the picture bends every flight alike, a
     hand at release or a touch in flight bends one. Judged only with another flight to compare.
+    A scale that changes across the picture unevenly (a lens's distortion, perspective) bends the
+    flights differently too: the reason names it, with the spread of the flights' apparent g when
+    that exceeds :data:`SCALE_SPREAD` (a marble on paper filmed at 200 fps: 9.5-9.96 m/s^2).
     """
     from vrcal.drop.effects import drag_constant_per_m, get_effect
 
@@ -341,11 +349,16 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     known = [(i, j) for i, j in enumerate(jerks) if j is not None and j[2] > 0]
     if len(known) < 2:
         return []
+    gs = [j[5] for _, j in known]
+    spread = (max(gs) - min(gs)) / float(np.median(gs)) if min(gs) > 0 else 0.0
+    shown = f": the flights' g ranges {min(gs):.3g}-{max(gs):.3g} m/s^2, {100 * spread:.2g} %"
+    scale = ("; or the length scale changes across the picture (a lens's distortion, perspective"
+             + (shown if spread > SCALE_SPREAD else "") + ")")
     k = {i: j[0] / (2.0 * g * j[2]) for i, j in known}
     se = {i: j[1] / (2.0 * g * j[2]) for i, j in known}
     z = FREE_FLIGHT_SIGMAS
     out = []
-    for i, (jerk, err, speed, lo, hi) in known:
+    for i, (jerk, err, speed, lo, hi, _) in known:
         w = np.array([1.0 / se[o] ** 2 for o, _ in known if o != i])
         k_others = float(np.sum(w * np.array([k[o] for o, _ in known if o != i])) / np.sum(w))
         apart = (k[i] - k_others) / math.hypot(se[i], 1.0 / math.sqrt(float(np.sum(w))))
@@ -357,7 +370,7 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
                  "it touched something, or the tracker followed something else")
         out.append((i, f"{what} ({_line(data, lo)} to {_line(data, hi)}) is no free flight: its acceleration "
                        f"changes at {jerk:.3g} ± {err:.2g} m/s^3, where air drag allows 0 to {j_max:.3g} and the "
-                       f"other flights show {2.0 * k_others * g * speed:.3g} at its speed: {cause}"))
+                       f"other flights show {2.0 * k_others * g * speed:.3g} at its speed: {cause}{scale}"))
     return out
 
 
