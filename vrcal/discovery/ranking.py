@@ -744,7 +744,8 @@ class Discovery:
                      "decimation": int(self.decimation), "n_read": int(self.n_read or self.baseline.n)},
             "reader": dict(self.reader),
             "ball": {"name": str(getattr(self.ball, "name", "ball")), "mass_kg": float(self.ball.mass_kg),
-                     "diameter_m": float(self.ball.diameter_m), "surface": getattr(self.ball, "surface", "rigid")},
+                     "diameter_m": float(self.ball.diameter_m),
+                     **({"surface": "soft"} if getattr(self.ball, "surface", "rigid") == "soft" else {})},
             "g_m_per_s2": self.g_m_per_s2,
             "notes": self.all_notes,
         }
