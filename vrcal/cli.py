@@ -846,7 +846,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                    "--drop-height run it at your step, gravity, height; body and contact options are refused).")
 @click.option("--ball-geom", "ball_geom", default=None, metavar="NAME",
               help="--file: the ball's sphere geom in your MuJoCo model (on a body with a free joint) [default: "
-                   "'ball', or the sphere of the model's one <pair>].")
+                   "'ball', or the one sphere in the model's <pair> elements].")
 @click.option("--floor-geom", "floor_geom", default=None, metavar="NAME",
               help="--file: the floor's geom (a plane or box) in your MuJoCo model [default: the other geom of the "
                    "ball's one <pair>, or 'floor'].")

@@ -515,7 +515,7 @@ def scene_of(model, ball_geom=None, floor_geom=None):
     """The :class:`Scene` of a compiled model: its ball's and floor's geoms, checked.
 
     The ball is ``ball_geom`` (``--ball-geom``), else the geom named 'ball' (vrcal's exports), else
-    the sphere of the model's one ``<pair>``; the floor is ``floor_geom`` (``--floor-geom``), else the
+    the one sphere of the model's ``<pair>`` elements; the floor is ``floor_geom`` (``--floor-geom``), else the
     other geom of the one pair that holds the ball, else the geom named 'floor'. The ball must be a
     sphere on a body with a free joint (vrcal drops that body); the floor a plane or a box, facing up.
 
@@ -538,11 +538,11 @@ def scene_of(model, ball_geom=None, floor_geom=None):
     elif "ball" in names:
         ball = model.geom("ball").id
     else:
-        spheres = [g for pair in pairs for g in pair if _geom_type(model, g) == "sphere"]
-        if len(pairs) != 1 or len(spheres) != 1:
-            raise DataError(f"the model has no geom named 'ball' (vrcal's name) and {len(pairs)} <pair> element(s), "
-                            f"not one with one sphere to take the ball from: name the ball's geom with --ball-geom "
-                            f"NAME ({_listing(names)})")
+        spheres = sorted({g for pair in pairs for g in pair if _geom_type(model, g) == "sphere"})
+        if len(spheres) != 1:
+            raise DataError(f"the model has no geom named 'ball' (vrcal's name) and {len(spheres)} sphere(s) in its "
+                            f"{len(pairs)} <pair> element(s), not one to take for the ball: name the ball's geom with "
+                            f"--ball-geom NAME ({_listing(names)})")
         ball = spheres[0]
     ball_name = model.geom(ball).name or f"geom {ball}"
     if floor_geom is not None:
@@ -929,7 +929,7 @@ def header_lines(setup, cal):
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
         f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
     ]
-    lines += textwrap.wrap(resting_note(c, setup.g_m_per_s2, "timestep"), 88)   # no two dashes in a comment
+    lines += textwrap.wrap(resting_note(c, setup.g_m_per_s2, "dt"), 88)   # no two dashes in a comment
     if setup.restitution_exponent:
         lo, hi, least = epsilon_spread(setup)
         lines.append(f"eps(v) {lo:.4f}..{hi:.4f} over the drop: MuJoCo's contact is one "

@@ -276,9 +276,8 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     """
     from vrcal.drop.simulate import simulate_drops
     from vrcal.engines.export import export, parse_exported
-    from vrcal.model.body import BallProperties, read_discover_json
-
     from vrcal.engines.verify import _check_geom_options
+    from vrcal.model.body import BallProperties, read_discover_json
 
     eng = get_engine(engine)
     geoms = _check_geom_options(eng.name, exported_text, ball_geom, floor_geom)
