@@ -129,6 +129,36 @@ def test_a_file_without_the_hold_speed_is_told_the_error_grows_as_the_impacts_sl
     assert tight.exit_code == 1 and tight.output.strip().splitlines()[-1].endswith("exceeds the tolerance 0.001")
 
 
+def _verified(errors, speeds, holds=None):
+    """A VerifyResult whose bounces are off by ``errors`` at ``speeds`` [m/s] (planted; one phase)."""
+    from vrcal.engines.common import DropRuns, VerifyResult
+
+    n = len(errors)
+    target = np.full((1, n), 0.7)
+    runs = DropRuns(np.zeros(1), target + np.asarray(errors)[None], target.copy(), target, target,
+                    np.ones((1, n + 1)), np.ones((1, n + 1)), np.zeros((1, n)))
+    return VerifyResult("mujoco", "test", "ball", 0.7, 0.002, 0.01, runs, 0.008, impact_speeds_m_per_s=tuple(speeds),
+                        holds_down_to_m_per_s=holds, drop_height_m=0.1)
+
+
+@pytest.mark.parametrize("errors, holds, hint", [
+    ([0.0144, 0.0308, 0.0592], 1.67, "1.4..0.686 m/s, go below the 1.67 m/s"),   # the probe's drop
+    ([0.0144, 0.0308, 0.0592], None, "the error grows as the impacts slow"),
+    ([0.004, 0.007, 0.012], None, "the error grows as the impacts slow"),       # only the slowest misses
+    ([0.0114, 0.0117, 0.0119], None, None),          # about even (a softened contact): no matter of speed
+    ([0.03, 0.02, 0.011], None, None),               # worst at the fastest
+    ([0.03, 0.02, 0.011], 0.5, None),                # the speeds are within what the file holds for
+])
+def test_the_failure_names_slow_impacts_only_where_the_speed_explains_it(errors, holds, hint):
+    failure = _verified(errors, [1.4, 0.98, 0.686], holds).failure()
+    assert failure.startswith(f"epsilon error {max(errors):.4g} exceeds the tolerance 0.01")
+    if hint is None:
+        assert ";" not in failure
+    else:
+        assert hint in failure and failure.endswith(
+            "export again for these speeds (--drop-height 0.1 or --impact-speed 0.68:1.4), or at a smaller --dt")
+
+
 # --------------------------------------------------------------------------- the user's own model
 
 

@@ -883,9 +883,11 @@ class VerifyResult(RunsSummary):
     def slow_impacts(self):
         """The failure's clause when its impacts are slower than the export was made for: below the
         speed the file's contact is measured to hold down to (the header's 'holds down to', its
-        ``holds_down_to_m_per_s``), or, where that is not known, an error that grows as the bounces
-        slow down and is worst at the last. It names the fix: an export for these speeds, or a smaller
-        step. '' otherwise (and for a file run at another step than its own: that is the note's cause).
+        ``holds_down_to_m_per_s``), or, where that is not known, an error worst at the last, slowest
+        bounce that grew there: the first bounce within the tolerance, or the last off by twice as much
+        (an error about even over the bounces, e.g. a softened contact, is no matter of speed). It names
+        the fix: an export for these speeds, or a smaller step. '' otherwise (and for a file run at
+        another step than its own: that is the note's cause).
 
         MuJoCo's damper is tuned to the exported speeds (its margin ``v dt/2``): a slower ball falls
         into the margin and bounces off it higher; ODE's and Bullet's error bound ``g dt / (e v)``
@@ -899,7 +901,7 @@ class VerifyResult(RunsSummary):
         holds = self.holds_down_to_m_per_s
         if holds is not None and v[-1] < holds * (1 - 1e-6):
             what = f"{slow} go below the {holds:.3g} m/s the export was measured to hold down to (its header)"
-        elif v.size > 1 and int(np.argmax(err)) == v.size - 1 and err[0] < err[-1]:
+        elif v.size > 1 and int(np.argmax(err)) == v.size - 1 and (err[0] <= self.tolerance or err[-1] >= 2 * err[0]):
             what = (f"the error grows as the impacts slow (bounce 1 at {v[0]:.3g} m/s off by {err[0]:.3g}, bounce "
                     f"{v.size} at {v[-1]:.3g} m/s by {err[-1]:.3g})")
         else:

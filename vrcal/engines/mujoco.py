@@ -315,12 +315,8 @@ def resting_sink_speed_m_per_s(damping_per_s, stiffness_per_s2, g_m_per_s2, impe
     ----------
     damping_per_s : float or ndarray
         D of the direct-form solref [1/s]
-    stiffness_per_s2 : float or ndarray
-        S [1/s^2] (0: the damper)
-    g_m_per_s2 : float or ndarray
-        gravity [m/s^2]
-    impedance : float
-        d of solimp
+    stiffness_per_s2, g_m_per_s2, impedance
+        S [1/s^2] (0: the damper), gravity [m/s^2] and d, as for :func:`resting_height_m`
 
     Returns
     -------
