@@ -889,7 +889,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
       vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
       vrcal verify --engine bullet --file b.json --dt 5e-4
-      vrcal verify --engine mujoco --file my_robot.xml --ball-geom ball_geom --epsilon 0.7 --drop-height 1
+      vrcal verify --engine mujoco --file robot.xml --ball-geom toy --epsilon 0.7 --drop-height 1
       vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
     from vrcal.fileio import dumps

@@ -201,6 +201,10 @@ def test_the_exported_pair_in_the_users_own_model_verifies_as_the_export_does(ex
     assert result.exit_code == 0, result.output
     assert "ball: the geom 'myball_geom' of the file (60 g, D 65 mm); floor: 'ground'" in result.output
     assert "solref 0 -848.56, margin 4.43 mm" in result.output
+    other = run("verify", "--engine", "mujoco", "--file", own, "--epsilon", "0.7", "--drop-height", "1",
+                "--mass", "0.06", "--diameter", "0.07")
+    assert other.exit_code == 2
+    assert "the model's ball geom 'myball_geom' has D 65 mm, the body given 70 mm" in other.output
 
 
 def test_a_model_with_several_pairs_needs_the_geoms_named_and_the_error_lists_them(exported, tmp_path):

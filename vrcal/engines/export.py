@@ -444,8 +444,7 @@ class RecordDrops:
         impact (:func:`_bounces_down_to`), and a note saying what the drop covers."""
         why = ""
         if self.speeds_m_per_s is not None:
-            setup, why = _bounces_down_to(replace(setup, n_bounces=max(setup.n_bounces, 1)), self.speeds_m_per_s[0],
-                                          n_bounces)
+            setup, why = _bounces_down_to(setup, self.speeds_m_per_s[0], n_bounces)
         v = _speeds(setup)
         what = (f"{RECORD_NOTE} {len(self.heights_m)} drops from {min(self.heights_m):.4g}..{self.highest_m:.4g} m"
                 + (f", impacts {self.speeds_m_per_s[1]:.3g}..{self.speeds_m_per_s[0]:.3g} m/s"

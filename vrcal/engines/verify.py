@@ -283,10 +283,10 @@ def _refuse_other_engine(engine, text):
 
 
 def _check_ball_size(setup, radius_m, geom):
-    """DataError (one line) when the body given for a model's ball is another size than its geom
+    """UsageError (one line) when the body given for a model's ball is another size than its geom
     (vrcal would place and model another ball than MuJoCo drops)."""
     if not math.isclose(setup.radius_m, radius_m, rel_tol=1e-3):
-        raise DataError(f"the model's ball geom '{geom}' has D {2e3 * radius_m:.4g} mm, the body given "
+        raise UsageError(f"the model's ball geom '{geom}' has D {2e3 * radius_m:.4g} mm, the body given "
                         f"{2e3 * setup.radius_m:.4g} mm: leave out BALL, --mass and --diameter to take the geom's")
 
 
