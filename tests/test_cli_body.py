@@ -366,3 +366,16 @@ def test_a_light_balls_drop_test_notes_drag_and_large_buoyancy(tmp_path):
     assert "air drag" not in text and "buoyancy" not in text            # a tennis ball: drag moves eps < 0.01
     light = run("fit", "--mass", 0.0007, "--diameter", 0.1, "--epsilon", 0.5)
     assert light.exit_code == 0 and "buoyancy is large" in light.stdout and "90%" in light.stdout
+
+
+def test_fit_of_a_drop_test_alone_needs_no_body():
+    """'vrcal fit --drop-height 1 --rebound-height 0.64' (no ball) asked for --mass/--diameter, which Eq. (9)
+    does not need; its epsilon comes with a note on what the ball would add. --epsilon alone still needs a body."""
+    result = run("fit", "--drop-height", 1, "--rebound-height", 0.64)
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("your drop test: ε = 0.800, T = 55.8 ms at K = 4 1/s\n")
+    assert "no ball given: ε = √(h/H) needs none, but the air-drag check" in " ".join(result.stdout.split())
+    assert "virtual bodies" not in result.stdout
+    doc = json.loads(run("fit", "--drop-height", 1, "--rebound-height", 0.64, "--format", "json").stdout)
+    assert doc["epsilon"]["nominal"] == pytest.approx(0.8) and doc["ball"] is None and "family" not in doc
+    assert run("fit", "--epsilon", 0.8).exit_code == 2

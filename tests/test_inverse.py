@@ -139,6 +139,24 @@ def test_own_drop_test_brings_both_heights_to_the_bottom(drop_to, rebound_to):
         assert round(r["epsilon"]["nominal"], 4) == 0.7656
 
 
+def test_own_drop_test_without_a_body_gives_eq9_and_says_what_needs_the_ball():
+    """Eq. (9) needs no mass: 'vrcal fit --drop-height 1 --rebound-height 0.64' demanded --mass/--diameter. The
+    family (depths up to the radius) and the drag check need the ball; a note says so, and a height read to the
+    ball's top or centre cannot be brought to its bottom."""
+    from vrcal.inverse import NO_BODY_NOTE
+
+    r = fit_ball(None, 4.0, drop_height_m=1.0, rebound_height_m=0.64)
+    assert r["epsilon"] == {"nominal": pytest.approx(0.8, rel=1e-12)} and r["ball"] is None
+    assert r["T_s"]["nominal"] == pytest.approx(-math.log(0.8) / 4.0)
+    assert "family" not in r and "epsilon_with_drag" not in r and NO_BODY_NOTE in r["notes"]
+    assert fit_ball(None, 4.0, drop_height_m=1.0, rebound_height_m=0.64, x_m=0.01)["fixed"]["v_m_per_s"][
+        "nominal"] == pytest.approx(0.01 / (2 * r["T_s"]["nominal"]))
+    with pytest.raises(UsageError, match="to the ball's top: bringing it to the bottom needs the ball's diameter"):
+        fit_ball(None, 4.0, drop_height_m=1.0, rebound_height_m=0.64, rebound_measured_to="top")
+    with pytest.raises(UsageError, match="^no body"):
+        fit_ball(None, 4.0, epsilon=0.8)
+
+
 @pytest.mark.parametrize("heights, epsilon, message", [
     ((1.0, None, "bottom"), None, "needs both --drop-height and --rebound-height"),
     ((1.0, 0.5, "bottom"), 0.7, "not both"),

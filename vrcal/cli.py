@@ -288,7 +288,8 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
 
     The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
     --diameter with --epsilon or your own drop test's --drop-height and --rebound-height (a ball
-    of your own: one epsilon), or --from a discover result (its ball and measured epsilon).
+    of your own: one epsilon), or --from a discover result (its ball and measured epsilon). Your
+    drop test's heights alone give epsilon and T (no body: no air-drag check, no (x, v) family).
     Prints a table for people; --format yaml|json (or -o FILE.yaml|.json) gives the
     full-precision parameter file with schema_version and a unit in every key.
 
@@ -300,12 +301,15 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
       vrcal fit football --K 4 --x 0.02 -o football.json
       vrcal fit --mass 0.0459 --diameter 0.0427 --epsilon 0.78
       vrcal fit --mass 0.0577 --diameter 0.067 --drop-height 1 --rebound-height 0.55
+      vrcal fit --drop-height 1 --rebound-height 0.64
       vrcal fit tennis --drop-height 1.07 --rebound-height 0.63 --drop-measured-to top
       vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
 
-    body = body_of(ctx, ball, mass_kg, diameter_m, from_json)
+    own_test_alone = (ball, mass_kg, diameter_m, from_json) == (None,) * 4 and (drop_height_m, rebound_height_m) \
+        != (None, None)   # Eq. 9 needs no body (fit_ball notes what does)
+    body = None if own_test_alone else body_of(ctx, ball, mass_kg, diameter_m, from_json)
     result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
                       epsilon=epsilon, drop_height_m=drop_height_m, rebound_height_m=rebound_height_m,
                       drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)

@@ -67,9 +67,12 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
 
     Parameters
     ----------
-    ball : Body, Ball or str
+    ball : Body, Ball, str or None
         the body (:func:`vrcal.model.body.describe_body`: a ball of the standards, a user's
-        own or a discover result's), a :class:`vrcal.model.standards.Ball`, or a ball's key
+        own or a discover result's), a :class:`vrcal.model.standards.Ball`, or a ball's key; None
+        for one's own drop test alone (``drop_height_m`` and ``rebound_height_m``): epsilon (Eq. 9) and
+        T need no body, the (x, v) family (its depths reach the radius) and the air-drag check
+        (:func:`drop_test_drag`) do, and a note says so
     K_per_s : float
         rate constant K of Eq. (7) [1/s], > 0
     x_m : float, optional
@@ -107,7 +110,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     A ball of one's own has no rebound window to give min and max; a discover result's
     epsilon has an uncertainty (``epsilon_uncertainty``), not a window.
     """
-    body = _as_body(ball)
+    body = None if ball is None else _as_body(ball)
     K = check_K(K_per_s)
     if x_m is not None and v_m_per_s is not None:
         raise UsageError("give --x or --v, not both")
@@ -121,19 +124,23 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
         epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
                                         rebound_measured_to or "bottom")
-    if epsilon is None and body.discovered is None and body.standard is not None:
+    if body is None and drop_test is None:
+        raise UsageError("no body: give a ball of the standards, or --mass and --diameter (one's own drop test, "
+                         "--drop-height and --rebound-height, needs none)")
+    if body is not None and epsilon is None and body.discovered is None and body.standard is not None:
         out = _window_fit(body, K, as_paper)
     else:
         out = _single_fit(body, K, as_paper, epsilon)
     if drop_test is not None:
         out["notes"] = list(out.get("notes", [])) + drop_test.pop("notes", [])
         out.update(drop_test)
-    out["notes"] = list(out.get("notes", [])) + buoyancy_notes(body.mass_kg, body.diameter_m)
+    if body is not None:
+        out["notes"] = list(out.get("notes", [])) + buoyancy_notes(body.mass_kg, body.diameter_m)
     eps = out["epsilon"]
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in eps}  # keyed by the epsilon level
     out["T_s"] = _bounds(T)
-    R = body.radius_m
-    if T["nominal"] == 0:
+    R = None if body is None else body.radius_m   # no radius, no family: --x or --v still gives its partner
+    if R is not None and T["nominal"] == 0:
         # epsilon = 1: T = 0 only at x = 0, a virtual body on the surface, to which [1] gives no speed
         # (v = 0; Eq. 10 gives T = 0 at x = 0 for any v, as contact_time_single_s does)
         out["family"] = [{"x_m": 0.0, "v_m_per_s": 0.0}]
@@ -142,7 +149,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         if x_m is not None:
             raise UsageError(f"--x {x_m:g}: ε = 1 gives T = 0, which only x = 0 has (v = x/(2T) would be infinite); "
                              "leave out --x, or give --v (x = 2vT = 0)")
-    else:
+    elif R is not None:
         xs, vs = family(T["nominal"], R, n)
         out["family"] = [{"x_m": float(x), "v_m_per_s": float(v)} for x, v in zip(xs, vs)]
     if x_m is not None:
@@ -150,7 +157,7 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             "x_m": float(x_m),
             "v_m_per_s": _bounds({k: _or_inf(lambda t: eq.virtual_speed_m_per_s(x_m, t), T[k]) for k in T}),
         }
-        if x_m > R:
+        if R is not None and x_m > R:
             out["fixed"]["warning"] = f"x = {x_m:g} m is deeper than the ball's radius {R:g} m"
     if v_m_per_s is not None:
         out["fixed"] = {
@@ -160,15 +167,28 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     return out
 
 
+#: The note of one's own drop test without a body (:func:`fit_ball` with ``ball=None``).
+NO_BODY_NOTE = ("no ball given: ε = √(h/H) needs none, but the air-drag check (a light ball's drag makes the "
+                "contact's own ε larger than Eq. 9's) needs its --mass and --diameter (or BALL), and the virtual "
+                "bodies (x, v) its radius")
+
+
 def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom"):
-    """(epsilon, keys) of one's own drop test: Eq. (9) with both heights brought to the ball's bottom."""
+    """(epsilon, keys) of one's own drop test: Eq. (9) with both heights brought to the ball's bottom (``body``
+    None: heights of the bottom, no drag check)."""
     if drop_height_m is None or rebound_height_m is None:
         raise UsageError("a drop test needs both --drop-height and --rebound-height [m]")
-    D = body.diameter_m
+    D = None if body is None else body.diameter_m
     heights = {}
     for name, value, point in (("--drop-height", drop_height_m, drop_measured_to),
                                ("--rebound-height", rebound_height_m, rebound_measured_to)):
         check_drop_test_height(value, name)
+        if D is None and point != "bottom":
+            raise UsageError(f"{name} to the ball's {point}: bringing it to the bottom needs the ball's diameter "
+                             f"(give BALL, or --mass and --diameter)")
+        if D is None:
+            heights[name] = float(value)
+            continue
         offset = eq.POINT_OFFSET_DIAMETERS[point] * D
         if value < offset:
             raise UsageError(f"{name} {value:g} m to the ball's {point}: a height to the {point} cannot be below "
@@ -185,6 +205,8 @@ def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom",
         "drop_height_m": H,
         "rebound_height_m": h,
     }
+    if body is None:
+        return eps, {**keys, "notes": [NO_BODY_NOTE]}
     return eps, {**keys, **drop_test_drag(body.mass_kg, body.diameter_m, H, h)}
 
 
@@ -288,6 +310,10 @@ def _single_fit(body, K, as_paper, epsilon):
         raise UsageError("--as-paper reads a standard's drop test as the paper prints it: give a ball of the "
                          "standards without --epsilon or --from")
     notes = []
+    if body is None:   # one's own drop test alone: its keys follow (fit_ball)
+        return {"ball": None, "source": "drop test", "K_per_s": K,
+                "epsilon": {"nominal": float(check_epsilon(epsilon, "--epsilon"))},
+                "equations": "epsilon = exp(-K*T) (Eq. 7)", "notes": notes}
     if epsilon is not None:
         eps, source = check_epsilon(epsilon, "--epsilon"), "given with --epsilon"
     elif body.discovered is not None:
@@ -367,13 +393,16 @@ def fit_text(result):
         v = fixed["v_m_per_s"]
         rows.append([f"x at v = {v:.4g} m/s [mm]",
                      *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in levels), "x = 2vT (Eq. 10)"])
-    R = r["diameter_m"] / 2.0
     if window:
         rule = "official rule" if r["official_rule"] else "not an official rule"
         answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. "
                   f"{number(eps['max'], 3)}), T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
         text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}")
         text += "\n" + table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
+    elif r["ball"] is None:   # one's own drop test alone
+        text = wrap(f"your drop test: ε = {number(eps['nominal'], 3)}, T = {_ms_or_inf(T['nominal'], 3)} ms at "
+                    f"K = {K:g} 1/s") + wrap("no ball given: one ε from the two heights")
+        text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     else:
         answer = f"{r['ball']}: ε = {number(eps['nominal'], 3)}, T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s"
         if r["source"] not in ("standard", "options"):
@@ -388,9 +417,10 @@ def fit_text(result):
         text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     if fixed and fixed.get("warning"):
         text += wrap(f"warning: {fixed['warning']}")
-    text += "\n" + wrap(f"virtual bodies (x, v) of ε{' nominal' if window else ''}: x/(2v) = T (Eq. 10), "
-                         f"x up to the radius R = {number(R * 1e3, 4)} mm")
-    text += _family_rows(r["family"])
+    if "family" in r:
+        text += "\n" + wrap(f"virtual bodies (x, v) of ε{' nominal' if window else ''}: x/(2v) = T (Eq. 10), "
+                             f"x up to the radius R = {number(r['diameter_m'] / 2.0 * 1e3, 4)} mm")
+        text += _family_rows(r["family"])
     if r["notes"]:
         text += "\nnotes:\n" + "".join(wrap(n, first="  - ") for n in r["notes"])
     return text

@@ -158,3 +158,65 @@ def test_plot_functions_take_and_return_an_ax(drag):
     assert plot_fit(drag[0], ax=ax) is ax
     ax2 = plot_residuals(drag[0])
     assert ax2 is not None and ax2.get_xlabel() == "time t [s]"
+
+
+def _table(tmp_path, rows, name="t.csv"):
+    from vrcal.measurements import read_measurement
+
+    path = tmp_path / name
+    path.write_text("Drop height (cm),Rebound height (cm)\n" + "".join(f"{H},{h}\n" for H, h in rows))
+    return read_measurement(path)
+
+
+TENNIS = BallProperties.from_ball(get_ball("tennis"))
+
+
+@pytest.mark.parametrize("rows,in_advice", [([(100, 64), (100, 65.5), (50, 32)], True),
+                                             ([(100, 55), (100, 70), (100, 78)], False)])
+def test_one_epsilon_with_a_spheres_drag_over_all_runs_in_both_sections(tmp_path, rows, in_advice):
+    """The answer's 'with a sphere's air drag ... epsilon = X' was Eq. (9) with drag on the first row alone
+    (0.8114 for a probe's table whose engine section said 0.8150; 0.7516 for another whose joint epsilon was
+    0.825, lower than without drag): one joint fit with the drag held, read by both sections."""
+    from vrcal.drop.effects import added_mass_kg, drag_constant_per_m, epsilon_from_heights_with_drag
+    from vrcal.model.restitution import SPHERE_DRAG_COEFFICIENT
+
+    d = discover(_table(tmp_path, rows), TENNIS)
+    assert not d.rounds and not d.effects
+    with_drag = d.epsilon_with_sphere_drag
+    assert with_drag > d.epsilon   # drag takes height from every flight: the contact gave more
+    k = drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, TENNIS.diameter_m, TENNIS.mass_kg,
+                            added_mass_kg=added_mass_kg(TENNIS.diameter_m))
+    first_row = float(epsilon_from_heights_with_drag(rows[0][1] / 100, rows[0][0] / 100, k))
+    assert f"{first_row:.4f}" != f"{with_drag:.4f}"
+    said = answer(d)
+    assert f"(C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights give epsilon = {with_drag:.4f}." in said
+    assert f"{first_row:.4f}" not in said
+    assert list(d.systematic["held"]) == ["air_drag.drag_coefficient"]
+    assert d.epsilon + d.systematic["epsilon_shift"] == pytest.approx(with_drag, abs=1e-12)
+    # the engine section says it when it moves epsilon by half its uncertainty or more
+    assert (f"with a sphere's air drag (C_d 0.47), which these data do not resolve: epsilon {with_drag:.4f},"
+            in " ".join(engine_advice(d))) == in_advice
+    assert d.as_dict()["epsilon_with_sphere_drag"] == with_drag
+
+
+def test_one_rows_epsilon_with_drag_is_eq9_corrected():
+    """A single drop: the joint fit with the drag held is Eq. (9) corrected for that drag (``vrcal fit``'s note)."""
+    from vrcal.inverse import drop_test_drag
+
+    rows = [(100, 64)]
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        d = discover(_table(Path(tmp), rows), TENNIS)
+    assert d.epsilon_with_sphere_drag == pytest.approx(
+        drop_test_drag(TENNIS.mass_kg, TENNIS.diameter_m, 1.0, 0.64)["epsilon_with_drag"], abs=2e-4)
+
+
+@pytest.mark.parametrize("rows,advice", [
+    ([(100, 64), (50, 32.5)], "more drop heights, or a second rebound per drop, would"),
+    ([(100, 64)], "a second rebound, or drops from other heights (a drop table) would")])
+def test_what_more_data_to_take_fits_the_data_kind(tmp_path, rows, advice):
+    """A drop table was told 'a third apex, or drops from several heights (a drop table) would'."""
+    said = answer(discover(_table(tmp_path, rows), TENNIS))
+    assert advice in said and "third apex" not in said

@@ -533,12 +533,14 @@ def test_ordinal_bounce_columns_are_the_successive_rebounds(tmp_path, names):
 
 
 def test_a_numeric_column_not_read_is_named(tmp_path):
-    """A column of numbers the drop table does not read is said, not dropped silently; a trial number is not."""
+    """A column of numbers the drop table does not read is said, not dropped silently; a trial number is not;
+    a comment column is named as such."""
     data = read_measurement(write(tmp_path, "x.csv", "Trial,Drop height (cm),Rebound height (cm),Bounce after (cm),"
                                                      "Comment\n1,100,56.3,31.6,ok\n2,100,56.0,31.2,\n"))
     assert len(data.runs) == 2 and data.runs[0].h_m.size == 2
     said = [n for n in data.notes if "not read" in n]
-    assert len(said) == 1 and said[0].startswith("column(s) 'Bounce after' not read: not a drop or rebound height")
+    assert len(said) == 2 and said[0].startswith("column(s) 'Bounce after' not read: not a drop or rebound height")
+    assert said[1] == "column 'Comment' not read (comments)"
 
 
 @pytest.mark.parametrize("rows,trials", [(("100,64,63,65", "50,32,33,31"), True),
@@ -584,6 +586,131 @@ def test_a_drop_table_with_further_rebounds_and_a_unit_given_once(tmp_path):
     np.testing.assert_allclose(data.runs[0].h_m, [1.0, 0.8, 0.64])
     assert list(data.runs[1].bounce) == [0, 1]
     assert any("has no unit: taken as cm" in n for n in data.notes)
+
+
+@pytest.mark.parametrize("header,rows,runs", [
+    ("Height (cm),Rebound height (cm)", ["100,64", "50,32.5"], [(1.0, 0.64), (0.5, 0.325)]),
+    ("Height (cm),Bounce (cm)", ["100,64", "50,32.5", "150,96"], [(1.0, 0.64), (0.5, 0.325), (1.5, 0.96)]),
+    ("Height (cm),Bounce (cm)", ["100,64", "50,32", "150,96"], [(1.0, 0.64), (0.5, 0.32), (1.5, 0.96)]),
+    ("Height (cm),Bounce 1 (cm),Bounce 2 (cm),Bounce 3 (cm)", ["100,64,65,63", "50,32,33,31"],
+     [(1.0, 0.64), (1.0, 0.65), (1.0, 0.63), (0.5, 0.32), (0.5, 0.33), (0.5, 0.31)]),
+    ("Versuch;Höhe (cm);Sprunghöhe (cm)", ["1;100;64", "2;50;32,5"], [(1.0, 0.64), (0.5, 0.325)]),
+    ("Height (cm),Rebound height", ["100,64", "50,32.5"], [(1.0, 0.64), (0.5, 0.325)])])
+def test_a_height_beside_rebound_columns_is_the_drop_height(tmp_path, header, rows, runs):
+    """A class heads its sheet 'Height (cm), Rebound height (cm)' (or 'Bounce (cm)', 'Bounce 1 (cm)', ...): 'no
+    time column: give the frame rate with --fs HZ', 'bounce number 32.5 is not an integer' and 'bounce number
+    not increasing' before (a teacher's probe). A bounce column with a length unit is a height."""
+    p = write(tmp_path, "class.csv", header + "\n" + "\n".join(rows) + "\n")
+    assert detect_format(p) == "drops"
+    data = read_measurement(p)
+    assert [tuple(r.h_m) for r in data.runs] == [pytest.approx(r) for r in runs]
+    assert data.notes[0].startswith("format: drop table") and "'H" in data.notes[0]
+
+
+@pytest.mark.parametrize("text,fmt", [("bounce,height (cm)\n0,100\n1,64\n2,41\n", "apexes"),
+                                      ("bounce,h (cm)\n0,100\n1,64\n", "apexes"),
+                                      ("t (s),height (cm)\n0,100\n0.01,99.95\n0.02,99.8\n", "trajectory"),
+                                      ("frame,height (cm)\n0,100\n1,99.95\n2,99.8\n", "trajectory")])
+def test_a_height_beside_a_bounce_number_or_a_time_keeps_its_layout(tmp_path, text, fmt):
+    assert detect_format(write(tmp_path, "k.csv", text)) == fmt
+
+
+@pytest.mark.parametrize("header", ["drop,bounce", "Drop,Bounce", "drop height,bounce", "H,bounce"])
+def test_a_bounce_beside_a_drop_height_is_the_rebound(tmp_path, header):
+    """'drop,bounce' (a real record's header): refused as 'cannot tell the layout' although it names a drop and
+    a bounce. An apex file has a height and no drop: beside a drop the bounce is the rebound."""
+    p = write(tmp_path, "d.csv", header + "\n1.0,0.64\n0.5,0.33\n")
+    assert detect_format(p) == "drops"
+    assert [tuple(r.h_m) for r in read_measurement(p).runs] == [pytest.approx((1.0, 0.64)),
+                                                               pytest.approx((0.5, 0.33))]
+
+
+def test_a_drop_table_in_an_unknown_unit_names_the_unit(tmp_path):
+    p = write(tmp_path, "b.csv", "drop (bricks),bounce (bricks)\n10,7.5\n5,3.5\n")
+    with pytest.raises(DataError, match=r"unknown length unit 'bricks' of column 'drop'"):
+        read_measurement(p)
+
+
+def test_an_apex_files_fractional_bounce_number_says_how_to_name_heights(tmp_path):
+    p = write(tmp_path, "hb.csv", "Height,Bounce\n1.0,0.64\n0.5,0.33\n")
+    with pytest.raises(DataError, match=r"bounce number 0.64 is not an integer \(if 'Bounce' holds rebound "
+                                        r"heights, write its unit, e.g. 'Bounce \(cm\)'"):
+        read_measurement(p)
+
+
+def test_a_bounce_column_in_a_length_unit_is_no_bounce_number_of_an_apex_file(tmp_path):
+    p = write(tmp_path, "a.csv", "Height (cm),Bounce (cm)\n100,64\n50,32.5\n")
+    with pytest.raises(DataError, match=r"a.csv:1: column 'Bounce' is in cm: a height, not a bounce number"):
+        read_measurement(p, "apexes")
+
+
+@pytest.mark.parametrize("header", ["Trial,Rebound height (cm)", "Ball height (cm),Bounce (cm)",
+                                    "Trial,Rebound height"])
+def test_a_rebound_without_a_drop_height_column_says_so(tmp_path, monkeypatch, header):
+    """A rebound column but no drop height: 'no time column: give the frame rate with --fs' or 'cannot tell the
+    layout' before."""
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, "r.csv", header + "\n1,64\n2,63\n")
+    said = r"r.csv:1: no drop-height column: name it e.g. 'Drop height \(cm\)' \(column '.*' is the rebound height\)"
+    with pytest.raises(DataError, match=said):
+        read_measurement("r.csv")
+    result = CliRunner().invoke(main, ["discover", "r.csv", "--ball", "tennis"])
+    assert result.exit_code == 1 and "--fs" not in result.output and "no drop-height column" in result.output
+
+
+def test_a_column_naming_different_balls_is_refused_with_their_names(tmp_path):
+    """Tennis, golf and ping-pong rows were fitted as one ball, the 'Ball' column dropped silently."""
+    p = write(tmp_path, "balls.csv", "Ball,Drop height (cm),Bounce height (cm)\nTennis,100,55\nGolf,100,70\n"
+                                     "Ping pong,100,78\nTennis,50,28\n")
+    with pytest.raises(DataError, match=r"balls.csv:1: column 'Ball' names 3 different balls \(Tennis, Golf, Ping "
+                                        r"pong\): one epsilon cannot describe them all; put each ball's rows in a "
+                                        r"file of its own"):
+        read_measurement(p)
+    p = write(tmp_path, "floors.csv", "Surface;H (cm);h (cm)\nwood;100;55\ntiles;100;60\n")
+    with pytest.raises(DataError, match=r"column 'Surface' names 2 different surfaces \(wood, tiles\)"):
+        read_measurement(p)
+
+
+@pytest.mark.parametrize("column,cells,said", [
+    ("Ball", ["Tennis", "Tennis", "Tennis"], "column 'Ball' not read (text: 'Tennis' in every row that fills it)"),
+    ("Student", ["Ann", "Ben", "Ann"], "column 'Student' not read: its text differs between rows (Ann, Ben); if the "
+                                       "rows are different balls or surfaces, one epsilon does not describe them: "
+                                       "put each one's rows in a file of its own"),
+    ("Notes", ["ok", "crooked drop", ""], "column 'Notes' not read (comments)")])
+def test_a_text_column_is_named_in_a_note(tmp_path, column, cells, said):
+    rows = [(100, 55), (100, 56), (50, 28)]
+    p = write(tmp_path, "t.csv", f"{column},Drop height (cm),Rebound height (cm)\n"
+              + "".join(f"{c},{H},{h}\n" for c, (H, h) in zip(cells, rows)))
+    data = read_measurement(p)
+    assert len(data.runs) == 3 and said in data.notes
+
+
+def test_a_row_without_its_rebound_is_skipped_with_a_note_naming_its_line(tmp_path):
+    """A blank rebound cell stopped the whole file ('a trial needs its drop height and its first rebound'); a
+    class's sheet with its trial numbers written ahead has rows of a number and empty cells."""
+    p = write(tmp_path, "e.csv", "Trial,Drop height (cm),Bounce height (cm)\n1,100,64\n2,100,\n3,50,32\n4,50,33\n"
+                                 "5,,\n6,,\n")
+    data = read_measurement(p)
+    assert [tuple(r.h_m) for r in data.runs] == [pytest.approx(r) for r in [(1.0, 0.64), (0.5, 0.32), (0.5, 0.33)]]
+    assert "lines 3, 6, 7: no first rebound (empty cells): 3 rows skipped" in data.notes
+    assert data.labels == ("row 1 (line 2)", "row 3 (line 4)", "row 4 (line 5)")
+    one = read_measurement(write(tmp_path, "one.csv", "H (cm),h1 (cm),h2 (cm)\n100,,41\n100,64,41\n"))
+    assert len(one.runs) == 1 and "line 2: no first rebound (an empty cell): row skipped" in one.notes
+
+
+@pytest.mark.parametrize("text,said", [("H (cm),h (cm)\n100,\n100,\n", r"x.csv:3: no trial with a drop height and "
+                                                                       r"a rebound"),
+                                       ("H (cm),h (cm)\n100,64\n,63\n", r"x.csv:3: empty cell in column 'H'")])
+def test_a_table_without_a_complete_trial_or_a_rebound_without_its_drop_is_an_error(tmp_path, text, said):
+    with pytest.raises(DataError, match=said):
+        read_measurement(write(tmp_path, "x.csv", text))
+
+
+@pytest.mark.parametrize("rows,said", [("100,64\n100,65\n", "2 trial(s), drop height 1 m"),
+                                       ("100,64\n50,32\n", "2 trial(s), drop heights 0.5-1 m")])
+def test_the_drop_heights_note_says_one_height_once(tmp_path, rows, said):
+    """'drop heights 1-1 m' when every row shares one height."""
+    assert said in read_measurement(write(tmp_path, "d.csv", "H (cm),h (cm)\n" + rows)).notes
 
 
 def test_two_apex_rows_give_one_drop(tmp_path):

@@ -127,10 +127,22 @@ def _noise_text(d):
     return f"noise is {noise}"
 
 
-#: What would leave something to test an effect with, per data kind (a record with as many data as parameters).
+#: What would leave something to test an effect with, per data kind (a record with as many data as parameters);
+#: apex heights by what the runs hold (:func:`_more_data`): one drop or several, one rebound each or more.
 MORE_DATA = {"trajectory": "a longer record (more bounces)",
              "impacts": "more impact times (a quieter room, the phone nearer the floor), or several drops at once",
-             "apexes": "a third apex, or drops from several heights (a drop table)"}
+             ("apexes", "one drop", "one rebound"): "a second rebound, or drops from other heights (a drop table)",
+             ("apexes", "one drop", "rebounds"): "more rebounds, or drops from other heights (a drop table)",
+             ("apexes", "drops", "one rebound"): "more drop heights, or a second rebound per drop,",
+             ("apexes", "drops", "rebounds"): "more drop heights, or more rebounds per drop,"}
+
+
+def _more_data(d):
+    """The phrase of :data:`MORE_DATA` for the record of discovery ``d``."""
+    if d.kind != "apexes":
+        return MORE_DATA[d.kind]
+    rebounds = "one rebound" if max(run.h_m.size for run in d.runs) <= 2 else "rebounds"
+    return MORE_DATA[("apexes", "one drop" if len(d.runs) == 1 else "drops", rebounds)]
 #: What a record holds, per data kind, as a phrase.
 RECORD_OF_KIND = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
 
@@ -164,14 +176,14 @@ def answer(discovery):
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
                      f"{pm(d.epsilon, d.final.uncertainty('epsilon'))} and nothing is left to test an effect "
-                     f"with; {MORE_DATA[d.kind]} would.")
+                     f"with; {_more_data(d)} would.")
         if v == "unexplained":
             parts.append(f"Yet it leaves a gap of {after} ({_noise_text(d)}): it does not reproduce this record.")
         if d.kind == "apexes":
             parts.append(f"With a sphere's air drag (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights give "
-                         f"epsilon = {_epsilon_with_typical_drag(d):.4f}.")
+                         f"epsilon = {d.epsilon_with_sphere_drag:.4f}.")
     else:
-        if v == "explained":
+        if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
                          f"{pm(d.epsilon, d.final.uncertainty('epsilon'))}. Its gap, {after}, is within what the "
                          f"record allows: {_noise_text(d)}. No effect of the registry is needed.")
@@ -206,17 +218,6 @@ def answer(discovery):
     return " ".join(parts)
 
 
-def _epsilon_with_typical_drag(d):
-    """ε of the first two apexes of the first run with the drag of a sphere (:data:`vrcal.model.restitution.
-    SPHERE_DRAG_COEFFICIENT`, its added mass included, as ``vrcal fit`` says): Eq. (9) corrected."""
-    from vrcal.drop.effects import added_mass_kg, drag_constant_per_m, epsilon_from_heights_with_drag
-
-    run = d.runs[0]
-    D = float(d.ball.diameter_m)
-    k = drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, D, float(d.ball.mass_kg), added_mass_kg=added_mass_kg(D))
-    return float(epsilon_from_heights_with_drag(run.h_m[1], run.h_m[0], k, allow_above_one=True))
-
-
 def engine_advice(discovery):
     """Lines saying which ε to put in a physics engine, and why (they follow the verdict)."""
     from vrcal.drop.effects import EFFECTS
@@ -236,10 +237,10 @@ def engine_advice(discovery):
         out.extend(shown)
         if not d.rounds and d.verdict != "unexplained":
             out.append(f"(nothing tested: an engine without air drag reproduces {RECORD_OF_KIND[d.kind]} with it)")
-        elif d.verdict == "explained" and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
+        elif d.reproduces and shown and "air_drag.drag_coefficient" in d.systematic["held"]:
             out.append("The baseline suffices: this constant epsilon reproduces the record in an engine without "
                        "air drag (with drag, the value above).")
-        elif d.verdict == "explained":
+        elif d.reproduces:
             out.append("The baseline suffices: this constant epsilon reproduces the record in any engine.")
         else:
             out.append("The baseline does not reproduce the record to its noise (see above); this is the constant "

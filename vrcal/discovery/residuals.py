@@ -305,7 +305,7 @@ def ratio_scatter(t_s):
     a known timing noise, :func:`bounce_scatter` gives the bounces' own.
     """
     t = np.asarray(t_s, dtype=float)
-    if t.size < 6:
+    if t.size < SCATTER_MIN_TIMES:
         return None
     return qn_scale(_ratio_change_values(t)) / math.sqrt(2.0)
 
@@ -342,6 +342,10 @@ def _band_matrix(band, n):
 #: How much larger than assumed a stopwatch's timing noise may be (a phone's acoustic onsets: 0.05-1 ms
 #: against the 0.2 ms assumed): :func:`bounce_scatter` sees the bounces' scatter beyond that.
 UNKNOWN_TIMING_FACTOR = 5.0
+
+#: Fewest impact times of one run in which :func:`bounce_scatter` and :func:`ratio_scatter` see the bounces'
+#: scatter: 6 times, 4 interval ratios, 3 changes of ratio, 2 degrees of freedom about their mean.
+SCATTER_MIN_TIMES = 6
 
 #: Most changes of ratio :func:`bounce_scatter` weighs with their full covariance (beyond: each alone).
 FULL_COVARIANCE_CHANGES = 300
@@ -406,7 +410,7 @@ def _scatter_chi2(t_s, timing_sigma_s, t_model_s=None):
     generalized chi-square of the changes of ratio d about their mean under C = s^2 T + sigma_t^2 M M^T,
     decreasing in s^2, with dof degrees of freedom; None with fewer than six times."""
     t = np.asarray(t_s, dtype=float)
-    if t.size < 6:
+    if t.size < SCATTER_MIN_TIMES:
         return None
     d, band = _ratio_changes(t)
     if t_model_s is not None:

@@ -45,6 +45,9 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     b_col, h_col = find_column(table.cols, BOUNCE_NAMES), find_column(table.cols, H_NAMES)
     if h_col is None or (b_col is None and len(table.cols) > 1):
         fail(path, table.header_line, "an apex file needs the columns 'bounce,h' (or one column 'h')")
+    if b_col is not None and b_col.unit and b_col.unit in LENGTH_UNITS:
+        fail(path, table.header_line, f"column '{b_col.raw}' is in {b_col.unit}: a height, not a bounce number (a "
+                                      f"table of drop and rebound heights is the format 'drops')")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     line_numbers = row_lines(table)
@@ -54,7 +57,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         bounce = column_values(path, table, b_col, what="bounce number")
     nonint = np.flatnonzero(bounce != np.round(bounce))
     if nonint.size:
-        fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer")
+        fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer (if "
+                                                 f"'{b_col.raw}' holds rebound heights, write its unit, e.g. "
+                                                 f"'{b_col.raw} (cm)', or name the columns 'Drop height', "
+                                                 f"'Rebound height')")
     check_increasing(path, bounce, line_numbers, "bounce number")
     if np.any(bounce < 0):
         fail(path, int(line_numbers[0]), f"bounce number {bounce[0]:g} is negative (bounce 0 = drop height)")

@@ -19,8 +19,16 @@ The header names which column is which (case matters only for ``H`` and ``h``):
   rebound``, ...) are trials when their values
   agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
   when each is clearly below the one before; the notes say which;
+* a column headed just as a height (``Height (cm)``, ``Höhe``: :data:`_PLAIN_HEIGHTS`) is the drop height
+  when the other height columns are rebounds with a length unit (``Height (cm), Rebound height (cm)``,
+  ``Height (cm), Bounce (cm)``, ``Height (cm), Bounce 1 (cm), Bounce 2 (cm)``); a rebound column without any
+  drop-height column is an error saying so;
 * other columns (``trial``, ``n``, an ``Average`` or ``Mean`` of the trials, a comment) are not read;
-  a column of numbers other than a trial number is named in a note.
+  a column of numbers other than a trial number is named in a note, and so is a column of text, with its
+  values when they differ from row to row (the rows may be different balls); when its name says it holds
+  the ball or the surface (:data:`BALL_WORDS`, :data:`SURFACE_WORDS`) differing values are an error: one
+  epsilon cannot describe several balls (:func:`_unread_notes`);
+* a row without its first rebound (an empty cell) is skipped with a note naming its line.
 
 Units in brackets (``H (cm)``, ``h [mm]``, ``H (in)``) or after the name (``Fallhöhe in cm``,
 ``drop_cm``; ``drop_in``, ``H_in``: inches, with a note, where a trajectory's ``y_in`` keeps its name,
@@ -94,6 +102,19 @@ _ORDINAL = re.compile(rf"^(?:(\d+)\s*(?:st|nd|rd|th)|({'|'.join(_ORDINAL_WORDS)}
 #: Names of a column that numbers the trials or rows (read by no one, and no note needed).
 _INDEX_NAMES = ("trial", "trials", "trial #", "trial no", "trial number", "run", "n", "no", "nr", "#", "number",
                 "index", "versuch", "essai", "intento", "prova", "attempt", "try", "test", "measurement")
+#: Word beginnings of a text column naming what was dropped (``Ball``, ``Ball type``, ``Balle``, ``Pelota``,
+#: ``Object``, ``Material``): rows whose values differ are different balls (:func:`_unread_notes`).
+BALL_WORDS = ("ball", "pelota", "palla", "bola", "object", "objekt", "objet", "oggett", "type", "typ", "kind",
+              "sorte", "materi")
+#: ... and onto what (``Surface``, ``Floor``, ``Boden``, ``Untergrund``, ``Suelo``).
+SURFACE_WORDS = ("surface", "floor", "ground", "boden", "untergrund", "suelo", "superfici", "pavimento")
+#: Word beginnings of a column of comments (named in a note whatever its rows hold).
+COMMENT_WORDS = ("comment", "note", "remark", "observ", "bemerk", "kommentar", "notiz", "remarque", "comentario",
+                 "commento", "nota")
+#: A column named just as a height (folded, :func:`_folded`): the drop height when the other height columns are
+#: rebounds with a length unit (``Height (cm), Rebound height (cm)``, ``Height (cm), Bounce (cm)``, ``Höhe (cm),
+#: Sprunghöhe (cm)``).
+_PLAIN_HEIGHTS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza")
 
 
 def _length_unit(c):
@@ -128,8 +149,42 @@ def _height_columns(cols):
     drop = next((c for c in heights if c.raw in ("H", "H0", "H 0")), None) or find_column(heights, DROP_NAMES) \
         or next((c for c in heights if _has_word(c.name, DROP_WORDS) and not _has_word(c.name, REBOUND_WORDS)),
                 None)
-    if drop is None:
+    if drop is not None:
+        return _rebound_columns(drop, heights)
+    # a class's 'Height (cm), Rebound height (cm)': the height beside the rebounds is the drop height
+    plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS), None)
+    found = None if plain is None else _rebound_columns(plain, heights)
+    if found is None or not all(c.unit or _names_rebound(c) for c in _rebounds_of(found)):
         return None
+    return found
+
+
+def _names_rebound(c):
+    """True when column ``c`` is a rebound height by its name alone, without a unit: a word of a rebound and
+    one of a height (``Rebound height``, ``Bounce height``, ``Rückprallhöhe``, ``hauteur du rebond``), or
+    ``rebound``; not a bare ``bounce`` (an apex file's bounce number), ``Bounce time`` nor ``h1``."""
+    folded = _folded(c.name)
+    return _has_word(c.name, REBOUND_WORDS) and (c.name in REBOUND_NAMES or any(w in folded for w in _HEIGHT_WORDS))
+
+
+def _rebounds_of(found):
+    """The rebound columns of :class:`DropColumns` ``found``."""
+    return found.numbered + [c for trial in found.trials for c in trial.values()]
+
+
+def _rebound_without_drop(cols):
+    """The first column that is a rebound height by its length unit (``Rebound height (cm)``, ``Bounce (cm)``)
+    or its name (:func:`_names_rebound`) of a table that has no drop-height column (:func:`_height_columns` is
+    None), else None."""
+    if _height_columns(cols) is not None:
+        return None
+    return next((c for c in cols if _length_unit(c) and ((c.unit and _has_word(c.name, REBOUND_WORDS))
+                                                         or (not c.unit and _names_rebound(c)))), None)
+
+
+def _rebound_columns(drop, heights):
+    """:class:`DropColumns` of the drop column ``drop`` and the other columns of ``heights``, or None when
+    none of them is a rebound."""
     rest = [c for c in heights if c.index != drop.index]
     trials = [c for c in rest if _TRIAL.match(c.name)]
     if len(trials) >= 2:
@@ -141,6 +196,8 @@ def _height_columns(cols):
     rebound = find_column(rest, REBOUND_NAMES) or next((c for c in rest if c.raw == "h"), None) \
         or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.unit), None) \
         or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.name not in BOUNCE_NAMES), None)
+    if rebound is None and len(rest) == 1 and rest[0].name in BOUNCE_NAMES and drop.name != "height":
+        rebound = rest[0]   # 'drop, bounce': beside a drop height no bounce number (an apex file has no drop)
     if rebound is None:
         return None
     out = {1: rebound}
@@ -174,7 +231,7 @@ def _inch_columns(cols):
     found = _height_columns(inches) if renamed else None
     if found is None:
         return cols, ()
-    used = {c.index for c in [found.drop, *found.numbered, *(c for t in found.trials for c in t.values())]}
+    used = {c.index for c in [found.drop, *_rebounds_of(found)]}
     renamed = tuple(i for i in renamed if i in used)
     return (inches, renamed) if renamed else (cols, ())
 
@@ -198,14 +255,24 @@ def _trials_or_rebounds(path, line, values, columns):
                      f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... or 'h1', 'h2', ...")
 
 
+def _beside_a_drop(cols, bounce):
+    """True when the only other column of heights beside ``bounce`` is named as a drop height (``drop,
+    bounce``, ``Drop height, Bounce``): the rebound of a drop table, not an apex file's bounce number (an apex
+    file has a height column and no drop)."""
+    other = [c for c in cols if c.index != bounce.index and _length_unit(c)]
+    return len(other) == 1 and (other[0].raw in ("H", "H0", "H 0") or find_column(other, DROP_NAMES) is not None
+                                or _has_word(other[0].name, DROP_WORDS))
+
+
 def detect(text):
     cols = header_columns(text)
     if not cols or find_column(cols, TIME_NAMES) is not None:
         return False
     number = find_column(cols, BOUNCE_NAMES)
-    if number is not None and not (number.unit and number.unit in LENGTH_UNITS):
+    if number is not None and not (number.unit and _length_unit(number)) and not _beside_a_drop(cols, number):
         return False   # a bounce-number column: an apex file
-    return _height_columns(_inch_columns(cols)[0]) is not None
+    cols = _inch_columns(cols)[0]
+    return _height_columns(cols) is not None or _rebound_without_drop(cols) is not None
 
 
 def looks_like_heights(text):
@@ -263,12 +330,81 @@ def _written_step_m(raw, factors):
     return max(steps) if steps else None
 
 
-def _has_numbers(table, col):
-    """True when a cell of column ``col`` of ``table`` holds a number."""
+def _filled_cells(table, col):
+    """The filled cells of column ``col`` of ``table``, as written (all numbers when ``table.numeric``)."""
     if table.numeric is not None:
-        return True
-    return any(col.index < len(cells) and to_float(cells[col.index], table.decimal_comma) is not None
-               for _, cells in table.rows)
+        return [repr(float(v)) for v in table.numeric[:, col.index]]
+    return [cells[col.index] for _, cells in table.rows if col.index < len(cells) and cells[col.index] != ""]
+
+
+def _unread_notes(path, table, ignored):
+    """The notes on the columns of ``table`` a drop table does not read (``ignored``; not a trial number): an
+    average, a column of numbers, a column of text. A text column whose rows differ is said with its values:
+    the rows may be of different balls, which one epsilon cannot describe; when its name says so (a word of
+    :data:`BALL_WORDS` or :data:`SURFACE_WORDS`: ``Ball``, ``Ball type``, ``Surface``) that is an error naming
+    the values (one file per ball); a comment column (:data:`COMMENT_WORDS`) is only named."""
+    notes = []
+    derived = [c.raw for c in ignored if _has_word(c.name, ("average", "mean", "avg"))]
+    if derived:
+        notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
+    ignored = [c for c in ignored if c.raw not in derived]
+    cells = {c.index: _filled_cells(table, c) for c in ignored}
+    # a column with a word in it: its distinct cells (numbers too), in their order
+    words = {i: list(dict.fromkeys(v)) if any(to_float(c, table.decimal_comma) is None for c in v) else []
+             for i, v in cells.items()}
+    other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
+    if other:
+        notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
+                     f"{'its name' if len(other) == 1 else 'their names'} (name a rebound 'h2', '2nd bounce', ...; "
+                     f"docs/measurements.md)")
+    for c in (c for c in ignored if words[c.index]):
+        name, values = c.raw or f"column {c.index + 1}", words[c.index]
+        shown = ", ".join(values[:6]) + (", ..." if len(values) > 6 else "")
+        if _has_word(c.name, COMMENT_WORDS):
+            notes.append(f"column '{name}' not read (comments)")
+        elif len(values) == 1:
+            notes.append(f"column '{name}' not read (text: '{values[0]}' in every row that fills it)")
+        elif _has_word(c.name, BALL_WORDS + SURFACE_WORDS):
+            what = "balls" if _has_word(c.name, BALL_WORDS) else "surfaces"
+            fail(path, table.header_line, f"column '{name}' names {len(values)} different {what} ({shown}): one "
+                                          f"epsilon cannot describe them all; put each {what[:-1]}'s rows in a file "
+                                          f"of its own (to fit them as one on purpose, leave the column out)")
+        else:
+            notes.append(f"column '{name}' not read: its text differs between rows ({shown}); if the rows are "
+                         f"different balls or surfaces, one epsilon does not describe them: put each one's rows in "
+                         f"a file of its own")
+    return notes
+
+
+def _runs_of_rows(path, table, drop, trials, values, resolution_m):
+    """``(runs, labels, skipped)``: an :class:`ApexHeights` and its label per trial of each row of ``table``
+    (``values``: {column index: heights [m], NaN where a cell is empty}), and the file's lines of the rows
+    skipped for want of a first rebound (a trial not measured, or a class's sheet with its trial numbers written
+    ahead). An empty drop height beside a rebound is an error naming its line; no trial left is one too."""
+    line_numbers = row_lines(table)
+    H = values[drop.index]
+    per_row = len(trials)
+    runs, labels, skipped = [], [], []
+    for k, no in enumerate(line_numbers):
+        made = [[b for b in sorted(trial) if np.isfinite(values[trial[b].index][k])] for trial in trials]
+        if not any(bounces and bounces[0] == 1 for bounces in made):
+            skipped.append(int(no))   # no trial of this row has its first rebound
+            continue
+        if not np.isfinite(H[k]):
+            fail(path, int(no), f"empty cell in column '{drop.raw}': a trial needs its drop height")
+        for trial, bounces in zip(trials, made):
+            if not bounces or bounces[0] != 1:
+                continue   # trials side by side: a trial not made at this height (an empty cell)
+            h = np.array([H[k]] + [values[trial[b].index][k] for b in bounces])
+            bad = np.flatnonzero(h <= 0)
+            if bad.size:
+                fail(path, int(no), f"height {h[bad[0]]:g} m is not positive")
+            runs.append(ApexHeights(bounce=np.array([0] + bounces), h_m=h, source=f"{path}:{int(no)}",
+                                    notes=(), lines=np.full(len(bounces) + 1, int(no)), resolution_m=resolution_m))
+            labels.append(f"row {k + 1} (line {int(no)})" + (f", '{trial[1].raw}'" if per_row > 1 else ""))
+    if not runs:
+        fail(path, int(line_numbers[-1]), "no trial with a drop height and a rebound")
+    return runs, labels, skipped
 
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
@@ -277,18 +413,21 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     cols, renamed = _inch_columns(table.cols)
     found = _height_columns(cols)
     if found is None:
+        rebound = _rebound_without_drop(cols)
+        if rebound is not None:
+            fail(path, table.header_line, f"no drop-height column: name it e.g. 'Drop height ({rebound.unit or 'cm'})' "
+                                          f"(column '{rebound.raw}' is the rebound height)")
         fail(path, table.header_line, NAMING)
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
-    columns = [found.drop] + found.numbered + [c for trial in found.trials for c in trial.values()]
+    columns = [found.drop] + _rebounds_of(found)
     notes = []
     if renamed:
         header = split_cells(next(s for no, s in text.lines if no == table.header_line), table.sep)
         notes.append(f"column(s) {', '.join(repr(header[i]) for i in renamed)}: the 'in' after the name read as "
                      f"inches (write the unit in brackets to say so: 'H (in)', 'H (cm)')")
     factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
-    raw = {c.index: column_values(path, table, c, what="height", allow_empty=c.index != found.drop.index)
-           for c in columns}
+    raw = {c.index: column_values(path, table, c, what="height", allow_empty=True) for c in columns}
     values = {i: raw[i] * factors[i] for i in raw}
     resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors)
     trials = found.trials
@@ -300,34 +439,13 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     names = ", ".join(f"'{c.raw}'" for c in [found.drop] + [c for t in trials for c in t.values()])
     what = "one trial per row" if per_row == 1 else f"{per_row} trials per row, side by side"
     notes.insert(0, f"format: drop table ({what}; drop and rebound heights from columns {names})")
-    ignored = [c for c in table.cols if c.index not in values and c.name not in _INDEX_NAMES]
-    derived = [c.raw for c in ignored if _has_word(c.name, ("average", "mean", "avg"))]
-    if derived:
-        notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
-    other = [c.raw or f"column {c.index + 1}" for c in ignored
-             if not _has_word(c.name, ("average", "mean", "avg")) and _has_numbers(table, c)]
-    if other:
-        notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
-                     f"{'its name' if len(other) == 1 else 'their names'} (name a rebound 'h2', '2nd bounce', ...; "
-                     f"docs/measurements.md)")
-    line_numbers = row_lines(table)
-    H = values[found.drop.index]
-    runs, labels = [], []
-    for k, no in enumerate(line_numbers):
-        for j, trial in enumerate(trials):
-            bounces = [b for b in sorted(trial) if np.isfinite(values[trial[b].index][k])]
-            if not bounces or bounces[0] != 1:
-                if per_row > 1:
-                    continue   # a trial not made at this height (an empty cell)
-                fail(path, int(no), "a trial needs its drop height and its first rebound")
-            h = np.array([H[k]] + [values[trial[b].index][k] for b in bounces])
-            bad = np.flatnonzero(h <= 0)
-            if bad.size:
-                fail(path, int(no), f"height {h[bad[0]]:g} m is not positive")
-            runs.append(ApexHeights(bounce=np.array([0] + bounces), h_m=h, source=f"{path}:{int(no)}",
-                                    notes=(), lines=np.full(len(bounces) + 1, int(no)), resolution_m=resolution_m))
-            labels.append(f"row {k + 1} (line {int(no)})" + (f", '{trial[1].raw}'" if per_row > 1 else ""))
-    if not runs:
-        fail(path, int(line_numbers[-1]), "no trial with a drop height and a rebound")
-    notes.append(f"{len(runs)} trial(s), drop heights {np.min(H):.3g}-{np.max(H):.3g} m")
+    notes += _unread_notes(path, table, [c for c in table.cols if c.index not in values and c.name not in _INDEX_NAMES])
+    runs, labels, skipped = _runs_of_rows(path, table, found.drop, trials, values, resolution_m)
+    if skipped:
+        said = ", ".join(str(n) for n in skipped[:8]) + (", ..." if len(skipped) > 8 else "")
+        notes.append(f"line {said}: no first rebound (an empty cell): row skipped" if len(skipped) == 1 else
+                     f"lines {said}: no first rebound (empty cells): {len(skipped)} rows skipped")
+    drops_m = [float(run.h_m[0]) for run in runs]
+    lo, hi = f"{min(drops_m):.3g}", f"{max(drops_m):.3g}"
+    notes.append(f"{len(runs)} trial(s), " + (f"drop height {lo} m" if lo == hi else f"drop heights {lo}-{hi} m"))
     return Runs(runs=tuple(runs), source=path, notes=tuple(notes), labels=tuple(labels))
