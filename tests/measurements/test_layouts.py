@@ -615,6 +615,29 @@ def test_a_height_beside_a_bounce_number_or_a_time_keeps_its_layout(tmp_path, te
     assert detect_format(write(tmp_path, "k.csv", text)) == fmt
 
 
+@pytest.mark.parametrize("header", ["drop,bounce", "Drop,Bounce", "drop height,bounce", "H,bounce"])
+def test_a_bounce_beside_a_drop_height_is_the_rebound(tmp_path, header):
+    """'drop,bounce' (a real record's header): refused as 'cannot tell the layout' although it names a drop and
+    a bounce. An apex file has a height and no drop: beside a drop the bounce is the rebound."""
+    p = write(tmp_path, "d.csv", header + "\n1.0,0.64\n0.5,0.33\n")
+    assert detect_format(p) == "drops"
+    assert [tuple(r.h_m) for r in read_measurement(p).runs] == [pytest.approx((1.0, 0.64)),
+                                                               pytest.approx((0.5, 0.33))]
+
+
+def test_a_drop_table_in_an_unknown_unit_names_the_unit(tmp_path):
+    p = write(tmp_path, "b.csv", "drop (bricks),bounce (bricks)\n10,7.5\n5,3.5\n")
+    with pytest.raises(DataError, match=r"unknown length unit 'bricks' of column 'drop'"):
+        read_measurement(p)
+
+
+def test_an_apex_files_fractional_bounce_number_says_how_to_name_heights(tmp_path):
+    p = write(tmp_path, "hb.csv", "Height,Bounce\n1.0,0.64\n0.5,0.33\n")
+    with pytest.raises(DataError, match=r"bounce number 0.64 is not an integer \(if 'Bounce' holds rebound "
+                                        r"heights, write its unit, e.g. 'Bounce \(cm\)'"):
+        read_measurement(p)
+
+
 def test_a_bounce_column_in_a_length_unit_is_no_bounce_number_of_an_apex_file(tmp_path):
     p = write(tmp_path, "a.csv", "Height (cm),Bounce (cm)\n100,64\n50,32.5\n")
     with pytest.raises(DataError, match=r"a.csv:1: column 'Bounce' is in cm: a height, not a bounce number"):

@@ -239,14 +239,22 @@ def test_tracker_first_line_with_mass_value_and_empty_cells(tmp_path, flight):
     assert any("not marked" in n for n in data.notes)
 
 
-def test_tracker_multi_track_export_uses_first_track(tmp_path, flight):
+@pytest.mark.parametrize("names", ["\tmass A\t\tmass B\t", "\tmass A\tmass A\tmass B\tmass B"])
+def test_tracker_multi_track_export_uses_the_track_that_moves_most(tmp_path, flight, names):
+    """Tracks in either order: a calibration point or floor marker first ('mass B', still) used to be read as
+    the ball ('no fall or bounce in the trajectory'); the track whose y spans the most is the ball's, and the
+    note names it and the one left."""
     t, y = flight
-    lines = ["#multi:", "\tmass A\t\tmass B\t", "t\tx\ty\tx\ty"]
-    lines += [f"{a:.9E}\t0.1\t{b:.9E}\t0.5\t{2 * b:.9E}" for a, b in zip(t, y)]
-    p = write(tmp_path, "multi.txt", "\n".join(lines) + "\n")
-    data = read_measurement(p)
-    np.testing.assert_allclose(data.y_m, y, rtol=1e-8)
-    assert "multi-track" in data.notes[0]
+    for first_is_ball in (True, False):
+        lines = ["#multi:", names if first_is_ball else names.replace("A", "C").replace("B", "A").replace("C", "B"),
+                 "t\tx\ty\tx\ty"]
+        lines += [f"{a:.9E}\t0.1\t{b:.9E}\t0.5\t{0.3 + 1e-4 * np.sin(a):.9E}" if first_is_ball else
+                  f"{a:.9E}\t0.5\t{0.3 + 1e-4 * np.sin(a):.9E}\t0.1\t{b:.9E}" for a, b in zip(t, y)]
+        p = write(tmp_path, "multi.txt", "\n".join(lines) + "\n")
+        data = read_measurement(p)
+        np.testing.assert_allclose(data.y_m, y, rtol=1e-8)
+        assert data.notes[0].startswith("format: Tracker multi-track export; track 'mass A', whose y spans the most")
+        assert "not 'mass B'" in data.notes[0]
 
 
 def test_tracker_example_file():

@@ -712,6 +712,11 @@ class DropRuns:
         return float(np.max(np.abs(self.errors)))
 
     @property
+    def bounce_errors(self):
+        """Largest |achieved - target| of each bounce over phases, apex and velocity ratios, (n_bounces,)."""
+        return np.max(np.abs(self.errors), axis=(0, 1))
+
+    @property
     def median_error(self):
         """Median |achieved - target| over the same."""
         return float(np.median(np.abs(self.errors)))
@@ -831,6 +836,9 @@ class VerifyResult(RunsSummary):
     settings: dict = field(default_factory=dict)
     notes: tuple = ()
     g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
+    impact_speeds_m_per_s: tuple = ()
+    holds_down_to_m_per_s: float | None = None
+    drop_height_m: float | None = None
 
     @property
     def apex_ratios(self):
@@ -862,6 +870,46 @@ class VerifyResult(RunsSummary):
     def passed(self):
         return self.error <= self.tolerance and self.depth_ok
 
+    def failure(self):
+        """Why the drop test failed, in one line for the terminal ('' when it passed): the error or
+        the depth, and for an error at impacts slower than the export holds for, what to do."""
+        if self.error > self.tolerance:
+            return f"epsilon error {self.error:.4g} exceeds the tolerance {self.tolerance:g}" + self.slow_impacts()
+        if not self.depth_ok:
+            return (f"the ball turns {1e3 * self.depth_m:.3g} mm from the floor, more than --max-penetration "
+                    f"{1e3 * self.max_penetration_m:.3g} mm")
+        return ""
+
+    def slow_impacts(self):
+        """The failure's clause when its impacts are slower than the export was made for: below the
+        speed the file's contact is measured to hold down to (the header's 'holds down to', its
+        ``holds_down_to_m_per_s``), or, where that is not known, an error worst at the last, slowest
+        bounce that grew there: the first bounce within the tolerance, or the last off by twice as much
+        (an error about even over the bounces, e.g. a softened contact, is no matter of speed). It names
+        the fix: an export for these speeds, or a smaller step. '' otherwise (and for a file run at
+        another step than its own: that is the note's cause).
+
+        MuJoCo's damper is tuned to the exported speeds (its margin ``v dt/2``): a slower ball falls
+        into the margin and bounces off it higher; ODE's and Bullet's error bound ``g dt / (e v)``
+        grows as the impacts slow (:func:`vrcal.engines.export.step_bound`).
+        """
+        v = np.asarray(self.impact_speeds_m_per_s, dtype=float)
+        err = self.runs.bounce_errors
+        if v.size != err.size or v.size == 0 or any(n.startswith("run at --dt") for n in self.notes):
+            return ""
+        slow = f"this drop's impacts, {v[0]:.3g}..{v[-1]:.3g} m/s,"
+        holds = self.holds_down_to_m_per_s
+        if holds is not None and v[-1] < holds * (1 - 1e-6):
+            what = f"{slow} go below the {holds:.3g} m/s the export was measured to hold down to (its header)"
+        elif v.size > 1 and int(np.argmax(err)) == v.size - 1 and (err[0] <= self.tolerance or err[-1] >= 2 * err[0]):
+            what = (f"the error grows as the impacts slow (bounce 1 at {v[0]:.3g} m/s off by {err[0]:.3g}, bounce "
+                    f"{v.size} at {v[-1]:.3g} m/s by {err[-1]:.3g})")
+        else:
+            return ""
+        height = f"--drop-height {self.drop_height_m:.4g} or " if self.drop_height_m else ""
+        return (f"; {what}: export again for these speeds ({height}--impact-speed {round_down(v[-1]):g}:"
+                f"{_round_up(v[0])}), or at a smaller --dt")
+
     def as_dict(self):
         r = self.runs
         return {
@@ -878,4 +926,6 @@ class VerifyResult(RunsSummary):
             "penetration_m": self.penetration_m, "hover_m": self.hover_m,
             "max_penetration_m": self.max_penetration_m,
             "passed": self.passed, "settings": self.settings, "notes": list(self.notes),
+            "impact_speeds_m_per_s": [float(x) for x in self.impact_speeds_m_per_s],
+            "holds_down_to_m_per_s": self.holds_down_to_m_per_s,
         }

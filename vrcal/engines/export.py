@@ -205,6 +205,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if drop_height_m is not None:
         drop_height_m = check_drop_height(drop_height_m)
     doc = body.discovered
+    record = RecordDrops.of(doc) if doc and drop_height_m is None and impact_speed is None else None
     notes = []
     g = body.gravity_m_per_s2(g_m_per_s2)
     drag = exponent = release = offset = 0.0
@@ -259,6 +260,9 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         notes.append(f"impact speeds {lo:g}..{hi:g} m/s: drop from {H:.4g} m, {n} bounce(s)")
     elif drop_height_m is not None:
         H = drop_height_m
+    elif record is not None:
+        H = record.highest_m                        # the fastest impacts; bounces reach down to the slowest
+        release = record.release_time_s
     elif body.drop_height_m is not None:
         H = body.drop_height_m
     elif eng.name == "tables":
@@ -291,6 +295,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     )
     if impact_speed is not None:
         setup = _reach_lowest_speed(setup, lo, hi, n_bounces)
+    elif record is not None:
+        setup = record.cover(setup, n_bounces)
     if H is not None:
         _check_bounces_reachable(setup)
     return setup
@@ -346,32 +352,114 @@ def _refuse_tolerance_for_tables():
                      "where it bounds the one constant's error over the impacts")
 
 
-def _reach_lowest_speed(setup, lo, hi, n_bounces):
-    """The setup with as many bounces as reach down to ``lo`` [m/s] (``--bounces`` not given; each
-    must still rise :data:`RISE_M`), and its ``impact speeds`` note saying where the bounces end."""
-    def speeds(s):
-        return np.asarray(s.model.impact_speeds_m_per_s[0], dtype=float)
+def _speeds(setup):
+    """The impact speeds [m/s] of vrcal's model of the setup's drop, one per bounce."""
+    return np.asarray(setup.model.impact_speeds_m_per_s[0], dtype=float)
 
-    if n_bounces is None and lo < hi:
+
+def _bounces_down_to(setup, lo, n_bounces):
+    """The setup with as many bounces as reach down to ``lo`` [m/s] when ``--bounces`` (``n_bounces``)
+    was not given, each still rising :data:`RISE_M`, at most :data:`MAX_BOUNCES`; and why its last
+    impact stays above ``lo`` ('' when it reaches it)."""
+    if n_bounces is None:
         while float(setup.model.apex_heights_m[0][-1]) < RISE_M and setup.n_bounces > 1:
             setup = replace(setup, n_bounces=setup.n_bounces - 1)      # the guess went below what rises
-        while speeds(setup)[-1] > lo * (1 + 1e-9) and setup.n_bounces < MAX_BOUNCES:
+        while _speeds(setup)[-1] > lo * (1 + 1e-9) and setup.n_bounces < MAX_BOUNCES:
             more = replace(setup, n_bounces=setup.n_bounces + 1)
             if float(more.model.apex_heights_m[0][-1]) < RISE_M:
                 break
             setup = more
-    v = speeds(setup)
+    if _speeds(setup)[-1] <= lo * (1 + 1e-6):
+        return setup, ""
+    return setup, ("--bounces limits it" if n_bounces is not None else
+                   f"a slower bounce would rise less than {RISE_M * 1e3:g} mm" if setup.n_bounces < MAX_BOUNCES
+                   else f"at most {MAX_BOUNCES} bounces")
+
+
+def _reach_lowest_speed(setup, lo, hi, n_bounces):
+    """The setup with as many bounces as reach down to ``lo`` [m/s] (:func:`_bounces_down_to`), and
+    its ``impact speeds`` note saying where the bounces end."""
+    why = ""
+    if lo < hi:
+        setup, why = _bounces_down_to(setup, lo, n_bounces)
+    v = _speeds(setup)
     what = (f"impact speeds {lo:g}..{hi:g} m/s: drop from {setup.drop_height_m:.4g} m, {setup.n_bounces} "
             f"bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s" if lo < hi else
             f"impact speed {hi:g} m/s (one value: the first impact): drop from {setup.drop_height_m:.4g} m, "
             f"{setup.n_bounces} bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s")
-    if lo < hi and v[-1] > lo * (1 + 1e-6):
-        why = ("--bounces limits it" if n_bounces is not None else
-               f"a slower bounce would rise less than {RISE_M * 1e3:g} mm" if setup.n_bounces < MAX_BOUNCES else
-               f"at most {MAX_BOUNCES} bounces")
+    if why:
         what += f"; not down to {lo:g} m/s ({why})"
     notes = tuple(what if n.startswith("impact speeds ") else n for n in setup.notes)
     return replace(setup, notes=notes)
+
+
+#: How the note on a discover result of several drops starts (the MJCF header finds it by it; an XML
+#: comment may not hold two dashes, so it names no option).
+RECORD_NOTE = "the discover result's record:"
+
+
+@dataclass(frozen=True)
+class RecordDrops:
+    """The drops of a discover result fitted jointly (a drop table, several tracks): an export
+    covers them all, not the first row's alone.
+
+    A joint fit refers a speed-dependent epsilon to the highest drop's first impact
+    (:func:`vrcal.discovery.residuals.make_problem`); the export drops from that height, whatever
+    the rows' order, with as many bounces as reach down to the record's slowest impact.
+
+    Attributes
+    ----------
+    heights_m : tuple of float
+        every run's release height [m] (the ball's bottom)
+    highest_m : float
+        the highest of them [m]
+    release_time_s : float
+        the highest run's release time [s] (0 when the result gives none)
+    speeds_m_per_s : tuple of float or None
+        (slowest, fastest) impact speed of the record [m/s], as the result gives them
+    """
+
+    heights_m: tuple
+    highest_m: float
+    release_time_s: float = 0.0
+    speeds_m_per_s: tuple | None = None
+
+    @classmethod
+    def of(cls, doc):
+        """The drops of a discover result ``doc`` when it holds two or more runs with release heights, else None."""
+        runs = [r.get("release") for r in doc.get("runs") or () if isinstance(r, dict)]
+        runs = [r for r in runs if isinstance(r, dict) and _positive(r.get("drop_height_m"), MAX_DROP_HEIGHT_M)]
+        if len(runs) < 2:
+            return None
+        top = max(runs, key=lambda r: float(r["drop_height_m"]))
+        t0 = top.get("release_time_s", 0.0)
+        speeds = doc.get("impact_speed_range_m_per_s")
+        speeds = (tuple(sorted(float(v) for v in speeds)) if isinstance(speeds, (list, tuple)) and len(speeds) == 2
+                  and all(_positive(v, 1000.0) for v in speeds) else None)
+        return cls(tuple(float(r["drop_height_m"]) for r in runs), float(top["drop_height_m"]),
+                   float(t0) if isinstance(t0, (int, float)) and math.isfinite(t0) else 0.0, speeds)
+
+    def cover(self, setup, n_bounces):
+        """The setup (dropped from :attr:`highest_m`) with as many bounces as reach the record's slowest
+        impact (:func:`_bounces_down_to`), and a note saying what the drop covers."""
+        why = ""
+        if self.speeds_m_per_s is not None:
+            setup, why = _bounces_down_to(setup, self.speeds_m_per_s[0], n_bounces)
+        v = _speeds(setup)
+        what = (f"{RECORD_NOTE} {len(self.heights_m)} drops from {min(self.heights_m):.4g}..{self.highest_m:.4g} m"
+                + (f", impacts {self.speeds_m_per_s[1]:.3g}..{self.speeds_m_per_s[0]:.3g} m/s"
+                   if self.speeds_m_per_s else "")
+                + f"; exported from the highest: {setup.n_bounces} bounce(s) at {v[0]:.3g}..{v[-1]:.3g} m/s")
+        if why:        # no option named: the note goes into an MJCF header's comment
+            why = "as many bounces as asked" if n_bounces is not None else why
+            what += f", not down to {self.speeds_m_per_s[0]:.3g} m/s ({why})"
+        return replace(setup, notes=setup.notes + (what,))
+
+
+def _positive(value, most):
+    """Whether ``value`` is a finite number in (0, ``most``]."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) \
+        and 0 < value <= most
 
 
 def _check_bounces_reachable(setup):
@@ -461,12 +549,14 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"worst eps error "
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
-        summary = _lines(summary, _coverage_summary(setup, coverage))
+        summary = _lines(summary, module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
+                         _coverage_summary(setup, coverage))
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
         data = module.export_params(setup, setup.n_bounces, pair)
         if coverage:
             data["notes"].insert(1, coverage.note(setup.tolerance))
+            data["target"]["holds_down_to_m_per_s"] = coverage.holds_down_to_m_per_s
         data["how_chosen"] = list(setup.notes)
         if pair:
             data["pair"] = {k: v for k, v in pair.items() if k != "pairs"}       # the pairs are data["pairs"]
@@ -942,7 +1032,7 @@ class SpeedCoverage:
         line = (f"checked over impact speeds {self.fastest_m_per_s:.3g}..{self.slowest_m_per_s:.3g} m/s; "
                 f"holds down to {self.holds_down_to_m_per_s:.3g} m/s (single bounces, {N_PHASES} phases)")
         if self.miss and math.isfinite(self.miss[1]):
-            line += f" (at {self.miss[0]:.3g} m/s off by {self.miss[1]:.3g} > {tolerance:g})"
+            line += f" (at {self.miss[0]:.3g} m/s off by {_above(self.miss[1], tolerance)} > {tolerance:g})"
         elif self.miss:
             line += f" (at {self.miss[0]:.3g} m/s no bounce as the target's)"
         return line

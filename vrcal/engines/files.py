@@ -4,7 +4,7 @@
 * :func:`read_params` -- an ODE or PyBullet JSON export, every key the runner uses checked;
 * :func:`read_mjcf` -- an MJCF export, parsed by ``defusedxml`` first (a DTD, an entity -- a
   "billion laughs" bomb or an external entity -- is refused before anything is expanded, so
-  MuJoCo never sees such a file) and its time step, integrator, ball and ``vrcal_*`` numbers read.
+  MuJoCo never sees such a file) and its time step, integrator and ``vrcal_*`` numbers read.
 """
 
 from __future__ import annotations
@@ -163,15 +163,16 @@ def read_mjcf(text):
     Returns
     -------
     dict
-        ``timestep`` [s], ``integrator`` (lower case), ``radius_m``, ``mass_kg`` (None when the
-        geom gives none), ``ball`` (name) and ``target`` {name: number} from the ``vrcal_*``
-        custom numerics
+        ``timestep`` [s], ``integrator`` (lower case), ``ball`` (the ``vrcal_ball`` label, else
+        'ball') and ``target`` {name: number} from the ``vrcal_*`` custom numerics. The ball's and
+        the floor's geoms, its radius and mass are read from the compiled model
+        (:func:`vrcal.engines.mujoco.scene_of`), which resolves a user's defaults and classes.
 
     Raises
     ------
     DataError
         XML with a DTD or entities (refused unexpanded), malformed XML, not a MuJoCo model,
-        no ball geom, a non-numeric time step
+        a non-numeric time step
     """
     from defusedxml import DefusedXmlException
     from defusedxml import ElementTree as DET
@@ -195,18 +196,6 @@ def read_mjcf(text):
             out["timestep"] = _xml_number(option.get("timestep"), "<option timestep>", 0, 1)
         if option.get("integrator") is not None:
             out["integrator"] = option.get("integrator").strip().lower()
-    ball = None
-    for geom in root.iter("geom"):
-        if geom.get("name") == "ball":
-            ball = geom
-            break
-    if ball is None:
-        raise DataError("the MJCF file has no geom named 'ball' (vrcal's exports name the ball 'ball')")
-    size = (ball.get("size") or "").split()
-    if not size:
-        raise DataError("the MJCF ball geom has no size")
-    out["radius_m"] = _xml_number(size[0], "the ball's size", 0, 1e3)
-    out["mass_kg"] = _xml_number(ball.get("mass"), "the ball's mass", 0, 1e6) if ball.get("mass") else None
     target = {}
     for numeric in root.iter("numeric"):
         name = numeric.get("name") or ""

@@ -39,7 +39,6 @@ Where the tolerance or the penetration limit cannot be met at the asked step,
 from __future__ import annotations
 
 import math
-import re
 import textwrap
 from dataclasses import dataclass, replace
 
@@ -274,6 +273,74 @@ def contact_for(x, kind, dt_s, omega_per_s=0.0, margin_m=0.0):
     return Contact(IMPEDANCE * omega_per_s ** 2, 2.0 * zeta * omega_per_s, margin_m)
 
 
+def resting_height_m(margin_m, stiffness_per_s2, g_m_per_s2, impedance=IMPEDANCE):
+    """Height [m] of a resting ball's bottom above the floor in MuJoCo's contact.
+
+    At rest (v = 0, a = 0) the constrained acceleration ``d a_ref + (1 - d) a0`` with ``a_ref =
+    -(S / d^2) r`` and ``a0 = -g`` gives ``r = -(1 - d) d g / S``: the ball rests that far inside the
+    margin, ``margin - (1 - d) d g / S`` above the floor (a fraction of a micrometre for vrcal's
+    springs). The damper (S = 0) has no such level: the ball floats at the margin and sinks through
+    it at :func:`resting_sink_speed_m_per_s`.
+
+    Parameters
+    ----------
+    margin_m : float or ndarray
+        the contact's margin [m]
+    stiffness_per_s2 : float or ndarray
+        S of the direct-form solref [1/s^2] (0: the damper)
+    g_m_per_s2 : float or ndarray
+        gravity [m/s^2]
+    impedance : float
+        d of solimp
+
+    Returns
+    -------
+    float or ndarray
+        height above the floor [m] (negative: the ball rests in the floor)
+    """
+    S = np.asarray(stiffness_per_s2, dtype=float)
+    sink = (1.0 - impedance) * impedance * np.asarray(g_m_per_s2, dtype=float) / np.where(S > 0, S, 1.0)
+    out = np.asarray(margin_m, dtype=float) - np.where(S > 0, sink, 0.0)
+    return float(out) if out.ndim == 0 else out
+
+
+def resting_sink_speed_m_per_s(damping_per_s, stiffness_per_s2, g_m_per_s2, impedance=IMPEDANCE):
+    """Speed [m/s] at which a resting ball sinks through MuJoCo's damper contact: ``(1 - d) g / D``.
+
+    At a = 0 the constrained acceleration ``d (-(D / d) v) + (1 - d) (-g)`` gives ``v = -(1 - d) g / D``:
+    1e-4 of gravity leaks through the damper (about 1.2 um/s for D = 850 1/s at 2 ms). A spring
+    (S > 0) holds the ball at :func:`resting_height_m`: 0.
+
+    Parameters
+    ----------
+    damping_per_s : float or ndarray
+        D of the direct-form solref [1/s]
+    stiffness_per_s2, g_m_per_s2, impedance
+        S [1/s^2] (0: the damper), gravity [m/s^2] and d, as for :func:`resting_height_m`
+
+    Returns
+    -------
+    float or ndarray
+        sinking speed [m/s], >= 0
+    """
+    S = np.asarray(stiffness_per_s2, dtype=float)
+    out = np.where(S > 0, 0.0, (1.0 - impedance) * np.asarray(g_m_per_s2, dtype=float)
+                   / np.asarray(damping_per_s, dtype=float))
+    return float(out) if out.ndim == 0 else out
+
+
+def resting_note(contact, g_m_per_s2, smaller_step):
+    """What a resting ball does in ``contact``, for people (< 100 columns): '' where it rests on the
+    floor (within 10 um), else how high it floats, how fast it sinks, and that ``smaller_step`` (the
+    option's or the attribute's name) lowers it (the damper's margin is ``v dt / 2``)."""
+    height = resting_height_m(contact.margin_m, contact.stiffness, g_m_per_s2, contact.impedance)
+    if abs(height) < 1e-5:
+        return ""
+    sink = resting_sink_speed_m_per_s(contact.damping, contact.stiffness, g_m_per_s2, contact.impedance)
+    sinking = f" (sinks {sink * 1e6:.2g} um/s)" if sink > 0 else ""
+    return f"a resting ball floats {height * 1e3:.3g} mm above the floor{sinking}; a smaller {smaller_step} lowers it"
+
+
 def spring_omega(setup, penetration_m=None):
     """Angular frequency [rad/s] for which the fastest impact sinks about ``penetration_m`` (v / w)."""
     p = setup.penetration_limit_m if penetration_m is None else penetration_m
@@ -300,7 +367,7 @@ def integrator_name(setup):
     return INTEGRATORS[key]
 
 
-def model_xml(setup, contact, header=(), pairs=(), extra_bodies=()):
+def model_xml(setup, contact, header=(), pairs=(), extra_bodies=(), numbers=None):
     """A complete MJCF model: floor plane, the ball on a free joint, the contact pair(s).
 
     Parameters
@@ -314,6 +381,8 @@ def model_xml(setup, contact, header=(), pairs=(), extra_bodies=()):
         further contact pairs (``--against``)
     extra_bodies : sequence of str
         MJCF lines of further bodies
+    numbers : dict, optional
+        further ``vrcal_*`` numerics after the drop test's (e.g. ``holds_down_to_m_per_s``)
 
     Returns
     -------
@@ -353,7 +422,7 @@ def model_xml(setup, contact, header=(), pairs=(), extra_bodies=()):
         lines.append(f'          margin="{_fmt(c.margin_m)}" solref="{" ".join(_fmt(x) for x in c.solref)}" '
                      f'solimp="{" ".join(_fmt(x) for x in c.solimp)}"/>')
     lines += ["  </contact>", "  <custom>"]
-    for key, value in metadata(setup).items():
+    for key, value in {**metadata(setup), **(numbers or {})}.items():
         lines.append(f'    <numeric name="vrcal_{key}" data="{_fmt(value)}"/>')
     lines += [f'    <text name="vrcal_ball" data="{_xml_text(setup.ball)}"/>', "  </custom>", "</mujoco>", ""]
     return "\n".join(lines)
@@ -390,33 +459,165 @@ def load_model(mjcf):
         raise DataError(f"MuJoCo cannot load the model: {first}") from None
 
 
+#: How many of a model's geom names an error lists.
+LISTED_GEOMS = 12
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A compiled MuJoCo model and the geoms of its ball and floor (vrcal's exports name them
+    'ball' and 'floor'; a user's model names them its own way: :func:`scene_of`).
+
+    Attributes
+    ----------
+    model : mujoco.MjModel
+    ball_geom, floor_geom : str
+        the names of the ball's sphere geom (on a body with a free joint) and the floor's geom
+    """
+
+    model: object
+    ball_geom: str = "ball"
+    floor_geom: str = "floor"
+
+
+def as_scene(runnable):
+    """A :class:`Scene` of MJCF text, a compiled model (vrcal's geom names) or a Scene."""
+    if isinstance(runnable, Scene):
+        return runnable
+    return Scene(load_model(runnable) if isinstance(runnable, str) else runnable)
+
+
+def geom_names(model):
+    """The names of a compiled model's named geoms, in the model's order."""
+    names = (model.geom(i).name for i in range(model.ngeom))
+    return [n for n in names if n]
+
+
+def _listing(names):
+    """'a, b and c' of at most :data:`LISTED_GEOMS` geom names, for a message."""
+    if not names:
+        return "it has no named geom"
+    shown = names[:LISTED_GEOMS]
+    more = f" and {len(names) - len(shown)} more" if len(names) > len(shown) else ""
+    return "its geoms: " + ", ".join(shown) + more
+
+
+def _geom_type(model, gid):
+    """MuJoCo's name of a geom's type ('sphere', 'plane', ...)."""
+    return _mujoco().mjtGeom(int(model.geom_type[gid])).name.removeprefix("mjGEOM_").lower()
+
+
+def scene_of(model, ball_geom=None, floor_geom=None):
+    """The :class:`Scene` of a compiled model: its ball's and floor's geoms, checked.
+
+    The ball is ``ball_geom`` (``--ball-geom``), else the geom named 'ball' (vrcal's exports), else
+    the one sphere of the model's ``<pair>`` elements; the floor is ``floor_geom`` (``--floor-geom``), else the
+    other geom of the one pair that holds the ball, else the geom named 'floor'. The ball must be a
+    sphere on a body with a free joint (vrcal drops that body); the floor a plane or a box, facing up.
+
+    Raises
+    ------
+    DataError
+        one line naming the geoms the model has and the option that names the ball or the floor
+    """
+    mujoco = _mujoco()
+    names = geom_names(model)
+    pairs = [(int(model.pair_geom1[i]), int(model.pair_geom2[i])) for i in range(model.npair)]
+
+    def named(name, option):
+        if name not in names:
+            raise DataError(f"{option} {name}: the model has no geom of that name ({_listing(names)})")
+        return model.geom(name).id
+
+    if ball_geom is not None:
+        ball = named(ball_geom, "--ball-geom")
+    elif "ball" in names:
+        ball = model.geom("ball").id
+    else:
+        spheres = sorted({g for pair in pairs for g in pair if _geom_type(model, g) == "sphere"})
+        if len(spheres) != 1:
+            raise DataError(f"the model has no geom named 'ball' (vrcal's name) and {len(spheres)} sphere(s) in its "
+                            f"{len(pairs)} <pair> element(s), not one to take for the ball: name the ball's geom with "
+                            f"--ball-geom NAME ({_listing(names)})")
+        ball = spheres[0]
+    ball_name = model.geom(ball).name or f"geom {ball}"
+    if floor_geom is not None:
+        floor = named(floor_geom, "--floor-geom")
+    else:
+        others = {b if a == ball else a for a, b in pairs if ball in (a, b)}
+        if len(others) == 1:
+            floor = others.pop()
+        elif "floor" in names:
+            floor = model.geom("floor").id
+        else:
+            raise DataError(f"the model has no geom named 'floor' (vrcal's name) and {len(others)} <pair> element(s) "
+                            f"of the ball '{ball_name}', not one to take the floor from: name the floor's geom with "
+                            f"--floor-geom NAME ({_listing(names)})")
+    if floor == ball:
+        raise DataError(f"the ball and the floor are the same geom '{ball_name}': name the floor with --floor-geom")
+    if _geom_type(model, ball) != "sphere":
+        raise DataError(f"the ball geom '{ball_name}' is a {_geom_type(model, ball)}, not a sphere: vrcal drops a "
+                        f"ball (name its sphere geom with --ball-geom NAME)")
+    body = int(model.geom_bodyid[ball])
+    joint = int(model.body_jntadr[body])
+    if joint < 0 or int(model.jnt_type[joint]) != int(mujoco.mjtJoint.mjJNT_FREE):
+        raise DataError(f"the ball geom '{ball_name}' is on the body '{model.body(body).name}', which has no free "
+                        f"joint: vrcal drops the ball's body (give it <freejoint/>)")
+    floor_name = model.geom(floor).name or f"geom {floor}"
+    if _geom_type(model, floor) not in ("plane", "box"):
+        raise DataError(f"the floor geom '{floor_name}' is a {_geom_type(model, floor)}: vrcal drops the ball on a "
+                        f"plane or a box (name it with --floor-geom NAME)")
+    return Scene(model, model.geom(ball).name, model.geom(floor).name)
+
+
+def floor_top_m(model, data, floor_geom):
+    """Height [m] of the floor geom's top (a plane's surface, a box's top face) in ``data``'s state;
+    DataError for a floor that does not face up (+z)."""
+    gid = model.geom(floor_geom).id
+    axis = np.asarray(data.geom_xmat[gid]).reshape(3, 3)[:, 2]
+    if axis[2] < 1.0 - 1e-9:
+        raise DataError(f"the floor geom '{floor_geom}' is tilted (its normal {axis[0]:.3g} {axis[1]:.3g} "
+                        f"{axis[2]:.3g}): vrcal drops the ball on a floor facing up (+z)")
+    top = float(data.geom_xpos[gid][2])
+    return top + float(model.geom_size[gid][2]) if _geom_type(model, gid) == "box" else top
+
+
 def run_drops(model, drop_height_m, shifts_m, duration_s, radius_m, max_steps=MAX_STEPS):
     """Drop the ball of a compiled model from ``drop_height_m + shift`` for every shift.
 
-    Uses ``mujoco.rollout`` (all drops in one C loop), in chunks of :data:`CHUNK_STEPS`.
+    ``model`` is MJCF text, a compiled model (vrcal's geom names 'ball' and 'floor') or a
+    :class:`Scene`: the ball's body is moved so that the bottom of its sphere is ``drop_height_m +
+    shift`` above the floor's top (the sphere's offset in its body and the floor's height as the
+    model has them). Uses ``mujoco.rollout`` (all drops in one C loop), in chunks of
+    :data:`CHUNK_STEPS`.
 
     Returns
     -------
     z_m, v_m_per_s : ndarray
-        (n_shifts, n_steps + 1) bottom height and vertical velocity, sample 0 = release
+        (n_shifts, n_steps + 1) bottom height above the floor and vertical velocity, sample 0 = release
     dt_s, g_m_per_s2 : float
         as read from the model
     """
     mujoco = _mujoco()
     from mujoco import rollout
 
-    if isinstance(model, str):
-        model = load_model(model)
+    scene = as_scene(model)
+    model = scene.model
     data = mujoco.MjData(model)
     dt = float(model.opt.timestep)
     g = -float(model.opt.gravity[2])
-    joint = model.body("ball").jntadr[0]
+    joint = model.body(int(model.geom_bodyid[model.geom(scene.ball_geom).id])).jntadr[0]
     qadr, vadr = model.jnt_qposadr[joint], model.jnt_dofadr[joint]
+    mujoco.mj_resetData(model, data)
+    mujoco.mj_forward(model, data)
+    # the sphere's centre above the body's origin, and the floor's top: 0 and 0 in vrcal's own model
+    offset = float(data.geom_xpos[model.geom(scene.ball_geom).id][2]) - float(data.qpos[qadr + 2])
+    floor = floor_top_m(model, data, scene.floor_geom)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     states = []
     for shift in shifts_m:
         mujoco.mj_resetData(model, data)
-        data.qpos[qadr + 2] = drop_height_m + shift + radius_m
+        data.qpos[qadr + 2] = floor + drop_height_m + shift + radius_m - offset
         mujoco.mj_forward(model, data)
         st = np.empty(mujoco.mj_stateSize(model, spec))
         mujoco.mj_getState(model, data, st, spec)
@@ -435,7 +636,7 @@ def run_drops(model, drop_height_m, shifts_m, duration_s, radius_m, max_steps=MA
         vs.append(out[:, :, iv])
         state = out[:, -1, :]
         done += n
-    return np.concatenate(zs, axis=1) - radius_m, np.concatenate(vs, axis=1), dt, g
+    return np.concatenate(zs, axis=1) + (offset - floor - radius_m), np.concatenate(vs, axis=1), dt, g
 
 
 def _semi_implicit(model):
@@ -444,7 +645,8 @@ def _semi_implicit(model):
 
 
 def drop_test(mjcf, setup, n_bounces, n_phases, resize=True, at_least=None):
-    """Run a model (MJCF text or compiled) and measure it against vrcal's model: a :class:`DropRuns`.
+    """Run a model (MJCF text, compiled, or a :class:`Scene`) and measure it against vrcal's model: a
+    :class:`DropRuns`.
 
     ``resize``: run once more, longer, for a ball that bounced higher than the target
     (:func:`vrcal.engines.common.sized_run`); the calibration, which needs only the sign of the
@@ -452,7 +654,8 @@ def drop_test(mjcf, setup, n_bounces, n_phases, resize=True, at_least=None):
     (the calibration against a speed-dependent target, whose best constant bounces higher than
     the target's first, fast impact).
     """
-    model = load_model(mjcf) if isinstance(mjcf, str) else mjcf
+    scene = as_scene(mjcf)
+    model = scene.model
     setup = replace(setup, n_bounces=int(n_bounces))
     shifts = phase_shifts_m(setup, n_phases)
     stiff = [-float(s) for s in model.pair_solref[:, 0] if s < 0]
@@ -461,7 +664,7 @@ def drop_test(mjcf, setup, n_bounces, n_phases, resize=True, at_least=None):
 
     def run(ratio):
         duration = drop_window_s(setup, setup.drop_height_m + shifts[-1], ratio, at_least) + contacts
-        z, v, dt, g = run_drops(model, setup.drop_height_m, shifts, duration, setup.radius_m)
+        z, v, dt, g = run_drops(scene, setup.drop_height_m, shifts, duration, setup.radius_m)
         return drop_runs(setup, shifts, list(zip(z, v)), dt, g, int(n_bounces), _semi_implicit(model),
                          drag_atol(setup))
 
@@ -722,6 +925,7 @@ def header_lines(setup, cal):
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
         f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
     ]
+    lines += textwrap.wrap(resting_note(c, setup.g_m_per_s2, "dt"), 88)   # no two dashes in a comment
     if setup.restitution_exponent:
         lo, hi, least = epsilon_spread(setup)
         lines.append(f"eps(v) {lo:.4f}..{hi:.4f} over the drop: MuJoCo's contact is one "
@@ -771,9 +975,11 @@ def pair_contact(eps, setup):
 def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
     """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs; with a
     :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the calibration holds for)."""
+    from vrcal.engines.export import RECORD_NOTE
+
     header = header_lines(setup, cal)
-    if coverage is not None:
-        header[3:3] = textwrap.wrap(coverage.note(setup.tolerance), 88)
+    record = [w for n in setup.notes if n.startswith(RECORD_NOTE) for w in textwrap.wrap(n, 88)]
+    header[3:3] = record + (textwrap.wrap(coverage.note(setup.tolerance), 88) if coverage is not None else [])
     pairs, bodies = [], []
     if pair and second is not None:
         R, R2 = setup.radius_m, second.radius_m
@@ -787,10 +993,25 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
                  ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")
-    return model_xml(setup, cal.contact, header, pairs, bodies)
+    numbers = {"holds_down_to_m_per_s": coverage.holds_down_to_m_per_s} if coverage is not None else None
+    return model_xml(setup, cal.contact, header, pairs, bodies, numbers)
 
 
-def read_solref(mjcf):
-    """The ball/floor ``solref`` of an MJCF text, as written ('?' when absent)."""
-    m = re.search(r'<pair geom1="ball" geom2="floor"[^>]*solref="([^"]+)"', mjcf)
-    return m.group(1) if m else "?"
+def ball_of(scene):
+    """(radius [m], mass [kg]) of a :class:`Scene`'s ball as MuJoCo has it compiled: the sphere's
+    size and the mass its free joint carries (its body's, with any child bodies)."""
+    model = scene.model
+    gid = model.geom(scene.ball_geom).id
+    return float(model.geom_size[gid][0]), float(model.body_subtreemass[int(model.geom_bodyid[gid])])
+
+
+def contact_settings(scene):
+    """The ball/floor ``<pair>``'s solref and margin of a :class:`Scene`, for people: ``{name: text}``
+    (a model whose ball and floor meet through their geoms' own contact, no pair, says so)."""
+    model = scene.model
+    ids = {model.geom(scene.ball_geom).id, model.geom(scene.floor_geom).id}
+    for i in range(model.npair):
+        if {int(model.pair_geom1[i]), int(model.pair_geom2[i])} == ids:
+            return {"solref": " ".join(f"{float(x):.5g}" for x in model.pair_solref[i]),
+                    "margin": f"{1e3 * float(model.pair_margin[i]):.3g} mm"}
+    return {"contact": f"no <pair> of '{scene.ball_geom}' and '{scene.floor_geom}' (the geoms' own)"}

@@ -247,7 +247,7 @@ def _apex_in(t_s, y_m, start, end):
 
 def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, tolerance=DEFAULT_TOLERANCE,
            max_penetration_m=None, stiffness=None, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None,
-           floor_m=None, standards=None, exported_text=None, file_name=None):
+           floor_m=None, standards=None, exported_text=None, file_name=None, ball_geom=None, floor_geom=None):
     """Replay the record ``against`` in ``engine`` with the export of the discover result ``from_json``.
 
     Parameters
@@ -266,6 +266,9 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         a file written by ``vrcal export`` (``--file``) and its name: the **engine** curve runs
         this file (its ball, contact, drag and speed law; at ``dt_s`` when given) instead of a
         fresh export of ``from_json``, released at the discover result's release state
+    ball_geom, floor_geom : str, optional
+        MuJoCo, with ``exported_text``: the ball's and the floor's geoms of a user's model (as for
+        :func:`vrcal.engines.verify.verify`)
 
     Returns
     -------
@@ -273,9 +276,11 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     """
     from vrcal.drop.simulate import simulate_drops
     from vrcal.engines.export import export, parse_exported
+    from vrcal.engines.verify import _check_geom_options
     from vrcal.model.body import BallProperties, read_discover_json
 
     eng = get_engine(engine)
+    geoms = _check_geom_options(eng.name, exported_text, ball_geom, floor_geom)
     version = require_runtime(eng.name)
     doc = read_discover_json(from_json)
     data, notes = read_record(against, fmt=fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
@@ -314,7 +319,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         ex = export(None, eng.name, from_json=from_json, drop_height_m=float(model["drop_height_m"]), **common)
         engine_run = (ex.setup, parse_exported(eng.name, ex.text))
     else:
-        engine_run = _file_run(eng.name, exported_text, file_name, from_json, props, model, common, notes)
+        engine_run = _file_run(eng.name, exported_text, file_name, from_json, props, model, common, notes, geoms)
     base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
     eps0 = base.get("epsilon", doc.get("epsilon_baseline"))
     H0, t0 = base.get("drop_height_m"), base.get("release_time_s")
@@ -380,7 +385,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     return r
 
 
-def _file_run(engine, text, file_name, from_json, props, model, common, notes):
+def _file_run(engine, text, file_name, from_json, props, model, common, notes, geoms=None):
     """(DropSetup, what the engine runs) of the user's exported file, released as the record was.
 
     The file fixes the ball, the contact, the drag and the speed law; ``--dt`` runs it at another
@@ -394,7 +399,7 @@ def _file_run(engine, text, file_name, from_json, props, model, common, notes):
                    drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None,
                    integrator=common["integrator"], max_penetration_m=None, stiffness=common["stiffness"],
                    tolerance=None)
-    _loaded, runnable, setup = _load_file(engine, text, None, options)
+    _loaded, runnable, setup = _load_file(engine, text, None, options, geoms)
     H = float(model["drop_height_m"])
     pre = build_setup(None, engine, None, setup.dt_s, None, common["standards"], tolerance=common["tolerance"],
                       from_json=from_json, drop_height_m=H)

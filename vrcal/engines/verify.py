@@ -35,7 +35,8 @@ DEFAULT_PHASES = CONFIRM_PHASES
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
            tolerance=None, n_bounces=None, n_phases=DEFAULT_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
-           from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None, file_name=None):
+           from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None, file_name=None,
+           ball_geom=None, floor_geom=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
 
     Parameters
@@ -58,12 +59,17 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         integrator, stiffness, floor and impact speed are fixed by the file (UsageError)
     file_name : str, optional
         where ``exported_text`` was read from, named in the errors of a file that is no export
+    ball_geom, floor_geom : str, optional
+        MuJoCo, with ``exported_text``: the names of the ball's sphere geom and the floor's geom in
+        a model of the user's (``--ball-geom``, ``--floor-geom``); default: 'ball' and 'floor', or the
+        geoms of the model's one ``<pair>`` (:func:`vrcal.engines.mujoco.scene_of`)
 
     Returns
     -------
     VerifyResult
     """
     eng = get_engine(engine)
+    geoms = _check_geom_options(eng.name, exported_text, ball_geom, floor_geom)
     version = require_runtime(eng.name)
     asked = n_bounces
     n_bounces, n_phases = check_counts(N_BOUNCES if asked is None else asked, n_phases)
@@ -76,7 +82,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     if exported_text is not None:
         try:
             loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
-                                                 dict(options, stiffness=stiffness, tolerance=tolerance))
+                                                 dict(options, stiffness=stiffness, tolerance=tolerance), geoms)
         except DataError as exc:   # a file that is no export of this engine: say which file
             if file_name is None or str(exc).startswith(str(file_name)):
                 raise
@@ -113,8 +119,23 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
-        settings=_settings(eng.name, loaded, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
+        settings=_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
+        impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
+        holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
     )
+
+
+def _holds_down_to(engine, loaded):
+    """The slowest impact [m/s] an exported file's contact was measured to hold epsilon at (its
+    ``holds_down_to_m_per_s`` target number, :class:`vrcal.engines.export.SpeedCoverage`); None for
+    a file without it (a user's model, an older export, a speed-dependent epsilon)."""
+    if engine == "mujoco":
+        from vrcal.engines.files import read_mjcf
+
+        value = read_mjcf(loaded)["target"].get("holds_down_to_m_per_s")
+    else:
+        value = (loaded.get("target") or {}).get("holds_down_to_m_per_s")
+    return float(value) if isinstance(value, (int, float)) and value > 0 else None
 
 
 #: Options whose value an exported file fixes (option key, as typed): verify --file refuses them.
@@ -126,6 +147,16 @@ FIXED_BY_FILE = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diam
 APPLY_TO_FILE = "--dt, --g, --drop-height, --epsilon, --tolerance, --max-penetration, --bounces and --phases"
 
 
+def _check_geom_options(engine, exported_text, ball_geom, floor_geom):
+    """``{"ball_geom": .., "floor_geom": ..}`` of ``--ball-geom``/``--floor-geom``; a one-line UsageError
+    where they do not apply (they name geoms of an MJCF ``--file``)."""
+    given = [flag for flag, value in (("--ball-geom", ball_geom), ("--floor-geom", floor_geom)) if value is not None]
+    if given and (engine != "mujoco" or exported_text is None):
+        raise UsageError(f"{' and '.join(given)} name{'s a geom' if len(given) == 1 else ' geoms'} of a MuJoCo model: "
+                         "give --engine mujoco and --file MODEL.xml")
+    return {"ball_geom": ball_geom, "floor_geom": floor_geom}
+
+
 def _refuse_fixed(options, keys):
     """One-line UsageError naming every option of ``keys`` given with ``--file``, and what applies."""
     given = [flag for key, flag in FIXED_BY_FILE if key in keys and options.get(key) is not None]
@@ -135,14 +166,16 @@ def _refuse_fixed(options, keys):
                          f"{APPLY_TO_FILE} apply (export again for another body or contact)")
 
 
-def _load_file(engine, text, ball, options):
+def _load_file(engine, text, ball, options, geoms=None):
     """(the file as read, what the engine runs, DropSetup) of an exported file's text.
 
     The file fixes the body, the contact and the integrator (the options that would change them
     are refused in one line, :func:`_refuse_fixed`); ``--dt`` and ``--g`` run the file's model at
     another step or gravity (what a user does who pastes it into a model with another step),
     ``--drop-height`` drops it from another height, ``--epsilon`` judges it against another
-    target, and the notes say so.
+    target, and the notes say so. ``geoms`` (MuJoCo) names the ball's and the floor's geoms of a
+    user's model (:func:`vrcal.engines.mujoco.scene_of`); a model without vrcal's numbers takes its
+    body from the ball geom unless BALL, ``--mass``/``--diameter`` or ``--from`` give one.
     """
     from vrcal.engines.common import check_dt, check_epsilon
     from vrcal.engines.files import read_mjcf
@@ -152,7 +185,7 @@ def _load_file(engine, text, ball, options):
     if engine == "mujoco":
         info = read_mjcf(text)
         file_dt, integrator, target = info["timestep"], info["integrator"], info["target"]
-        radius, mass, name = info["radius_m"], info["mass_kg"], info["ball"]
+        name = info["ball"]
         loaded = text
     else:
         loaded = parse_exported(engine, text)
@@ -166,7 +199,11 @@ def _load_file(engine, text, ball, options):
     _refuse_fixed(options, [k for k, _ in FIXED_BY_FILE] if vrcal_file else ("integrator", "stiffness"))
     file_dt = check_dt(file_dt, "the file's time step")
     dt = file_dt if options["dt_s"] is None else check_dt(options["dt_s"])
-    runnable, file_g = _runnable(engine, loaded)
+    runnable, file_g = _runnable(engine, loaded, geoms)
+    if engine == "mujoco":
+        from vrcal.engines.mujoco import ball_of
+
+        radius, mass = ball_of(runnable)
     g = file_g if options["g_m_per_s2"] is None else float(options["g_m_per_s2"])
     notes = []
     if dt != file_dt:
@@ -182,10 +219,20 @@ def _load_file(engine, text, ball, options):
         opts.update(dt_s=dt, g_m_per_s2=g, integrator=integrator if engine == "mujoco" else None)
         if options.get("tolerance") is not None:
             opts["tolerance"] = options["tolerance"]
+        if engine == "mujoco":
+            body_given = ball is not None or any(options.get(k) is not None
+                                                 for k in ("mass_kg", "diameter_m", "from_json"))
+            if not body_given:
+                if options.get("epsilon") is None:
+                    raise UsageError("the file is a model of yours (no vrcal_* numbers of an export): give the "
+                                     "target --epsilon and --drop-height (or --impact-speed) to drop its ball with")
+                opts.update(mass_kg=mass, diameter_m=2.0 * radius)
+                notes.insert(0, f"ball: the geom '{runnable.ball_geom}' of the file ({1e3 * mass:.4g} g, D "
+                                f"{2e3 * radius:.4g} mm); floor: '{runnable.floor_geom}'")
         setup = build_setup(ball, engine, **opts)
+        if engine == "mujoco":
+            _check_ball_size(setup, radius, runnable.ball_geom)
         return loaded, runnable, replace(setup, notes=setup.notes + tuple(notes))
-    if mass is None:
-        raise DataError("the MJCF ball geom has no mass: give it one (a vrcal export has it)")
     if options["epsilon"] is not None:
         eps = check_epsilon(options["epsilon"], "--epsilon")
         notes.insert(0, f"target epsilon {eps:.4f} given with --epsilon (the file's: {target['epsilon']:.4f})")
@@ -235,17 +282,26 @@ def _refuse_other_engine(engine, text):
         raise DataError(f"--engine {engine}: the file is {other}")
 
 
-def _runnable(engine, loaded):
+def _check_ball_size(setup, radius_m, geom):
+    """UsageError (one line) when the body given for a model's ball is another size than its geom
+    (vrcal would place and model another ball than MuJoCo drops)."""
+    if not math.isclose(setup.radius_m, radius_m, rel_tol=1e-3):
+        raise UsageError(f"the model's ball geom '{geom}' has D {2e3 * radius_m:.4g} mm, the body given "
+                        f"{2e3 * setup.radius_m:.4g} mm: leave out BALL, --mass and --diameter to take the geom's")
+
+
+def _runnable(engine, loaded, geoms=None):
     """(what the engine runs, the downward gravity it sets [m/s^2]) of an exported file as read.
 
-    MuJoCo: the compiled model (compiled once: its gravity is read from it and its step and
-    gravity are set on it); ODE, PyBullet: a copy of the JSON.
+    MuJoCo: the compiled model with its ball's and floor's geoms (a
+    :class:`vrcal.engines.mujoco.Scene`, compiled once: its gravity is read from it and its step
+    and gravity are set on it); ODE, PyBullet: a copy of the JSON.
     """
     if engine == "mujoco":
-        from vrcal.engines.mujoco import load_model
+        from vrcal.engines.mujoco import load_model, scene_of
 
         model = load_model(loaded)
-        return model, -float(model.opt.gravity[2])
+        return scene_of(model, **(geoms or {})), -float(model.opt.gravity[2])
     import copy
 
     out = copy.deepcopy(loaded)
@@ -256,8 +312,8 @@ def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
     """Set the time step [s] and the downward gravity [m/s^2] of :func:`_runnable`'s model: MuJoCo's
     ``opt.timestep`` and ``opt.gravity``; the JSON's ``world.dt``/``fixedTimeStep`` and gravity."""
     if engine == "mujoco":
-        runnable.opt.timestep = dt_s
-        runnable.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
+        runnable.model.opt.timestep = dt_s
+        runnable.model.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
     elif engine == "ode":
         runnable["world"]["dt"] = dt_s
         runnable["world"]["gravity"] = [0.0, 0.0, -g_m_per_s2]
@@ -266,18 +322,12 @@ def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
         runnable["setGravity"] = [0.0, 0.0, -g_m_per_s2]
 
 
-def _settings(engine, loaded, setup):
+def _settings(engine, loaded, runnable, setup):
     """What the engine was given, for people: a short ``{name: text}``."""
     if engine == "mujoco":
-        import re
+        from vrcal.engines.mujoco import as_scene, contact_settings, integrator_name
 
-        from vrcal.engines.mujoco import integrator_name, read_solref
-
-        m = re.search(r'<pair geom1="ball" geom2="floor"[^>]*margin="([^"]+)"', loaded)
-        solref = " ".join(f"{float(x):.5g}" for x in read_solref(loaded).split()) if read_solref(loaded) != "?" \
-            else "?"
-        margin = f"{1e3 * float(m.group(1)):.3g} mm" if m else "0"
-        return {"integrator": integrator_name(setup), "solref": solref, "margin": margin}
+        return {"integrator": integrator_name(setup), **contact_settings(as_scene(runnable))}
     if engine == "ode":
         c, w = loaded["contact"], loaded["world"]
         out = {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"]}
@@ -308,9 +358,7 @@ def format_report(result):
     for line in [settings, *r.notes]:
         lines += textwrap.wrap(line, 100, initial_indent="  ", subsequent_indent="    ")
     rows = []
-    for k in range(runs.apex_ratios.shape[1]):
-        err = max(float(np.max(np.abs(runs.apex_ratios[:, k] - runs.target_apex_ratios[:, k]))),
-                  float(np.max(np.abs(runs.velocity_ratios[:, k] - runs.target_epsilons[:, k]))))
+    for k, err in enumerate(runs.bounce_errors):
         rows.append([str(k + 1), _range(runs.target_epsilons[:, k]), _range(runs.velocity_ratios[:, k]),
                      _range(runs.target_apex_ratios[:, k]), _range(runs.apex_ratios[:, k]), f"{err:.4f}"])
     text = "\n".join(lines) + "\n" + table(rows, ["bounce", "eps target", "v_out/v_in", "apex ratio target",

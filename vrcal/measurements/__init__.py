@@ -22,7 +22,7 @@ Formats (``FORMATS``; ``vrcal ... --format NAME``)
     names (``t``, ``x``, ``y``, ...), then numbers such as ``1.245986911E-1``, all
     joined by the chosen delimiter (tab, space, comma or semicolon; a decimal comma
     when Tracker runs in such a locale). A ``#multi:`` export (several tracks) uses
-    the first track's columns. Rows of frames that were not marked (empty ``y``)
+    the columns of the track whose ``y`` spans the most (the ball's). Rows of frames that were not marked (empty ``y``)
     are skipped.
 ``pixels-ref``
     a reference-length pixel file: line 1 ``LENGTH_M;LENGTH_PX`` (a reference length

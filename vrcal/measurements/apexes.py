@@ -57,7 +57,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         bounce = column_values(path, table, b_col, what="bounce number")
     nonint = np.flatnonzero(bounce != np.round(bounce))
     if nonint.size:
-        fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer")
+        fail(path, int(line_numbers[nonint[0]]), f"bounce number {bounce[nonint[0]]:g} is not an integer (if "
+                                                 f"'{b_col.raw}' holds rebound heights, write its unit, e.g. "
+                                                 f"'{b_col.raw} (cm)', or name the columns 'Drop height', "
+                                                 f"'Rebound height')")
     check_increasing(path, bounce, line_numbers, "bounce number")
     if np.any(bounce < 0):
         fail(path, int(line_numbers[0]), f"bounce number {bounce[0]:g} is negative (bounce 0 = drop height)")

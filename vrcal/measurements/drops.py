@@ -196,6 +196,8 @@ def _rebound_columns(drop, heights):
     rebound = find_column(rest, REBOUND_NAMES) or next((c for c in rest if c.raw == "h"), None) \
         or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.unit), None) \
         or next((c for c in rest if _has_word(c.name, REBOUND_WORDS) and c.name not in BOUNCE_NAMES), None)
+    if rebound is None and len(rest) == 1 and rest[0].name in BOUNCE_NAMES and drop.name != "height":
+        rebound = rest[0]   # 'drop, bounce': beside a drop height no bounce number (an apex file has no drop)
     if rebound is None:
         return None
     out = {1: rebound}
@@ -253,12 +255,21 @@ def _trials_or_rebounds(path, line, values, columns):
                      f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... or 'h1', 'h2', ...")
 
 
+def _beside_a_drop(cols, bounce):
+    """True when the only other column of heights beside ``bounce`` is named as a drop height (``drop,
+    bounce``, ``Drop height, Bounce``): the rebound of a drop table, not an apex file's bounce number (an apex
+    file has a height column and no drop)."""
+    other = [c for c in cols if c.index != bounce.index and _length_unit(c)]
+    return len(other) == 1 and (other[0].raw in ("H", "H0", "H 0") or find_column(other, DROP_NAMES) is not None
+                                or _has_word(other[0].name, DROP_WORDS))
+
+
 def detect(text):
     cols = header_columns(text)
     if not cols or find_column(cols, TIME_NAMES) is not None:
         return False
     number = find_column(cols, BOUNCE_NAMES)
-    if number is not None and not (number.unit and number.unit in LENGTH_UNITS):
+    if number is not None and not (number.unit and _length_unit(number)) and not _beside_a_drop(cols, number):
         return False   # a bounce-number column: an apex file
     cols = _inch_columns(cols)[0]
     return _height_columns(cols) is not None or _rebound_without_drop(cols) is not None

@@ -103,11 +103,13 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
 
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
-                           force_scale=None, empty_rows="frames not marked"):
+                           force_scale=None, empty_rows="frames not marked", y_column=None, x_column=None):
+    """A :class:`Trajectory` of a parsed table: its time (or frame) column and height column (the first of
+    :data:`Y_NAMES` unless ``y_column``, with ``x_column``, names the track's own)."""
     cols = table.cols
     t_col = find_column(cols, TIME_NAMES)
-    y_col = find_column(cols, Y_NAMES)
-    x_col = find_column(cols, X_NAMES)
+    y_col = y_column or find_column(cols, Y_NAMES)
+    x_col = x_column if y_column is not None else find_column(cols, X_NAMES)
     if y_col is None:
         fail(path, table.header_line, f"no height column 'y' (columns: {', '.join(c.name for c in cols)})")
     if not table.rows:

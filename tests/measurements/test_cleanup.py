@@ -1,0 +1,30 @@
+"""Tests of vrcal.measurements.cleanup: the noise a trajectory's samples show."""
+
+import numpy as np
+import pytest
+
+from vrcal.drop.simulate import sample_measurement, simulate_drops
+from vrcal.measurements.cleanup import third_difference_sigma
+from vrcal.model.body import BallProperties
+
+
+def test_third_difference_noise_of_a_30_fps_track_is_not_inflated_by_its_bounces():
+    """A phone's 30 frames/s: bounces every 10-15 frames spoil a quarter of the third differences, which
+    inflated the noise by 25-50 % (a newcomer's Tracker exports with 1.5 mm planted said 1.85-2.28 mm).
+    Cut in two passes at 4 sigma: the median over 20 records within 12 % of the truth (was +30 %)."""
+    tennis = BallProperties(0.058, 0.067, "tennis")
+    drops = simulate_drops(1.0, 0.8, 6, tennis, release_time_s=0.3)
+    measured = []
+    for seed in range(20):
+        cols = sample_measurement(drops, "trajectory", fs_hz=30.0, noise_m=1.5e-3, rng=seed)
+        measured.append(third_difference_sigma(cols["t"], cols["y"]))
+    assert np.median(measured) == pytest.approx(1.5e-3, rel=0.12)
+
+
+@pytest.mark.parametrize("sigma", [1e-4, 1e-3, 5e-3])
+def test_third_difference_noise_of_pure_noise_is_its_sigma(sigma):
+    """No bounce at all: the cut passes keep the noise's own differences (its scale unbiased)."""
+    rng = np.random.default_rng(4)
+    t = np.arange(4000) / 240.0
+    y = 1.0 - 0.5 * 9.81 * (t - 2) ** 2 * 0.01 + rng.normal(0.0, sigma, t.size)
+    assert third_difference_sigma(t, y) == pytest.approx(sigma, rel=0.05)
