@@ -658,6 +658,14 @@ def test_a_rebound_without_a_drop_height_column_says_so(tmp_path, monkeypatch, h
     assert result.exit_code == 1 and "--fs" not in result.output and "no drop-height column" in result.output
 
 
+def test_an_empty_trial_beside_others_is_named_in_a_note(tmp_path):
+    """Trials side by side with one cell empty: the trial was dropped without a word (a re-check probe)."""
+    p = write(tmp_path, "t.csv", "Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm)\n100,64,,63\n50,32,33,31\n")
+    data = read_measurement(p)
+    assert len(data.runs) == 5
+    assert "line 2 'Trial 2': empty, a trial not made (the row's other trials are fitted)" in data.notes
+
+
 def test_a_column_naming_different_balls_is_refused_with_their_names(tmp_path):
     """Tennis, golf and ping-pong rows were fitted as one ball, the 'Ball' column dropped silently."""
     p = write(tmp_path, "balls.csv", "Ball,Drop height (cm),Bounce height (cm)\nTennis,100,55\nGolf,100,70\n"
@@ -669,6 +677,10 @@ def test_a_column_naming_different_balls_is_refused_with_their_names(tmp_path):
     p = write(tmp_path, "floors.csv", "Surface;H (cm);h (cm)\nwood;100;55\ntiles;100;60\n")
     with pytest.raises(DataError, match=r"column 'Surface' names 2 different surfaces \(wood, tiles\)"):
         read_measurement(p)
+    # one ball written 'Tennis', 'tennis ', 'TENNIS' in a class's sheet is one ball (was refused as two)
+    p = write(tmp_path, "one.csv", "Ball,Drop height (cm),Bounce height (cm)\nTennis,100,55\ntennis ,100,56\n"
+                                   "TENNIS,50,28\n")
+    assert "column 'Ball' not read (text: 'Tennis' in every row that fills it)" in read_measurement(p).notes
 
 
 @pytest.mark.parametrize("column,cells,said", [

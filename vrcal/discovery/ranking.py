@@ -1219,7 +1219,8 @@ def _with_scatter(problem, current, sigma_floor):
         # "unexplained, 7.6 times the noise" at the assumed 0.2 ms and +- 0.0021 where six said
         # "explained" and +- 0.0065
         most = max(run.t_s.size for run in problem.runs)
-        notes.append(f"{most} impact times are too few to see the bounces' own scatter ({res.SCATTER_MIN_TIMES} "
+        times = f"{most} impact times" if len(problem.runs) == 1 else f"runs of at most {most} impact times"
+        notes.append(f"{times} are too few to see the bounces' own scatter ({res.SCATTER_MIN_TIMES} "
                      f"are needed), and real balls scatter by 0.3-7 % (median "
                      f"{100 * TYPICAL_BOUNCE_SCATTER:.2g} %): the ± of epsilon and the verdict allow "
                      f"{100 * TYPICAL_BOUNCE_SCATTER:.2g} %")

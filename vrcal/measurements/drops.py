@@ -350,8 +350,14 @@ def _unread_notes(path, table, ignored):
     ignored = [c for c in ignored if c.raw not in derived]
     cells = {c.index: _filled_cells(table, c) for c in ignored}
     # a column with a word in it: its distinct cells (numbers too), in their order
-    words = {i: list(dict.fromkeys(v)) if any(to_float(c, table.decimal_comma) is None for c in v) else []
+    # ('Tennis' and 'tennis ' are one ball: told apart by neither case nor blanks; the first spelling shown)
+    words = {i: list(dict.fromkeys(v, None)) if any(to_float(c, table.decimal_comma) is None for c in v) else []
              for i, v in cells.items()}
+    for i, v in words.items():
+        first = {}
+        for c in v:
+            first.setdefault(" ".join(c.split()).casefold(), c)
+        words[i] = list(first.values())
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
@@ -377,14 +383,15 @@ def _unread_notes(path, table, ignored):
 
 
 def _runs_of_rows(path, table, drop, trials, values, resolution_m):
-    """``(runs, labels, skipped)``: an :class:`ApexHeights` and its label per trial of each row of ``table``
+    """``(runs, labels, skipped, not_made)``: an :class:`ApexHeights` and its label per trial of each row of ``table``
     (``values``: {column index: heights [m], NaN where a cell is empty}), and the file's lines of the rows
     skipped for want of a first rebound (a trial not measured, or a class's sheet with its trial numbers written
-    ahead). An empty drop height beside a rebound is an error naming its line; no trial left is one too."""
+    ahead), and the empty cells of trials side by side (``"line 3 'Trial 2'"``: a trial not made). An empty drop
+    height beside a rebound is an error naming its line; no trial left is one too."""
     line_numbers = row_lines(table)
     H = values[drop.index]
     per_row = len(trials)
-    runs, labels, skipped = [], [], []
+    runs, labels, skipped, not_made = [], [], [], []
     for k, no in enumerate(line_numbers):
         made = [[b for b in sorted(trial) if np.isfinite(values[trial[b].index][k])] for trial in trials]
         if not any(bounces and bounces[0] == 1 for bounces in made):
@@ -394,6 +401,7 @@ def _runs_of_rows(path, table, drop, trials, values, resolution_m):
             fail(path, int(no), f"empty cell in column '{drop.raw}': a trial needs its drop height")
         for trial, bounces in zip(trials, made):
             if not bounces or bounces[0] != 1:
+                not_made.append(f"line {int(no)} '{trial[1].raw}'")
                 continue   # trials side by side: a trial not made at this height (an empty cell)
             h = np.array([H[k]] + [values[trial[b].index][k] for b in bounces])
             bad = np.flatnonzero(h <= 0)
@@ -404,7 +412,7 @@ def _runs_of_rows(path, table, drop, trials, values, resolution_m):
             labels.append(f"row {k + 1} (line {int(no)})" + (f", '{trial[1].raw}'" if per_row > 1 else ""))
     if not runs:
         fail(path, int(line_numbers[-1]), "no trial with a drop height and a rebound")
-    return runs, labels, skipped
+    return runs, labels, skipped, not_made
 
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
@@ -440,7 +448,11 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     what = "one trial per row" if per_row == 1 else f"{per_row} trials per row, side by side"
     notes.insert(0, f"format: drop table ({what}; drop and rebound heights from columns {names})")
     notes += _unread_notes(path, table, [c for c in table.cols if c.index not in values and c.name not in _INDEX_NAMES])
-    runs, labels, skipped = _runs_of_rows(path, table, found.drop, trials, values, resolution_m)
+    runs, labels, skipped, not_made = _runs_of_rows(path, table, found.drop, trials, values, resolution_m)
+    if not_made:
+        said = ", ".join(not_made[:6]) + (", ..." if len(not_made) > 6 else "")
+        notes.append(f"{said}: empty, a trial not made ({len(not_made)} in all; the row's other trials are fitted)"
+                     if len(not_made) > 1 else f"{said}: empty, a trial not made (the row's other trials are fitted)")
     if skipped:
         said = ", ".join(str(n) for n in skipped[:8]) + (", ..." if len(skipped) > 8 else "")
         notes.append(f"line {said}: no first rebound (an empty cell): row skipped" if len(skipped) == 1 else
