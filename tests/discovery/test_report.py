@@ -199,6 +199,17 @@ def test_one_epsilon_with_a_spheres_drag_over_all_runs_in_both_sections(tmp_path
     assert d.as_dict()["epsilon_with_sphere_drag"] == with_drag
 
 
+def test_the_answers_drag_alone_is_said_so_beside_the_engine_sections_drag_and_speed_law(tmp_path):
+    """Two drops from two heights: the answer gives epsilon with a sphere's drag, the engine section with the
+    drag and a viscoelastic speed law held (another number): the answer says 'drag alone' (a re-check probe
+    read two different 'with drag' values in one report)."""
+    d = discover(_table(tmp_path, [(100, 64), (50, 33)]), TENNIS)
+    assert set(d.systematic["held"]) == {"air_drag.drag_coefficient", "velocity_dependent_restitution.exponent"}
+    said = answer(d)
+    assert "With a sphere's air drag alone (C_d = 0.47) the same heights give epsilon" in " ".join(said.split())
+    assert "viscoelastic ball's speed-dependent epsilon (p 0.2)" in " ".join(" ".join(engine_advice(d)).split())
+
+
 def test_one_rows_epsilon_with_drag_is_eq9_corrected():
     """A single drop: the joint fit with the drag held is Eq. (9) corrected for that drag (``vrcal fit``'s note)."""
     from vrcal.inverse import drop_test_drag

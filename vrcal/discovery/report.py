@@ -180,8 +180,12 @@ def answer(discovery):
         if v == "unexplained":
             parts.append(f"Yet it leaves a gap of {after} ({_noise_text(d)}): it does not reproduce this record.")
         if d.kind == "apexes":
-            parts.append(f"With a sphere's air drag (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights give "
-                         f"epsilon = {d.epsilon_with_sphere_drag:.4f}.")
+            # 'alone' where the engine section's systematic line holds a speed law beside the drag: two numbers
+            # with drag, each saying what it holds
+            held = (d.systematic or {}).get("held", {})
+            alone = " alone" if len(held) > 1 and "air_drag.drag_coefficient" in held else ""
+            parts.append(f"With a sphere's air drag{alone} (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights "
+                         f"give epsilon = {d.epsilon_with_sphere_drag:.4f}.")
     else:
         if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
