@@ -143,6 +143,8 @@ def _more_data(d):
         return MORE_DATA[d.kind]
     rebounds = "one rebound" if max(run.h_m.size for run in d.runs) <= 2 else "rebounds"
     return MORE_DATA[("apexes", "one drop" if len(d.runs) == 1 else "drops", rebounds)]
+
+
 #: What a record holds, per data kind, as a phrase.
 RECORD_OF_KIND = {"trajectory": "this trajectory", "impacts": "these impact times", "apexes": "these apex heights"}
 

@@ -598,7 +598,7 @@ def expected_contact_time_s(mass_kg, diameter_m, surface="rigid"):
         own = float(solid_contact_time_s(mass_kg, diameter_m, moduli[1], TYPICAL_IMPACT_M_PER_S))
     else:
         own = float(inflated_contact_time_s(mass_kg, diameter_m))
-    return own if check_surface(surface) == "rigid" else float(on_floor_s(own, SOFT_FLOOR_CONTACT_TIME_S[1]))
+    return _on_surface(own, surface, SOFT_FLOOR_CONTACT_TIME_S[1])
 
 
 #: Gauge pressures [Pa] of inflated balls (a volleyball 30 kPa to a football 110 kPa), for
@@ -629,9 +629,7 @@ def contact_time_range_s(mass_kg, diameter_m, surface="rigid"):
                     for e in (moduli[2], moduli[0]))
     else:
         own = tuple(float(inflated_contact_time_s(mass_kg, diameter_m, p)) for p in GAUGE_PRESSURE_RANGE_PA[::-1])
-    if check_surface(surface) == "rigid":
-        return own
-    return tuple(float(on_floor_s(t, f)) for t, f in zip(own, SOFT_FLOOR_CONTACT_TIME_S[::2]))
+    return _on_surface(own, surface, SOFT_FLOOR_CONTACT_TIME_S[::2])
 
 
 def contact_time_limit_s(mass_kg, diameter_m, surface="rigid"):
@@ -655,7 +653,17 @@ def contact_time_limit_s(mass_kg, diameter_m, surface="rigid"):
         own = float(solid_contact_time_s(mass_kg, diameter_m, moduli[0], SLOW_IMPACT_M_PER_S))
     else:
         own = 2.0 * float(inflated_contact_time_s(mass_kg, diameter_m))
-    return own if check_surface(surface) == "rigid" else float(on_floor_s(own, SOFT_FLOOR_CONTACT_TIME_S[2]))
+    return _on_surface(own, surface, SOFT_FLOOR_CONTACT_TIME_S[2])
+
+
+def _on_surface(own_s, surface, floor_s):
+    """A ball's own contact time(s) ``own_s`` [s] (a float, or a tuple) on ``surface``: as they are on a rigid
+    floor, in series with the soft floor's ``floor_s`` (as many) on a soft one (:func:`on_floor_s`)."""
+    if check_surface(surface) == "rigid":
+        return own_s
+    if isinstance(own_s, tuple):
+        return tuple(float(on_floor_s(t, f)) for t, f in zip(own_s, floor_s))
+    return float(on_floor_s(own_s, floor_s))
 
 
 # --------------------------------------------------------------------------- the registry

@@ -146,9 +146,7 @@ class DropColumns(NamedTuple):
 def _height_columns(cols):
     """:class:`DropColumns` of a drop table, or None when the columns are not one."""
     heights = [c for c in cols if _length_unit(c)]
-    drop = next((c for c in heights if c.raw in ("H", "H0", "H 0")), None) or find_column(heights, DROP_NAMES) \
-        or next((c for c in heights if _has_word(c.name, DROP_WORDS) and not _has_word(c.name, REBOUND_WORDS)),
-                None)
+    drop = _drop_column(heights)
     if drop is not None:
         return _rebound_columns(drop, heights)
     # a class's 'Height (cm), Rebound height (cm)': the height beside the rebounds is the drop height
@@ -157,6 +155,14 @@ def _height_columns(cols):
     if found is None or not all(c.unit or _names_rebound(c) for c in _rebounds_of(found)):
         return None
     return found
+
+
+def _drop_column(heights):
+    """The column of ``heights`` named as the drop height (``H``, :data:`DROP_NAMES`, a word of
+    :data:`DROP_WORDS` and none of a rebound), or None."""
+    return next((c for c in heights if c.raw in ("H", "H0", "H 0")), None) or find_column(heights, DROP_NAMES) \
+        or next((c for c in heights if _has_word(c.name, DROP_WORDS) and not _has_word(c.name, REBOUND_WORDS)),
+                None)
 
 
 def _names_rebound(c):
@@ -260,8 +266,7 @@ def _beside_a_drop(cols, bounce):
     bounce``, ``Drop height, Bounce``): the rebound of a drop table, not an apex file's bounce number (an apex
     file has a height column and no drop)."""
     other = [c for c in cols if c.index != bounce.index and _length_unit(c)]
-    return len(other) == 1 and (other[0].raw in ("H", "H0", "H 0") or find_column(other, DROP_NAMES) is not None
-                                or _has_word(other[0].name, DROP_WORDS))
+    return len(other) == 1 and _drop_column(other) is not None
 
 
 def detect(text):
@@ -337,6 +342,15 @@ def _filled_cells(table, col):
     return [cells[col.index] for _, cells in table.rows if col.index < len(cells) and cells[col.index] != ""]
 
 
+def _distinct(cells):
+    """The distinct ``cells`` in their order, told apart by neither case nor blanks ('Tennis' and 'tennis ' are
+    one ball): the first spelling of each."""
+    first = {}
+    for c in cells:
+        first.setdefault(" ".join(c.split()).casefold(), c)
+    return list(first.values())
+
+
 def _unread_notes(path, table, ignored):
     """The notes on the columns of ``table`` a drop table does not read (``ignored``; not a trial number): an
     average, a column of numbers, a column of text. A text column whose rows differ is said with its values:
@@ -350,14 +364,8 @@ def _unread_notes(path, table, ignored):
     ignored = [c for c in ignored if c.raw not in derived]
     cells = {c.index: _filled_cells(table, c) for c in ignored}
     # a column with a word in it: its distinct cells (numbers too), in their order
-    # ('Tennis' and 'tennis ' are one ball: told apart by neither case nor blanks; the first spelling shown)
-    words = {i: list(dict.fromkeys(v, None)) if any(to_float(c, table.decimal_comma) is None for c in v) else []
+    words = {i: _distinct(v) if any(to_float(c, table.decimal_comma) is None for c in v) else []
              for i, v in cells.items()}
-    for i, v in words.items():
-        first = {}
-        for c in v:
-            first.setdefault(" ".join(c.split()).casefold(), c)
-        words[i] = list(first.values())
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
@@ -451,8 +459,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     runs, labels, skipped, not_made = _runs_of_rows(path, table, found.drop, trials, values, resolution_m)
     if not_made:
         said = ", ".join(not_made[:6]) + (", ..." if len(not_made) > 6 else "")
-        notes.append(f"{said}: empty, a trial not made ({len(not_made)} in all; the row's other trials are fitted)"
-                     if len(not_made) > 1 else f"{said}: empty, a trial not made (the row's other trials are fitted)")
+        count = f"{len(not_made)} in all; " if len(not_made) > 1 else ""
+        notes.append(f"{said}: empty, a trial not made ({count}the row's other trials are fitted)")
     if skipped:
         said = ", ".join(str(n) for n in skipped[:8]) + (", ..." if len(skipped) > 8 else "")
         notes.append(f"line {said}: no first rebound (an empty cell): row skipped" if len(skipped) == 1 else

@@ -21,7 +21,7 @@ import re
 import numpy as np
 
 from vrcal.errors import UsageError
-from vrcal.measurements.table import Column, Table, fail, strip_cell
+from vrcal.measurements.table import Column, Table, fail, sniff, split_cells
 from vrcal.measurements.trajectory import trajectory_from_table
 
 #: One track's columns in the header: X<k>, Y<k>, Flag<k>.
@@ -30,20 +30,10 @@ _BLOCK = re.compile(r"^\s*tracks\s+(\d+)\s+to\s+(\d+)\s*$", re.IGNORECASE)
 _SUMMARY = re.compile(r"^\s*track\s+length\b", re.IGNORECASE)
 
 
-def _separator(line):
-    return "\t" if "\t" in line else ";" if line.count(";") > line.count(",") else ","
-
-
-def _cells(line, sep):
-    return [strip_cell(c) for c in line.split(sep)]
-
-
 def _n_tracks(header):
     """Tracks the header names (its X<k>, Y<k>, Flag<k> triples after ``Frame``), or 0 when it is no MTrack2
     header."""
-    cells = [c.strip().lower() for c in _cells(header, _separator(header))]
-    while cells and not cells[-1]:
-        cells.pop()
+    cells = [c.lower() for c in split_cells(header, sniff(header, [])[0])]
     if len(cells) < 4 or cells[0] != "frame" or (len(cells) - 1) % 3:
         return 0
     n = (len(cells) - 1) // 3
@@ -57,14 +47,14 @@ def detect(text):
 
 def _words(line, sep):
     """The line's cells joined by single blanks (a CSV save splits 'Tracks 1 to 2' into cells)."""
-    return " ".join(c for c in _cells(line, sep) if c)
+    return " ".join(c for c in split_cells(line, sep) if c)
 
 
 def read_tracks(text):
     """``({track: (frames, x, y, flags, line numbers)}, summary line or None)`` of an MTrack2 export."""
     path = text.path
     header_no, header = text.lines[0]
-    sep = _separator(header)
+    sep = sniff(header, [])[0]
     per_block = _n_tracks(header)
     first = 1                     # the track in the first triple of the current block
     rows = {}
@@ -78,7 +68,7 @@ def read_tracks(text):
         if _SUMMARY.match(words):
             summary = no
             break
-        cells = _cells(line, sep)
+        cells = split_cells(line, sep)
         try:
             frame = int(float(cells[0]))
         except ValueError:
