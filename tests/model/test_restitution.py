@@ -1,6 +1,7 @@
 """Tests of vrcal.model.restitution: the paper's equations, scalar/array agreement, round trips."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -45,6 +46,13 @@ def test_eq7_eq10_known_values():
     # T = x/(2v) = 0.01/(2*0.1) = 0.05 s; epsilon = exp(-4*0.05) = exp(-0.2)
     assert eq.contact_time_single_s(0.01, 0.1) == pytest.approx(0.05, rel=1e-15)
     assert eq.epsilon_single(0.01, 0.1, 4.0) == pytest.approx(math.exp(-0.2), rel=1e-15)
+
+
+def test_eq10_contact_time_beyond_double_precision_is_inf_without_warning():
+    # 1 m / (2 * 5e-324 m/s) overflows: T = inf, without numpy's RuntimeWarning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert eq.contact_time_single_s(1.0, 5e-324) == math.inf
 
 
 def test_eq6_two_bodies_add_contact_times():

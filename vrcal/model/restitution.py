@@ -245,13 +245,14 @@ def contact_time_single_s(x_m, v_m_per_s):
     Returns
     -------
     T_s : float or ndarray
-        ``x / (2 v)`` [s]; 0 where x = 0.
+        ``x / (2 v)`` [s]; 0 where x = 0; ``inf`` where v is so small that the quotient leaves
+        double precision (v below about x·1e-308 m/s).
     """
     x = check_array("x_m", x_m, lo_open=False)
     v = check_array("v_m_per_s", v_m_per_s, where=x > 0, where_text="where x_m > 0")
     x, v = np.broadcast_arrays(x, v)
     needs_v = x > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         t = np.where(needs_v, x / (2.0 * np.where(needs_v, v, 1.0)), 0.0)
     return _out(t)
 
