@@ -528,7 +528,9 @@ def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGM
 
     The first interval ratio ``q_0 = dt_1 / dt_0`` is compared with the ratio the later bounces give
     for a flight as long as ``dt_0``: the robust straight line (Theil-Sen) through their ``ln q_i``
-    against the interval before each, ``dt_i`` (which grows with the impact speed), at ``dt_0``. Its
+    against the interval before each, ``dt_i`` (which grows with the impact speed), at ``dt_0`` (flat, their
+    median, with three of them: a line through three points passes through two and shows no scatter), and
+    never above a ratio of 1, which no floor gives. Its
     standard deviation there is ``sigma = sqrt(u_0^2 + s^2 (1 + l) + FIRST_RATIO_SPREAD^2)``: ``u_0``
     the ratio's timing uncertainty (``sqrt(2) timing_sigma_s sqrt(1/dt_0^2 + 1/dt_1^2)``), ``s`` the
     later ratios' own scatter about their line (1.4826 times the median absolute residual), ``l`` the
@@ -570,12 +572,12 @@ def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGM
     x, v = dt[:-1][judged], np.log(q[judged])
     if x.size < 3:
         return None
-    level, slope = _theil_sen(x, v, min_points=3)
+    level, slope = _theil_sen(x, v)   # flat through 3 ratios: a line through them leaves no scatter to see
     s = 1.4826 * float(np.median(np.abs(v - level - slope * x)))
     spread = float(np.sum((x - x.mean()) ** 2))
     line = 1.0 / x.size + ((dt[0] - x.mean()) ** 2 / spread if spread > 0 else 0.0)
     sigma = math.sqrt(u[0] ** 2 + s ** 2 * (1.0 + line) + FIRST_RATIO_SPREAD ** 2)
-    expected = level + slope * dt[0]
+    expected = min(level + slope * dt[0], 0.0)   # no ratio above 1 on a floor, however the line runs
     dev = math.log(q[0]) - expected
     if not (math.isfinite(dev) and math.isfinite(sigma)):
         return None
