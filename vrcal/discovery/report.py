@@ -69,6 +69,14 @@ def pm(value, unc, unit=""):
     return f"{v:.{digits}f} ± {u:.{digits}f}{tail}"
 
 
+def _law_values(d, speeds):
+    """A speed law's ε at these speeds [m/s] as the report lists them: each with its ± (:meth:`Discovery.
+    epsilon_at_uncertainty`, :func:`pm`). Four bare decimals for a trajectory the law does not reproduce put
+    "0.8504 at 0.99 m/s" beside a ± of 0.02 (the truth 0.820)."""
+    eps, unc = d.epsilon_at(speeds), d.epsilon_at_uncertainty(speeds)
+    return [f"{pm(e, u)} at {v:.2f} m/s" for v, e, u in zip(speeds, eps, unc)]
+
+
 def _limits_text(lo, hi, unit):
     factor, shown = _si_scale(unit)
     tail = f" {shown}" if shown else ""
@@ -264,9 +272,8 @@ def engine_advice(discovery):
         return out
     if "velocity_dependent_restitution" in d.effects:
         lo, hi = d.speed_range()
-        e_lo, e_hi = d.epsilon_at([lo, hi])
-        out.append(f"epsilon depends on the impact speed: {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s "
-                   f"(the speeds of this record);")
+        fast, slow = _law_values(d, [hi, lo])
+        out.append(f"epsilon depends on the impact speed: {fast}, {slow} (the speeds of this record);")
         out.append("choose the value at the impact speeds of your simulation.")
     else:
         out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution" + (f"; {widened})" if widened else ")"))
@@ -315,8 +322,15 @@ def _systematic_lines(d, sigma):
             "velocity_dependent_restitution.exponent":
                 lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
     held = " and ".join(what[k](v) for k, v in sys_["held"].items())
-    at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects
-          or "velocity_dependent_restitution.exponent" in sys_["held"] else "")
+    value, at = d.epsilon + shift, ""
+    fastest = sys_.get("fastest_impact")
+    if fastest is not None:
+        # a speed law: at the fastest impact the held model makes (a drag held slows the ball: not at the
+        # law's pivot, which it never reaches), and the shift from the final model's at its fastest impact
+        # (the same bounce)
+        value, at = fastest["epsilon"], f" at {fastest['speed_m_per_s']:.2f} m/s"
+        band = [b + value - d.epsilon - shift for b in band]
+        shift = value - d.fastest_impact()[0]
     tail = "a systematic uncertainty beside the ± above"
     if "air_drag.drag_coefficient" in sys_["held"] and abs(shift) > max(0.01, 3 * (sigma or 0.0)):
         # not a small correction: two answers, one for each kind of engine
@@ -326,7 +340,7 @@ def _systematic_lines(d, sigma):
     dec = max(4, 1 - math.floor(math.log10(largest)))
     over = (f" ({d.epsilon + band[0]:.{dec}f} to {d.epsilon + band[1]:.{dec}f} over that range)"
             if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
-    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.{dec}f}{at}, "
+    return [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
             f"{shift:+.{dec}f}{over}; {tail})"]
 
 
@@ -379,8 +393,7 @@ def _speed_lines(d):
     lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
     if "velocity_dependent_restitution" in d.effects:
         speeds = np.linspace(lo, hi, 4)
-        eps = d.epsilon_at(speeds)
-        lines.append("  epsilon(v): " + ", ".join(f"{e:.4f} at {v:.2f} m/s" for v, e in zip(speeds, eps)))
+        lines.append(_wrap("epsilon(v): " + ", ".join(_law_values(d, speeds)), "  "))
     if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")
