@@ -181,7 +181,8 @@ def answer(discovery):
                          f"apart).")
             if d.split is not None:
                 parts.append(f"Most probable is {_effects_phrase(list(d.split.effects))} together, shared as "
-                             f"their prior densities say (its epsilon is in the advice for an engine below).")
+                             f"their prior densities say: its epsilon, in the advice for an engine below, is the one to "
+                             f"use.")
     elif not d.rounds:
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
@@ -270,13 +271,25 @@ def engine_advice(discovery):
             out.append("The baseline does not reproduce the record to its noise (see above); this is the constant "
                        "that comes closest.")
         return out
+    # the value to use first: the most probable sharing when rivals cannot be told apart (d.split), with each
+    # explanation alone listed after it as a rival; else the named model's
+    split = d.split is not None
+    if split:
+        out.append(_split_advice(d))
+        out.append("Rivals, each one explanation alone (the data cannot tell them apart):")
+    lead = "- " if split else ""
+    alone = f"with {_effects_phrase(d.effects)} alone ({', '.join(p for n in d.effects for p in _param_values(d, n))}): "
     if "velocity_dependent_restitution" in d.effects:
         lo, hi = d.speed_range()
         fast, slow = _law_values(d, [hi, lo])
-        out.append(f"epsilon depends on the impact speed: {fast}, {slow} (the speeds of this record);")
-        out.append("choose the value at the impact speeds of your simulation.")
+        out.append(f"{lead}{alone if split else ''}epsilon depends on the impact speed: {fast}, {slow} (the speeds "
+                   f"of this record){'.' if split else ';'}")
+        if not split:
+            out.append("choose the value at the impact speeds of your simulation.")
     else:
-        out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution" + (f"; {widened})" if widened else ")"))
+        own = "" if split else "the contact's own restitution"
+        why = "; ".join(w for w in (own, widened) if w)
+        out.append(f"{lead}{alone if split else ''}epsilon = {pm(eps, u)}" + (f"  ({why})" if why else ""))
     out.extend(by_bounces)
     out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
@@ -284,15 +297,24 @@ def engine_advice(discovery):
             lo, hi = alt["epsilon"]
             span = f"= {lo:.4f}" if abs(hi - lo) < 5e-5 else f"{lo:.4f} to {hi:.4f} over the bounces"
             params = ", ".join(f"{PHRASES[rival][1]} = {pm(alt['parameters'][p.name], None, p.unit)}"
+                               + (" (at its physical limit)" if p.name in alt.get("at_limit", ()) else "")
                                for p in EFFECTS[rival].parameters)
-            out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the data "
-                       f"cannot tell them apart): epsilon {span}.")
-    if d.split is not None:
-        out.append(_split_advice(d))
-    if "air_drag" in (d.split if d.split is not None else f).effects:
+            if split:
+                out.append(f"- with {_effects_phrase([rival])} alone ({params}): epsilon {span}.")
+            else:
+                out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the "
+                           f"data cannot tell them apart): epsilon {span}.")
+    if split and "air_drag" in d.split.effects:
+        cd = d.split.effect_values["air_drag"]["drag_coefficient"]
+        out.append(f"Use the most probable value in an engine that also applies its air drag (C_d {cd:.2f}, a force "
+                   f"-k v|v|);")
+    elif "air_drag" in f.effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
-        out.append(f"an engine without drag reproduces the bounce heights better with the baseline's effective "
-                   f"epsilon = {d.epsilon_baseline:.4f}.")
+    if "air_drag" in (d.split if split else f).effects:
+        eff, kept = d.effective_without_drag
+        whose = (f"the effective epsilon = {eff:.4f} (a constant fitted without drag, with "
+                 f"{_effects_phrase(kept)} as named)" if kept else f"the baseline's effective epsilon = {eff:.4f}")
+        out.append(f"an engine without drag reproduces the bounce heights better with {whose}.")
     elif d.split is None and ("height_offset" in d.effects or "contact_duration" in d.effects):
         out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
                    f"{eps:.4f}.")
@@ -352,15 +374,17 @@ def _split_advice(d):
     shown = [e for e in f.effects if e not in d.nuisance]
     params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
                        for e in shown for p in EFFECTS[e].parameters)
+    # its +- widened as the named model's is (the bounces' scatter, a misfit)
+    u_fit = d.final.uncertainty("epsilon")
+    u = f.uncertainty("epsilon") * max(d.epsilon_uncertainty / u_fit, 1.0) if u_fit > 0 else f.uncertainty("epsilon")
     if "velocity_dependent_restitution" in f.effects:
         lo, hi = d.speed_range(f)     # the split's own speeds: its drag may differ from the named model's
         e_lo, e_hi = d.epsilon_at([lo, hi], fit=f)
-        eps = f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s"
+        eps = f"epsilon depends on the impact speed: {pm(e_hi, u)} at {hi:.2f} m/s, {pm(e_lo, u)} at {lo:.2f} m/s"
     else:
-        eps = f"epsilon = {f.value('epsilon'):.4f}"
-    return (f"Most probable: {_effects_phrase(shown)} together, shared as their prior densities say "
-            f"(the data fix only what they do together; {params}): {eps}. Use this; each value above is one "
-            f"explanation alone.")
+        eps = f"epsilon = {pm(f.value('epsilon'), u)}"
+    return (f"{eps}: the most probable value, with {_effects_phrase(shown)} together, shared as their prior "
+            f"densities say (the data fix only what they do together; {params}). Use this.")
 
 
 def _named_table(d):
