@@ -181,8 +181,8 @@ def answer(discovery):
                          f"apart).")
             if d.split is not None:
                 parts.append(f"Most probable is {_effects_phrase(list(d.split.effects))} together, shared as "
-                             f"their prior densities say: its epsilon, in the advice for an engine below, is the one to "
-                             f"use.")
+                             f"their prior densities say: its epsilon, in the advice for an engine below, is the "
+                             f"one to use.")
     elif not d.rounds:
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
@@ -278,7 +278,8 @@ def engine_advice(discovery):
         out.append(_split_advice(d))
         out.append("Rivals, each one explanation alone (the data cannot tell them apart):")
     lead = "- " if split else ""
-    alone = f"with {_effects_phrase(d.effects)} alone ({', '.join(p for n in d.effects for p in _param_values(d, n))}): "
+    named = ", ".join(p for n in d.effects for p in _param_values(d, n))
+    alone = f"with {_effects_phrase(d.effects)} alone ({named}): "
     if "velocity_dependent_restitution" in d.effects:
         lo, hi = d.speed_range()
         fast, slow = _law_values(d, [hi, lo])
