@@ -292,7 +292,8 @@ def engine_advice(discovery):
         why = "; ".join(w for w in (own, widened) if w)
         out.append(f"{lead}{alone if split else ''}epsilon = {pm(eps, u)}" + (f"  ({why})" if why else ""))
     out.extend(by_bounces)
-    out.extend(_systematic_lines(d, u))
+    if not split:   # the most probable sharing holds the rivals at their priors already
+        out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():
             lo, hi = alt["epsilon"]
@@ -492,8 +493,10 @@ def details_lines(d):
                   f"{_fmt_gap(b.judged_gap, unit)}, chi2 = {b.rss / sigma**2:.1f} at sigma = {_fmt_gap(sigma, unit)}, "
                   f"AIC = {b.aic:.1f}, BIC = {b.bic:.1f} (n = {b.n}, k = {b.k}).", "  "),
            _wrap(f"A candidate is material when dBIC >= {th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test), "
-                 f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}, or by "
-                 f"{th.removed_noise_fraction:g} noise sigma); of the material ones the highest evidence Z "
+                 f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}; or the gap "
+                 f"removed, sqrt(before^2 - after^2), is at least sqrt(({th.removed_noise_fraction:g} sigma)^2 + "
+                 f"(1 - {th.gap_factor:g}^2) m^2), m = sqrt(before^2 - sigma^2) the misfit beyond the noise); of "
+                 f"the material ones the highest evidence Z "
                  f"(Laplace, the registry's prior densities) is named. d2lnZ = 2 ln(Z_best / Z) in its round.", "  "),
            _wrap("Short names: " + ", ".join(f"{v} = {k}" for k, v in SHORT.items() if v != k) + ".", "  ")]
     best = {}
