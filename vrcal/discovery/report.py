@@ -453,7 +453,8 @@ def fit_report(discovery, details=False):
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {mass(float(ball.mass_kg))}, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
-    lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
+    lines += ["", "epsilon for an engine"] + [_wrap(s, "    ", "  ") if s.startswith("- ") else _wrap(s, "  ")
+                                              for s in engine_advice(d)]
     if d.effects:
         lines += ["", "Named effects", _named_table(d).rstrip("\n")]
     if runs > 1 or "velocity_dependent_restitution" in d.effects or d.ambiguous:
