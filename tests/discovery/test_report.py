@@ -1,5 +1,7 @@
 """vrcal.discovery.report: the sectioned text report and the figure of a discovery."""
 
+import re
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -123,16 +125,21 @@ def test_ambiguity_is_reported():
 
 def test_the_advice_leads_to_the_prior_split_when_rivals_are_ambiguous():
     """Seed 2 of impacts with drag and a speed law: a speed law is named, drag is ambiguous; the
-    advice gives each alone and then both shared by their priors, with the drag the engine needs."""
+    advice leads with both shared by their priors, with the drag the engine needs, and lists each alone
+    after it as a rival (a reader top-down took the named model's epsilon, above a 'Use this' further
+    down)."""
     d, _ = case("impacts", ("air_drag", "velocity_dependent_restitution"), seed=2)
     assert d.split is not None
-    advice = " ".join(" ".join(engine_advice(d)).split())
+    lines = engine_advice(d)
+    advice = " ".join(" ".join(lines).split())
     lo, hi = d.speed_range(d.split)      # its own speeds: its drag differs from the named model's
     e_lo, e_hi = d.epsilon_at([lo, hi], fit=d.split)
-    assert "Most probable: a speed-dependent epsilon and air drag together" in advice
-    assert f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s" in advice
+    assert "the most probable value, with a speed-dependent epsilon and air drag together" in lines[0]
+    found = [float(v) for v in re.findall(r"(0\.\d+) ± [\d.]+ at [\d.]+ m/s", lines[0])]
+    assert found == pytest.approx([e_hi, e_lo], abs=1e-3)
+    assert lines[1].startswith("Rivals, each one explanation alone") and lines[2].startswith("- with a speed")
     cd = d.split.effect_values["air_drag"]["drag_coefficient"]
-    assert f"C_d = {pm(cd, None)}" in advice and "also applies the air drag found here" in advice
+    assert f"C_d = {pm(cd, None)}" in advice and f"also applies its air drag (C_d {cd:.2f}" in advice
     assert "Most probable is a speed-dependent epsilon and air drag together" in " ".join(answer(d).split())
     clean, _ = case("impacts", ())
     assert clean.split is None and "Most probable" not in " ".join(engine_advice(clean)) + answer(clean)

@@ -69,6 +69,14 @@ def pm(value, unc, unit=""):
     return f"{v:.{digits}f} ± {u:.{digits}f}{tail}"
 
 
+def _law_values(d, speeds):
+    """A speed law's ε at these speeds [m/s] as the report lists them: each with its ± (:meth:`Discovery.
+    epsilon_at_uncertainty`, :func:`pm`). Four bare decimals for a trajectory the law does not reproduce put
+    "0.8504 at 0.99 m/s" beside a ± of 0.02 (the truth 0.820)."""
+    eps, unc = d.epsilon_at(speeds), d.epsilon_at_uncertainty(speeds)
+    return [f"{pm(e, u)} at {v:.2f} m/s" for v, e, u in zip(speeds, eps, unc)]
+
+
 def _limits_text(lo, hi, unit):
     factor, shown = _si_scale(unit)
     tail = f" {shown}" if shown else ""
@@ -173,7 +181,8 @@ def answer(discovery):
                          f"apart).")
             if d.split is not None:
                 parts.append(f"Most probable is {_effects_phrase(list(d.split.effects))} together, shared as "
-                             f"their prior densities say (its epsilon is in the advice for an engine below).")
+                             f"their prior densities say: its epsilon, in the advice for an engine below, is the "
+                             f"one to use.")
     elif not d.rounds:
         n, k = d.final.n, d.final.k
         parts.append(f"{n} data and {k} parameters: the paper's constant-epsilon model gives epsilon = "
@@ -262,30 +271,52 @@ def engine_advice(discovery):
             out.append("The baseline does not reproduce the record to its noise (see above); this is the constant "
                        "that comes closest.")
         return out
+    # the value to use first: the most probable sharing when rivals cannot be told apart (d.split), with each
+    # explanation alone listed after it as a rival; else the named model's
+    split = d.split is not None
+    if split:
+        out.append(_split_advice(d))
+        out.append("Rivals, each one explanation alone (the data cannot tell them apart):")
+    lead = "- " if split else ""
+    named = ", ".join(p for n in d.effects for p in _param_values(d, n))
+    alone = f"with {_effects_phrase(d.effects)} alone ({named}): "
     if "velocity_dependent_restitution" in d.effects:
         lo, hi = d.speed_range()
-        e_lo, e_hi = d.epsilon_at([lo, hi])
-        out.append(f"epsilon depends on the impact speed: {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s "
-                   f"(the speeds of this record);")
-        out.append("choose the value at the impact speeds of your simulation.")
+        fast, slow = _law_values(d, [hi, lo])
+        out.append(f"{lead}{alone if split else ''}epsilon depends on the impact speed: {fast}, {slow} (the speeds "
+                   f"of this record){'.' if split else ';'}")
+        if not split:
+            out.append("choose the value at the impact speeds of your simulation.")
     else:
-        out.append(f"epsilon = {pm(eps, u)}  (the contact's own restitution" + (f"; {widened})" if widened else ")"))
+        own = "" if split else "the contact's own restitution"
+        why = "; ".join(w for w in (own, widened) if w)
+        out.append(f"{lead}{alone if split else ''}epsilon = {pm(eps, u)}" + (f"  ({why})" if why else ""))
     out.extend(by_bounces)
-    out.extend(_systematic_lines(d, u))
+    if not split:   # the most probable sharing holds the rivals at their priors already
+        out.extend(_systematic_lines(d, u))
     for name, rivals in d.ambiguous_epsilon.items():
         for rival, alt in rivals.items():
             lo, hi = alt["epsilon"]
             span = f"= {lo:.4f}" if abs(hi - lo) < 5e-5 else f"{lo:.4f} to {hi:.4f} over the bounces"
             params = ", ".join(f"{PHRASES[rival][1]} = {pm(alt['parameters'][p.name], None, p.unit)}"
+                               + (" (at its physical limit)" if p.name in alt.get("at_limit", ()) else "")
                                for p in EFFECTS[rival].parameters)
-            out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the data "
-                       f"cannot tell them apart): epsilon {span}.")
-    if d.split is not None:
-        out.append(_split_advice(d))
-    if "air_drag" in (d.split if d.split is not None else f).effects:
+            if split:
+                out.append(f"- with {_effects_phrase([rival])} alone ({params}): epsilon {span}.")
+            else:
+                out.append(f"With {_effects_phrase([rival])} instead of {_effects_phrase([name])} ({params}; the "
+                           f"data cannot tell them apart): epsilon {span}.")
+    if split and "air_drag" in d.split.effects:
+        cd = d.split.effect_values["air_drag"]["drag_coefficient"]
+        out.append(f"Use the most probable value in an engine that also applies its air drag (C_d {cd:.2f}, a force "
+                   f"-k v|v|);")
+    elif "air_drag" in f.effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
-        out.append(f"an engine without drag reproduces the bounce heights better with the baseline's effective "
-                   f"epsilon = {d.epsilon_baseline:.4f}.")
+    if "air_drag" in (d.split if split else f).effects:
+        eff, kept = d.effective_without_drag
+        whose = (f"the effective epsilon = {eff:.4f} (a constant fitted without drag, with "
+                 f"{_effects_phrase(kept)} as named)" if kept else f"the baseline's effective epsilon = {eff:.4f}")
+        out.append(f"an engine without drag reproduces the bounce heights better with {whose}.")
     elif d.split is None and ("height_offset" in d.effects or "contact_duration" in d.effects):
         out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
                    f"{eps:.4f}.")
@@ -315,8 +346,15 @@ def _systematic_lines(d, sigma):
             "velocity_dependent_restitution.exponent":
                 lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
     held = " and ".join(what[k](v) for k, v in sys_["held"].items())
-    at = (f" at {d.reference_speed:.2f} m/s" if "velocity_dependent_restitution" in d.final.effects
-          or "velocity_dependent_restitution.exponent" in sys_["held"] else "")
+    value, at = d.epsilon + shift, ""
+    fastest = sys_.get("fastest_impact")
+    if fastest is not None:
+        # a speed law: at the fastest impact the held model makes (a drag held slows the ball: not at the
+        # law's pivot, which it never reaches), and the shift from the final model's at its fastest impact
+        # (the same bounce)
+        value, at = fastest["epsilon"], f" at {fastest['speed_m_per_s']:.2f} m/s"
+        band = [b + value - d.epsilon - shift for b in band]
+        shift = value - d.fastest_impact()[0]
     tail = "a systematic uncertainty beside the ± above"
     if "air_drag.drag_coefficient" in sys_["held"] and abs(shift) > max(0.01, 3 * (sigma or 0.0)):
         # not a small correction: two answers, one for each kind of engine
@@ -326,7 +364,7 @@ def _systematic_lines(d, sigma):
     dec = max(4, 1 - math.floor(math.log10(largest)))
     over = (f" ({d.epsilon + band[0]:.{dec}f} to {d.epsilon + band[1]:.{dec}f} over that range)"
             if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
-    return [f"(with {held}, which these data do not resolve: epsilon {d.epsilon + shift:.{dec}f}{at}, "
+    return [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
             f"{shift:+.{dec}f}{over}; {tail})"]
 
 
@@ -338,15 +376,17 @@ def _split_advice(d):
     shown = [e for e in f.effects if e not in d.nuisance]
     params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
                        for e in shown for p in EFFECTS[e].parameters)
+    # its +- widened as the named model's is (the bounces' scatter, a misfit)
+    u_fit = d.final.uncertainty("epsilon")
+    u = f.uncertainty("epsilon") * max(d.epsilon_uncertainty / u_fit, 1.0) if u_fit > 0 else f.uncertainty("epsilon")
     if "velocity_dependent_restitution" in f.effects:
         lo, hi = d.speed_range(f)     # the split's own speeds: its drag may differ from the named model's
         e_lo, e_hi = d.epsilon_at([lo, hi], fit=f)
-        eps = f"epsilon {e_hi:.4f} at {hi:.2f} m/s, {e_lo:.4f} at {lo:.2f} m/s"
+        eps = f"epsilon depends on the impact speed: {pm(e_hi, u)} at {hi:.2f} m/s, {pm(e_lo, u)} at {lo:.2f} m/s"
     else:
-        eps = f"epsilon = {f.value('epsilon'):.4f}"
-    return (f"Most probable: {_effects_phrase(shown)} together, shared as their prior densities say "
-            f"(the data fix only what they do together; {params}): {eps}. Use this; each value above is one "
-            f"explanation alone.")
+        eps = f"epsilon = {pm(f.value('epsilon'), u)}"
+    return (f"{eps}: the most probable value, with {_effects_phrase(shown)} together, shared as their prior "
+            f"densities say (the data fix only what they do together; {params}). Use this.")
 
 
 def _named_table(d):
@@ -379,8 +419,7 @@ def _speed_lines(d):
     lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
     if "velocity_dependent_restitution" in d.effects:
         speeds = np.linspace(lo, hi, 4)
-        eps = d.epsilon_at(speeds)
-        lines.append("  epsilon(v): " + ", ".join(f"{e:.4f} at {v:.2f} m/s" for v, e in zip(speeds, eps)))
+        lines.append(_wrap("epsilon(v): " + ", ".join(_law_values(d, speeds)), "  "))
     if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")
@@ -414,7 +453,8 @@ def fit_report(discovery, details=False):
     head = (f"vrcal discover: {d.data.source} ({d.kind}, {count} {what}{joint}); {'ball ' * (name != 'ball')}{name} "
             f"(m = {mass(float(ball.mass_kg))}, D = {number(float(ball.diameter_m) * 1e3, 3)} mm)")
     lines = [_wrap(head), "", _wrap(answer(d)), "", _wrap(f"Verdict: {d.verdict}: {_verdict_reason(d)}.", "  ", "")]
-    lines += ["", "epsilon for an engine"] + [_wrap(s, "  ") for s in engine_advice(d)]
+    lines += ["", "epsilon for an engine"] + [_wrap(s, "    ", "  ") if s.startswith("- ") else _wrap(s, "  ")
+                                              for s in engine_advice(d)]
     if d.effects:
         lines += ["", "Named effects", _named_table(d).rstrip("\n")]
     if runs > 1 or "velocity_dependent_restitution" in d.effects or d.ambiguous:
@@ -454,8 +494,10 @@ def details_lines(d):
                   f"{_fmt_gap(b.judged_gap, unit)}, chi2 = {b.rss / sigma**2:.1f} at sigma = {_fmt_gap(sigma, unit)}, "
                   f"AIC = {b.aic:.1f}, BIC = {b.bic:.1f} (n = {b.n}, k = {b.k}).", "  "),
            _wrap(f"A candidate is material when dBIC >= {th.delta_bic:g}, p <= {th.p_value:g} (chi2 or F test), "
-                 f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}, or by "
-                 f"{th.removed_noise_fraction:g} noise sigma); of the material ones the highest evidence Z "
+                 f"its parameters lie inside their physical limits and the gap shrinks (x{th.gap_factor:g}; or the gap "
+                 f"removed, sqrt(before^2 - after^2), is at least sqrt(({th.removed_noise_fraction:g} sigma)^2 + "
+                 f"(1 - {th.gap_factor:g}^2) m^2), m = sqrt(before^2 - sigma^2) the misfit beyond the noise); of "
+                 f"the material ones the highest evidence Z "
                  f"(Laplace, the registry's prior densities) is named. d2lnZ = 2 ln(Z_best / Z) in its round.", "  "),
            _wrap("Short names: " + ", ".join(f"{v} = {k}" for k, v in SHORT.items() if v != k) + ".", "  ")]
     best = {}

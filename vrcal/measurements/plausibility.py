@@ -40,6 +40,7 @@ import numpy as np
 from vrcal.errors import DataError
 from vrcal.measurements.cleanup import prominent_minima
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.textout import number
 
 #: Sampling rates a drop record can have [Hz]: a slow video to a fast tracker or a sound card.
 FRAME_RATE_HZ = (2.0, 2e5)
@@ -343,7 +344,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     ratio = None     # the parabolas' g over the expected one, when they curve downward
     if g_fit is not None and g_fit >= 0:
         ratio = g_fit / g_exp
-        text = f"g from the parabolas of {n} flight(s): {g_fit:.3g} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
+        text = f"g from the parabolas of {n} flight(s): {number(g_fit, 3)} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
                f"{g_m_per_s2:.4g}{expected})"
         if G_OK[0] <= ratio <= G_OK[1]:
             return [Finding("note", text)]
@@ -353,7 +354,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
         drag_fits = [(g, nd, k) for (g, nd), k in drag_fits if g is not None and g > 0]
         if drag_fits:
             g_d, n_d, k = min(drag_fits, key=lambda f: abs(math.log(f[0] / g_exp)))
-            drag_text = (f"g from {n_d} flight(s) with this ball's air drag (k = {k:.3g} 1/m): {g_d:.3g} m/s^2 "
+            drag_text = (f"g from {n_d} flight(s) with this ball's air drag (k = {k:.3g} 1/m): {number(g_d, 3)} m/s^2 "
                          f"({g_d / g_m_per_s2:.3f} x {g_m_per_s2:.4g}{expected})")
             if G_OK[0] <= g_d / g_exp <= G_OK[1]:
                 return [Finding("note", drag_text)]
