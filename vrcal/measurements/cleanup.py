@@ -12,6 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+
 
 def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     """Index of the first sample after the still segment that precedes a release.
@@ -587,6 +589,105 @@ def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGM
             f"{q[0]:.3f} lies {abs(math.expm1(dev)):.1%} {side} the {math.exp(expected):.3f} the later bounces give "
             f"({(abs(dev) - bend) / sigma:.1f} standard deviations: their ratios scatter by {s:.2%}, the timing by "
             f"{u[0]:.2%}, a first bounce by {FIRST_RATIO_SPREAD:.0%}): a clap or a sound before the drop; left out")
+
+
+#: Lowest bounce [m] the longest flight of a recorded drop rises to: a ball dropped from a few mm is no drop
+#: test (and a voice's pulses, 3-12 ms apart, chain into "flights" of tens of ms that rise a few mm).
+MIN_BOUNCE_M = 0.01
+#: How :func:`no_recorded_drop`'s reasons start.
+NOT_A_DROP = "no recorded drop"
+#: Periods of a voice's pitch pulses or a mains hum [s] (400 Hz down to 50 Hz).
+PULSE_PERIODS_S = (2.5e-3, 20e-3)
+
+
+def bounce_height_m(flight_s, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Height a ball rises to in a free flight of ``flight_s`` from the floor back to it, ``g T^2 / 8``.
+
+    Parameters
+    ----------
+    flight_s : float or ndarray
+        flight time [s]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+
+    Returns
+    -------
+    float or ndarray
+        height [m]
+    """
+    return g_m_per_s2 * np.asarray(flight_s, dtype=float) ** 2 / 8.0
+
+
+def pulse_period(dt_s, *, periods_s=PULSE_PERIODS_S, max_multiple=12, tolerance=0.3):
+    """``(period, multiples)`` when every interval is a whole multiple of one period of a voice or a hum
+    (``dt_i = n_i P`` within ``tolerance`` of a period, ``n_i`` at most ``max_multiple``, ``P`` in
+    ``periods_s``), else None. ``P`` is tried as the shortest interval over 1, 2, 3.
+
+    Parameters
+    ----------
+    dt_s : array_like
+        intervals between events [s]
+    periods_s : (float, float)
+        shortest and longest period tried [s]
+    max_multiple : int
+        largest whole multiple accepted
+    tolerance : float
+        largest deviation from a whole multiple [periods]
+
+    Returns
+    -------
+    (float, ndarray of int) or None
+    """
+    dt = np.asarray(dt_s, dtype=float)
+    if dt.size < 2 or not np.all(dt > 0):
+        return None
+    for k in (1, 2, 3):
+        period = float(dt.min()) / k
+        if not periods_s[0] <= period <= periods_s[1]:
+            continue
+        n = np.round(dt / period)
+        if n.max() <= max_multiple and np.all(np.abs(dt / period - n) <= tolerance):
+            return float(dt.sum() / n.sum()), n.astype(int)
+    return None
+
+
+def no_recorded_drop(t_s, *, min_bounce_m=MIN_BOUNCE_M, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Why a chain of impact times is no recorded drop, or None when it may be one; the reason starts
+    with :data:`NOT_A_DROP`.
+
+    A drop's longest flight (the first one recorded) rises :func:`bounce_height_m`; below
+    ``min_bounce_m`` (:data:`MIN_BOUNCE_M`) the "impacts" are no ball's. The pulses of a voice (or a
+    hum) are such a chain: their intervals, whole multiples of one period (:func:`pulse_period`), can
+    shrink by a steady-looking ratio (9, 7, 5, 4, 3, 2 periods), but tens of ms at most.
+
+    Parameters
+    ----------
+    t_s : array_like
+        impact times [s], increasing (at least two)
+    min_bounce_m : float
+        lowest bounce of a recorded drop's longest flight [m]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+
+    Returns
+    -------
+    str or None
+    """
+    dt = np.diff(np.asarray(t_s, dtype=float))
+    if dt.size == 0:
+        return None
+    longest = float(dt.max())
+    height = float(bounce_height_m(longest, g_m_per_s2))
+    if height >= min_bounce_m:
+        return None
+    why = (f"{NOT_A_DROP}: its longest flight, {longest * 1e3:.1f} ms, is a bounce {height * 1e3:.1f} mm high "
+           f"(a drop's rises {min_bounce_m * 1e3:g} mm or more)")
+    pulses = pulse_period(dt)
+    if pulses is not None:
+        period, n = pulses
+        why += (f"; its intervals are {', '.join(str(int(k)) for k in n)} times {period * 1e3:.1f} ms: "
+                f"the pulses of a voice or a hum")
+    return why
 
 
 def _after_missed(dt, r, tolerance, max_missed):
