@@ -56,8 +56,13 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import (NOT_A_DROP, NOT_AN_IMPACT, detect_impact_anomalies, leading_intruder,
-                                        no_recorded_drop)
+from vrcal.measurements.cleanup import (
+    NOT_A_DROP,
+    NOT_AN_IMPACT,
+    detect_impact_anomalies,
+    leading_intruder,
+    no_recorded_drop,
+)
 from vrcal.measurements.types import ImpactTimes
 
 #: File name endings read as sound (other than WAV they need the optional PyAV).
