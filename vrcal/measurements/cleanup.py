@@ -680,13 +680,11 @@ def no_recorded_drop(t_s, *, min_bounce_m=MIN_BOUNCE_M, g_m_per_s2=STANDARD_GRAV
     height = float(bounce_height_m(longest, g_m_per_s2))
     if height >= min_bounce_m:
         return None
-    why = (f"{NOT_A_DROP}: its longest flight, {longest * 1e3:.1f} ms, is a bounce {height * 1e3:.1f} mm high "
-           f"(a drop's rises {min_bounce_m * 1e3:g} mm or more)")
+    why = f"{NOT_A_DROP}: its longest flight, {longest * 1e3:.1f} ms, is a bounce {height * 1e3:.1f} mm high"
     pulses = pulse_period(dt)
     if pulses is not None:
         period, n = pulses
-        why += (f"; its intervals are {', '.join(str(int(k)) for k in n)} times {period * 1e3:.1f} ms: "
-                f"the pulses of a voice or a hum")
+        why += f", its intervals {', '.join(str(int(k)) for k in n)} times {period * 1e3:.1f} ms (a voice or a hum)"
     return why
 
 

@@ -296,6 +296,33 @@ def looks_like_heights(text):
     return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
 
 
+def transposed(text):
+    """``(trials, rows)`` of a table written with the trials as columns and the bounces as rows (``Data,Trial
+    1,Trial 2,...`` over ``Bounce_1,18.125,17.875,...``), the layout vrcal does not read (one trial per row),
+    else None: the header's cells after the first name trials (:data:`_TRIAL`) and every row starts with a
+    bounce or a drop (``Bounce_1``, ``2nd bounce``, ``Drop``) before numbers."""
+    cols = header_columns(text)
+    if not cols or len(cols) < 3 or not all(_TRIAL.match(c.name) for c in cols[1:]):
+        return None
+    sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
+    rows = [split_cells(s, sep) for _, s in text.lines[1:]]
+    if not rows or any(len(r) < 2 or to_float(r[1], decimal_comma) is None for r in rows):
+        return None
+    names = [r[0] for r in rows]
+    bounce_like = [_bounce_number(" ".join(_folded(n).replace("_", " ").split())) is not None
+                   or _has_word(n, DROP_WORDS) for n in names]
+    return ([c.raw for c in cols[1:]], names) if all(bounce_like) else None
+
+
+def transposed_hint(text):
+    """The one-line refusal of a :func:`transposed` table: what vrcal reads instead."""
+    trials, rows = transposed(text)
+    shown = ", ".join(rows[:3]) + (", ..." if len(rows) > 3 else "")
+    return (f"trials as columns ({trials[0]}, ...), bounces as rows ({shown}), no quantity or unit named: write "
+            f"one trial per row, e.g. 'Drop height (in),h1 (in),h2 (in)' (flight times: each trial's impact "
+            f"times, 't (s)')")
+
+
 def _unit_factors(path, table, columns, scale_m_per_px, notes):
     """{column index: factor to m} of the height columns (a column without a unit takes the others')."""
     units = {c.unit for c in columns if c.unit}

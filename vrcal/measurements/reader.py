@@ -217,6 +217,8 @@ def _detect(text, below=None):
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
+    if drops.transposed(below or text) is not None:   # a class's sheet with the trials side by side
+        fail(text.path, no, drops.transposed_hint(below or text))
     if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
         fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r}: for drop and rebound "
                             f"heights, {drops.NAMING} (other layouts: see --format)")

@@ -824,9 +824,9 @@ def track_sound(path, *, progress=None):
     no_drop = [i for i, why in reasons.items() if why.startswith(NOT_A_DROP)]
     if no_drop:
         t0, t1 = onsets.t_s[no_drop[0]], onsets.t_s[no_drop[-1]]
-        raise DataError(f"{path}: {onsets.t_s.size} sound event(s); the best bounce sequence, {len(no_drop)} events "
-                        f"at t = {t0:.3f}-{t1:.3f} s, is {reasons[no_drop[0]]}; is this a drop recording? "
-                        "record the whole drop, the phone near the floor")
+        raise DataError(f"{path}: {onsets.t_s.size} sound events; the best bounce sequence ({len(no_drop)}, t = "
+                        f"{t0:.3f}-{t1:.3f} s) is {reasons[no_drop[0]]}; is this a drop recording? record the whole "
+                        "drop, the phone near the floor")
     if chain.size < MIN_IMPACTS:
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
                         "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
