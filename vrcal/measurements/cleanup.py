@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import re
 from typing import NamedTuple
 
 import numpy as np
@@ -110,10 +111,35 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     return release if release >= min_still else 0
 
 
-def printed_resolution(t, max_decimals=9):
+#: A number as written: sign, whole part, decimals after a point or a comma, exponent.
+_WRITTEN_NUMBER = re.compile(r"^\s*[+-]?\d*(?:[.,](\d*))?(?:[eE]([+-]?\d+))?\s*$")
+
+
+def written_decimals(cells):
+    """The most decimals among numbers as written (``'0.500'``: 3, trailing zeros count; ``'5.0e-3'``: 4;
+    ``'500'``: 0), or None when no cell is a plain number."""
+    most = None
+    for cell in cells:
+        m = _WRITTEN_NUMBER.match(str(cell))
+        if m is None or not any(ch.isdigit() for ch in str(cell)):
+            continue
+        d = max(0, len(m.group(1) or "") - int(m.group(2) or 0))
+        most = d if most is None else max(most, d)
+    return most
+
+
+def printed_resolution(t, max_decimals=9, written=None):
     """The step numbers were printed to (0.001 for three decimals), or None when they hold more than
     ``max_decimals`` decimals: whole multiples of 10^-d up to 1e-6 of a step, or up to float rounding
-    (1e-15 relative) for values beyond 1e9 steps."""
+    (1e-15 relative) for values beyond 1e9 steps.
+
+    ``written``: the same numbers as the file writes them (its cells' text), when known. Their decimals
+    decide, trailing zeros included: ``0.500`` is written to 0.001 (a millimetre read in metres), which
+    its float 0.5 cannot tell from ``0.5`` (written to 0.1)."""
+    if written is not None:
+        d = written_decimals(written)
+        if d is not None:
+            return 10.0**-d if d <= max_decimals else None
     t = np.asarray(t, dtype=float)
     for d in range(max_decimals + 1):
         q = t * 10.0**d
@@ -131,7 +157,7 @@ class RegularTimes(NamedTuple):
     largest_change: float
 
 
-def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
+def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9, written=None):
     """Sample times printed with too few digits for their frame rate, put back on their grid.
 
     A tracker that writes ``0.017, 0.033, 0.050`` for 60 frames/s moves each sample by up to half a
@@ -151,6 +177,8 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
         printed resolution over frame period below which the times are left as they are
     max_decimals : int
         most decimals tried for the printed resolution
+    written : sequence of str, optional
+        the times as the file writes them (:func:`printed_resolution`: trailing zeros count)
 
     Returns
     -------
@@ -163,7 +191,7 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     if np.any(dt <= 0):
         return None
     step = float(np.median(dt[dt < 1.5 * dt.min()]))   # one frame (longer intervals are frames missed)
-    resolution = printed_resolution(t, max_decimals)
+    resolution = printed_resolution(t, max_decimals, written)
     # (the first step is a median of printed intervals, itself off by up to a resolution: a loose bound
     # here, the strict one on the fitted period below)
     if resolution is None or resolution < coarse_fraction * step or resolution > 0.4 * step:
@@ -236,7 +264,7 @@ def _chance_on_grid(width, n):
     return n * min(width, 1.0) ** (n - 1)
 
 
-def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
+def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3, printed_s=None):
     """The coarsest grid that impact times lie on, or None: the frames of a video (times read off
     a camera at one of :data:`VIDEO_FRAME_RATES_HZ` with a period of at least ``min_period_s``:
     t = t0 + k / fps, k whole, every time within ``tolerance`` of a frame period of the grid, or
@@ -250,11 +278,14 @@ def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
     step, a standard deviation of step/sqrt(12) (9.6 ms at 30 fps), however well the sound or the
     tracker timed the event. Times at random fall within the slack of a grid with a chance of about
     (2 slack / period) per time: below 1e-5 for ``min_times`` times.
+
+    ``printed_s``: the step [s] the file wrote the times to, when its text is known
+    (:func:`printed_resolution` of the cells: trailing zeros count); else it is read from the floats.
     """
     t = np.asarray(t_s, dtype=float)
     if t.size < min_times or not np.all(np.isfinite(t)):
         return None
-    printed = printed_resolution(t, 6) or 0.0
+    printed = (printed_s if printed_s is not None else printed_resolution(t, 6)) or 0.0
     found = []
     for fps in VIDEO_FRAME_RATES_HZ:
         period = 1.0 / fps

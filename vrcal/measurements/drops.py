@@ -57,6 +57,7 @@ from vrcal.measurements.table import (
     LENGTH_UNITS,
     TIME_NAMES,
     TIME_UNITS,
+    column_cells,
     column_values,
     fail,
     find_column,
@@ -346,27 +347,22 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
     return factors
 
 
-def _written_step_m(raw, factors):
+def _written_step_m(raw, factors, cells):
     """The step [m] the rebounds were written to (``raw``: {column index: the file's numbers} of the
-    rebound columns; ``factors``: {column index: factor to m}): the printed resolution of all of a unit's
+    rebound columns; ``factors``: {column index: factor to m}; ``cells``: {column index: its cells as
+    written, whose decimals count, trailing zeros too}): the printed resolution of all of a unit's
     numbers together (one '4' alone looks like whole feet), the coarsest over the units; None when they hold
     more than six decimals. The drop heights are left out: they are set (1 m, 100 cm), not read."""
     steps = []
     for factor in {factors[i] for i in raw}:
         written = np.concatenate([raw[i] for i in raw if factors[i] == factor])
         written = written[np.isfinite(written)]
-        step = printed_resolution(written, max_decimals=6) if written.size else None
+        text = [c for i in raw if factors[i] == factor for c in cells[i]]
+        step = printed_resolution(written, max_decimals=6, written=text) if written.size else None
         if step is None:
             return None
         steps.append(step * factor)
     return max(steps) if steps else None
-
-
-def _filled_cells(table, col):
-    """The filled cells of column ``col`` of ``table``, as written (all numbers when ``table.numeric``)."""
-    if table.numeric is not None:
-        return [repr(float(v)) for v in table.numeric[:, col.index]]
-    return [cells[col.index] for _, cells in table.rows if col.index < len(cells) and cells[col.index] != ""]
 
 
 def _distinct(cells):
@@ -389,7 +385,7 @@ def _unread_notes(path, table, ignored):
     if derived:
         notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
     ignored = [c for c in ignored if c.raw not in derived]
-    cells = {c.index: _filled_cells(table, c) for c in ignored}
+    cells = {c.index: column_cells(table, c) for c in ignored}
     # a column with a word in it: its distinct cells (numbers too), in their order
     words = {i: _distinct(v) if any(to_float(c, table.decimal_comma) is None for c in v) else []
              for i, v in cells.items()}
@@ -472,7 +468,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
     raw = {c.index: column_values(path, table, c, what="height", allow_empty=True) for c in columns}
     values = {i: raw[i] * factors[i] for i in raw}
-    resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors)
+    resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors,
+                                   {c.index: column_cells(table, c) for c in columns})
     trials = found.trials
     if found.numbered:
         trials, how = _trials_or_rebounds(path, table.header_line,
