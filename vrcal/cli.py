@@ -688,7 +688,8 @@ def track(ctx, recording, output, plot_file, fmt, ball, diameter_m, roi, color, 
     """Turn RECORDING (a sound or a video of a drop) into the measurement file vrcal reads.
 
     A sound (WAV; m4a, mp3, ogg, flac with vrcal[audio]) gives the impact times; a video
-    (mp4, mov, avi, mkv; needs vrcal[video]) the ball's trajectory, scaled by its diameter.
+    (mp4, mov, avi, mkv; needs vrcal[video]) the ball's trajectory, scaled by the flights
+    with g and the ball's diameter (--ball, --diameter; or --scale).
     The file records how it was made in '#' comment lines. 'vrcal discover RECORDING'
     does the same tracking by itself.
 

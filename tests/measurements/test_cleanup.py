@@ -28,3 +28,41 @@ def test_third_difference_noise_of_pure_noise_is_its_sigma(sigma):
     t = np.arange(4000) / 240.0
     y = 1.0 - 0.5 * 9.81 * (t - 2) ** 2 * 0.01 + rng.normal(0.0, sigma, t.size)
     assert third_difference_sigma(t, y) == pytest.approx(sigma, rel=0.05)
+
+
+def test_no_recorded_drop_refuses_flights_of_a_few_mm_and_keeps_any_real_ratio():
+    from vrcal.measurements.cleanup import bounce_height_m, no_recorded_drop, pulse_period
+
+    assert bounce_height_m(0.0903) == pytest.approx(0.0100, rel=2e-3)
+    voice = np.cumsum([0.0, 65.3, 48.8, 34.5, 27.7, 20.9, 14.1]) * 1e-3   # 9, 7, 5, 4, 3, 2 pitch periods
+    why = no_recorded_drop(voice)
+    assert why.startswith("no recorded drop") and "5.2 mm" in why
+    assert "intervals 9, 7, 5, 4, 3, 2 times 7.0 ms (a voice" in why
+    for r in (0.5, 0.75, 0.95):   # a real drop, a ratio whose intervals are whole multiples (r = 0.5) too
+        t = np.concatenate([[0.0], np.cumsum(0.3 * r ** np.arange(8))])
+        assert no_recorded_drop(t) is None
+    assert pulse_period(0.060 * 0.8 ** np.arange(4)) is None   # a steady ratio is no pulse train
+
+
+def test_the_written_decimals_count_trailing_zeros_in_every_reader(tmp_path):
+    """'0.500,0.400' were taken as written to 0.1 m (their floats 0.5, 0.4), a reading sigma of 28.9 mm and
+    epsilon +- 0.041 -- the same file in mm gave +- 0.0029. The text's decimals decide, in the apex and drop
+    readers and for the impact times' grid."""
+    from vrcal.measurements import read_measurement
+    from vrcal.measurements.cleanup import printed_resolution, written_decimals
+
+    assert written_decimals(["0.500", "5.0e-3", "500", "0,25", "x"]) == 4
+    assert printed_resolution([0.5, 0.4]) == pytest.approx(0.1)
+    assert printed_resolution([0.5, 0.4], written=["0.500", "0.400"]) == pytest.approx(0.001)
+    apexes = tmp_path / "steel3.csv"
+    apexes.write_text("bounce,h\n0,0.500\n1,0.400\n")
+    assert read_measurement(apexes).resolution_m == pytest.approx(0.001)
+    drops = tmp_path / "drops.csv"
+    drops.write_text("Drop height (m),Rebound height (m)\n1.000,0.700\n0.800,0.560\n")
+    assert read_measurement(drops).runs[0].resolution_m == pytest.approx(0.001)
+    t = np.round(0.5 + np.concatenate([[0.0], np.cumsum(0.6 * 0.8 ** np.arange(9))]), 3)
+    impacts = tmp_path / "impacts.csv"   # whole milliseconds written to 0.1 ms: no 1 ms grid (0.29 ms sigma)
+    impacts.write_text("t (s)\n" + "".join(f"{v:.4f}\n" for v in t))
+    assert read_measurement(impacts).timing_sd_s == 0.0
+    impacts.write_text("t (s)\n" + "".join(f"{v:.3f}\n" for v in t))
+    assert read_measurement(impacts).timing_sd_s == pytest.approx(1e-3 / 12**0.5)

@@ -347,3 +347,46 @@ def test_track_kinds_of_a_video_and_of_files_without_a_track_list(tmp_path):
     mp4 = tmp_path / "cut.mp4"
     mp4.write_bytes(cut.read_bytes())
     assert detect_format(mp4) == "video"          # ... a .mp4 a video
+
+
+def _speech(fs, duration_s=5.0, starts_s=(0.3, 1.5, 2.8), seed=5):
+    """A voice only (the probe's speech_only.wav): harmonics of a 130 +- 15 Hz pitch, formants, 4 syllables/s."""
+    rng = np.random.default_rng(seed)
+    tt = np.arange(int(duration_s * fs)) / fs
+    x = 0.003 * rng.standard_normal(tt.size) + 0.01 * np.sin(2 * np.pi * 50 * tt)
+    for t0 in starts_s:
+        m = (tt >= t0) & (tt < t0 + 0.9)
+        u = tt[m] - t0
+        phase = 2 * np.pi * np.cumsum(130 + 15 * np.sin(2 * np.pi * 1.5 * u)) / fs
+        v = sum((np.exp(-((k * 130 - 700) / 300) ** 2) + 0.6 * np.exp(-((k * 130 - 1200) / 400) ** 2)
+                 + 0.3 * np.exp(-((k * 130 - 2600) / 500) ** 2)) / k ** 0.3 * np.sin(k * phase) for k in range(1, 30))
+        v = v * np.clip(np.sin(4 * np.pi * u), 0, None) ** 0.7
+        x[m] += 0.5 * v / np.abs(v).max()
+    return np.clip(x, -1, 1)[:, None]
+
+
+def test_a_voice_alone_is_no_drop_recording_and_says_so_in_one_line(tmp_path):
+    """A voice's pitch pulses (7 ms apart) chain into 'flights' of 9, 7, 5, 4, 3, 2 periods that shrink by a
+    steady-looking ratio; the longest, 65 ms, rises 5 mm: no ball was dropped. Was read as 10 impacts in two
+    'drops' of 10 mm and 1 mm and gave epsilon 0.73."""
+    path = tmp_path / "speech.wav"
+    write_wav(path, _speech(44100), 44100)
+    with pytest.raises(DataError, match="no recorded drop") as err:
+        read_measurement(path)
+    msg = str(err.value)
+    assert "\n" not in msg
+    assert "mm high" in msg and "voice" in msg and "is this a drop recording?" in msg and "near the floor" in msg
+
+
+def test_the_impacts_note_counts_both_drops_of_a_two_drop_recording(tmp_path):
+    """The summary's impact count and the 'impacts: k of n sound events' note agree (a second drop included)."""
+    t1, v1 = drop(H=0.8, n=10)
+    t2, v2 = drop(H=0.5, n=9, release=t1[-1] + 1.5)
+    path = tmp_path / "two.wav"
+    write_wav(path, impact_sound(np.concatenate([t1, t2]), np.concatenate([v1, v2]),
+                                 scene=SoundScene(noise_rms=0.002), seed=2), 48000)
+    got = read_measurement(path)
+    note = next(n for n in got.notes if n.startswith("impacts:"))
+    assert note.startswith(f"impacts: {got.t_s.size} of ")
+    (a, b), (c, d) = got.chains
+    assert f"({b - a} in the first drop, {d - c} in a second)" in note

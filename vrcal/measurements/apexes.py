@@ -15,6 +15,7 @@ from vrcal.measurements.table import (
     H_NAMES,
     LENGTH_UNITS,
     check_increasing,
+    column_cells,
     column_values,
     fail,
     find_column,
@@ -88,7 +89,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     gaps = np.flatnonzero(np.diff(bounce) > 1)
     if gaps.size:
         notes.append(f"bounce numbers skip after bounce {int(bounce[gaps[0]])}")
-    step = printed_resolution(h, max_decimals=6)
+    step = printed_resolution(h, max_decimals=6, written=column_cells(table, h_col))   # '0.500': 1 mm
     return ApexHeights(bounce=bounce.astype(int), h_m=h_m, source=path, notes=tuple(notes), lines=line_numbers,
                        resolution_m=None if step is None else step * factor)
 

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import bisect
 import math
+import re
 from typing import NamedTuple
 
 import numpy as np
+
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 
 def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
@@ -108,10 +111,35 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     return release if release >= min_still else 0
 
 
-def printed_resolution(t, max_decimals=9):
+#: A number as written: sign, whole part, decimals after a point or a comma, exponent.
+_WRITTEN_NUMBER = re.compile(r"^\s*[+-]?\d*(?:[.,](\d*))?(?:[eE]([+-]?\d+))?\s*$")
+
+
+def written_decimals(cells):
+    """The most decimals among numbers as written (``'0.500'``: 3, trailing zeros count; ``'5.0e-3'``: 4;
+    ``'500'``: 0), or None when no cell is a plain number."""
+    most = None
+    for cell in cells:
+        m = _WRITTEN_NUMBER.match(str(cell))
+        if m is None or not any(ch.isdigit() for ch in str(cell)):
+            continue
+        d = max(0, len(m.group(1) or "") - int(m.group(2) or 0))
+        most = d if most is None else max(most, d)
+    return most
+
+
+def printed_resolution(t, max_decimals=9, written=None):
     """The step numbers were printed to (0.001 for three decimals), or None when they hold more than
     ``max_decimals`` decimals: whole multiples of 10^-d up to 1e-6 of a step, or up to float rounding
-    (1e-15 relative) for values beyond 1e9 steps."""
+    (1e-15 relative) for values beyond 1e9 steps.
+
+    ``written``: the same numbers as the file writes them (its cells' text), when known. Their decimals
+    decide, trailing zeros included: ``0.500`` is written to 0.001 (a millimetre read in metres), which
+    its float 0.5 cannot tell from ``0.5`` (written to 0.1)."""
+    if written is not None:
+        d = written_decimals(written)
+        if d is not None:
+            return 10.0**-d if d <= max_decimals else None
     t = np.asarray(t, dtype=float)
     for d in range(max_decimals + 1):
         q = t * 10.0**d
@@ -129,7 +157,7 @@ class RegularTimes(NamedTuple):
     largest_change: float
 
 
-def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
+def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9, written=None):
     """Sample times printed with too few digits for their frame rate, put back on their grid.
 
     A tracker that writes ``0.017, 0.033, 0.050`` for 60 frames/s moves each sample by up to half a
@@ -149,6 +177,8 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
         printed resolution over frame period below which the times are left as they are
     max_decimals : int
         most decimals tried for the printed resolution
+    written : sequence of str, optional
+        the times as the file writes them (:func:`printed_resolution`: trailing zeros count)
 
     Returns
     -------
@@ -161,7 +191,7 @@ def regular_frame_times(t, *, coarse_fraction=0.02, max_decimals=9):
     if np.any(dt <= 0):
         return None
     step = float(np.median(dt[dt < 1.5 * dt.min()]))   # one frame (longer intervals are frames missed)
-    resolution = printed_resolution(t, max_decimals)
+    resolution = printed_resolution(t, max_decimals, written)
     # (the first step is a median of printed intervals, itself off by up to a resolution: a loose bound
     # here, the strict one on the fitted period below)
     if resolution is None or resolution < coarse_fraction * step or resolution > 0.4 * step:
@@ -234,7 +264,7 @@ def _chance_on_grid(width, n):
     return n * min(width, 1.0) ** (n - 1)
 
 
-def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
+def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3, printed_s=None):
     """The coarsest grid that impact times lie on, or None: the frames of a video (times read off
     a camera at one of :data:`VIDEO_FRAME_RATES_HZ` with a period of at least ``min_period_s``:
     t = t0 + k / fps, k whole, every time within ``tolerance`` of a frame period of the grid, or
@@ -248,11 +278,14 @@ def time_grid(t_s, *, min_times=6, tolerance=0.02, min_period_s=1.5e-3):
     step, a standard deviation of step/sqrt(12) (9.6 ms at 30 fps), however well the sound or the
     tracker timed the event. Times at random fall within the slack of a grid with a chance of about
     (2 slack / period) per time: below 1e-5 for ``min_times`` times.
+
+    ``printed_s``: the step [s] the file wrote the times to, when its text is known
+    (:func:`printed_resolution` of the cells: trailing zeros count); else it is read from the floats.
     """
     t = np.asarray(t_s, dtype=float)
     if t.size < min_times or not np.all(np.isfinite(t)):
         return None
-    printed = printed_resolution(t, 6) or 0.0
+    printed = (printed_s if printed_s is not None else printed_resolution(t, 6)) or 0.0
     found = []
     for fps in VIDEO_FRAME_RATES_HZ:
         period = 1.0 / fps
@@ -589,6 +622,103 @@ def leading_intruder(t_s, *, timing_sigma_s=TIMING_SIGMA_S, n_sigma=LEADING_SIGM
             f"{q[0]:.3f} lies {abs(math.expm1(dev)):.1%} {side} the {math.exp(expected):.3f} the later bounces give "
             f"({(abs(dev) - bend) / sigma:.1f} standard deviations: their ratios scatter by {s:.2%}, the timing by "
             f"{u[0]:.2%}, a first bounce by {FIRST_RATIO_SPREAD:.0%}): a clap or a sound before the drop; left out")
+
+
+#: Lowest bounce [m] the longest flight of a recorded drop rises to: a ball dropped from a few mm is no drop
+#: test (and a voice's pulses, 3-12 ms apart, chain into "flights" of tens of ms that rise a few mm).
+MIN_BOUNCE_M = 0.01
+#: How :func:`no_recorded_drop`'s reasons start.
+NOT_A_DROP = "no recorded drop"
+#: Periods of a voice's pitch pulses or a mains hum [s] (400 Hz down to 50 Hz).
+PULSE_PERIODS_S = (2.5e-3, 20e-3)
+
+
+def bounce_height_m(flight_s, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Height a ball rises to in a free flight of ``flight_s`` from the floor back to it, ``g T^2 / 8``.
+
+    Parameters
+    ----------
+    flight_s : float or ndarray
+        flight time [s]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+
+    Returns
+    -------
+    float or ndarray
+        height [m]
+    """
+    return g_m_per_s2 * np.asarray(flight_s, dtype=float) ** 2 / 8.0
+
+
+def pulse_period(dt_s, *, periods_s=PULSE_PERIODS_S, max_multiple=12, tolerance=0.3):
+    """``(period, multiples)`` when every interval is a whole multiple of one period of a voice or a hum
+    (``dt_i = n_i P`` within ``tolerance`` of a period, ``n_i`` at most ``max_multiple``, ``P`` in
+    ``periods_s``), else None. ``P`` is tried as the shortest interval over 1, 2, 3.
+
+    Parameters
+    ----------
+    dt_s : array_like
+        intervals between events [s]
+    periods_s : (float, float)
+        shortest and longest period tried [s]
+    max_multiple : int
+        largest whole multiple accepted
+    tolerance : float
+        largest deviation from a whole multiple [periods]
+
+    Returns
+    -------
+    (float, ndarray of int) or None
+    """
+    dt = np.asarray(dt_s, dtype=float)
+    if dt.size < 2 or not np.all(dt > 0):
+        return None
+    for k in (1, 2, 3):
+        period = float(dt.min()) / k
+        if not periods_s[0] <= period <= periods_s[1]:
+            continue
+        n = np.round(dt / period)
+        if n.max() <= max_multiple and np.all(np.abs(dt / period - n) <= tolerance):
+            return float(dt.sum() / n.sum()), n.astype(int)
+    return None
+
+
+def no_recorded_drop(t_s, *, min_bounce_m=MIN_BOUNCE_M, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Why a chain of impact times is no recorded drop, or None when it may be one; the reason starts
+    with :data:`NOT_A_DROP`.
+
+    A drop's longest flight (the first one recorded) rises :func:`bounce_height_m`; below
+    ``min_bounce_m`` (:data:`MIN_BOUNCE_M`) the "impacts" are no ball's. The pulses of a voice (or a
+    hum) are such a chain: their intervals, whole multiples of one period (:func:`pulse_period`), can
+    shrink by a steady-looking ratio (9, 7, 5, 4, 3, 2 periods), but tens of ms at most.
+
+    Parameters
+    ----------
+    t_s : array_like
+        impact times [s], increasing (at least two)
+    min_bounce_m : float
+        lowest bounce of a recorded drop's longest flight [m]
+    g_m_per_s2 : float
+        gravity [m/s^2]
+
+    Returns
+    -------
+    str or None
+    """
+    dt = np.diff(np.asarray(t_s, dtype=float))
+    if dt.size == 0:
+        return None
+    longest = float(dt.max())
+    height = float(bounce_height_m(longest, g_m_per_s2))
+    if height >= min_bounce_m:
+        return None
+    why = f"{NOT_A_DROP}: its longest flight, {longest * 1e3:.1f} ms, is a bounce {height * 1e3:.1f} mm high"
+    pulses = pulse_period(dt)
+    if pulses is not None:
+        period, n = pulses
+        why += f", its intervals {', '.join(str(int(k)) for k in n)} times {period * 1e3:.1f} ms (a voice or a hum)"
+    return why
 
 
 def _after_missed(dt, r, tolerance, max_missed):

@@ -57,6 +57,7 @@ from vrcal.measurements.table import (
     LENGTH_UNITS,
     TIME_NAMES,
     TIME_UNITS,
+    column_cells,
     column_values,
     fail,
     find_column,
@@ -296,6 +297,33 @@ def looks_like_heights(text):
     return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
 
 
+def transposed(text):
+    """``(trials, rows)`` of a table written with the trials as columns and the bounces as rows (``Data,Trial
+    1,Trial 2,...`` over ``Bounce_1,18.125,17.875,...``), the layout vrcal does not read (one trial per row),
+    else None: the header's cells after the first name trials (:data:`_TRIAL`) and every row starts with a
+    bounce or a drop (``Bounce_1``, ``2nd bounce``, ``Drop``) before numbers."""
+    cols = header_columns(text)
+    if not cols or len(cols) < 3 or not all(_TRIAL.match(c.name) for c in cols[1:]):
+        return None
+    sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
+    rows = [split_cells(s, sep) for _, s in text.lines[1:]]
+    if not rows or any(len(r) < 2 or to_float(r[1], decimal_comma) is None for r in rows):
+        return None
+    names = [r[0] for r in rows]
+    bounce_like = [_bounce_number(" ".join(_folded(n).replace("_", " ").split())) is not None
+                   or _has_word(n, DROP_WORDS) for n in names]
+    return ([c.raw for c in cols[1:]], names) if all(bounce_like) else None
+
+
+def transposed_hint(text):
+    """The one-line refusal of a :func:`transposed` table: what vrcal reads instead."""
+    trials, rows = transposed(text)
+    shown = ", ".join(rows[:3]) + (", ..." if len(rows) > 3 else "")
+    return (f"trials as columns ({trials[0]}, ...), bounces as rows ({shown}), no quantity or unit named: write "
+            f"one trial per row, e.g. 'Drop height (in),h1 (in),h2 (in)' (flight times: each trial's impact "
+            f"times, 't (s)')")
+
+
 def _unit_factors(path, table, columns, scale_m_per_px, notes):
     """{column index: factor to m} of the height columns (a column without a unit takes the others')."""
     units = {c.unit for c in columns if c.unit}
@@ -319,27 +347,22 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
     return factors
 
 
-def _written_step_m(raw, factors):
+def _written_step_m(raw, factors, cells):
     """The step [m] the rebounds were written to (``raw``: {column index: the file's numbers} of the
-    rebound columns; ``factors``: {column index: factor to m}): the printed resolution of all of a unit's
+    rebound columns; ``factors``: {column index: factor to m}; ``cells``: {column index: its cells as
+    written, whose decimals count, trailing zeros too}): the printed resolution of all of a unit's
     numbers together (one '4' alone looks like whole feet), the coarsest over the units; None when they hold
     more than six decimals. The drop heights are left out: they are set (1 m, 100 cm), not read."""
     steps = []
     for factor in {factors[i] for i in raw}:
         written = np.concatenate([raw[i] for i in raw if factors[i] == factor])
         written = written[np.isfinite(written)]
-        step = printed_resolution(written, max_decimals=6) if written.size else None
+        text = [c for i in raw if factors[i] == factor for c in cells[i]]
+        step = printed_resolution(written, max_decimals=6, written=text) if written.size else None
         if step is None:
             return None
         steps.append(step * factor)
     return max(steps) if steps else None
-
-
-def _filled_cells(table, col):
-    """The filled cells of column ``col`` of ``table``, as written (all numbers when ``table.numeric``)."""
-    if table.numeric is not None:
-        return [repr(float(v)) for v in table.numeric[:, col.index]]
-    return [cells[col.index] for _, cells in table.rows if col.index < len(cells) and cells[col.index] != ""]
 
 
 def _distinct(cells):
@@ -362,7 +385,7 @@ def _unread_notes(path, table, ignored):
     if derived:
         notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
     ignored = [c for c in ignored if c.raw not in derived]
-    cells = {c.index: _filled_cells(table, c) for c in ignored}
+    cells = {c.index: column_cells(table, c) for c in ignored}
     # a column with a word in it: its distinct cells (numbers too), in their order
     words = {i: _distinct(v) if any(to_float(c, table.decimal_comma) is None for c in v) else []
              for i, v in cells.items()}
@@ -445,7 +468,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     factors = _unit_factors(path, table, columns, scale_m_per_px, notes)
     raw = {c.index: column_values(path, table, c, what="height", allow_empty=True) for c in columns}
     values = {i: raw[i] * factors[i] for i in raw}
-    resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors)
+    resolution_m = _written_step_m({i: v for i, v in raw.items() if i != found.drop.index}, factors,
+                                   {c.index: column_cells(table, c) for c in columns})
     trials = found.trials
     if found.numbered:
         trials, how = _trials_or_rebounds(path, table.header_line,

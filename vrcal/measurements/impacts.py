@@ -18,7 +18,7 @@ import re
 
 import numpy as np
 
-from vrcal.measurements.cleanup import TIMING_SIGMA_S, impact_chains, time_grid
+from vrcal.measurements.cleanup import TIMING_SIGMA_S, impact_chains, printed_resolution, time_grid
 from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
@@ -29,6 +29,7 @@ from vrcal.measurements.table import (
     X_NAMES,
     Y_NAMES,
     check_increasing,
+    column_cells,
     column_values,
     fail,
     find_column,
@@ -119,33 +120,37 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if len(same) > 1:   # runs side by side (a spreadsheet with one column per trial)
         runs, labels = [], []
         for k, c in enumerate(same, start=1):
-            t, lines = _times(path, table, c, allow_empty=True)
+            t, lines, printed_s = _times(path, table, c, allow_empty=True)
             run = impact_times_from_events(f"{path} (column {c.index + 1})", t, lines,
-                                           [*notes, f"impact times from column {c.index + 1} '{c.raw}'"])
+                                           [*notes, f"impact times from column {c.index + 1} '{c.raw}'"],
+                                           printed_s=printed_s)
             runs.append(run)
             labels.append(f"column {c.index + 1}")
         return Runs(runs=tuple(runs), source=path, labels=tuple(labels),
                     notes=(f"{len(same)} columns '{col.raw}': one run each, fitted jointly",))
     if len(table.cols) > 1:
         notes.append(f"impact times from column '{col.raw or col.name}'" + (f" ({col.unit})" if col.unit else ""))
-    t, line_numbers = _times(path, table, col)
+    t, line_numbers, printed_s = _times(path, table, col)
     if col.unit not in ("", "s", "sec"):
         notes.append(f"impact times converted from {col.unit} to s")
-    return impact_times_from_events(path, t, line_numbers, notes)
+    return impact_times_from_events(path, t, line_numbers, notes, printed_s=printed_s)
 
 
 def _times(path, table, col, allow_empty=False):
-    """(times [s], their lines) of one column; empty cells skipped when allowed (a shorter run)."""
+    """(times [s], their lines, the step [s] they were written to or None) of one column; empty cells skipped
+    when allowed (a shorter run)."""
     t = column_values(path, table, col, what="impact time", allow_empty=allow_empty)
-    t = t * unit_factor(path, table, col, TIME_UNITS, "time")
+    factor = unit_factor(path, table, col, TIME_UNITS, "time")
+    step = printed_resolution(t[np.isfinite(t)], 6, written=column_cells(table, col))
+    t = t * factor
     line_numbers = row_lines(table)
     ok = np.isfinite(t)
     t, line_numbers = t[ok], line_numbers[ok]
     check_increasing(path, t, line_numbers, "impact time")
-    return t, line_numbers
+    return t, line_numbers, None if step is None else step * factor
 
 
-def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
+def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None, printed_s=None):
     """ImpactTimes from a file's events: chains of consecutive bounces, the rest named and left out.
 
     Parameters
@@ -160,6 +165,9 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
         the reader's notes so far
     labels : sequence of str or None
         how the file names each event (``"'Bounce 2' (line 2)"``); default ``"event i (line n)"``
+    printed_s : float or None
+        the step [s] the file wrote the times to, from their text (trailing zeros count); None: read
+        from the times themselves (:func:`vrcal.measurements.cleanup.time_grid`)
 
     Raises
     ------
@@ -183,7 +191,7 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None):
         fail(path, where, f"{t.size:,} impact times, more than the {MAX_IMPACT_EVENTS:,} a file of drops can hold "
                           f"(a drop gives tens of impacts): are these a sensor's samples? Split the file into "
                           f"files of one or a few drops each")
-    grid = time_grid(t)
+    grid = time_grid(t, printed_s=printed_s)
     timing = grid.sigma_s if grid is not None and grid.sigma_s > TIMING_SIGMA_S else 0.0
     if timing:
         notes.append(f"impact times on a {grid.period_s * 1e3:.4g} ms grid ({grid.what}): each is uncertain by "

@@ -217,6 +217,8 @@ def _detect(text, below=None):
     if is_numeric_row(cells):
         fail(text.path, no, "no header row: the first line holds numbers; name the columns "
               "(e.g. 't,y', 't', 'bounce,h')")
+    if drops.transposed(below or text) is not None:   # a class's sheet with the trials side by side
+        fail(text.path, no, drops.transposed_hint(below or text))
     if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
         fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r}: for drop and rebound "
                             f"heights, {drops.NAMING} (other layouts: see --format)")
@@ -338,17 +340,28 @@ def read_measurement(path, fmt=None, **options):
 def _parse(formats, name, text, options, given):
     """``formats[name].parser(text, **options)``; when the format was given (``--format``) and its parser
     refuses a file another format reads, the error says which (an MTrack2 export read as a Tracker one was
-    told '7 cells but the header names 4 columns')."""
+    told '7 cells but the header names 4 columns'). Another format is named only when its parser reads the
+    file: one whose detector takes it but whose parser refuses it would send the user from one refusal to
+    another."""
     try:
         return formats[name].parser(text, **options)
     except DataError as exc:
         if not given:
             raise
-        other = next((o for o, fmt in formats.items() if o != name and not fmt.recording and fmt.detector(text)),
-                     None)
+        other = next((o for o, fmt in formats.items() if o != name and not fmt.recording and fmt.detector(text)
+                      and _reads(fmt, text, options)), None)
         if other is None:
             raise
         raise DataError(f"{exc} (the file reads as {other}: --format {other})") from None
+
+
+def _reads(fmt, text, options):
+    """Does the format's parser read ``text`` (with the reader options given)?"""
+    try:
+        fmt.parser(text, **options)
+    except (DataError, UsageError):
+        return False
+    return True
 
 
 def _load(path, sheet=None):

@@ -56,7 +56,13 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError, UsageError
-from vrcal.measurements.cleanup import NOT_AN_IMPACT, detect_impact_anomalies, leading_intruder
+from vrcal.measurements.cleanup import (
+    NOT_A_DROP,
+    NOT_AN_IMPACT,
+    detect_impact_anomalies,
+    leading_intruder,
+    no_recorded_drop,
+)
 from vrcal.measurements.types import ImpactTimes
 
 #: File name endings read as sound (other than WAV they need the optional PyAV).
@@ -531,7 +537,10 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     than the one before it by more than ``max_louder_db`` (each bounce is slower). The
     longest chain wins; among equally long ones the louder, then the more regular. Its first
     event is then left out while it is no impact of the sequence
-    (:func:`vrcal.measurements.cleanup.leading_intruder`: a clap just before the release).
+    (:func:`vrcal.measurements.cleanup.leading_intruder`: a clap just before the release). A chain
+    whose longest flight rises a few mm is no recorded drop (a voice's pulses,
+    :func:`vrcal.measurements.cleanup.no_recorded_drop`): none is returned, and its events' reason
+    says why.
 
     Parameters
     ----------
@@ -554,7 +563,8 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     Returns
     -------
     chain : ndarray of int
-        indices of the impacts, increasing (empty when fewer than three candidates fit)
+        indices of the impacts, increasing (empty when fewer than three candidates fit, or when
+        the best chain is no recorded drop)
     reasons : dict
         ``{index: reason}`` for every candidate not in the chain
     """
@@ -602,6 +612,10 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
         chain = chain[1:]
     if chain.size < MIN_IMPACTS:
         return np.zeros(0, dtype=int), {i: "no bouncing sequence" for i in range(n)}
+    why = no_recorded_drop(t[chain])
+    if why is not None:    # a voice's pulses: a "sequence" whose longest flight rises a few mm
+        return np.zeros(0, dtype=int), {i: why if i in set(chain.tolist()) else "no bouncing sequence"
+                                        for i in range(n)}
     return chain, {**rejection_reasons(t, chain, tolerance), **intruders}
 
 
@@ -807,6 +821,12 @@ def track_sound(path, *, progress=None):
         raise DataError(f"{path}: no impact sounds found (loudest transient below {SNR:g} x the noise level, "
                         f"peak {20 * math.log10(peak):.0f} dBFS); record closer to the floor or in a quieter room")
     chain, reasons = bounce_sequence(onsets.t_s, onsets.snr_db)
+    no_drop = [i for i, why in reasons.items() if why.startswith(NOT_A_DROP)]
+    if no_drop:
+        t0, t1 = onsets.t_s[no_drop[0]], onsets.t_s[no_drop[-1]]
+        raise DataError(f"{path}: {onsets.t_s.size} sound events; the best bounce sequence ({len(no_drop)}, t = "
+                        f"{t0:.3f}-{t1:.3f} s) is {reasons[no_drop[0]]}; is this a drop recording? record the whole "
+                        "drop, the phone near the floor")
     if chain.size < MIN_IMPACTS:
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
                         "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
@@ -820,9 +840,7 @@ def track_sound(path, *, progress=None):
     second = _second_drop(onsets, chain)
     for i in second:
         reasons.pop(int(i), None)
-    notes.append(f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce sequence "
-                 f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
-                 f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
+    impacts_note = len(notes)    # written once the impacts fitted are known (a second drop's included)
     if t_new.size:
         notes.append(f"quiet end: {t_new.size} impact(s) after impact {n_heard} found in the windows where the "
                      f"bounce sequence predicts them (rising over {threshold:.1f} x the noise there, where noise "
@@ -861,6 +879,14 @@ def track_sound(path, *, progress=None):
             notes.append(f"a second drop: {n2} impacts from t = {t2[0]:.4f} s form a bounce sequence of their own; "
                          f"fitted jointly with the first (one epsilon, each drop its own height)")
             t_all, chains = np.concatenate([t_all, t2[:n2]]), ((0, n_clean), (n_clean, n_clean + n2))
+    how = (f"(onsets by the AIC change point after a {HIGHPASS_HZ / 1000:g} kHz high-pass; noise level "
+           f"{20 * math.log10(onsets.noise_level):.0f} dBFS)")
+    if chains:
+        notes.insert(impacts_note, f"impacts: {t_all.size} of {onsets.t_s.size} sound events form two bounce "
+                                   f"sequences ({n_clean} in the first drop, {t_all.size - n_clean} in a second) {how}")
+    else:
+        notes.insert(impacts_note, f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce "
+                                   f"sequence {how}")
     impacts = ImpactTimes(t_s=t_all, source=path, notes=tuple(notes), rejected=rejected, chains=chains)
     if progress:
         progress(1.0, "done")

@@ -454,6 +454,12 @@ def column_values(path, table, col, *, what, allow_empty=False):
     return out
 
 
+def column_cells(table, col):
+    """The filled cells of column ``col`` of ``table`` as the file writes them (``'0.500'``, not 0.5)."""
+    i = col.index
+    return [cells[i] for _, cells in table.rows if i < len(cells) and cells[i] != ""]
+
+
 def unit_factor(path, table, col, units, kind):
     if col.unit not in units:
         fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.name}' "

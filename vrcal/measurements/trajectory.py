@@ -29,6 +29,7 @@ from vrcal.measurements.table import (
     X_NAMES,
     Y_NAMES,
     check_increasing,
+    column_cells,
     column_values,
     fail,
     find_column,
@@ -128,7 +129,7 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         t = column_values(path, table, t_col, what="time", allow_empty=skip_empty_y)
         factor = unit_factor(path, table, t_col, TIME_UNITS, "time")
         ok = np.isfinite(t) & ~empty
-        grid = regular_frame_times(t[ok])
+        grid = regular_frame_times(t[ok], written=column_cells(table, t_col))
         if grid is not None:
             t = t.copy()
             t[ok] = grid.t_s

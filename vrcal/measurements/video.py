@@ -91,7 +91,7 @@ import numpy as np
 
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import detect_release_index, prominent_minima, third_difference_sigma
-from vrcal.measurements.trajectory import finish_trajectory
+from vrcal.measurements.trajectory import MIN_TRAJECTORY_SAMPLES, finish_trajectory
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: One-line hint when OpenCV is missing.
@@ -336,7 +336,12 @@ def _blobs(cv2, mask, min_area):
 
 
 def _learn_colour(cv2, frames, bg_lab, thresholds, min_area):
-    """Mean CIELAB colour and area (small frames) of the ball: the compact moving blob colour seen in most frames."""
+    """Mean CIELAB colour and area (small frames) of the ball: the compact moving blob colour seen in most frames.
+
+    A blob's colour is that of its core, the half of its pixels farthest from the background: a fast ball's
+    motion blur (the bounces near the floor of a short clip) mixes its edge with the background, whose
+    colour would otherwise shift the learnt one off the ball's (a clip of bounces near a white floor then
+    found the ball in one frame of 30)."""
     samples = []  # (frame, area, lab colour)
     idx = np.unique(np.linspace(0, len(frames) - 1, min(len(frames), 60)).round().astype(int))
     for i in idx:
@@ -344,7 +349,9 @@ def _learn_colour(cv2, frames, bg_lab, thresholds, min_area):
         diff = _distance(cv2, _weighted(lab), _weighted(bg_lab))
         mask = diff > thresholds
         for k, a, x, y, w, h, c, labels in _blobs(cv2, mask, min_area):
-            colour = np.median(lab[labels == k], axis=0)
+            inside = labels == k
+            core = inside & (diff >= np.median(diff[inside]))
+            colour = np.median(lab[core], axis=0)
             samples.append((int(i), a, colour))
     if not samples:
         return None, None, 0
@@ -741,8 +748,9 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     ----------
     path : str or Path
         the video
-    diameter_m : float
-        the ball's diameter [m]: its apparent diameter gives the scale
+    diameter_m : float or None
+        the ball's diameter [m]: its apparent diameter gives a scale; without it (and without
+        ``scale_m_per_px``) the scale is the flights' with g alone (:func:`choose_scale`)
     roi : tuple or str or None
         ``(x, y, w, h)`` pixels of the full frame to search in
     color : str or tuple or None
@@ -780,8 +788,6 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
         raise DataError(f"{path}: a sound recording (no video track in it): read its impact times as sound "
                         "(leave out --format video, or give --format sound)")
     cv2 = _cv2()
-    if diameter_m is None and scale_m_per_px is None:
-        raise UsageError(f"{path}: the scale of a video comes from the ball's diameter: give --ball or --diameter")
     if diameter_m is not None and not (math.isfinite(diameter_m) and diameter_m > 0):
         raise UsageError(f"--diameter must be a positive length in m, got {diameter_m:g}")
     if fps is not None and not (math.isfinite(fps) and fps > 0):
@@ -823,9 +829,12 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
                         "more); give the ball's colour with --color and a region with --roi")
     coarse = _coarse_track(cv2, frames, bg, ball_lab, ball_area, prog)
     found = np.isfinite(coarse[0])
+    span = n / container_fps if container_fps > 0 else float("inf")
+    remedy = (f"the video is only {span:.1f} s long: film the whole drop and some bounces, or give the ball's "
+              "colour with --color and a region with --roi" if span < MIN_VIDEO_S else
+              "give its colour with --color and a region with --roi")
     if found.sum() < 5:
-        raise DataError(f"{path}: the ball is found in only {int(found.sum())} frame(s); "
-                        "give its colour with --color and a region with --roi")
+        raise DataError(f"{path}: the ball is found in only {int(found.sum())} frame(s) of {n}; {remedy}")
     # full-size background from the kept frames
     keys = sorted(full)
     bgmed = _TiledMedian([full[k] for k in keys])
@@ -852,8 +861,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     notes += timing_note
     good = (quality >= MIN_QUALITY) & ~repeated & np.isfinite(row)
     if good.sum() < 5:
-        raise DataError(f"{path}: the ball is measured well in only {int(good.sum())} frame(s); "
-                        "give its colour with --color and a region with --roi")
+        raise DataError(f"{path}: the ball is measured well in only {int(good.sum())} frame(s) of {n}; {remedy}")
     # repeated frames
     if repeated.any():
         notes.append(f"{int(repeated.sum())} repeated frame(s) dropped (a frame identical to the one before: a "
@@ -869,8 +877,9 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
             f"the ball's flights curve upwards{turned}: is the video upside down? {fix.capitalize()}" if turn == 180
             else f"the ball moves across the picture{turned}, not up and down (it falls towards the "
             f"{'right' if turn == 90 else 'left'} edge): is the video rotated? {fix.capitalize()}"))
+    bottom_px = roi[1] + roi[3] if roi else size[0]
     result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
-                     diameter_m, scale_m_per_px, g_m_per_s2)
+                     diameter_m, scale_m_per_px, g_m_per_s2, bottom_px)
     result.background = bg
     result.scale_down = factor
     prog(1.0, "done", force=True)
@@ -918,8 +927,32 @@ def _frame_times(stamps, container_fps, fps, repeated):
     return t, notes
 
 
+#: A video shorter than this [s] cannot hold a drop and some bounces (a 0.5 m drop and its bounces last 2-3 s).
+MIN_VIDEO_S = 2.0
+
+
+def _too_few_frames(path, sel, good, n, t, row, diameter_px, bottom_px):
+    """The one-line refusal of a track with fewer frames kept than a trajectory needs, with its cause:
+    the floor below the picture (the ball reaches its bottom edge), a clip too short for a drop, or a
+    ball measured well in too few frames."""
+    kept = (f"only {sel.size} frames of the ball kept (frames {int(sel[0])}-{int(sel[-1])} of {n}; measured well in "
+            f"{int(good.sum())}), a track needs {MIN_TRAJECTORY_SAMPLES}" if sel.size else
+            f"no frame of the ball kept (measured well in {int(good.sum())} of {n})")
+    seen = np.flatnonzero(good)
+    lowest = int(seen[np.argmax(row[seen])]) if seen.size else -1
+    span = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    if lowest >= 0 and row[lowest] + diameter_px > bottom_px:   # the ball's bottom within half a diameter of the edge
+        why = (f"the floor is not in the picture (the ball reaches its bottom edge, frame {lowest}, and its bounces "
+               "are not seen): film with the floor and the whole drop in the picture (camera farther away or lower)")
+    elif span < MIN_VIDEO_S:
+        why = f"the video is only {span:.1f} s long: film the whole drop and some bounces"
+    else:
+        why = "give the ball's colour with --color and a region with --roi"
+    return DataError(f"{path}: {kept}: {why}")
+
+
 def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps, diameter_m,
-            scale_m_per_px, g_m_per_s2=STANDARD_GRAVITY):
+            scale_m_per_px, g_m_per_s2=STANDARD_GRAVITY, bottom_px=None):
     idx = np.flatnonzero(good)
     tt, rr = t[idx], row[idx]
     # a frame-rate conversion: stamps of the frames left, or the frames evenly spaced over the same span
@@ -952,9 +985,12 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     fall = flights[0] if _starts_with_fall(tt, flights) else None
     fall_g_px = 2.0 * fall[1][0] if fall is not None and fall[0].size >= 5 else float("nan")
     notes += _unseen_notes(tt, rr, flights, diameter_px)
-    scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
-                                 fps if fps is not None else container_fps, fps is not None, notes, fall_g_px,
-                                 g_m_per_s2)
+    try:
+        scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
+                                                   fps if fps is not None else container_fps, fps is not None, notes,
+                                                   fall_g_px, g_m_per_s2)
+    except UsageError as err:
+        raise UsageError(f"{path}: {err}") from None
     if fit is not None and fit.n_flights >= 2:
         contact_row = fit.contact_row_px
         notes.append(f"floor: the ball's centre at contact is at row {contact_row:.2f} +/- "
@@ -1011,6 +1047,8 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
                      f"{_list(idx[straddle])}): the ball's image lies above both flights there -- the exposure "
                      "spans the impact, and the blurred image averages the path down and up")
     sel = idx[keep]
+    if sel.size < MIN_TRAJECTORY_SAMPLES:
+        raise _too_few_frames(path, sel, good, n, t, row, diameter_px, size[0] if bottom_px is None else bottom_px)
     kept = np.zeros(n, dtype=bool)
     kept[sel] = True
     n_lost = int(np.sum(lost[sel[0]:sel[-1] + 1]))
@@ -1165,6 +1203,12 @@ def fit_bounces(t, row, flights):
                      rms_px=float(np.sqrt(np.mean(res ** 2))), n_flights=len(chain))
 
 
+#: Why a video without a diameter or a scale cannot be scaled (the flights do not tell g), and what to give.
+NO_SCALE = ("the scale of this video (m per pixel) comes from the flights between bounces with g, the ball's "
+            "apparent size or a given scale, and the flights do not tell g: give --ball or --diameter, or "
+            "--scale M_PER_PX")
+
+
 def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes,
                  fall_g_px=float("nan"), g_m_per_s2=STANDARD_GRAVITY):
     """The length scale [m/px] of a video, and g [m/s^2] from the flights with the diameter's scale.
@@ -1186,7 +1230,8 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     Parameters
     ----------
     diameter_m : float or None
-        the ball's diameter [m]
+        the ball's diameter [m]; without it (and without ``scale_m_per_px``) the scale is the flights'
+        with g when they tell g, else a :class:`~vrcal.errors.UsageError` (:data:`NO_SCALE`)
     diameter_px, diameter_sd_px : float
         its apparent diameter and the uncertainty of it [px]
     fit : BounceFit or None
@@ -1219,6 +1264,16 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     clock = f"{'--fps' if fps_given else 'the container'}'s {fps:.3f} fps"
     curved = (f"the curvature of the {fit.n_flights} flight(s) between bounces, {g_px:.5g} px/s^2 +/- "
               f"{g_rel * 100:.2g} %" if fit is not None else "")
+    if scale_m_per_px is None and diameter_m is None:
+        if not (math.isfinite(g_px) and g_rel < G_TELLS):
+            raise UsageError(NO_SCALE + (f" (the {fit.n_flights} flight(s) between bounces give it to {g_rel:.1%} only)"
+                                         if fit is not None else " (no flight between bounces is seen)"))
+        scale = g_m_per_s2 / g_px
+        notes.append(f"scale: {scale * 1e3:.4g} mm/px from g ({g_m_per_s2:g} m/s^2 with {clock}) and {curved}; "
+                     f"{seen}, not checked (no --diameter)")
+        notes.append("the heights are scaled with g known: an effect that changes every flight's acceleration alike "
+                     "(buoyancy) cannot be told from this video")
+        return scale, float("nan"), ""
     if scale_m_per_px is not None:
         scale = float(scale_m_per_px)
         g_meas = g_px * scale
