@@ -65,7 +65,7 @@ def test_the_g_note_says_how_many_flights_it_rests_on():
     keep = t < start
     data = Trajectory(t[keep], y[keep] + np.random.default_rng(0).normal(0, 2e-4, int(keep.sum())), "sparse")
     (note,) = [f.text for f in check(data, 0.067).findings if "parabolas of" in f.text]
-    assert note.startswith("g from the parabolas of 1 of 4 flights (the others hold fewer than 7 samples")
+    assert note.startswith("g from the parabolas of 1 of 4 flights (each alone; the others hold fewer than 7")
 
 
 def test_an_upside_down_record_names_the_fix(track, tmp_path):

@@ -353,9 +353,8 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
         ratio = g_fit / g_exp
         flights = max(len(_flight_edges(y[release:], sigma_m)) - 1, n)
         which = f"{n} flight(s)" if flights <= n else (
-            f"{n} of {flights} flights (the others hold fewer than {FLIGHT_MIN_SAMPLES} samples clear of their "
-            f"contacts, or a bounce too small to part them; each is fitted alone, where 'vrcal track' fits its "
-            f"flights together)")
+            f"{n} of {flights} flights (each alone; the others hold fewer than {FLIGHT_MIN_SAMPLES} samples clear "
+            f"of their contacts, or no one parabola)")
         text = f"g from the parabolas of {which}: {g_fit:.3g} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
                f"{g_m_per_s2:.4g}{expected})"
         if G_OK[0] <= ratio <= G_OK[1]:
