@@ -102,7 +102,7 @@ def apex_epsilon(data, mass_kg, diameter_m, g=9.80665):
     r = int(data.release_index)
     minima = impacts_in_trajectory(t, y, r)
     _, yc = contact_points(t, y, minima, r, g)
-    floor = float(np.median(yc))
+    floor = float(np.median(np.where(np.isnan(yc), y[minima], yc)))   # an unresolved contact: its lowest sample
     edges = [r] + list(minima) + [t.size]
     apexes = []
     for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):

@@ -49,6 +49,25 @@ def test_g_from_the_flights_of_a_plausible_record(track):
     assert check(data, 0.067).warnings == ()
 
 
+def test_the_g_note_says_how_many_flights_it_rests_on():
+    """A 30 fps track of four flights: 'g from the parabolas of 1 flight(s)' read as if the record held one,
+    beside a track's g from all four (vrcal track fits them together); the note says of how many and why."""
+    from vrcal.measurements import Trajectory
+
+    t = np.arange(0.0, 1.6, 1 / 30.0)
+    h = np.array([0.32, 0.16, 0.08, 0.04])              # apexes, a flight from the first on
+    start, y = -np.sqrt(2 * h[0] / 9.80665), np.zeros(t.size)
+    for k, a in enumerate(h):
+        half = np.sqrt(2 * a / 9.80665)
+        inside = (t >= start) & (t < start + 2 * half)
+        y[inside] = a - 0.5 * 9.80665 * (t[inside] - start - half) ** 2
+        start += 2 * half
+    keep = t < start
+    data = Trajectory(t[keep], y[keep] + np.random.default_rng(0).normal(0, 2e-4, int(keep.sum())), "sparse")
+    (note,) = [f.text for f in check(data, 0.067).findings if "parabolas of" in f.text]
+    assert note.startswith("g from the parabolas of 1 of 4 flights (each alone; the others hold fewer than 7")
+
+
 def test_an_upside_down_record_names_the_fix(track, tmp_path):
     data, truth = track
     with pytest.raises(DataError, match="looks upside down.*use --y-down"):

@@ -286,6 +286,17 @@ def test_no_still_segment_gives_zero(start):
     assert detect_release_index(y) == 0
 
 
+def test_a_record_that_starts_in_flight_has_no_still_segment():
+    """A track that starts at a bounce (30 fps, the ball falling, at the floor, rising): the trailing median
+    of its first three samples looked like a still level, and the ball moving at 2 m/s there was taken for
+    a still segment with the release after it (eps 0.86 instead of 0.70 on a real video)."""
+    t = np.arange(0.0, 2.0, 1 / 30.0)
+    y = bottom_height(t, H=0.45, eps=0.7, n=6, release=0.2) + np.random.default_rng(1).normal(0, 2e-4, t.size)
+    first = int(np.searchsorted(t, 0.2 + np.sqrt(2 * 0.45 / G))) - 2   # two samples before the bounce
+    assert detect_release_index(y[first:]) == 0
+    assert 6 <= detect_release_index(y) <= 8   # held still (0.2 s): found
+
+
 def test_duplicated_frame_in_flight_is_dropped_but_still_and_apex_repeats_are_kept(tmp_path):
     fs = 100.0
     t = np.arange(0, 2.0, 1 / fs)

@@ -240,7 +240,9 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
 
     Each flight is a parabola of curvature -g through its samples (leaving out the sample
     at the bounce); two such parabolas meet where their straight parts do. A bounce with
-    fewer than two samples on a side keeps its lowest sample.
+    fewer than two samples on a side (the first bounce of a record that starts just before it)
+    keeps the time of its lowest sample and an unknown height (NaN): the contact lies anywhere
+    below that sample (a frame at 30 fps is 4 cm above the floor at 1.3 m/s).
 
     Returns
     -------
@@ -256,7 +258,7 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
         after = _flight_line(t, y, m + 1, min(edges[k + 2], m + 7), g)
         if before is None or after is None or before[1] == after[1]:
             tc.append(float(t[m]))
-            yc.append(float(y[m]))
+            yc.append(float(y[m]) if before is not None and after is not None else math.nan)
             continue
         tm = (after[0] - before[0]) / (before[1] - after[1])
         if not (t[max(m - 1, 0)] - 0.5 * (t[m] - t[max(m - 1, 0)]) <= tm <= t[min(m + 1, t.size - 1)] + 1e-12):
@@ -404,9 +406,12 @@ def odd_bounces(data, ball, g_m_per_s2, sigma_m=0.0):
     # the flight after each bounce rises to apex[k]; a bounce is resolved while both its flights are high
     ends = [int(m) for m in minima[1:]] + [y.size]
     apex = np.array([float(np.max(y[int(a):b])) for a, b in zip(minima, ends)])
-    low = np.flatnonzero(apex - float(np.median(yc)) < RESOLVED_SIGMAS * float(sigma_m or 0.0))
+    seen = np.where(np.isnan(yc), y[minima], yc)   # where a contact's height is unknown, its lowest sample
+    low = np.flatnonzero(apex - float(np.median(seen)) < RESOLVED_SIGMAS * float(sigma_m or 0.0))
     judged = int(low[0]) if low.size else int(minima.size)   # bounces before the first low flight
-    floor = float(np.median(yc[:max(judged, 1)]))   # the contact level of the judged bounces
+    known = yc[:max(judged, 1)][~np.isnan(yc[:max(judged, 1)])]
+    # the contact level of the judged bounces
+    floor = float(np.median(known)) if known.size else float(np.min(seen[:max(judged, 1)]))
     odd = {}
     # flights 0..judged are resolved (flight k > 0 follows bounce k); each ends at a contact
     flights = tc[:min(judged + 1, tc.size)]
@@ -417,7 +422,7 @@ def odd_bounces(data, ball, g_m_per_s2, sigma_m=0.0):
             odd.setdefault(int(minima[i - 1]), why)
     if judged < 2:
         return sorted(odd.items()), minima
-    spread = 1.4826 * float(np.median(np.abs(yc[:judged] - floor)))
+    spread = 1.4826 * float(np.median(np.abs(known - floor))) if known.size else 0.0
     limit = max(ODD_CONTACT_DIAMETERS * diameter_m, 0.02, 5.0 * spread)
     for k, (m, h) in enumerate(zip(minima[:judged], yc[:judged])):
         if h - floor > limit:

@@ -397,15 +397,24 @@ class Discovery:
         off the model's heights at the same samples (:func:`vrcal.discovery.residuals.bounce_speed_ratios`:
         the speeds in and out where free parabolas through the flights on either side meet; read off both,
         the estimator's own bias -- drag bending a flight, a contact's duration -- cancels in the
-        difference): [{"run", "time_s", "impact_speed_m_per_s", "epsilon", "epsilon_standard_error",
-        "epsilon_model"}]; [] for impact times and heights."""
+        difference). A run whose frames are too sparse for that (fewer than 5 near each contact: a 30 fps
+        video) is read with parabolas of g through whole flights (:func:`vrcal.discovery.residuals.
+        bounce_flight_ratios`): [{"run", "time_s", "impact_speed_m_per_s", "epsilon", "epsilon_standard_error",
+        "epsilon_model", "estimator"}] ("speed ratio" or "flight parabolas"); [] for impact times and heights."""
         if self.kind != "trajectory":
             return []
         out = []
+        g = self.final.problem.g_m_per_s2
         for r, run in enumerate(self.runs):
             t, start = np.asarray(run.t_s, dtype=float), int(getattr(run, "release_index", 0) or 0)
+            heights = self.final.predict_at(t, run=r)
             found = res.bounce_speed_ratios(t, run.y_m, start)
-            model = res.bounce_speed_ratios(t, self.final.predict_at(t, run=r), start)
+            model = res.bounce_speed_ratios(t, heights, start)
+            estimator = "speed ratio"
+            if not found.size or not model.size:
+                found = res.bounce_flight_ratios(t, run.y_m, start, g)
+                model = res.bounce_flight_ratios(t, heights, start, g)
+                estimator = "flight parabolas"
             if not found.size or not model.size:
                 continue
             for tc, v_in, ratio, se in found:
@@ -414,7 +423,7 @@ class Discovery:
                     continue
                 out.append({"run": r, "time_s": float(tc), "impact_speed_m_per_s": float(v_in),
                             "epsilon": float(ratio), "epsilon_standard_error": float(se),
-                            "epsilon_model": float(model[k, 2])})
+                            "epsilon_model": float(model[k, 2]), "estimator": estimator})
         return out
 
     @property
@@ -438,15 +447,38 @@ class Discovery:
         0.75: the law's 0.738 at the first bounce, its own speeds 0.749, the bounces' RMS 0.0065)."""
         if self.kind != "trajectory" or not self.bounce_epsilons or self.verdict != "unexplained":
             return None
-        excess = [(b["epsilon"] - b["epsilon_model"]) ** 2 - b["epsilon_standard_error"] ** 2
+        excess = [(b["epsilon"] - b["epsilon_model"]) ** 2 - np.nan_to_num(b["epsilon_standard_error"]) ** 2
                   for b in self.bounce_epsilons]
         return float(math.sqrt(max(max(excess), 0.0)))
 
     @property
     def epsilon_uncertainty_basis(self):
         """What :attr:`epsilon_uncertainty` rests on: "fit" (the residuals taken as independent; for impact
-        times with the bounces' scatter) or "fit and bounce speed ratios" (an unexplained trajectory)."""
-        return "fit" if self.bounce_spread is None else "fit and bounce speed ratios"
+        times with the bounces' scatter), "fit and bounce speed ratios" or "fit and flight parabolas" (an
+        unexplained trajectory, :attr:`bounce_epsilons`), or "fit, a lower bound" (an unexplained trajectory
+        whose bounces cannot be read one by one: :attr:`epsilon_lower_bound`)."""
+        if self.bounce_spread is not None:
+            used = {b["estimator"] for b in self.bounce_epsilons}
+            return "fit and bounce speed ratios" if "speed ratio" in used else "fit and flight parabolas"
+        return "fit, a lower bound" if self.epsilon_lower_bound else "fit"
+
+    @property
+    def epsilon_lower_bound(self):
+        """Why the ± of an unexplained trajectory is only a lower bound, or None: no bounce's own ratio can be
+        read (no flight beside a bounce holds :data:`vrcal.discovery.residuals.FLIGHT_PARABOLA_MIN_SAMPLES`
+        samples clear of its contacts), so the fit's ± stands, which takes the residuals as independent.
+        With at most two samples a flight (an apex and a contact) the record looks like clicked points."""
+        if self.kind != "trajectory" or self.verdict != "unexplained" or self.bounce_epsilons:
+            return None
+        counts = [c for run in self.runs
+                  for c in res.flight_samples(run.t_s, run.y_m, int(getattr(run, "release_index", 0) or 0))[1:]]
+        text = ("the fit's ± assumes independent residuals and is a lower bound: no bounce's own ratio can be read "
+                f"(fewer than {res.FLIGHT_PARABOLA_MIN_SAMPLES} samples in a flight beside each bounce)")
+        if counts and float(np.median(counts)) <= 1:
+            text += ("; the record looks like clicked apex and contact points (one sample a flight between its "
+                     "contacts): give the apex heights above the contacts as an apexes file (header 'bounce,h', "
+                     "bounce 0 the drop height), which fits them without a trajectory's flights")
+        return text
 
     @property
     def judged_baseline(self):

@@ -249,12 +249,17 @@ def engine_advice(discovery):
     spread = d.bounce_spread
     by_bounces = [] if spread is None else [
         f"The ± of epsilon is widened from the fit's {f.uncertainty('epsilon'):.2g} to {u:.2g}: the model does not "
-        f"reproduce the record, so its residuals are not independent; a bounce's own speed ratio (out/in) "
-        f"differs from the model's by up to {spread:.2g} beyond its uncertainty ({len(d.bounce_epsilons)} "
+        f"reproduce the record, so its residuals are not independent; a bounce's own "
+        + ("speed ratio (out/in)" if d.epsilon_uncertainty_basis.endswith("speed ratios") else
+           "ratio (out/in) of the speeds where parabolas of g through its flights meet (too few frames near "
+           "the contacts for their own speeds)")
+        + f" differs from the model's by up to {spread:.2g} beyond its uncertainty ({len(d.bounce_epsilons)} "
         f"bounce{'s' if len(d.bounce_epsilons) > 1 else ''}: "
         + ", ".join(f"{b['epsilon']:.3f} for {b['epsilon_model']:.3f} at {b['impact_speed_m_per_s']:.2f} m/s"
                     for b in d.bounce_epsilons[:6])
         + (", ..." if len(d.bounce_epsilons) > 6 else "") + ")."]
+    if d.epsilon_lower_bound:
+        by_bounces = [f"{d.epsilon_lower_bound[0].upper()}{d.epsilon_lower_bound[1:]}."]
     if not d.effects:
         out.append(f"epsilon = {pm(eps, u)}" + (f"  ({widened})" if widened else ""))
         out.extend(by_bounces)

@@ -1063,11 +1063,113 @@ def bounce_speed_ratios(t_s, y_m, release_index=0, height_fraction=SPEED_WINDOW_
     return np.array(out, dtype=float).reshape(-1, 4)
 
 
+#: Fewest samples of a flight, clear of the bounces, that :func:`bounce_flight_ratios` fits a parabola through
+#: (two fix one of known curvature; the third leaves a residual: a record of clicked apex and contact
+#: points, one sample a flight between its contacts, gives none).
+FLIGHT_PARABOLA_MIN_SAMPLES = 3
+
+
+def _flights(t_s, y_m, release_index=0):
+    """(the bounces seen (:func:`impacts_in_trajectory`), the sample indices of each flight between them, the
+    samples at the bounces left out, the first flight from the release)."""
+    minima = [int(m) for m in impacts_in_trajectory(t_s, y_m, release_index)]
+    edges = [int(release_index) - 1] + minima + [np.asarray(t_s).size]
+    return minima, [np.arange(a + 1, b) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def flight_samples(t_s, y_m, release_index=0):
+    """How many samples each flight of a trajectory holds clear of its bounces: a list, the first flight
+    from the release."""
+    return [idx.size for idx in _flights(t_s, y_m, release_index)[1]]
+
+
+def bounce_flight_ratios(t_s, y_m, release_index=0, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,
+                         min_samples=FLIGHT_PARABOLA_MIN_SAMPLES):
+    """Each bounce's own epsilon from a sparsely sampled trajectory: parabolas of curvature -g through
+    the whole flights on either side of it meet at the contact; their speeds there, out over in.
+
+    For frames too sparse for :func:`bounce_speed_ratios` (fewer than 5 samples a side near a contact: a
+    30 fps video). With g known a flight's parabola has two free numbers, so three samples fix it and
+    leave a residual. The ratio is that of the flights' apex heights above where they meet, square-rooted
+    (v^2 = 2 g (apex - h)), and of the flights' durations at that level.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        sample times [s]
+    y_m : ndarray
+        heights [m] (any offset)
+    release_index : int
+        first sample of the free fall
+    g_m_per_s2 : float
+        the parabolas' downward acceleration [m/s^2]
+    min_samples : int
+        fewest samples of a flight, clear of the bounces, to fit it
+
+    Returns
+    -------
+    ndarray, (n_bounces, 4)
+        as :func:`bounce_speed_ratios`: per bounce seen, the time where the parabolas meet [s], the speed
+        in [m/s], the ratio out/in [1] and its standard error [1] (from the median scatter of the flights
+        about their parabolas); bounces with a flight of fewer than ``min_samples`` samples, or
+        whose parabolas do not meet between the flights falling in and rising out, are left out
+
+    Notes
+    -----
+    Model-free but for g: drag bends a flight from the parabola, a contact of tau lowers the meeting point
+    (raising both speeds by g tau / 2), a scale that drifts across the picture scales the flights' heights
+    unlike. Read off a model's heights at the same samples, the same estimator has the same bias
+    (:attr:`vrcal.discovery.ranking.Discovery.bounce_epsilons`).
+    """
+    t, y = np.asarray(t_s, dtype=float), np.asarray(y_m, dtype=float)
+    g = float(g_m_per_s2)
+    minima, flights = _flights(t, y, release_index)
+    lines, variances = [], []
+    for idx in flights:
+        if idx.size < max(int(min_samples), 2):
+            lines.append(None)
+            continue
+        mid = float(np.mean(t[idx]))
+        X = np.column_stack([np.ones(idx.size), t[idx] - mid])
+        z = y[idx] + 0.5 * g * t[idx] ** 2          # a line in t for a parabola of curvature -g
+        coef, res_ss, *_ = np.linalg.lstsq(X, z, rcond=None)
+        if idx.size > 2:
+            variances.append(float(res_ss[0]) / (idx.size - 2) if res_ss.size else 0.0)
+        lines.append((idx, mid, coef, np.linalg.inv(X.T @ X)))
+    # the flights' scatter: the median of theirs (a still segment left in the first flight bends its parabola)
+    sigma2 = float(np.median(variances)) if variances else math.nan
+
+    def meet(p):
+        """(contact time, speed in, speed out) of lines c1 + b1 (t - m1), c2 + b2 (t - m2)."""
+        c1, b1, c2, b2 = p
+        tc = (c2 - c1 + b1 * m1 - b2 * m2) / (b1 - b2)
+        return tc, b1 - g * tc, b2 - g * tc
+
+    out = []
+    for k, m in enumerate(minima):
+        before, after = lines[k], lines[k + 1]
+        if before is None or after is None or before[2][1] == after[2][1]:
+            continue
+        (i1, m1, p1, v1), (i2, m2, p2, v2) = before, after
+        p = np.array([p1[0], p1[1], p2[0], p2[1]])
+        tc, v_in, v_out = meet(p)
+        if not (v_in < 0 < v_out and t[i1[-1]] <= tc <= t[i2[0]]):
+            continue
+        ratio = float(v_out / -v_in)
+        step = 1e-6 * np.maximum(np.abs(p), 1.0)
+        grad = np.array([(-meet(p + e)[2] / meet(p + e)[1] - ratio) / h
+                         for e, h in zip(np.diag(step), step)])
+        cov = np.zeros((4, 4))
+        cov[:2, :2], cov[2:, 2:] = v1 * sigma2, v2 * sigma2
+        out.append((float(tc), float(-v_in), ratio, float(math.sqrt(max(float(grad @ cov @ grad), 0.0)))))
+    return np.array(out, dtype=float).reshape(-1, 4)
+
+
 def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Starting values {drop_height_m, release_time_s, epsilon} read from the data (one run).
 
     trajectory: drop height from the still level before release (or the first sample; of
-    a record that starts in the fall, from the flight after its first impact: :func:`_falling_start`),
+    a record that starts in the fall, from the flight after its first impact: :func:`_in_flight_start`),
     ε from the ratios of successive impact intervals, release time from the first
     impact and the free-fall time; impacts: ε from interval ratios, drop height from
     the first interval (v = g Δt / 2); apexes: drop height = apex 0, ε from the apex
@@ -1117,23 +1219,34 @@ def initial_baseline(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
         t0 = float(t[imp[0]] - math.sqrt(2 * fall_height / g))
     else:
         t0 = float(t[r])
-    falling = _falling_start(t, y, imp, eps, g) if r == 0 else None
-    if falling is not None:  # the record starts in the fall (a video whose ball enters the picture falling)
-        still, t0 = falling
+    in_flight = _in_flight_start(t, y, imp, eps, g) if r == 0 else None
+    if in_flight is not None:  # the record starts in flight (a video whose ball enters the picture)
+        still, t0 = in_flight
     return {"drop_height_m": still, "release_time_s": t0, "epsilon": eps}
 
 
-def _falling_start(t, y, imp, eps, g):
-    """(drop height [m], release time [s]) of a record that starts in the fall (a video whose ball
-    enters the picture falling), from the flight after its first impact: that flight's duration
-    ``T`` gives the take-off speed ``g T / 2``, over ``eps`` the impact speed ``v``, and the fall
-    from rest that ends at the first impact with ``v`` starts ``v / g`` before it from ``v^2 / 2g``.
-    None when the record starts at rest or at the top of its fall (the first sample is no lower
-    than 90 % of that height, or the ball rises between the first two samples), or with fewer than
-    two impacts."""
-    if imp.size < 2 or y[1] >= y[0]:
+def _in_flight_start(t, y, imp, eps, g):
+    """(drop height [m], release time [s]) of a record that starts in flight (a video whose ball
+    enters the picture, or whose first frames are cut), from the flight after its first impact seen:
+    that flight's duration ``T`` gives the take-off speed ``g T / 2``, over ``eps`` the impact speed
+    ``v``. Falling at the start, the fall from rest that ends at the first impact with ``v`` starts
+    ``v / g`` before it from ``v^2 / 2g``; rising, the first flight left an unseen impact with ``v``
+    ``2 v / g`` before the first impact seen, and the fall into that one (``v / eps``) is the drop.
+    None when the record starts at rest or at the top of its fall (the first sample no lower than 90 %
+    of that height, or of the first flight's top), or with fewer than two impacts."""
+    if imp.size < 2 or y[1] == y[0]:
         return None
     v = 0.5 * g * float(t[imp[1]] - t[imp[0]]) / eps
+    floor = float(np.min(y))
+    if y[1] > y[0]:
+        if not y[0] - floor < 0.9 * (float(np.max(y[:imp[0]])) - floor):   # at rest at the top (noise)
+            return None
+        # the first flight's own parabola (g known) gives its take-off from the floor seen
+        b, c = np.polyfit(t[:imp[0]], y[:imp[0]] + 0.5 * g * t[:imp[0]] ** 2, 1)
+        apex_t = b / g
+        rise = math.sqrt(max(2.0 * (c + b * apex_t - 0.5 * g * apex_t ** 2 - floor) / g, 0.0))
+        v, w = g * rise, g * rise / eps
+        return w * w / (2.0 * g), float(apex_t - rise - w / g)
     height = v * v / (2.0 * g)
     if not 0.9 * height > y[0]:
         return None

@@ -108,7 +108,17 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
         if before.size < min_still:
             break
         still_level = float(np.median(before))
-    return release if release >= min_still else 0
+    held = release >= min_still and _held_still(y[:release], still_level, threshold, window, min_still)
+    return release if held else 0
+
+
+def _held_still(before, level, threshold, window, min_still):
+    """Whether the samples before a release hold still: at least ``min_still`` of the last ``window``
+    and most of them lie within ``threshold`` of the still level (a record that starts in flight has a
+    few samples that a trailing median takes for a level, but they are spread over the flight)."""
+    last = np.asarray(before[-window:], dtype=float)
+    near = int(np.sum(np.abs(last - level) <= threshold))
+    return near >= min_still and 2 * near > last.size
 
 
 #: A number as written: sign, whole part, decimals after a point or a comma, exponent.

@@ -127,20 +127,28 @@ def check_sampling(t_s, source="data"):
         _fail(source, f"samples are {dt:.3g} s apart (a frame rate of {fs:.3g} Hz){hint}")
 
 
-def _flight_segments(t, y, sign, release, sigma):
-    """The flights of ``sign * y`` between its prominent minima, the samples next to a contact left out:
-    [(times from the segment's start [s], heights [unit])]."""
-    z = sign * y[release:]
-    tt = t[release:]
+#: Fewest samples of a flight, clear of its contacts, that the plausibility checks fit a parabola through.
+FLIGHT_MIN_SAMPLES = 7
+
+
+def _flight_edges(z, sigma):
+    """Indices bounding the flights of ``z``: its start, its prominent minima, its end (none without a minimum)."""
     if z.size < 8:
         return []
-    span = float(np.ptp(z))
-    minima = prominent_minima(z, max(8.0 * sigma, 0.05 * span))
-    edges = [0] + [int(m) for m in minima] + ([z.size - 1] if minima.size else [])
+    minima = prominent_minima(z, max(8.0 * sigma, 0.05 * float(np.ptp(z))))
+    return [0] + [int(m) for m in minima] + ([z.size - 1] if minima.size else [])
+
+
+def _flight_segments(t, y, sign, release, sigma):
+    """The flights of ``sign * y`` between its prominent minima, the samples next to a contact left out:
+    [(times from the segment's start [s], heights [unit])] of those with :data:`FLIGHT_MIN_SAMPLES`."""
+    z = sign * y[release:]
+    tt = t[release:]
+    edges = _flight_edges(z, sigma)
     out = []
     for a, b in zip(edges[:-1], edges[1:]):
         lo, hi = a + 2, b - 1      # leave out the samples next to a contact
-        if hi - lo >= 6:
+        if hi - lo >= FLIGHT_MIN_SAMPLES - 1:
             out.append((tt[lo:hi] - tt[lo], z[lo:hi]))
     return out
 
@@ -344,7 +352,11 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     ratio = None     # the parabolas' g over the expected one, when they curve downward
     if g_fit is not None and g_fit >= 0:
         ratio = g_fit / g_exp
-        text = f"g from the parabolas of {n} flight(s): {number(g_fit, 3)} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
+        flights = max(len(_flight_edges(y[release:], sigma_m)) - 1, n)
+        which = f"{n} flight(s)" if flights <= n else (
+            f"{n} of {flights} flights (each alone; the others hold fewer than {FLIGHT_MIN_SAMPLES} samples clear "
+            f"of their contacts, or no one parabola)")
+        text = f"g from the parabolas of {which}: {number(g_fit, 3)} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
                f"{g_m_per_s2:.4g}{expected})"
         if G_OK[0] <= ratio <= G_OK[1]:
             return [Finding("note", text)]
