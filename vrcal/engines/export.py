@@ -37,6 +37,7 @@ from vrcal.engines.common import (
     _round_up,
     check_dt,
     check_epsilon,
+    check_max_penetration,
     check_positive,
     confirmed,
     engine_label,
@@ -194,8 +195,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
     tolerance_given = tolerance is not None
     tolerance = DEFAULT_TOLERANCE if tolerance is None else check_positive(tolerance, "--tolerance")
-    if max_penetration_m is not None:
-        max_penetration_m = check_positive(max_penetration_m, "--max-penetration")
+    max_penetration_m = check_max_penetration(max_penetration_m, body.radius_m)
     if integrator is not None and eng.name != "mujoco":
         raise UsageError(f"--integrator applies to MuJoCo only, not to {eng.name}")
     if eng.name == "tables":

@@ -22,6 +22,7 @@ from vrcal.engines.common import (
     DropSetup,
     VerifyResult,
     check_counts,
+    check_max_penetration,
     check_positive,
     check_steps,
 )
@@ -253,7 +254,9 @@ def _load_file(engine, text, ball, options, geoms=None):
         notes=tuple(notes), n_bounces=max(int(target.get("n_bounces", N_BOUNCES)), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
-        max_penetration_m=options["max_penetration_m"] or target.get("max_penetration_m"), tolerance=tolerance,
+        max_penetration_m=check_max_penetration(options["max_penetration_m"], float(radius)) or
+        check_max_penetration(target.get("max_penetration_m"), float(radius), "the file's max_penetration_m"),
+        tolerance=tolerance,
         integrator=integrator, release_time_s=float(target.get("release_time_s", 0.0)),
         height_offset_m=float(target.get("height_offset_m", 0.0)),
     )
