@@ -330,9 +330,8 @@ def check_max_penetration(max_penetration_m, radius_m, what="--max-penetration")
     limit = check_positive(max_penetration_m, what)
     if limit >= radius_m:
         instead = "" if what == "--max-penetration" else "--max-penetration "
-        raise UsageError(f"{what} {limit * 1e3:.4g} mm is not below the ball's radius "
-                         f"{radius_m * 1e3:.4g} mm (its centre would reach the floor): give {instead}less than the radius "
-                         f"(default a quarter of it, {MAX_PENETRATION_RADII * radius_m * 1e3:.3g} mm), or a smaller "
+        raise UsageError(f"{what} {limit * 1e3:.4g} mm is not below the ball's radius {radius_m * 1e3:.4g} mm "
+                         f"(its centre would reach the floor): give {instead}less than the radius (default a quarter of it, {MAX_PENETRATION_RADII * radius_m * 1e3:.3g} mm), or a smaller "
                          "--dt, which lets the ball sink less")
     return limit
 
