@@ -331,8 +331,9 @@ def check_max_penetration(max_penetration_m, radius_m, what="--max-penetration")
     if limit >= radius_m:
         instead = "" if what == "--max-penetration" else "--max-penetration "
         raise UsageError(f"{what} {limit * 1e3:.4g} mm is not below the ball's radius {radius_m * 1e3:.4g} mm "
-                         f"(its centre would reach the floor): give {instead}less than the radius (default a quarter of it, {MAX_PENETRATION_RADII * radius_m * 1e3:.3g} mm), or a smaller "
-                         "--dt, which lets the ball sink less")
+                         f"(its centre would reach the floor): give {instead}less than the radius (default a quarter "
+                         f"of it, {MAX_PENETRATION_RADII * radius_m * 1e3:.3g} mm), or a smaller --dt, which lets the "
+                         "ball sink less")
     return limit
 
 
