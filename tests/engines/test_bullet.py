@@ -236,3 +236,23 @@ def test_an_impact_speed_range_not_reached_is_said_with_what_the_engine_does_the
     data = json.loads(result.stdout)
     assert any(n.startswith("checked over impact speeds 4..") for n in data["notes"])
     assert float(m.group(3)) > 0 and (m.group(4) == "MISSES") == (float(m.group(3)) > 0.01)
+
+
+@pytest.mark.parametrize("engine, dt", [("bullet", 1 / 240), ("ode", 0.005)])
+def test_a_refusal_names_the_limits_that_keep_the_users_step(engine, dt):
+    """A lacrosse ball (145 g, 63.5 mm, epsilon 0.7219 from 1.199 m) at PyBullet's 240 Hz was refused naming
+    a smaller step only; a robot's fixed step cannot change: the refusal names --tolerance and
+    --max-penetration that accept the user's step (measured over the 16 phases an export confirms with),
+    and the export with them passes."""
+    require_engine(engine)
+    lacrosse = dict(mass_kg=0.145, diameter_m=0.0635, epsilon=0.7218670880622122, drop_height_m=1.1987817632818059,
+                    dt_s=dt)
+    with pytest.raises(UsageError) as info:
+        export(None, engine, **lacrosse)
+    found = re.search(r"; to keep --dt [0-9.]+ s, accept what it achieves: --tolerance ([0-9.]+) "
+                      r"--max-penetration ([0-9.]+)$", str(info.value))
+    assert found, str(info.value)
+    tolerance, depth = float(found.group(1)), float(found.group(2))
+    assert 0.01 < tolerance < 0.02 and 0.0159 < depth < lacrosse["diameter_m"] / 2
+    ex = export(None, engine, tolerance=tolerance, max_penetration_m=depth, **lacrosse)
+    assert f"step {dt:g} s checked in" in " ".join(ex.setup.notes)

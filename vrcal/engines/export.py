@@ -665,8 +665,10 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+    keep = keep_step(setup, cal.worst_error, cal.depth_m, margin=1.1)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
-                     f"misses: {'; '.join(misses)}; {step_that_works()}; see --trade-off")
+                     f"misses: {'; '.join(misses)}; {step_that_works()}" + (f"; {keep}" if keep else "")
+                     + "; see --trade-off")
 
 
 def refuse_constant_for_law(setup, engine):
@@ -873,7 +875,11 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                                                0.95 * setup.penetration_limit_m / depth, 0.9))
         raise UsageError(f"{what}; by the bound --dt {dt_bound:g} meets both (not run: vrcal verify runs it where "
                          f"{label} is installed)")
+    keep = ""
     if isinstance(runs, DropRuns):
+        wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
+        wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
+        keep = keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
         misses = []
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
@@ -897,7 +903,29 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     else:
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
                "--max-penetration")
-    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}")
+    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+
+
+def keep_step(setup, worst_error, depth_m, margin=1.0):
+    """What accepts the user's own step: the ``--tolerance`` and ``--max-penetration`` that the drop test
+    at ``setup.dt_s`` met (its worst epsilon error and how far the ball turned from the floor [m], each
+    rounded up), only those it missed; '' when neither is needed. A depth at or above the ball's radius
+    is no limit to give (:func:`vrcal.engines.common.check_max_penetration`): it says so instead.
+    ``margin`` (>= 1) widens both first: MuJoCo's calibration at a looser limit picks another contact,
+    which goes deeper (a tennis ball at 4 ms: 13.3 mm at the 8.37 mm limit, 14.002 mm at a 14 mm one)."""
+    worst_error, depth_m = worst_error * margin, depth_m * margin
+    options = []
+    if worst_error > setup.tolerance:
+        options.append(f"--tolerance {_round_up(worst_error)}")
+    if depth_m > setup.penetration_limit_m:
+        if depth_m >= setup.radius_m:
+            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball sinks {depth_m * 1e3:.3g} mm, "
+                    f"beyond its radius {setup.radius_m * 1e3:.3g} mm")
+        limit = float(_round_up(depth_m))
+        options.append(f"--max-penetration {min(limit, round_down(setup.radius_m * (1 - 1e-9))):g}")
+    if not options:
+        return ""
+    return f"to keep --dt {setup.dt_s:g} s, accept what it achieves: {' '.join(options)}"
 
 
 def _steps_text(steps):
