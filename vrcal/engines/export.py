@@ -565,8 +565,13 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, eng.label)
         setup, checked, coverage, summary = _checked_export(setup, "gazebo", n_phases, asked_lo)  # runs in ODE
+        from vrcal.engines.common import metadata
+
+        target = metadata(setup)
+        if coverage:
+            target["holds_down_to_m_per_s"] = coverage.holds_down_to_m_per_s
         text = module.export_sdf(setup, pair, second, checked if coverage is None else
-                                 f"{checked}; {coverage.note(setup.tolerance)}")
+                                 f"{checked}; {coverage.note(setup.tolerance)}", target=dict(target, ball=setup.ball))
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
         if setup.drop_height_m is not None:
@@ -1016,6 +1021,8 @@ def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
 
 def _run_params(setup, engine):
     """The parameters ODE (also Gazebo's SDF, with its one constant) or Bullet runs ``setup`` with."""
+    if get_engine(engine).name == "gazebo":                 # the SDF's surfaces, combined as Gazebo does
+        return load("gazebo").setup_params(setup)
     params = load(runtime(engine).name).export_params(setup, setup.n_bounces)
     if get_engine(engine).one_epsilon and params.pop("restitution_law", None):   # e.g. the SDF's one constant
         from vrcal.engines.common import constant_epsilon
