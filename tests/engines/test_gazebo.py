@@ -96,7 +96,10 @@ def test_the_world_says_what_the_floor_needs_and_carries_the_target():
     head = " ".join(text.split("<sdf", 1)[0].split())
     assert "YOUR FLOOR's <collision> needs the ground_plane's <surface> below too" in head
     assert "restitution_coefficient 1 (SDF's default 0: no bounce at all" in head and "kp 1e12 and kd 1" in head
-    assert '<!-- vrcal_target {"ball": "ball"' in text
+    from vrcal.engines.files import read_sdf
+
+    assert read_sdf(text)["target"]["epsilon"] == pytest.approx(0.7218670880622122)
+    assert max(len(line) for line in text.split("<sdf", 1)[0].splitlines()) <= 100
 
 
 def test_verify_runs_a_gazebo_world_as_gazebo_combines_its_surfaces(tmp_path):

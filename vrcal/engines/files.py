@@ -271,11 +271,11 @@ def read_sdf(text):
     ode = physics.find("ode") if physics is not None else None
     gravity = world.findtext("gravity") or (physics.findtext("gravity") if physics is not None else None)
     try:
-        g = tuple(float(x) for x in gravity.split()) if gravity else SDF_DEFAULTS["gravity"]
+        g = tuple(float(x) for x in (gravity or SDF_DEFAULTS["gravity"]).split())
     except ValueError:
         raise DataError(f"SDF <gravity> '{gravity[:40]}' is not three numbers") from None
     if len(g) != 3 or not all(math.isfinite(x) for x in g) or not g[2] < 0:
-        raise DataError(f"SDF <gravity> '{gravity}' must be three numbers pointing down (z < 0)")
+        raise DataError(f"SDF <gravity> '{gravity[:40]}' must be three numbers pointing down (z < 0)")
     solver = ((ode.findtext("solver/type") if ode is not None else None) or SDF_DEFAULTS["solver"]).strip().lower()
     out = {"world": {"max_step_size": number(physics, "max_step_size", "max_step_size", 0, 1), "gravity": g,
                      "solver": solver, "iters": number(ode, "solver/iters", "iters", 0, 1e4),

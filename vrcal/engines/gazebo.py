@@ -40,7 +40,7 @@ SURFACE_KD_N_S_PER_M = 1.0
 #: SDF 1.7's defaults of what :func:`ode_params` reads (sdformat's surface.sdf, physics.sdf, ode.sdf).
 SDF_DEFAULTS = {"restitution_coefficient": 0.0, "threshold": 1e5, "kp": 1e12, "kd": 1.0, "max_vel": 0.01,
                 "min_depth": 0.0, "max_step_size": 1e-3, "solver": "quick", "iters": 50,
-                "contact_max_correcting_vel": 100.0, "contact_surface_layer": 1e-3, "gravity": (0.0, 0.0, -9.8)}
+                "contact_max_correcting_vel": 100.0, "contact_surface_layer": 1e-3, "gravity": "0 0 -9.8"}
 
 #: How the exported world's comment with vrcal's numbers starts (read back by ``vrcal verify --file``).
 TARGET_TAG = "vrcal_target"
@@ -267,7 +267,9 @@ def export_sdf(setup, pair=None, second=None, checked=None, target=None):
     if target:
         import json
 
-        head += f"<!-- {TARGET_TAG} {json.dumps(target, sort_keys=True)} -->\n"
+        # one key a line (the header stays within 100 columns); zeros left out (verify's defaults)
+        kept = {k: v for k, v in target.items() if v != 0.0 or k in ("epsilon", "drop_height_m")}
+        head += f"<!-- {TARGET_TAG} {json.dumps(kept, sort_keys=True, indent=1)} -->\n"
     notes = constant_engine_notes(setup, "Gazebo classic surfaces", option=lambda name: f"the {name} option")
     if notes:
         lines = [w for line in notes for w in textwrap.wrap(line, 92)]

@@ -334,7 +334,8 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         ex0 = export(None, eng.name, **base_options)
     except UsageError:
         # only a comparison: run the constant-epsilon export at this step anyway, and say so
-        base_options.update(tolerance=1.0, max_penetration_m=props.diameter_m)
+        # (the deepest limit accepted: just under the radius, where the ball's centre would reach the floor)
+        base_options.update(tolerance=1.0, max_penetration_m=0.999 * props.diameter_m / 2)
         ex0 = export(None, eng.name, **base_options)
         notes.append("the constant-epsilon export misses --tolerance or --max-penetration at this step: "
                      "it is run anyway, for the comparison only")
