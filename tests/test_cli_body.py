@@ -379,3 +379,14 @@ def test_fit_of_a_drop_test_alone_needs_no_body():
     doc = json.loads(run("fit", "--drop-height", 1, "--rebound-height", 0.64, "--format", "json").stdout)
     assert doc["epsilon"]["nominal"] == pytest.approx(0.8) and doc["ball"] is None and "family" not in doc
     assert run("fit", "--epsilon", 0.8).exit_code == 2
+
+
+def test_fits_drag_note_says_which_epsilon_an_engine_without_drag_needs():
+    """A 2.7 g, 40 mm ball rebounding 0.23 m from 0.3 m: the note gave the contact's own epsilon with a
+    sphere's drag (0.906) but not that an engine without air drag needs Eq. 9's 0.876 (0.906 pasted into
+    MuJoCo rebounds 0.246 m, not 0.23 m): it says both, each with what it is for."""
+    text = run("fit", "--mass", 0.0027, "--diameter", 0.04, "--drop-height", 0.3, "--rebound-height", 0.23).stdout
+    flat = " ".join(text.split())
+    assert "the contact's own ε is 0.906, not 0.876" in flat
+    assert "an engine without air drag (MuJoCo, ODE, PyBullet as they come) reproduces these heights with 0.876" in flat
+    assert float(eq.epsilon_from_heights(0.23, 0.3)) == pytest.approx(0.876, abs=5e-4)

@@ -89,10 +89,9 @@ def test_the_issue_cases_are_one_line_errors(args, message):
     (["export", "tennis", "--engine", "ode", "--against", "x=0.01,v=0.17"],
      "--against takes a second ball of the standards (a virtual body x=DEPTH,v=SPEED is a --floor): unknown ball"),
     (["verify", "tennis", "--engine", "gazebo"],
-     "vrcal export --engine gazebo runs the SDF's bounce and threshold in libode with the ODE export's contact "
-     "(soft_erp 0, soft_cfm 1e-10), not the soft_erp and soft_cfm Gazebo derives from the SDF's kp and kd (its "
-     "note says what it measured): vrcal verify "
-     "--engine ode runs that drop test"),
+     "--engine gazebo runs an SDF world (its surfaces combined as Gazebo classic does, in libode): give --file "
+     "WORLD.sdf, e.g. vrcal export BALL --engine gazebo -o world.sdf && vrcal verify --engine gazebo --file "
+     "world.sdf"),
 ])
 def test_unit_slips_and_wrong_engines_are_named_in_one_line(args, message):
     """The probe's cases: ms typed for s, cm for m, a virtual body for --against, gazebo for verify."""

@@ -850,8 +850,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @click.argument("ball", required=False)
 @click.option("--engine", "engine", type=opt.NamedChoice(["mujoco", "ode", "bullet", "pybullet", "gazebo"],
                                                         case_sensitive=False),
-              required=True, help="Engine to run the drop test in (gazebo: its SDF's bounce is ODE's, run it "
-                                  "with --engine ode).")
+              required=True, help="Engine to run the drop test in (gazebo: an SDF world given with --file, run in "
+                                  "libode with its surfaces combined as Gazebo classic does).")
 @_engine_options
 @click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "

@@ -244,7 +244,9 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
                 f"check the mass, the diameter and the heights. {table}")
     else:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag the contact's own ε is "
-                f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag). {table}")
+                f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag): {with_drag:.3f} is for an engine that applies "
+                f"that drag too; an engine without air drag (MuJoCo, ODE, PyBullet as they come) reproduces these "
+                f"heights with {eps:.3f}. {table}")
     return {"epsilon_with_drag": with_drag, "drag_coefficient": cd, "notes": [note]}
 
 

@@ -224,7 +224,9 @@ def test_a_missing_engine_gives_engine_unavailable_naming_the_package(monkeypatc
 
 def test_export_only_engines_cannot_be_verified():
     with pytest.raises(UsageError, match="export only"):
-        verify("basketball", "gazebo")
+        verify("basketball", "tables")
+    with pytest.raises(UsageError, match="^--engine gazebo runs an SDF world .*: give --file WORLD.sdf"):
+        verify("basketball", "gazebo")            # a world runs in libode, as Gazebo classic combines it
 
 
 def test_cli_export_writes_each_engine_file(tmp_path):
@@ -556,3 +558,27 @@ def test_impact_speeds_say_where_the_bounces_end():
     one = build_setup("basketball", "ode", impact_speed="5")
     assert one.impact_speed_m_per_s == pytest.approx(5.0) and one.n_bounces == 3
     assert any("one value: the first impact" in n for n in one.notes)
+
+
+def test_a_penetration_limit_at_or_above_the_radius_is_refused(tmp_path):
+    """A 25.4 mm steel ball (the probe's steel.json) exported to ODE at 10 ms with --max-penetration 0.035:
+    written, and verify PASSED with 'penetration 30.6 mm' on a ball of radius 12.7 mm. A limit at or above
+    the radius is refused in one line (export, verify, and an exported file's own limit)."""
+    steel = dict(mass_kg=0.0668, diameter_m=0.0254, epsilon=0.8944, drop_height_m=0.5)
+    for limit in (0.035, 0.0127):
+        with pytest.raises(UsageError, match=r"^--max-penetration [\d.]+ mm is not below the ball's radius 12\.7 mm "
+                                             r"\(its centre would reach the floor\): give less than the radius"):
+            build_setup(None, "ode", dt_s=0.01, max_penetration_m=limit, **steel)
+    assert build_setup(None, "ode", dt_s=0.01, max_penetration_m=0.012, **steel).penetration_limit_m == 0.012
+    result = run("export", "--engine", "ode", "--mass", 0.0668, "--diameter", 0.0254, "--epsilon", 0.8944,
+                 "--drop-height", 0.5, "--dt", 0.01, "--max-penetration", 0.035)
+    assert result.exit_code == 2 and result.output.count("\n") == 1 and "radius 12.7 mm" in result.output
+    require_engine("ode")
+    doc = json.loads(export(None, "ode", dt_s=1e-3, **steel).text)
+    doc["target"]["max_penetration_m"] = 0.035           # as the export at 10 ms wrote it
+    path = tmp_path / "steel.json"
+    path.write_text(json.dumps(doc))
+    result = run("verify", "--engine", "ode", "--file", path)
+    assert result.exit_code == 2 and "the file's max_penetration_m 35 mm is not below the ball's radius" in \
+        result.output and "give --max-penetration less than the radius" in result.output
+    assert run("verify", "--engine", "ode", "--file", path, "--max-penetration", 0.005).exit_code == 0

@@ -381,3 +381,16 @@ def test_a_step_where_no_damping_holds_the_ball_down_names_one_that_works():
         export("tennis", "mujoco", dt_s=5e-3, integrator="rk4")
     dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
     assert export("tennis", "mujoco", dt_s=dt_ok, integrator="rk4").data["worst_error"] <= 0.01
+
+
+def test_a_refusal_names_the_penetration_that_keeps_the_users_step():
+    """A tennis ball at 4 ms turns 13.3 mm from the floor (limit R/4 = 8.37 mm): the refusal names a smaller
+    step and --trade-off, and now also the --max-penetration that keeps 4 ms (with a margin: at a looser
+    limit the calibration picks a deeper contact, 14.002 mm at 14 mm); the export with it passes."""
+    require_engine("mujoco")
+    with pytest.raises(UsageError, match=r"; to keep --dt 0\.004 s, accept what it achieves: --max-penetration "
+                                         r"([0-9.]+); see --trade-off$") as info:
+        export("tennis", "mujoco", dt_s=0.004)
+    depth = float(re.search(r"--max-penetration ([0-9.]+);", str(info.value)).group(1))
+    ex = export("tennis", "mujoco", dt_s=0.004, max_penetration_m=depth)
+    assert max(ex.data["penetration_m"], ex.data["hover_m"]) <= depth

@@ -168,3 +168,21 @@ def test_a_replay_judges_each_apex_against_the_noise_as_well(medicine_ball, tmp_
     assert result.exit_code == 1, result.output
     last = result.output.strip().splitlines()[-1]
     assert last.startswith("vrcal: error: the engine's rebound 1 apex is -") and "% of the" in last
+
+
+def test_an_apex_file_against_is_told_what_verifies_it(tmp_path):
+    """'vrcal verify --from X.json --against X.csv' with apex heights (0, 1.20 / 1, 0.62 / 2, 0.33, the
+    probe's lacrosse.csv) said only that --against replays a trajectory: it also says what to run instead,
+    and that command runs."""
+    require_engine("ode")
+    data = tmp_path / "lacrosse.csv"
+    data.write_text("bounce,h\n0,1.20\n1,0.62\n2,0.33\n")
+    doc = tmp_path / "lacrosse.json"
+    runner = CliRunner()
+    found = runner.invoke(main, ["discover", str(data), "--mass", "0.145", "--diameter", "0.0635", "-q", "--json",
+                                 str(doc)])
+    assert found.exit_code == 0, found.output
+    result = runner.invoke(main, ["verify", "--from", str(doc), "--against", str(data), "--engine", "ode"])
+    assert result.exit_code == 2 and result.output.count("\n") == 1
+    assert "holds apexes: leave out --against, and vrcal verify --from RESULT.json --engine ENGINE" in result.output
+    assert runner.invoke(main, ["verify", "--from", str(doc), "--engine", "ode"]).exit_code == 0

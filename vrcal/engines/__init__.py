@@ -52,10 +52,8 @@ ENGINES = {
                      "changeDynamics etc. (JSON, Python)", 400_000, label="PyBullet", runs_in="bullet"),
     "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 1e-3,
                      "SDF 1.7 world (ODE physics)", label="Gazebo", runs_in="ode", one_epsilon=True,
-                     not_run="Gazebo classic runs ODE, and vrcal export --engine gazebo runs the SDF's bounce and "
-                             "threshold in libode with the ODE export's contact (soft_erp 0, soft_cfm 1e-10), not "
-                             "the soft_erp and soft_cfm Gazebo derives from the SDF's kp and kd (its note says what "
-                             "it measured): vrcal verify --engine ode runs that drop test"),
+                     not_run="vrcal verify --engine gazebo --file WORLD.sdf runs an SDF world in libode, its "
+                             "surfaces combined as Gazebo classic does"),
     "tables": Engine("tables", "vrcal.engines.tables", "text", False, "none (export only)", "", 1e-3,
                      "PhysX, Unity, Box2D values", label="PhysX, Unity and Box2D", one_epsilon=True),
 }

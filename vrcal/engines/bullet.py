@@ -5,7 +5,9 @@ Bullet combines the two bodies' ``restitution`` by their product and never bounc
 contacts are created before touch (``contactProcessingThreshold``) and the solver subtracts
 the gap over dt, ERP adds energy on the way out, the contact slop (``contactSlop``, PyBullet's
 1e-5 m) counts a ball less than that deep as a gap and takes the gap over dt off its rebound,
-and bodies carry hidden linear/angular damping. The exported settings switch all of that off;
+and bodies carry hidden linear/angular damping. The exported settings switch all of that off,
+on the ball's contacts where Bullet allows it (its ``contactStiffness``/``contactDamping`` give them
+ERP 0; only the slop, the restitution threshold and the step are world-wide);
 then the ball's restitution is its
 epsilon and the floor's is 1 (rigid floor, Eq. 10 of [1]); a pair of balls then gets
 ``eps_A * eps_B`` by Bullet's own product rule -- exactly Eq. (6) of [1] for bodies
@@ -40,14 +42,33 @@ CONTACT_SLOP_M = 0.0
 PYBULLET_CONTACT_SLOP_M = 1e-5
 
 
+#: The ball's own contact stiffness [N/m] and damping [N s/m] (``changeDynamics(contactStiffness=...,
+#: contactDamping=...)``). A body with them makes Bullet compute each of its contacts' ERP and CFM from
+#: them instead of the world's ``contactERP`` (btManifoldResult: stiffness in series, damping added over
+#: the pair; then ERP = dt k / (dt k + d), CFM = 1 / (dt k + d)): stiffness 0 gives ERP 0, so the ball's
+#: contacts leave at the bounce speed, not pushed out faster, and damping 1e12 a CFM of 1e-12 (rigid; 1e9
+#: already softens it enough to move a basketball's epsilon error at 1/240 s by 1e-6, 1e6 by 2e-4). Other
+#: bodies keep the world's contactERP: measured in PyBullet 3.2.7, a 1 kg box dropped 0.3 m onto the floor
+#: rests 0.00 mm in it (PyBullet's defaults: 0.01 mm), where an earlier vrcal's world-wide ``contactERP=0``
+#: left it 7.78 mm in the floor for good; the ball's drop test gives the same numbers either way (to 1e-9:
+#: lacrosse ball at 1/240 s worst error 0.0134, basketball 0.0100007).
+CONTACT_STIFFNESS_N_PER_M = 0.0
+CONTACT_DAMPING_N_S_PER_M = 1e12
+
+
 #: Units of the keys named as the engine's API names them (pasted into its calls as they are, so not
 #: renamed with a unit): key path -> unit ('1' = dimensionless), written as the file's "units" map.
 ENGINE_KEY_UNITS = {"changeDynamics.*.restitution": "1", "changeDynamics.*.contactProcessingThreshold": "m",
+                  "changeDynamics.*.contactStiffness": "N/m", "changeDynamics.*.contactDamping": "N s/m",
                   "changeDynamics.*.linearDamping": "1", "changeDynamics.*.angularDamping": "1",
                   "changeDynamics.*.lateralFriction": "1", "setPhysicsEngineParameter.fixedTimeStep": "s",
                   "setPhysicsEngineParameter.restitutionVelocityThreshold": "m/s",
-                  "setPhysicsEngineParameter.contactSlop": "m", "setPhysicsEngineParameter.contactERP": "1",
-                  "setGravity": "m/s^2"}
+                  "setPhysicsEngineParameter.contactSlop": "m", "setGravity": "m/s^2"}
+
+#: The ball's ``changeDynamics`` besides its restitution (also the second ball's of ``--against``).
+BALL_DYNAMICS = {"contactProcessingThreshold": 0.0, "contactStiffness": CONTACT_STIFFNESS_N_PER_M,
+                 "contactDamping": CONTACT_DAMPING_N_S_PER_M, "linearDamping": 0.0, "angularDamping": 0.0,
+                 "lateralFriction": 0.0}
 
 
 def export_params(setup, n_bounces=None, pair=None):
@@ -68,12 +89,11 @@ def export_params(setup, n_bounces=None, pair=None):
         "target_epsilon": setup.epsilon,
         "target": metadata(setup),
         "changeDynamics": {
-            "ball": {"restitution": ball_eps, "contactProcessingThreshold": 0.0,
-                     "linearDamping": 0.0, "angularDamping": 0.0, "lateralFriction": 0.0},
-            "floor": {"restitution": setup.floor_epsilon, "contactProcessingThreshold": 0.0},
+            "ball": {"restitution": ball_eps, **BALL_DYNAMICS},
+            "floor": {"restitution": setup.floor_epsilon},
         },
         "setPhysicsEngineParameter": {
-            "fixedTimeStep": setup.dt_s, "numSubSteps": 0, "contactERP": 0.0,
+            "fixedTimeStep": setup.dt_s, "numSubSteps": 0,
             "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD, "contactSlop": CONTACT_SLOP_M,
         },
         "setGravity": [0.0, 0.0, -setup.g_m_per_s2],
@@ -83,9 +103,18 @@ def export_params(setup, n_bounces=None, pair=None):
             f"{ball_eps:.6g} x {setup.floor_epsilon:.6g} = {setup.epsilon:.6g}",
             f"no bounce below restitutionVelocityThreshold (Bullet's default 0.2 m/s; set here to "
             f"{RESTITUTION_VELOCITY_THRESHOLD} m/s; drop test's last impact {v_last:.3g} m/s)",
-            "contactProcessingThreshold=0, contactERP=0 and zero damping: Bullet's defaults give "
-            "step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
-            "contactERP is the contacts' error reduction only: erp (joints) and frictionERP stay yours",
+            "the ball's contactProcessingThreshold 0 (a pair takes the smaller of its two bodies'), "
+            f"contactStiffness {CONTACT_STIFFNESS_N_PER_M:g} and contactDamping {CONTACT_DAMPING_N_S_PER_M:g} (Bullet "
+            f"then gives the ball's contacts ERP 0 and CFM {1 / CONTACT_DAMPING_N_S_PER_M:g}) and zero damping: "
+            "Bullet's defaults give step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
+            "the ball's contacts only: the world's contactERP, erp and frictionERP stay yours, so your other "
+            "bodies rest on the floor as before (a world-wide contactERP 0, as an earlier vrcal set, left a 1 kg "
+            "box dropped 0.3 m 7.78 mm in the floor for good)",
+            "world-wide (setPhysicsEngineParameter acts on every body): restitutionVelocityThreshold (your "
+            "bodies with a restitution now bounce down to it), contactSlop 0 (resting contacts lose PyBullet's "
+            "1e-05 m of slop; a 1 kg box rests 0.00 mm in the floor, 0.01 mm with the default) and the step; "
+            "the floor's restitution 1 gives every body its own restitution against the floor (Bullet's "
+            "default 0 for a body keeps it from bouncing)",
             f"contactSlop {CONTACT_SLOP_M:g}: with PyBullet's default {PYBULLET_CONTACT_SLOP_M:g} m a ball found "
             f"less deep than that leaves up to {PYBULLET_CONTACT_SLOP_M:g} m / dt too slowly (at this step "
             f"{PYBULLET_CONTACT_SLOP_M / setup.dt_s:.3g} m/s, up to "
@@ -99,8 +128,7 @@ def export_params(setup, n_bounces=None, pair=None):
         out["notes"].append("PyBullet has no air drag and one restitution per body: step with the snippet's "
                             "vrcal_step(ball) instead of p.stepSimulation() (drag force; epsilon at this speed)")
     if pair:
-        out["changeDynamics"]["ball2"] = {"restitution": pair["epsilon_ball2"], "contactProcessingThreshold": 0.0,
-                                          "linearDamping": 0.0, "angularDamping": 0.0, "lateralFriction": 0.0}
+        out["changeDynamics"]["ball2"] = {"restitution": pair["epsilon_ball2"], **BALL_DYNAMICS}
         out["pairs"] = dict(pair["pairs"])      # every pair's epsilon, Eq. 6 (export.pair_epsilons)
         out["notes"].append(
             "pair: Bullet's product rule gives ball x ball2 = "

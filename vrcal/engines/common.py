@@ -319,6 +319,24 @@ def check_positive(value, what):
     return v
 
 
+def check_max_penetration(max_penetration_m, radius_m, what="--max-penetration"):
+    """``--max-penetration`` [m] as a float in (0, radius): a UsageError (one line) for a limit at or
+    above the ball's radius ``radius_m`` [m], where the ball's centre would reach the floor's surface
+    (the engine's contact would still hold it, and the drop test pass, while no real ball deforms that
+    far). None stays None (the default: a quarter of the radius). ``what`` names the value in the error
+    (an exported file's own limit: give --max-penetration instead)."""
+    if max_penetration_m is None:
+        return None
+    limit = check_positive(max_penetration_m, what)
+    if limit >= radius_m:
+        instead = "" if what == "--max-penetration" else "--max-penetration "
+        raise UsageError(f"{what} {limit * 1e3:.4g} mm is not below the ball's radius {radius_m * 1e3:.4g} mm "
+                         f"(its centre would reach the floor): give {instead}less than the radius (default a quarter "
+                         f"of it, {MAX_PENETRATION_RADII * radius_m * 1e3:.3g} mm), or a smaller --dt, which lets the "
+                         "ball sink less")
+    return limit
+
+
 def check_counts(n_bounces, n_phases):
     """Return (n_bounces, n_phases) as ints in [1, MAX_BOUNCES] and [1, 64]; UsageError otherwise."""
     for label, value, hi in (("--bounces", n_bounces, MAX_BOUNCES), ("--phases", n_phases, 64)):

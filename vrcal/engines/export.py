@@ -37,6 +37,7 @@ from vrcal.engines.common import (
     _round_up,
     check_dt,
     check_epsilon,
+    check_max_penetration,
     check_positive,
     confirmed,
     engine_label,
@@ -194,8 +195,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
     tolerance_given = tolerance is not None
     tolerance = DEFAULT_TOLERANCE if tolerance is None else check_positive(tolerance, "--tolerance")
-    if max_penetration_m is not None:
-        max_penetration_m = check_positive(max_penetration_m, "--max-penetration")
+    max_penetration_m = check_max_penetration(max_penetration_m, body.radius_m)
     if integrator is not None and eng.name != "mujoco":
         raise UsageError(f"--integrator applies to MuJoCo only, not to {eng.name}")
     if eng.name == "tables":
@@ -565,8 +565,13 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, eng.label)
         setup, checked, coverage, summary = _checked_export(setup, "gazebo", n_phases, asked_lo)  # runs in ODE
+        from vrcal.engines.common import metadata
+
+        target = metadata(setup)
+        if coverage:
+            target["holds_down_to_m_per_s"] = coverage.holds_down_to_m_per_s
         text = module.export_sdf(setup, pair, second, checked if coverage is None else
-                                 f"{checked}; {coverage.note(setup.tolerance)}")
+                                 f"{checked}; {coverage.note(setup.tolerance)}", target=dict(target, ball=setup.ball))
         data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
     else:
         if setup.drop_height_m is not None:
@@ -665,8 +670,10 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
+    keep = keep_step(setup, cal.worst_error, cal.depth_m, margin=1.1)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
-                     f"misses: {'; '.join(misses)}; {step_that_works()}; see --trade-off")
+                     f"misses: {'; '.join(misses)}; {step_that_works()}" + (f"; {keep}" if keep else "")
+                     + "; see --trade-off")
 
 
 def refuse_constant_for_law(setup, engine):
@@ -873,7 +880,11 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                                                0.95 * setup.penetration_limit_m / depth, 0.9))
         raise UsageError(f"{what}; by the bound --dt {dt_bound:g} meets both (not run: vrcal verify runs it where "
                          f"{label} is installed)")
+    keep = ""
     if isinstance(runs, DropRuns):
+        wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
+        wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
+        keep = keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
         misses = []
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
@@ -897,7 +908,29 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     else:
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
                "--max-penetration")
-    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}")
+    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+
+
+def keep_step(setup, worst_error, depth_m, margin=1.0):
+    """What accepts the user's own step: the ``--tolerance`` and ``--max-penetration`` that the drop test
+    at ``setup.dt_s`` met (its worst epsilon error and how far the ball turned from the floor [m], each
+    rounded up), only those it missed; '' when neither is needed. A depth at or above the ball's radius
+    is no limit to give (:func:`vrcal.engines.common.check_max_penetration`): it says so instead.
+    ``margin`` (>= 1) widens both first: MuJoCo's calibration at a looser limit picks another contact,
+    which goes deeper (a tennis ball at 4 ms: 13.3 mm at the 8.37 mm limit, 14.002 mm at a 14 mm one)."""
+    worst_error, depth_m = worst_error * margin, depth_m * margin
+    options = []
+    if worst_error > setup.tolerance:
+        options.append(f"--tolerance {_round_up(worst_error)}")
+    if depth_m > setup.penetration_limit_m:
+        if depth_m >= setup.radius_m:
+            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball sinks {depth_m * 1e3:.3g} mm, "
+                    f"beyond its radius {setup.radius_m * 1e3:.3g} mm")
+        limit = float(_round_up(depth_m))
+        options.append(f"--max-penetration {min(limit, round_down(setup.radius_m * (1 - 1e-9))):g}")
+    if not options:
+        return ""
+    return f"to keep --dt {setup.dt_s:g} s, accept what it achieves: {' '.join(options)}"
 
 
 def _steps_text(steps):
@@ -988,6 +1021,8 @@ def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):
 
 def _run_params(setup, engine):
     """The parameters ODE (also Gazebo's SDF, with its one constant) or Bullet runs ``setup`` with."""
+    if get_engine(engine).name == "gazebo":                 # the SDF's surfaces, combined as Gazebo does
+        return load("gazebo").setup_params(setup)
     params = load(runtime(engine).name).export_params(setup, setup.n_bounces)
     if get_engine(engine).one_epsilon and params.pop("restitution_law", None):   # e.g. the SDF's one constant
         from vrcal.engines.common import constant_epsilon

@@ -51,7 +51,9 @@ def _get(doc, path, engine):
 #: (key path, low, high) of the numbers a runner reads when the file has them (ODE: the world's ERP and
 #: CFM in older files, the contact's own in newer ones).
 _OPTIONAL_NUMBERS = {
-    "ode": [("world.erp", 0, 1), ("world.cfm", 0, 1e6), ("contact.soft_erp", 0, 1), ("contact.soft_cfm", 0, 1e6)],
+    "ode": [("world.erp", 0, 1), ("world.cfm", 0, 1e6), ("contact.soft_erp", 0, 1), ("contact.soft_cfm", 0, 1e6),
+            ("world.contact_max_correcting_vel", 0, math.inf), ("world.contact_surface_layer", 0, 1e3),
+            ("world.quick_step_iterations", 1, 1e4)],
     "bullet": [],
 }
 
@@ -217,3 +219,114 @@ def _xml_number(text, what, lo=-math.inf, hi=math.inf):
     if not math.isfinite(v) or v <= lo or v > hi:
         raise DataError(f"MJCF: {what} {v:g} is out of range")
     return v
+
+
+def read_sdf(text):
+    """Read a Gazebo classic world (SDF) with a hardened parser: what :func:`vrcal.engines.gazebo.ode_params`
+    combines, each value SDF 1.7's default where the file leaves it out
+    (:data:`vrcal.engines.gazebo.SDF_DEFAULTS`).
+
+    The ball is the model named 'ball', else the first model with a ``<sphere>`` collision; the floor
+    the model named 'ground_plane', else the first other model with a ``<plane>`` collision.
+
+    Returns
+    -------
+    dict
+        ``world`` (``max_step_size`` [s], ``gravity`` [m/s^2], ``solver``, ``iters``,
+        ``contact_max_correcting_vel`` [m/s]), ``ball`` (its surface, ``name``, ``mass_kg``, ``radius_m``,
+        ``drop_height_m`` from its pose), ``floor`` (its surface), ``floor_has_body`` and ``target`` (the
+        ``vrcal_target`` comment of a vrcal export, else {})
+
+    Raises
+    ------
+    DataError
+        XML with a DTD or entities, malformed XML, not an SDF world, no ball or floor, a bad number
+    """
+    import json
+    import re
+
+    from defusedxml import DefusedXmlException
+    from defusedxml import ElementTree as DET
+
+    from vrcal.engines.gazebo import SDF_DEFAULTS, TARGET_TAG
+
+    try:
+        root = DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DefusedXmlException as exc:
+        raise DataError(f"refused the SDF file: it declares a DTD or entities ({type(exc).__name__}); "
+                        "a vrcal export has none") from None
+    except Exception as exc:  # noqa: BLE001 - xml.etree.ElementTree.ParseError and friends
+        raise DataError(f"not an SDF file: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    world = root.find("world")
+    if root.tag != "sdf" or world is None:
+        raise DataError(f"not an SDF world: the root element is <{root.tag[:40]}> without a <world>")
+
+    def number(el, path, key, lo=-math.inf, hi=math.inf):
+        found = el.find(path) if el is not None else None
+        if found is None or found.text is None:
+            return SDF_DEFAULTS[key]
+        return _xml_number(found.text, f"SDF <{path.rsplit('/', 1)[-1]}>", lo, hi)
+
+    physics = world.find("physics")
+    ode = physics.find("ode") if physics is not None else None
+    gravity = world.findtext("gravity") or (physics.findtext("gravity") if physics is not None else None)
+    try:
+        g = tuple(float(x) for x in (gravity or SDF_DEFAULTS["gravity"]).split())
+    except ValueError:
+        raise DataError(f"SDF <gravity> '{gravity[:40]}' is not three numbers") from None
+    if len(g) != 3 or not all(math.isfinite(x) for x in g) or not g[2] < 0:
+        raise DataError(f"SDF <gravity> '{gravity[:40]}' must be three numbers pointing down (z < 0)")
+    solver = ((ode.findtext("solver/type") if ode is not None else None) or SDF_DEFAULTS["solver"]).strip().lower()
+    out = {"world": {"max_step_size": number(physics, "max_step_size", "max_step_size", 0, 1), "gravity": g,
+                     "solver": solver, "iters": number(ode, "solver/iters", "iters", 0, 1e4),
+                     "contact_max_correcting_vel": number(ode, "constraints/contact_max_correcting_vel",
+                                                          "contact_max_correcting_vel", -1e-300)}}
+
+    def collisions(model, shape):
+        return [c for c in model.iter("collision") if c.find(f"geometry/{shape}") is not None]
+
+    def surface(collision):
+        s = collision.find("surface")
+        return {"restitution_coefficient": number(s, "bounce/restitution_coefficient", "restitution_coefficient",
+                                                  -1e-300, 1),
+                "threshold": number(s, "bounce/threshold", "threshold", -1e-300),
+                "kp": number(s, "contact/ode/kp", "kp", 0), "kd": number(s, "contact/ode/kd", "kd", -1e-300),
+                "max_vel": number(s, "contact/ode/max_vel", "max_vel", -1e-300),
+                "min_depth": number(s, "contact/ode/min_depth", "min_depth", -1e-300)}
+
+    models = world.findall("model")
+    balls = [m for m in models if collisions(m, "sphere") and (m.findtext("static") or "").strip() not in ("1", "true")]
+    ball = next((m for m in balls if m.get("name") == "ball"), balls[0] if balls else None)
+    floors = [m for m in models if m is not ball and collisions(m, "plane")]
+    floor = next((m for m in floors if m.get("name") == "ground_plane"), floors[0] if floors else None)
+    if ball is None or floor is None:
+        raise DataError(f"the SDF world has no {'ball (a model with a <sphere> collision)' if ball is None else ''}"
+                        f"{' and no ' if ball is None and floor is None else ''}"
+                        f"{'floor (a model with a <plane> collision)' if floor is None else ''}")
+    sphere = collisions(ball, "sphere")[0]
+    radius_text = sphere.findtext("geometry/sphere/radius")
+    if radius_text is None:
+        raise DataError("SDF: the ball's <sphere> has no <radius>")
+    radius = _xml_number(radius_text, "SDF <radius>", 0, 1e3)
+    mass = ball.find("link/inertial/mass")
+    mass_kg = _xml_number(mass.text, "SDF <mass>", 0, 1e6) if mass is not None and mass.text else 1.0
+    pose = (ball.findtext("pose") or "0 0 0").split()
+    try:
+        z = float(pose[2])
+    except (IndexError, ValueError):
+        raise DataError(f"SDF: the ball's <pose> '{' '.join(pose)[:40]}' has no height") from None
+    out["ball"] = dict(surface(sphere), name=ball.get("name") or "ball", mass_kg=mass_kg, radius_m=radius,
+                       drop_height_m=z - radius)
+    out["floor"] = surface(collisions(floor, "plane")[0])
+    out["floor_has_body"] = (floor.findtext("static") or "").strip() not in ("1", "true")
+    found = re.search(r"<!--\s*" + TARGET_TAG + r"\s+(\{.*?\})\s*-->", text, re.S)
+    target = {}
+    if found:
+        try:
+            target = json.loads(found.group(1))
+        except (ValueError, RecursionError):
+            raise DataError(f"SDF: the {TARGET_TAG} comment is not JSON") from None
+        if not isinstance(target, dict):
+            raise DataError(f"SDF: the {TARGET_TAG} comment is not a JSON object")
+    out["target"] = target
+    return out

@@ -192,6 +192,12 @@ def run_drop(params, drop_height_m, duration_s):
             lib.dWorldSetERP(world, float(world_p["erp"]))
         if "cfm" in world_p:
             lib.dWorldSetCFM(world, float(world_p["cfm"]))
+        if "contact_max_correcting_vel" in world_p:     # a Gazebo world's (vrcal.engines.gazebo.ode_params)
+            lib.dWorldSetContactMaxCorrectingVel(world, float(world_p["contact_max_correcting_vel"]))
+        if "contact_surface_layer" in world_p:
+            lib.dWorldSetContactSurfaceLayer(world, float(world_p["contact_surface_layer"]))
+        if "quick_step_iterations" in world_p:
+            lib.dWorldSetQuickStepNumIterations(world, int(world_p["quick_step_iterations"]))
         body = lib.dBodyCreate(world)
         R = float(ball["radius_m"])
         mass = O.sphere_mass(float(ball["mass_kg"]), R)

@@ -195,7 +195,10 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
         floor_m = float(saved["floor_shift_m"])
     data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
     if data.kind != "trajectory":
-        raise UsageError(f"--against replays a trajectory (heights against time); {path} holds {data.kind}")
+        raise UsageError(f"--against replays a trajectory (heights against time); {path} holds {data.kind}: "
+                         "leave out --against, and vrcal verify --from RESULT.json --engine ENGINE drops the ball "
+                         "from the result's release height and compares each bounce's apex ratio with the "
+                         "model discover fitted to these heights (its gap to them is in the discover report)")
     ball = (doc or {}).get("ball")
     props = BallProperties(float(ball["mass_kg"]), float(ball["diameter_m"]), str(ball.get("name", "ball"))) \
         if isinstance(ball, dict) else None
@@ -331,7 +334,8 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         ex0 = export(None, eng.name, **base_options)
     except UsageError:
         # only a comparison: run the constant-epsilon export at this step anyway, and say so
-        base_options.update(tolerance=1.0, max_penetration_m=props.diameter_m)
+        # (the deepest limit accepted: just under the radius, where the ball's centre would reach the floor)
+        base_options.update(tolerance=1.0, max_penetration_m=0.999 * props.diameter_m / 2)
         ex0 = export(None, eng.name, **base_options)
         notes.append("the constant-epsilon export misses --tolerance or --max-penetration at this step: "
                      "it is run anyway, for the comparison only")

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from vrcal.engines import get_engine, load, require_runtime
+from vrcal.engines import get_engine, load, require_runtime, runtime
 from vrcal.engines.bullet import PYBULLET_CONTACT_SLOP_M
 from vrcal.engines.common import (
     CONFIRM_PHASES,
@@ -22,6 +22,7 @@ from vrcal.engines.common import (
     DropSetup,
     VerifyResult,
     check_counts,
+    check_max_penetration,
     check_positive,
     check_steps,
 )
@@ -30,6 +31,11 @@ from vrcal.errors import DataError, UsageError
 
 #: Contact phases of ``vrcal verify`` unless ``--phases``: as many as an export confirms a step with.
 DEFAULT_PHASES = CONFIRM_PHASES
+
+#: The refusal of ``vrcal verify --engine gazebo`` without a world to run.
+GAZEBO_NEEDS_FILE = ("--engine gazebo runs an SDF world (its surfaces combined as Gazebo classic does, in libode): "
+                     "give --file WORLD.sdf, e.g. vrcal export BALL --engine gazebo -o world.sdf && vrcal verify "
+                     "--engine gazebo --file world.sdf")
 
 
 def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, standards=None,
@@ -70,7 +76,14 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     """
     eng = get_engine(engine)
     geoms = _check_geom_options(eng.name, exported_text, ball_geom, floor_geom)
-    version = require_runtime(eng.name)
+    if eng.name == "gazebo":                     # an SDF world runs in libode with Gazebo's contact
+        if exported_text is None:
+            raise UsageError(GAZEBO_NEEDS_FILE)
+        require_runtime(runtime(eng.name).name)
+        version = load(eng.name).version()
+    else:
+        version = require_runtime(eng.name)
+    run_in = runtime(eng.name)
     asked = n_bounces
     n_bounces, n_phases = check_counts(N_BOUNCES if asked is None else asked, n_phases)
     if tolerance is not None:
@@ -98,7 +111,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                           max_penetration_m=max_penetration_m, n_bounces=asked)
-        check_steps(pre, n_phases, eng.label, eng.max_steps)
+        check_steps(pre, n_phases, run_in.label, run_in.max_steps)
         ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, n_bounces=asked, **options)
         loaded = runnable = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
         setup = ex.setup
@@ -108,7 +121,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     from vrcal.engines.export import _check_bounces_reachable
 
     _check_bounces_reachable(setup)
-    check_steps(setup, n_phases, eng.label, eng.max_steps)
+    check_steps(setup, n_phases, run_in.label, run_in.max_steps)
     try:
         runs = load(eng.name).drop_test(runnable, setup, n_bounces, n_phases)
     except DataError as exc:
@@ -187,6 +200,18 @@ def _load_file(engine, text, ball, options, geoms=None):
         file_dt, integrator, target = info["timestep"], info["integrator"], info["target"]
         name = info["ball"]
         loaded = text
+    elif engine == "gazebo":
+        from vrcal.engines.files import read_sdf
+        from vrcal.engines.gazebo import ode_params
+
+        sdf = read_sdf(text)
+        loaded = ode_params(sdf["world"], sdf["ball"], sdf["floor"], sdf["floor_has_body"])
+        target = {k: v for k, v in sdf["target"].items() if k != "ball"}
+        loaded["target"] = target
+        file_dt, integrator = loaded["world"]["dt"], None
+        target.setdefault("drop_height_m", loaded["ball"]["drop_height_m"])
+        radius, mass = loaded["ball"]["radius_m"], loaded["ball"]["mass_kg"]
+        name = str(sdf["target"].get("ball", loaded["ball"]["name"]))[:80]
     else:
         loaded = parse_exported(engine, text)
         file_dt = loaded["world"]["dt"] if engine == "ode" else loaded["setPhysicsEngineParameter"]["fixedTimeStep"]
@@ -219,7 +244,7 @@ def _load_file(engine, text, ball, options, geoms=None):
         opts.update(dt_s=dt, g_m_per_s2=g, integrator=integrator if engine == "mujoco" else None)
         if options.get("tolerance") is not None:
             opts["tolerance"] = options["tolerance"]
-        if engine == "mujoco":
+        if engine in ("mujoco", "gazebo"):
             body_given = ball is not None or any(options.get(k) is not None
                                                  for k in ("mass_kg", "diameter_m", "from_json"))
             if not body_given:
@@ -227,8 +252,14 @@ def _load_file(engine, text, ball, options, geoms=None):
                     raise UsageError("the file is a model of yours (no vrcal_* numbers of an export): give the "
                                      "target --epsilon and --drop-height (or --impact-speed) to drop its ball with")
                 opts.update(mass_kg=mass, diameter_m=2.0 * radius)
-                notes.insert(0, f"ball: the geom '{runnable.ball_geom}' of the file ({1e3 * mass:.4g} g, D "
-                                f"{2e3 * radius:.4g} mm); floor: '{runnable.floor_geom}'")
+                if engine == "gazebo":
+                    if opts.get("drop_height_m") is None and opts.get("impact_speed") is None:
+                        opts["drop_height_m"] = check_drop_height(target["drop_height_m"])
+                    notes.insert(0, f"ball: the model '{loaded['ball']['name']}' of the world ({1e3 * mass:.4g} g, "
+                                    f"D {2e3 * radius:.4g} mm), dropped from its pose")
+                else:
+                    notes.insert(0, f"ball: the geom '{runnable.ball_geom}' of the file ({1e3 * mass:.4g} g, D "
+                                    f"{2e3 * radius:.4g} mm); floor: '{runnable.floor_geom}'")
         setup = build_setup(ball, engine, **opts)
         if engine == "mujoco":
             _check_ball_size(setup, radius, runnable.ball_geom)
@@ -253,7 +284,9 @@ def _load_file(engine, text, ball, options, geoms=None):
         notes=tuple(notes), n_bounces=max(int(target.get("n_bounces", N_BOUNCES)), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
-        max_penetration_m=options["max_penetration_m"] or target.get("max_penetration_m"), tolerance=tolerance,
+        max_penetration_m=check_max_penetration(options["max_penetration_m"], float(radius)) or
+        check_max_penetration(target.get("max_penetration_m"), float(radius), "the file's max_penetration_m"),
+        tolerance=tolerance,
         integrator=integrator, release_time_s=float(target.get("release_time_s", 0.0)),
         height_offset_m=float(target.get("height_offset_m", 0.0)),
     )
@@ -269,8 +302,13 @@ def _refuse_other_engine(engine, text):
     head = text.lstrip()
     other = None
     if head.startswith("<") and engine != "mujoco":
-        other = "an MJCF (MuJoCo) file: use --engine mujoco" if "<mujoco" in head else \
-            "an XML file (an SDF world is for Gazebo, which vrcal does not run)"
+        if "<mujoco" in head:
+            other = "an MJCF (MuJoCo) file: use --engine mujoco"
+        elif engine != "gazebo":
+            other = ("an SDF world (Gazebo): use --engine gazebo, which runs it in libode with Gazebo classic's "
+                     "contact" if "<sdf" in head else "an XML file, not a vrcal export of this engine")
+    elif head.startswith("{") and engine == "gazebo":
+        other = "JSON, not an SDF world: --engine gazebo runs a world written by vrcal export --engine gazebo"
     elif head.startswith("{"):
         try:
             name = json.loads(text).get("engine")
@@ -305,7 +343,7 @@ def _runnable(engine, loaded, geoms=None):
     import copy
 
     out = copy.deepcopy(loaded)
-    return out, -float(out["world"]["gravity"][2] if engine == "ode" else out["setGravity"][2])
+    return out, -float(out["world"]["gravity"][2] if engine in ("ode", "gazebo") else out["setGravity"][2])
 
 
 def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
@@ -314,9 +352,13 @@ def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
     if engine == "mujoco":
         runnable.model.opt.timestep = dt_s
         runnable.model.opt.gravity[:] = (0.0, 0.0, -g_m_per_s2)
-    elif engine == "ode":
+    elif engine in ("ode", "gazebo"):
         runnable["world"]["dt"] = dt_s
         runnable["world"]["gravity"] = [0.0, 0.0, -g_m_per_s2]
+        if "gazebo" in runnable:                 # Gazebo derives soft_erp and soft_cfm from kp, kd and the step
+            from vrcal.engines.gazebo import at_step
+
+            at_step(runnable, dt_s)
     else:
         runnable["setPhysicsEngineParameter"]["fixedTimeStep"] = dt_s
         runnable["setGravity"] = [0.0, 0.0, -g_m_per_s2]
@@ -328,6 +370,12 @@ def _settings(engine, loaded, runnable, setup):
         from vrcal.engines.mujoco import as_scene, contact_settings, integrator_name
 
         return {"integrator": integrator_name(setup), **contact_settings(as_scene(runnable))}
+    if engine == "gazebo":
+        c, gz, w = runnable["contact"], runnable["gazebo"], runnable["world"]
+        return {"bounce min(ball, floor)": f"{c['bounce']:.6g}", "bounce_vel": f"{c['bounce_vel']:g}",
+                "kp": f"{gz['kp']:.3g}", "kd": f"{gz['kd']:g}", "soft_erp": f"{c['soft_erp']:.6g}",
+                "soft_cfm": f"{c['soft_cfm']:.3g}", "max_vel": f"{w['contact_max_correcting_vel']:g}",
+                "solver": w["step"]}
     if engine == "ode":
         c, w = loaded["contact"], loaded["world"]
         out = {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"]}
