@@ -159,6 +159,21 @@ def _check_target(data, engine):
         _number(value, f"{engine} export: target.{key}")
 
 
+def _parse_xml(text, what):
+    """The root element of an engine's XML file (``what``: "MJCF", "SDF"), parsed with a DTD, entities and
+    external references refused unexpanded (defusedxml); :class:`DataError` naming ``what`` otherwise."""
+    from defusedxml import DefusedXmlException
+    from defusedxml import ElementTree as DET
+
+    try:
+        return DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DefusedXmlException as exc:
+        raise DataError(f"refused the {what} file: it declares a DTD or entities ({type(exc).__name__}); "
+                        "a vrcal export has none") from None
+    except Exception as exc:  # noqa: BLE001 - xml.etree.ElementTree.ParseError and friends
+        raise DataError(f"not an {what} file: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+
+
 def read_mjcf(text):
     """Read an MJCF export with a hardened parser.
 
@@ -176,19 +191,10 @@ def read_mjcf(text):
         XML with a DTD or entities (refused unexpanded), malformed XML, not a MuJoCo model,
         a non-numeric time step
     """
-    from defusedxml import DefusedXmlException
-    from defusedxml import ElementTree as DET
-
     if text.lstrip().startswith("{"):   # `vrcal export --engine mujoco -o x.json` writes the export's summary
         raise DataError("not an MJCF file: a JSON file (the export's summary from -o FILE.json or --format json); "
                         "verify runs the model: export it with -o FILE.xml")
-    try:
-        root = DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
-    except DefusedXmlException as exc:
-        raise DataError(f"refused the MJCF file: it declares a DTD or entities ({type(exc).__name__}); "
-                        "a vrcal export has none") from None
-    except Exception as exc:  # noqa: BLE001 - xml.etree.ElementTree.ParseError and friends
-        raise DataError(f"not an MJCF file: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    root = _parse_xml(text, "MJCF")
     if root.tag != "mujoco":
         raise DataError(f"not an MJCF file: the root element is <{root.tag[:40]}>, not <mujoco>")
     option = root.find("option")
@@ -245,18 +251,9 @@ def read_sdf(text):
     import json
     import re
 
-    from defusedxml import DefusedXmlException
-    from defusedxml import ElementTree as DET
-
     from vrcal.engines.gazebo import SDF_DEFAULTS, TARGET_TAG
 
-    try:
-        root = DET.fromstring(text, forbid_dtd=True, forbid_entities=True, forbid_external=True)
-    except DefusedXmlException as exc:
-        raise DataError(f"refused the SDF file: it declares a DTD or entities ({type(exc).__name__}); "
-                        "a vrcal export has none") from None
-    except Exception as exc:  # noqa: BLE001 - xml.etree.ElementTree.ParseError and friends
-        raise DataError(f"not an SDF file: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    root = _parse_xml(text, "SDF")
     world = root.find("world")
     if root.tag != "sdf" or world is None:
         raise DataError(f"not an SDF world: the root element is <{root.tag[:40]}> without a <world>")
