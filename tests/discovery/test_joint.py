@@ -439,3 +439,81 @@ def test_speeds_are_too_narrow_only_while_drag_and_the_speed_law_are_rivals(effe
     from vrcal.discovery.ranking import Discovery
 
     assert Discovery.speeds_too_narrow.fget(SimpleNamespace(effects=effects, ambiguous=ambiguous)) is narrow
+
+
+# --------------------------------------------------------------------------- lack of fit of repeated trials
+
+#: A golf ball dropped ten times from 1 m, its first and second rebounds (m), as hard-coded in
+#: github.com/quinlan-lewis/ASEN-2003 @ 6c490845, Lab_2/Lab_2.m (hn_m1, h0 = 1 m).
+QUINLAN = [(0.405, 0.075), (0.41, 0.12), (0.385, 0.095), (0.37, 0.095), (0.38, 0.12), (0.38, 0.1), (0.34, 0.035),
+           (0.35, 0.02), (0.4, 0.1), (0.375, 0.075)]
+
+
+def _quinlan_csv(tmp_path):
+    path = tmp_path / "quinlan.csv"
+    path.write_text("trial,H (m),h1 (m),h2 (m)\n" + "".join(f"{i},1,{a},{b}\n" for i, (a, b) in enumerate(QUINLAN, 1)))
+    return path
+
+
+def test_lack_of_fit_is_the_textbook_f_test_of_repeated_trials(tmp_path):
+    """F = (sum_g n_g rbar_g^2 / (G - k)) / (pure error), by hand on the golf table and a made-up residual."""
+    from scipy.stats import f as f_dist
+
+    from vrcal.discovery.residuals import lack_of_fit
+
+    runs = read_measurement(_quinlan_csv(tmp_path)).runs
+    h = np.array(QUINLAN)
+    pure = (np.sum((h - h.mean(axis=0)) ** 2)) / (2 * 9)
+    r = np.zeros(30)
+    r[1::3], r[2::3] = 0.02, -0.03          # every trial's bounce 1 and bounce 2 off the model alike
+    got = lack_of_fit(runs, r, k_shared=1)
+    F = (10 * 0.02 ** 2 + 10 * 0.03 ** 2) / 1 / pure
+    assert got["dof_lof"] == 1 and got["dof_pe"] == 18
+    assert got["F"] == pytest.approx(F, rel=1e-12)
+    assert got["p"] == pytest.approx(f_dist.sf(F, 1, 18), rel=1e-8)
+    assert [g["bounce"] for g in got["groups"]] == [1, 2]
+    assert got["groups"][1]["mean_residual_m"] == pytest.approx(-0.03)
+    assert lack_of_fit(runs, np.zeros(30), k_shared=1)["p"] == pytest.approx(1.0)
+
+
+def test_second_rebounds_off_a_constant_epsilon_in_every_trial_are_not_explained(tmp_path):
+    """The golf table: its gap is 1.2 times the trials' scatter (28.5 mm), which was 'explained' and 'the
+    baseline suffices in any engine'; yet every trial's second rebound lies below what a constant
+    epsilon gives from its first (sqrt(h1/H) 0.616, sqrt(h2/h1) 0.456): 40 +- 9 mm over 10 trials."""
+    path = _quinlan_csv(tmp_path)
+    golf = BallProperties(mass_kg=0.0459, diameter_m=0.0427)
+    d = discover(read_measurement(path), golf)
+    assert d.gap_after < 3 * d.reference_gap           # the gap alone is within the noise
+    assert d.lack_of_fit["p"] < 1e-3
+    assert d.verdict == "unexplained" and not d.reproduces
+    reason = run("discover", path, "--mass", 0.0459, "--diameter", 0.0427, "-q").output
+    assert re.search(r"the rebounds of bounce 2 from 1\.000 m lie 3\d\.\d ± 9\.0 mm below it over 10 trials",
+                     " ".join(reason.split()))
+    out = tmp_path / "d.json"
+    assert run("discover", path, "--mass", 0.0459, "--diameter", 0.0427, "-q", "--json", out).exit_code == 0
+    saved = json.loads(out.read_text())
+    assert saved["verdict"] == "unexplained" and saved["lack_of_fit"]["groups"][1]["bounce"] == 2
+
+
+def test_a_reading_bias_on_the_second_rebounds_is_caught_and_planted_tables_without_one_are_not(tmp_path):
+    """A constant-epsilon ball, 4 heights x 5 trials read to 5 mm: the second rebound read 2 cm low in
+    every trial is a lack of fit (not within the 3-noise gap rule alone); the same tables read
+    honestly show none, over seeds."""
+    ball, eps = TENNIS, 0.8
+    heights = np.repeat([0.5, 0.8, 1.2, 1.6], 5)
+    apex = simulate_drops(heights, eps, 2, ball).observed_apex_heights_m
+    caught = 0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        h = apex[:, 1:3] + rng.normal(0, 0.005, (heights.size, 2))
+        for bias, name in ((0.0, "honest"), (-0.02, "biased")):
+            rows = "".join(f"{H:.2f},{a:.4f},{b + bias:.4f}\n" for H, (a, b) in zip(heights, h))
+            path = tmp_path / f"{name}{seed}.csv"
+            path.write_text("H (m),h1 (m),h2 (m)\n" + rows)
+            d = discover(read_measurement(path), ball)
+            if bias == 0.0:
+                assert d.lack_of_fit["p"] > 1e-3 and d.verdict == "explained", (seed, d.lack_of_fit["p"])
+            else:
+                assert d.gap_after < 3 * d.reference_gap    # the gap alone (1.1-1.4 noise floors) would pass it
+                caught += d.verdict == "unexplained" and d.lack_of_fit["p"] < 1e-3
+    assert caught == 5

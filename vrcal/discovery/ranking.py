@@ -87,6 +87,7 @@ from vrcal.discovery.prepare import FLOOR_BAND_M, floor_referenced, heights_to_b
 from vrcal.errors import UsageError
 from vrcal.measurements.cleanup import TIMING_SIGMA_S
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.textout import number
 
 #: Assumed noise of one datum where the data alone cannot tell it (no model-free
 #: estimate from a handful of impact times or apex heights): acoustic timing jitter
@@ -547,9 +548,21 @@ class Discovery:
     @property
     def within_noise(self):
         """Whether the final gap is at most :data:`EXPLAINED_FACTOR` times the noise floor (or the bounces'
-        scatter's gap)."""
+        scatter's gap), and a table's repeated trials show no misfit of the final model beyond their
+        scatter (:attr:`lack_of_fit`)."""
         ref = self.reference_gap
-        return bool(ref) and self.gap_after <= EXPLAINED_FACTOR * ref
+        misfit = self.lack_of_fit is not None and self.lack_of_fit["p"] < res.LACK_OF_FIT_P
+        return bool(ref) and self.gap_after <= EXPLAINED_FACTOR * ref and not misfit
+
+    @functools.cached_property
+    def lack_of_fit(self):
+        """The final model's lack-of-fit test on a drop table's repeated trials
+        (:func:`vrcal.discovery.residuals.lack_of_fit`), or None (no repeated trials; not a table)."""
+        if self.kind != "apexes":
+            return None
+        shared = sum(1 for p in self.final.layout if p.run is None)
+        step = written_step_m(self.runs)
+        return res.lack_of_fit(self.runs, self.final.residuals, shared, (step or 0.0) / math.sqrt(12.0))
 
     @property
     def reproduces(self):
@@ -813,6 +826,7 @@ class Discovery:
             "epsilon_uncertainty_fit": self.final.uncertainty("epsilon"),
             "epsilon_uncertainty_independent_errors": self.fit_epsilon_uncertainty,
             "bounce_epsilons": self.bounce_epsilons,
+            "lack_of_fit": self.lack_of_fit,
             "epsilon_baseline": self.epsilon_baseline,
             "epsilon_effective_without_drag": self.effective_without_drag[0],
             "epsilon_systematic": self.systematic,
@@ -945,7 +959,16 @@ def verdict_reason(d):
     if (d.scatter_gap or 0) > (d.noise_floor or 0):
         what = "the gap a typical bounce-to-bounce scatter leaves" if d.scatter_assumed else \
             "the bounce-to-bounce scatter's gap"
-    return f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
+    reason = f"the final gap is {ratio:.1f} times {what} (explained up to {EXPLAINED_FACTOR:g} times)"
+    lof = d.lack_of_fit
+    if v == "unexplained" and ratio <= EXPLAINED_FACTOR and lof is not None:
+        g = max(lof["groups"], key=lambda r: abs(r["mean_residual_m"]) / r["standard_error_m"])
+        side = "above" if g["mean_residual_m"] > 0 else "below"
+        reason += (f", but the repeated trials agree with each other better than with the model: the rebounds of "
+                   f"bounce {g['bounce']} from {number(g['drop_height_m'], 4)} m lie "
+                   f"{abs(g['mean_residual_m']) * 1e3:.3g} ± {g['standard_error_m'] * 1e3:.1f} mm {side} it over "
+                   f"{g['trials']} trials (lack-of-fit F = {lof['F']:.3g}, p = {lof['p']:.1g})")
+    return reason
 
 
 def _stand_in_reason(d, u):
@@ -1711,7 +1734,7 @@ def written_step_m(data):
     (--rebound-measured-to) adds more."""
     from vrcal.measurements.cleanup import printed_resolution
 
-    runs = res._runs_of(data)
+    runs = tuple(data) if isinstance(data, (list, tuple)) else res._runs_of(data)
     written = [r.resolution_m for r in runs if getattr(r, "resolution_m", None) is not None]
     if written:
         return max(written)
