@@ -226,3 +226,20 @@ def test_a_document_that_is_no_measurement_is_named(text, what, tmp_path):
     path.write_text(text)
     result = run("discover", str(path), "--ball", "tennis")
     assert result.exit_code == 1 and f" {what} " in result.stderr and "not a measurement" in result.stderr
+
+
+def test_a_long_refusal_is_printed_whole_and_a_huge_value_is_cut():
+    """A PyBullet step refusal (about 450 characters: what was measured, then the options that keep the
+    user's step) lost its middle to the cut made for huge quoted values."""
+    from vrcal.cli import _one_line
+
+    refusal = ("bullet at --dt 0.00416667 s misses (4 phases x 3 bounces): worst epsilon error 0.013 (tolerance "
+               "0.01); the ball turns 16.8 mm from the floor (limit 7.94 mm, --max-penetration); --dt 0.0017 meets "
+               "both (run in bullet: error 0.00526, 7.93 mm; 0.0024, 0.0022 and 0.0019 s missed; the error is not "
+               "monotonic in the step: another, even a smaller one, can miss); to keep --dt 0.00416667 s, accept "
+               "what it achieves: --tolerance 0.014 --max-penetration 0.02")
+    assert _one_line(refusal) == refusal
+    huge = "bad value '" + "9" * 5000 + "' in column y"
+    cut = _one_line(huge)
+    assert len(cut) < 1100 and cut.startswith("bad value '999") and cut.endswith("' in column y")
+    assert "[5,024 characters]" in cut

@@ -88,8 +88,9 @@ _NO_OUTPUT_OPTION = {
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 #: numpy's floating-point warnings (overflow, invalid value, division by zero, underflow).
 _NUMPY_WARNINGS = r"(overflow|invalid value|divide by zero|underflow) encountered"
-#: Longest error message printed; a longer one (a huge value quoted) keeps its start and end.
-MAX_MESSAGE_CHARS = 400
+#: Longest error message printed; a longer one (a huge value quoted) keeps its start and end. Room for
+#: a refusal that says what was measured and what to do (an engine's step: about 450 characters).
+MAX_MESSAGE_CHARS = 1000
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
