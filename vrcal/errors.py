@@ -4,7 +4,8 @@
 (unknown ball, K <= 0, an option out of range).
 ``DataError`` (exit 1): a file or table holds something wrong (malformed YAML, h > H,
 a missing field, a measurement file that cannot be read).
-:func:`unit_hint` names the likely unit slip of a value out of range, for those messages.
+:func:`unit_hint` names the likely unit slip of a value out of range, for those messages;
+:func:`install_hint` how to install an optional package.
 """
 
 import math
@@ -32,6 +33,12 @@ class EngineUnavailable(VrcalError, RuntimeError):
     """An optional physics engine is not installed; the message names the package."""
 
     exit_code = 1
+
+
+def install_hint(package, extra):
+    """How to install an optional ``package`` that vrcal's ``extra`` holds: the package itself, or the extra
+    from vrcal's folder, as the README installs it (``'vrcal[extra]'`` would ask a package index for vrcal)."""
+    return f"pip install {package} (or, in vrcal's folder, pip install '.[{extra}]')"
 
 
 def unit_hint(value, maximum, option, unit, small_unit, factor):

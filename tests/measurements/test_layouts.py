@@ -987,7 +987,8 @@ def test_a_missing_spreadsheet_library_is_a_one_line_hint(monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_xlrd)
-    with pytest.raises(UsageError, match=r"needs xlrd: install the optional extra: pip install 'vrcal\[excel\]'"):
+    hint = r"needs xlrd: pip install xlrd \(or, in vrcal's folder, pip install '\.\[excel\]'\)"
+    with pytest.raises(UsageError, match=hint):
         read_measurement(path)
 
 

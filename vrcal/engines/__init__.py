@@ -8,7 +8,7 @@ the install hint used in :class:`vrcal.errors.EngineUnavailable`, the name peopl
 (``label``), the engine whose runtime checks its file (``runs_in``: Gazebo's SDF runs in ODE, so
 an export checks it in libode; :func:`runtime` gives that entry), whether its file holds one
 constant epsilon (``one_epsilon``: no speed law) and why vrcal does not run it (``not_run``). ``mujoco`` and ``bullet``
-come from PyPI (``pip install 'vrcal[engines]'``); ``ode`` is the system's C library (Debian
+come from PyPI (the optional extra ``engines``); ``ode`` is the system's C library (Debian
 ``libode8``) loaded with ctypes by :mod:`vrcal.engines.ode_ctypes`; ``gazebo`` and ``tables``
 (PhysX/Unity/Box2D) are exported only, no runtime is needed or used.
 """
@@ -18,7 +18,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-from vrcal.errors import EngineUnavailable, UsageError
+from vrcal.errors import EngineUnavailable, UsageError, install_hint
 
 
 @dataclass(frozen=True)
@@ -42,13 +42,13 @@ class Engine:
 
 ENGINES = {
     "mujoco": Engine("mujoco", "vrcal.engines.mujoco", "xml", True, "mujoco (PyPI)",
-                     "pip install mujoco (or pip install 'vrcal[engines]')", 2e-3,
+                     install_hint("mujoco", "engines"), 2e-3,
                      "MJCF, contact calibrated in MuJoCo", 4_000_000, label="MuJoCo", runs_in="mujoco"),
     "ode": Engine("ode", "vrcal.engines.ode", "json", True, "libode8 (Debian)",
                   "apt-get install libode8", 1e-3,
                   "bounce, world settings (JSON, C)", 1_000_000, label="ODE", runs_in="ode"),
     "bullet": Engine("bullet", "vrcal.engines.bullet", "json", True, "pybullet (PyPI)",
-                     "pip install pybullet (or pip install 'vrcal[engines]')", 1.0 / 240.0,
+                     install_hint("pybullet", "engines"), 1.0 / 240.0,
                      "changeDynamics etc. (JSON, Python)", 400_000, label="PyBullet", runs_in="bullet"),
     "gazebo": Engine("gazebo", "vrcal.engines.gazebo", "sdf", False, "none (export only)", "", 1e-3,
                      "SDF 1.7 world (ODE physics)", label="Gazebo", runs_in="ode", one_epsilon=True,

@@ -24,7 +24,7 @@ import numpy as np
 from vrcal.engines import get_engine
 from vrcal.engines.common import metadata, step_note, stepped_drop_test
 from vrcal.engines.ode import effect_params
-from vrcal.errors import EngineUnavailable, UsageError
+from vrcal.errors import EngineUnavailable, UsageError, install_hint
 from vrcal.textout import SCHEMA_VERSION
 
 #: Bounce threshold [m/s] (Bullet's default 0.2): a contact whose normal speed is below it gets no
@@ -143,8 +143,7 @@ def _pybullet():
     try:
         pybullet = _quiet_import("pybullet")
     except ImportError:
-        raise EngineUnavailable("PyBullet is not installed: pip install pybullet (or pip install 'vrcal[engines]')") \
-            from None
+        raise EngineUnavailable(f"PyBullet is not installed: {install_hint('pybullet', 'engines')}") from None
     return pybullet
 
 

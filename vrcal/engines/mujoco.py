@@ -62,7 +62,7 @@ from vrcal.engines.common import (
     sized_run,
     step_note,
 )
-from vrcal.errors import DataError, EngineUnavailable, UsageError
+from vrcal.errors import DataError, EngineUnavailable, UsageError, install_hint
 
 #: Impedance d written to solimp (dmin = dmax): close to MuJoCo's maximum 0.9999.
 IMPEDANCE = 0.9999
@@ -440,8 +440,7 @@ def _mujoco():
     try:
         import mujoco
     except ImportError:
-        raise EngineUnavailable("MuJoCo is not installed: pip install mujoco "
-                                "(or pip install 'vrcal[engines]')") from None
+        raise EngineUnavailable(f"MuJoCo is not installed: {install_hint('mujoco', 'engines')}") from None
     return mujoco
 
 

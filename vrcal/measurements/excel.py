@@ -7,7 +7,7 @@ tabs, one line per row, the sheet's row numbers as line numbers), so every layou
 ``sheet``; else phyphox's ``All`` (every event of the Acoustic Stopwatch) when there is one; else
 the first sheet with a table in it. A zip archive (phyphox's *Export Data* as CSV: one file per data
 set, ``All.csv``, ``Simple.csv``, ..., and ``meta/``) is read the same way, its CSV files taking the
-place of the sheets (:func:`load_archive_text`; no extra needed). Needs the optional extra ``pip install vrcal[excel]``
+place of the sheets (:func:`load_archive_text`; no extra needed). Needs the optional extra ``excel``
 (openpyxl for ``.xlsx``, xlrd for ``.xls``); without it the error says so in one line.
 """
 
@@ -17,7 +17,7 @@ import dataclasses
 import os
 from pathlib import Path
 
-from vrcal.errors import DataError, UsageError
+from vrcal.errors import DataError, UsageError, install_hint
 from vrcal.fileio import MAX_TEXT_BYTES
 from vrcal.measurements.table import Text, empty_rows_notes, text_from_bytes
 
@@ -31,7 +31,6 @@ PREFERRED_SHEETS = ("All",)
 #: Most rows read from a sheet.
 MAX_ROWS = 1_000_000
 
-_HINT = "install the optional extra: pip install 'vrcal[excel]'"
 
 
 def container_kind(path):
@@ -71,7 +70,8 @@ def _sheets(path, kind):
         try:
             import openpyxl
         except ImportError:
-            raise UsageError(f"{path}: reading .xlsx files needs openpyxl: {_HINT}") from None
+            hint = install_hint("openpyxl", "excel")
+            raise UsageError(f"{path}: reading .xlsx files needs openpyxl: {hint}") from None
         try:
             wb = openpyxl.load_workbook(path, read_only=True, data_only=True)
         except Exception as exc:  # noqa: BLE001 - any failure of the library is a bad file
@@ -84,7 +84,7 @@ def _sheets(path, kind):
     try:
         import xlrd
     except ImportError:
-        raise UsageError(f"{path}: reading .xls files needs xlrd: {_HINT}") from None
+        raise UsageError(f"{path}: reading .xls files needs xlrd: {install_hint('xlrd', 'excel')}") from None
     try:
         book = xlrd.open_workbook(path, on_demand=True)
     except Exception as exc:  # noqa: BLE001

@@ -55,7 +55,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vrcal.errors import DataError, UsageError
+from vrcal.errors import DataError, UsageError, install_hint
 from vrcal.measurements.cleanup import (
     NOT_A_DROP,
     NOT_AN_IMPACT,
@@ -73,7 +73,7 @@ SOUND_EXTENSIONS = (".wav", ".wave", ".m4a", ".aac", ".mp3", ".ogg", ".oga", ".o
 AUDIO_ONLY_EXTENSIONS = (".m4a", ".m4b", ".aac")
 
 #: One-line hint when a compressed container needs the optional extra.
-AUDIO_HINT = "reading this sound file needs PyAV: pip install 'vrcal[audio]' (or save the recording as WAV)"
+AUDIO_HINT = f"reading this sound file needs PyAV: {install_hint('av', 'audio')}, or save the recording as WAV"
 
 HIGHPASS_HZ = 1000.0     #: high-pass corner of the onset band [Hz]
 ENVELOPE_S = 2.5e-4      #: RMS window of the envelope [s]

@@ -5,7 +5,7 @@ This module owns finding the ball in every frame (:func:`track_video`), the fram
 ball's apparent diameter), the floor from the bounces, and the ``video`` reader of
 :data:`vrcal.measurements.FORMATS` (:func:`parse`), which returns a
 :class:`~vrcal.measurements.types.Trajectory`. OpenCV is the optional extra ``video``
-(``pip install 'vrcal[video]'``, package opencv-python-headless).
+(the optional extra ``video``, package opencv-python-headless).
 
 How the ball is found
 ---------------------
@@ -89,13 +89,13 @@ from pathlib import Path
 
 import numpy as np
 
-from vrcal.errors import DataError, UsageError
+from vrcal.errors import DataError, UsageError, install_hint
 from vrcal.measurements.cleanup import detect_release_index, prominent_minima, third_difference_sigma
 from vrcal.measurements.trajectory import MIN_TRAJECTORY_SAMPLES, finish_trajectory
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: One-line hint when OpenCV is missing.
-VIDEO_HINT = "reading video needs OpenCV: pip install 'vrcal[video]'"
+VIDEO_HINT = f"reading video needs OpenCV: {install_hint('opencv-python-headless', 'video')}"
 
 #: File name endings read as video.
 VIDEO_EXTENSIONS = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm", ".3gp", ".mts", ".m2ts", ".wmv", ".mpg",
