@@ -53,4 +53,4 @@ def require_extra(module, extra):
     except ImportError:
         if "1" in (os.environ.get("VRCAL_REQUIRE_EXTRAS"), os.environ.get("VRCAL_REQUIRE_ENGINES")):
             pytest.fail(f"the '{extra}' extra is required here but {module} is not installed")
-        pytest.skip(f"{module} is not installed (pip install 'vrcal[{extra}]')")
+        pytest.skip(f"{module} is not installed (pip install '.[{extra}]')")

@@ -65,10 +65,30 @@ def test_a_discover_result(tmp_path):
     ({"model": {"drop_height_m": 1.0, "release_time_s": "soon"}}, "model.release_time_s"),
     ({"effects": "air_drag"}, "effects must be a list"),
     ({"parameters": {"air_drag": {"drag_coefficient": None}}}, "parameters.air_drag.drag_coefficient"),
+    ({"prior_split": {"epsilon": 2.0, "effects": [], "parameters": {}}}, "prior_split.epsilon"),
+    ({"prior_split": {"epsilon": 0.9, "effects": "air_drag", "parameters": {}}}, "prior_split.effects must"),
+    ({"prior_split": {"epsilon": 0.9, "effects": [], "parameters": {"air_drag": {"drag_coefficient": "x"}}}},
+     "prior_split.parameters.air_drag.drag_coefficient"),
 ])
 def test_a_discover_result_with_a_bad_key_is_one_data_error(tmp_path, change, message):
     with pytest.raises(DataError, match=message):
         read_discover_json(_write(tmp_path, dict(GOOD, **change)))
+
+
+def test_a_result_whose_rivals_are_ambiguous_gives_the_most_probable_sharing_its_report_advises(tmp_path):
+    """The report's advice leads with the prior split ("Use this"): an engine takes it, not the named effect
+    alone (ten 60 fps impact-time records: 0.973 with C_d 0.74 was exported where the report said 0.957
+    with C_d 0.59 and a speed law)."""
+    split = {"effects": ["air_drag", "velocity_dependent_restitution"], "epsilon": 0.957,
+             "parameters": {"air_drag": {"drag_coefficient": 0.59},
+                            "velocity_dependent_restitution": {"exponent": 0.23}}}
+    body = describe_body(from_json=_write(tmp_path, dict(GOOD, prior_split=split)))
+    assert body.epsilon() == 0.957 and body.effects == split["parameters"]
+    assert body.discovered["named"] == {"epsilon": 0.86, "effects": ["air_drag"],
+                                        "parameters": {"air_drag": {"drag_coefficient": 0.38}}}
+    assert "most probable" in body.epsilon_source()
+    plain = describe_body(from_json=_write(tmp_path, dict(GOOD, prior_split=None)))
+    assert plain.epsilon() == 0.86 and "named" not in plain.discovered and "most probable" not in plain.epsilon_source()
 
 
 def test_not_a_discover_result(tmp_path):

@@ -165,6 +165,9 @@ class Body:
     def epsilon_source(self, as_paper=False):
         """Where :meth:`epsilon` comes from, in words (for notes and reports); None without one."""
         if self.discovered is not None:
+            if "named" in self.discovered:
+                return (f"the contact epsilon of the discover result {self.source}, its most probable value "
+                        "(rivals the data cannot tell apart, shared by their priors, as its report advises)")
             return f"the contact epsilon of the discover result {self.source}"
         if self.standard is not None:
             from vrcal.model.standards import ball_epsilon
@@ -346,16 +349,35 @@ def read_discover_json(path):
     _num(model, "release_time_s", f"{where}: model.release_time_s", lo=-math.inf)
     if doc.get("epsilon_reference_speed_m_per_s") is not None:
         _num(doc, "epsilon_reference_speed_m_per_s", f"{where}: epsilon_reference_speed_m_per_s", lo=0.0)
-    effects = doc["effects"]
+    _effects_and_parameters(doc, where)
+    split = doc.get("prior_split")
+    if isinstance(split, dict):
+        # rivals the data cannot tell apart: the report's advice leads with their most probable sharing
+        # ("Use this"), so an engine takes that, not the named model alone (a joint record: 0.973 with
+        # C_d 0.74 exported where the report said 0.957 with C_d 0.59 and a speed law)
+        _num(split, "epsilon", f"{where}: prior_split.epsilon", lo=0.0, hi=1.0)
+        _effects_and_parameters(split, where, "prior_split.")
+        doc["named"] = {key: doc[key] for key in ("epsilon", "effects", "parameters")}
+        doc.update({key: split[key] for key in ("epsilon", "effects", "parameters")})
+    return doc
+
+
+def _effects_and_parameters(doc, where, prefix=""):
+    """Check ``effects`` (a list of effect names) and ``parameters`` ({effect: {parameter: number}}) of a
+    discover result, or of its ``prior_split`` (``prefix`` 'prior_split.')."""
+    from vrcal.errors import DataError
+
+    effects = doc.get("effects")
     if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
-        raise DataError(f"{where}: effects must be a list of effect names")
-    params = _obj(doc, "parameters", where)
+        raise DataError(f"{where}: {prefix}effects must be a list of effect names")
+    params = doc.get("parameters")
+    if not isinstance(params, dict):
+        raise DataError(f"{where}: {prefix}parameters must be an object, got {type(params).__name__}")
     for name, values in params.items():
         if not isinstance(values, dict):
-            raise DataError(f"{where}: parameters.{name} must be an object of numbers")
+            raise DataError(f"{where}: {prefix}parameters.{name} must be an object of numbers")
         for key in values:
-            _num(values, key, f"{where}: parameters.{name}.{key}", lo=-math.inf)
-    return doc
+            _num(values, key, f"{where}: {prefix}parameters.{name}.{key}", lo=-math.inf)
 
 
 def read_limited(path, max_bytes, what):
