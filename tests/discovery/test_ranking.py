@@ -22,7 +22,7 @@ from vrcal.discovery.report import fit_report
 from vrcal.drop.effects import EFFECTS
 from vrcal.drop.simulate import columns_csv, sample_measurement, simulate_drops
 from vrcal.drop.synthetic import hidden_effect_case, measurement_csv, noise_free_measurement, scattered_impact_times
-from vrcal.errors import UsageError
+from vrcal.errors import DataError, UsageError
 from vrcal.measurements import ImpactTimes, Trajectory
 from vrcal.model.body import BallProperties
 from vrcal.model.standards import get_ball
@@ -971,6 +971,46 @@ def test_an_unexplained_trajectorys_epsilon_uncertainty_covers_the_truth(seed):
     assert out["epsilon_uncertainty_basis"] == "fit and bounce speed ratios"
     assert len(out["bounce_epsilons"]) >= 4
     assert "The ± of epsilon is widened" in " ".join(fit_report(d).split())
+
+
+def _cut_in_flight(epsilon, phase, span_s, drop_height_m=0.68, fs_hz=30.0, noise_m=2e-4):
+    """A 30 fps track of a drag-free drop, cut to start ``phase`` of the first rebound's flight after the
+    first bounce (0: at it, rising; above 0.5: falling; below 0: falling into it) and to last ``span_s``:
+    no still segment, the release (and the first bounce) before the record."""
+    ball = BallProperties(0.026, 0.0687, "green")
+    drops = simulate_drops(drop_height_m, epsilon, 10, ball, release_time_s=0.0)
+    t_first = float(drops.impact_times_s[0][0])
+    flight = 2.0 * epsilon * math.sqrt(2.0 * drop_height_m / 9.80665)
+    t = t_first + phase * flight + np.arange(0.0, span_s, 1.0 / fs_hz)
+    y = drops.height_m(t)[0] + np.random.default_rng(3).normal(0.0, noise_m, t.size)
+    return Trajectory(t - t[0], y, "cut"), ball
+
+
+@pytest.mark.parametrize("epsilon", [0.7, 0.85])
+@pytest.mark.parametrize("phase, span_s", [(0.05, 0.75), (0.25, 0.6), (0.4, 1.0), (0.6, 0.6), (0.8, 1.0),
+                                           (0.97, 1.0), (0.05, 1.0), (-0.05, 1.0)])
+def test_a_track_that_starts_in_flight_rising_or_falling_is_fitted(epsilon, phase, span_s):
+    """A one-second 30 fps clip of a bouncing ball that starts mid-flight (a real one, cut from
+    bounceAmeen.avi, gave epsilon 0.814 +- 0.080 for 0.70). With one bounce seen the fit started from
+    epsilon 0.8 and a rest at the first sample's height, and ended in a wrong minimum (0.72-0.97, gaps of
+    1-90 mm); a light ball's clip that starts falling into a bounce was 'upside down' (the V of the bounce
+    read as the fall from a release). The start now comes from the flights' parabolas: rising, the first
+    flight left an unseen bounce; falling, it is the drop."""
+    data, ball = _cut_in_flight(epsilon, phase, span_s)
+    d = discover(data, ball)
+    assert d.epsilon == pytest.approx(epsilon, abs=0.002) and not d.effects
+    assert abs(d.epsilon - epsilon) < 4 * d.epsilon_uncertainty + 5e-4
+
+
+@pytest.mark.parametrize("phase, span_s", [(0.02, 0.55), (0.3, 0.4)])
+def test_a_track_of_one_flight_is_refused(phase, span_s):
+    """A clip inside one flight (rising from a bounce or falling from its top, no bounce seen) holds
+    nothing that tells epsilon: a one-line error saying so (it was 'the record looks upside down' rising,
+    or a fit of a drop falling)."""
+    data, ball = _cut_in_flight(0.85, phase, span_s)
+    with pytest.raises(DataError, match=r"cut: no bounce in the trajectory \(its \d+ samples .* hold one flight.*"
+                                        r"give a record that holds a bounce and the flight after it"):
+        discover(data, ball)
 
 
 @pytest.mark.parametrize("drop_height_m", [0.45, 0.55, 0.6])

@@ -361,6 +361,27 @@ def test_a_light_balls_record_in_the_wrong_unit_is_still_caught(balloon, tmp_pat
         check(data, 0.1, sigma_m=0.002, **flights)
 
 
+def test_a_record_that_starts_at_a_bounce_or_inside_one_flight_is_not_upside_down():
+    """A track that starts falling into a bounce: from its first sample the ball moves down, then up with
+    its V curving upward, which read as a release falling upward ('upside down' for a light ball); turned
+    over, a track cut inside one flight has its top as a bounce between two clean 'flights' and won on them.
+    Neither is a fall from a release or a bounce; turned over for real, a record still is."""
+    from vrcal.measurements.plausibility import release_fall_sign
+
+    g, t = 9.80665, np.arange(0.0, 0.8, 1 / 30.0)
+    noise = np.random.default_rng(0).normal(0.0, 2e-4, t.size)
+    # 30 fps: 3.65 m/s into a bounce 0.02 s after the first sample, out at 3.1 m/s
+    y = np.abs(np.where(t < 0.02, 3.65 * (0.02 - t), 3.1 * (t - 0.02) - 0.5 * g * (t - 0.02) ** 2)) + noise
+    assert y[1] < y[0] < y[2] and release_fall_sign(t, y) == 0
+    # another, cut before the next bounce and after this one: one flight
+    y = np.abs(np.where(t < 0.06, 0.2 - 3.0 * t - 0.5 * g * t ** 2, 3.0 * (t - 0.06) - 0.5 * g * (t - 0.06) ** 2))
+    inside = slice(2, int(np.sum(t < 0.55)))
+    assert flight_gravity(t[inside], (y + noise)[inside], 0, 2e-4)[1:] == (False, 1)
+    assert flight_gravity(t[inside], -(y + noise)[inside], 0, 2e-4)[1] is True
+    data, _ = hidden_effect_case(3, "trajectory", ())
+    assert release_fall_sign(data.t_s, -data.y_m, data.release_index) == -1
+
+
 def test_a_light_ball_tracked_on_video_is_fitted_not_refused(balloon, tmp_path):
     """End to end: discover finds the balloon's planted eps 0.7 and names no suspect input."""
     t, y, _ = balloon

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError
-from vrcal.measurements.cleanup import prominent_minima
+from vrcal.measurements.cleanup import prominent_minima, third_difference_sigma
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.textout import number
 
@@ -132,11 +132,17 @@ FLIGHT_MIN_SAMPLES = 7
 
 
 def _flight_edges(z, sigma):
-    """Indices bounding the flights of ``z``: its start, its prominent minima, its end (none without a minimum)."""
+    """Indices bounding the flights of ``z``: its start, its prominent minima, its end. Without a minimum
+    but with a top, the whole record is one flight: a record cut inside one flight is a parabola upright,
+    and turned over its top is a minimum between two "flights" that meet without a cusp (the turned-over
+    record must not win on them: 'upside down' for a ball that never bounced). None without either."""
     if z.size < 8:
         return []
-    minima = prominent_minima(z, max(8.0 * sigma, 0.05 * float(np.ptp(z))))
-    return [0] + [int(m) for m in minima] + ([z.size - 1] if minima.size else [])
+    prominence = max(8.0 * sigma, 0.05 * float(np.ptp(z)))
+    minima = prominent_minima(z, prominence)
+    if not minima.size and not prominent_minima(-z, prominence).size:
+        return []      # no top either: a fall alone, or no motion
+    return [0] + [int(m) for m in minima] + [z.size - 1]
 
 
 def _flight_segments(t, y, sign, release, sigma):
@@ -251,7 +257,8 @@ def release_fall_sign(t_s, y_m, release_index=0):
     -------
     int
         +1: falls as y decreases (upright); -1: as y increases (upside down); 0: cannot tell (too few
-        samples, or a record that starts moving one way and accelerating the other: thrown, or mid-flight)
+        samples, or a record that starts moving one way and accelerating the other: thrown, or mid-flight; or
+        one that first moves the other way: it starts at a bounce)
     """
     start = max(int(release_index) - 1, 0)
     t = np.asarray(t_s, dtype=float)[start:]
@@ -263,6 +270,11 @@ def release_fall_sign(t_s, y_m, release_index=0):
     if moved.size == 0 or moved[0] < 3:
         return 0
     j = int(moved[0])
+    # a ball let go moves away from where it was held; one that first goes the other way (beyond the noise)
+    # was in flight: a record that starts falling into a bounce rises from it, its V curving upward
+    back = float(np.max(y[:j + 1]) - y[0]) if y[j] < y[0] else float(y[0] - np.min(y[:j + 1]))
+    if back > max(5.0 * (third_difference_sigma(t, y) or 0.0), 1e-3 * span):
+        return 0
     curvature = float(np.polyfit(t[:j + 1] - t[0], y[:j + 1], 2)[0])
     direction = float(np.sign(y[j] - y[0]))
     return int(-direction) if direction == np.sign(curvature) else 0
