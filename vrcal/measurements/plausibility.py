@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError
-from vrcal.measurements.cleanup import prominent_minima, third_difference_sigma
+from vrcal.measurements.cleanup import bounce_height_m, prominent_minima, third_difference_sigma
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.textout import number
 
@@ -438,7 +438,7 @@ def check_impact_times(t_s, source="data"):
                           f"or give --format trajectory)")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S
-    height = STANDARD_GRAVITY_M_PER_S2 * first**2 / 8.0
+    height = float(bounce_height_m(first))
     if first > hi or first < lo:
         if lo <= first * 1e-3 <= hi:
             hint = "the times look like ms, not s (write 't (ms)' in the header)"
