@@ -204,7 +204,7 @@ def _require_shared(path):
 
     if os.environ.get("VRCAL_REQUIRE_SHARED") == "1":
         pytest.fail(f"VRCAL_REQUIRE_SHARED=1 but {path} is absent")
-    pytest.skip("reads ../shared/data, which is not beside this checkout (the README's 'Data' says where it "
+    pytest.skip("reads ../shared/data, which is not beside this checkout (the README's 'Set up' says where it "
                 "comes from)")
 
 

@@ -162,7 +162,7 @@ def test_own_drop_test_without_a_body_gives_eq9_and_says_what_needs_the_ball():
     ((1.0, 0.5, "bottom"), 0.7, "not both"),
     ((100.0, 55.0, "bottom"), None,
      r"^--drop-height must be at most 20 m \(higher than a drop test is made from\), got 100; "
-     r"--drop-height is in m: 100 cm = 1$"),
+     r"--drop-height is in m: 100 cm = 1 m$"),
     ((1.0, 1.5, "bottom"), None, "cannot rebound higher"),
     ((1.0, 0.05, "top"), None, r"^--rebound-height 0.05 m to the ball's top: a height to the top cannot be below "
                                r"the diameter D = 0.067 m"),

@@ -81,7 +81,7 @@ def test_the_issue_cases_are_one_line_errors(args, message):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["export", "tennis", "--engine", "ode", "--dt", "2"], "got 2; --dt is in s: 2 ms = 0.002"),
+    (["export", "tennis", "--engine", "ode", "--dt", "2"], "got 2; --dt is in s: 2 ms = 0.002 s"),
     (["export", "tennis", "--engine", "ode", "--dt", "1/0"], "or a fraction such as 1/240, got '1/0'"),
     (["export", "tennis", "--engine", "ode", "--drop-height", "254"],
      "--drop-height must be at most 100 m (a drop of 254 m hits at 70.6 m/s; faster impacts: --impact-speed), "

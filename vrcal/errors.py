@@ -61,7 +61,7 @@ def unit_hint(value, maximum, option, unit, small_unit, factor):
     except (TypeError, ValueError, OverflowError):
         return ""
     if math.isfinite(x) and maximum < x <= factor * maximum:
-        return f"; {option} is in {unit}: {x:g} {small_unit} = {x / factor:g}"
+        return f"; {option} is in {unit}: {x:g} {small_unit} = {x / factor:g} {unit}"
     return ""
 
 

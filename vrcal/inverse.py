@@ -211,7 +211,7 @@ def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom",
 
 
 #: Shift of epsilon [1] by a sphere's drag from which :func:`drop_test_drag` notes it.
-DRAG_NOTE_EPSILON = 0.01
+DRAG_NOTE_EPSILON = 0.005
 
 
 def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
@@ -235,15 +235,15 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
                                                         allow_above_one=True))
     if abs(with_drag - eps) < DRAG_NOTE_EPSILON:
         return {}
-    table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:g} --diameter "
-             f"{diameter_m:g}) measure the drag and the contact's ε")
+    table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:.3g} --diameter "
+             f"{diameter_m:.3g}) measure the drag and the contact's ε")
     drag = f"a sphere's C_d {cd:g} slows it by k = {k:.3g} 1/m"
     if with_drag > 1.0:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce "
                 f"rises {rebound_height_m:g} m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): "
                 f"check the mass, the diameter and the heights. {table}")
     else:
-        note = (f"air drag: this ball is light for its size ({drag}); with that drag the contact's own ε is "
+        note = (f"air drag ({drag}): with it the contact's own ε is "
                 f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag): {with_drag:.3f} is for an engine that applies "
                 f"that drag too; an engine without air drag (MuJoCo, ODE, PyBullet as they come) reproduces these "
                 f"heights with {eps:.3f}. {table}")
@@ -362,7 +362,7 @@ def fit_text(result):
     levels = tuple(k for k in _LEVELS if k in eps)
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in levels}
     window = levels == _LEVELS
-    model_time = f"model contact time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"
+    model_time = f"model time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s; not the real contact"
     if window:
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [

@@ -167,16 +167,16 @@ def _basketball_in(doc, **fields):
         # the basketball typed in cm and g: without the check it gave eps 0.849 instead of 0.766
         ({"mass_kg": {"min": 567, "max": 650}},
          "balls.basketball.mass_kg: a ball of 608.5 kg and 0.243348 m would be denser than any material "
-         "(8.06e+04 kg/m^3); mass_kg is in kg: 608.5 g = 0.6085"),
+         "(8.06e+04 kg/m^3); mass_kg is in kg: 608.5 g = 0.6085 kg"),
         ({"drop_height_m": 180, "rebound_m": {"min": 120, "max": 140}},
          "balls.basketball.drop_height_m: 180 m is higher than a drop test is made from (at most 20 m); "
-         "drop_height_m is in m: 180 cm = 1.8"),
+         "drop_height_m is in m: 180 cm = 1.8 m"),
         ({"circumference_m": {"min": 74.9, "max": 78.0}}, "balls.basketball.circumference_m: a ball of 0.6085 kg "
-         "and 24.3348 m would be lighter than air (8.06e-05 kg/m^3); circumference_m is in m: 76.45 cm = 0.7645"),
+         "and 24.3348 m would be lighter than air (8.06e-05 kg/m^3); circumference_m is in m: 76.45 cm = 0.7645 m"),
         # a squash ball's diameter in mm: a 40 m ball
         ({"mass_kg": {"min": 0.023, "max": 0.025}, "circumference_m": None, "diameter_m": {"min": 39.5, "max": 40.5}},
          "balls.basketball.diameter_m: a ball of 0.024 kg and 40 m would be lighter than air (7.16e-07 kg/m^3); "
-         "diameter_m is in m: 40 mm = 0.04"),
+         "diameter_m is in m: 40 mm = 0.04 m"),
     ],
 )
 def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip(fields, message):
