@@ -415,8 +415,8 @@ def _runs_table(d):
     for r, (run, label) in enumerate(zip(d.runs, d.labels or [""] * len(d.runs))):
         vals = d.final.run_values(r)
         n = int(np.asarray(run.t_s if run.kind != "apexes" else run.h_m).size)
-        rows.append([str(r + 1), label or str(run.source), str(n), number(vals["drop_height_m"], 4)])
-    return table(rows, ["run", "what", "data", "drop height m"], align="llrr", indent="  ")
+        rows.append([str(r + 1), label or str(run.source), str(n), f"{vals['drop_height_m']:.4f}"])
+    return table(rows, ["run", "what", "data", "fitted drop height m"], align="llrr", indent="  ")
 
 
 def _speed_lines(d):
