@@ -88,8 +88,12 @@ def test_fig7_band_of_the_basketball(ax):
 
 
 def test_fig7_as_paper_changes_the_band(ax):
+    """The paper's basketball has one epsilon, 0.85 (Table 1 prints no max): one line, no band (it drew
+    three overlapping lines and a band 'epsilon 0.850..0.850')."""
     plots.plot_ball_family("basketball", 4.0, as_paper=True, ax=ax)
-    assert "0.850" in " ".join(t.get_text() for t in ax.get_legend().get_texts())
+    legend = " ".join(t.get_text() for t in ax.get_legend().get_texts())
+    assert "0.850" in legend and ".." not in legend
+    assert len(ax.get_lines()) == 1 and len(ax.collections) == 0
 
 
 def test_plot_without_ax_makes_one():

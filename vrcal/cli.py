@@ -444,6 +444,14 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
     from vrcal.model.table2 import FORMATS, table2_text
     from vrcal.textout import choose_format
 
+    if compare_paper and (as_paper or K is not None):
+        from vrcal.errors import UsageError
+
+        given = [o for o, on in (("--K", K is not None), ("--as-paper", as_paper)) if on]
+        verb, them = ("does", "it") if len(given) == 1 else ("do", "them")
+        raise UsageError(f"--compare-paper reads the paper's own Table 2 (each row's K, and the least-squares K of "
+                         f"both readings): {' and '.join(given)} {verb} not apply; drop {them}, or drop "
+                         "--compare-paper for the regenerated table")
     kind = choose_format(fmt, output, default="text" if output in (None, "-") else "markdown", allowed=FORMATS)
     text = table2_text(standards_of(ctx), DEFAULT_K_PER_S if K is None else K, kind, compare_paper, as_paper)
     emit(text, output)

@@ -221,10 +221,13 @@ def plot_ball_family(ball="basketball", K_per_s=DEFAULT_K_PER_S, as_paper=False,
     # v = x/(2T) is Eq. (10) solved for v; x = 0 (on the surface) gives v = 0.
     v = {k: np.concatenate([[0.0], eq.virtual_speed_m_per_s(x[1:], t)]) for k, t in T.items()}
     ax = _new_ax(ax)
-    ax.fill_between(x, v["min"], v["max"], color="C0", alpha=0.2,
-                    label=f"ε {window.min:.3f}..{window.max:.3f} (drop-test window)")
+    # one ε (the paper's basketball prints no max): one line, no band
+    levels = ("nominal",) if window.max - window.min < 5e-4 else ("max", "nominal", "min")
+    if len(levels) > 1:
+        ax.fill_between(x, v["min"], v["max"], color="C0", alpha=0.2,
+                        label=f"ε {window.min:.3f}..{window.max:.3f} (drop-test window)")
     styles = {"min": ("C0", "--"), "nominal": ("C1", "-"), "max": ("C2", "--")}
-    for k in ("max", "nominal", "min"):
+    for k in levels:
         color, ls = styles[k]
         ax.plot(x, v[k], color=color, ls=ls,
                 label=f"ε {k} = {window.as_dict()[k]:.3f}, T = {T[k] * 1e3:.1f} ms")

@@ -62,8 +62,10 @@ def test_basketball_consistent_epsilon_subtracts_the_diameter():
 
 
 def test_convention_says_what_the_rule_measures():
-    """A rule measuring both heights to the bottom says so; one measuring to the top is not hidden."""
-    assert ball_epsilon(get_ball("tennis")).convention.endswith("as the rule measures them")
+    """A rule measuring both heights to the bottom says so (ITTF: the 'south pole'; the tennis ball was the
+    example here, but the ITF rule does not state the point: its header now says 'assumed'); one measuring
+    to the top is not hidden."""
+    assert ball_epsilon(get_ball("table_tennis")).convention.endswith("as the rule measures them")
     assert "paper" in ball_epsilon(get_ball("basketball"), as_paper=True).convention
 
 
@@ -259,3 +261,22 @@ def test_fiba_bounce_table_is_recorded_as_a_departure():
     assert w.rebound_m.min == pytest.approx(1.2 - ball.diameter_m.nominal)
     assert abs(0.5 * (1.035 + 1.085) - w.rebound_m.nominal) < 0.005
     assert any("1035-1085" in d and "957-1157" in d and "not used" in d for d in ball.departures)
+
+
+def test_an_assumed_measuring_point_is_not_called_the_rules():
+    """The header said 'drop and rebound both to the bottom of the ball, as the rule measures them' for the
+    volleyball and the tennis ball, whose notes say the rule does not state that point: the header now says
+    it is assumed, and a rule that states it keeps 'as the rule measures them'."""
+    assert "assumed: the rule does not state" in ball_epsilon(get_ball("tennis")).convention
+    assert "assumed: the rule does not state" in ball_epsilon(get_ball("volleyball")).convention
+    assert ball_epsilon(get_ball("table_tennis")).convention.endswith("as the rule measures them")
+    assert ball_epsilon(get_ball("football")).convention.endswith("as the rule measures them")
+
+
+def test_measured_to_stated_must_be_a_boolean(tmp_path):
+    doc = shipped_doc()
+    doc["balls"]["tennis"]["measured_to_stated"] = "no"
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    with pytest.raises(DataError, match=r"balls\.tennis\.measured_to_stated: must be true or false"):
+        load_standards(path)

@@ -248,3 +248,27 @@ def test_no_single_K_reproduces_all_four_printed_digits():
     assert compare_paper(load_standards())["readings"]["swapped"]["max_abs_epsilon_error"] > 0.005
     # football and table tennis imply the very same K: ln 0.81 = 2 ln 0.9 and 2x/v = 20 and 40
     assert rows["football"]["K_swapped"] == pytest.approx(rows["table_tennis"]["K_swapped"], rel=1e-12)
+
+
+def test_the_papers_blank_basketball_max_stays_blank_in_machine_output():
+    """[1] Table 1 prints no maximum for the basketball (rebound max and epsilon max blank); the CSV's
+    epsilon_paper_table1_max copied the minimum, 0.8498."""
+    import csv
+    import io
+
+    from vrcal.model.standards import load_standards
+    from vrcal.model.table2 import table2_text
+
+    rows = {r["ball"]: r for r in csv.DictReader(io.StringIO(table2_text(load_standards(), 4.0, "csv")))}
+    assert rows["basketball"]["epsilon_paper_table1_max"] == ""
+    assert float(rows["basketball"]["epsilon_paper_table1_min"]) == pytest.approx(math.sqrt(1.3 / 1.8), abs=1e-9)
+    assert float(rows["volleyball"]["epsilon_paper_table1_max"]) == pytest.approx(math.sqrt(0.66 / 1.0), abs=1e-9)
+
+
+def test_compare_paper_refuses_options_it_would_ignore():
+    """'table2 --compare-paper --as-paper --K 7' printed the comparison unchanged, exit 0: the options were
+    silently ignored."""
+    for extra, named in ((["--K", "7"], "--K does not apply"), (["--as-paper"], "--as-paper does not apply"),
+                         (["--as-paper", "--K", "7"], "--K and --as-paper do not apply")):
+        result = CliRunner().invoke(main, ["table2", "--compare-paper", *extra])
+        assert result.exit_code == 2 and named in result.output and result.output.count("\n") == 1

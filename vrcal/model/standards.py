@@ -71,6 +71,7 @@ class Ball:
     paper: PaperValues | None
     departures: tuple
     aliases: tuple = ()
+    measured_to_stated: bool = True
 
     @property
     def radius_m(self):
@@ -158,7 +159,8 @@ def _load_file(path):
 #: The keys of a standards document, of a ball's entry, of a range and of a ball's ``paper:`` block.
 _TOP_KEYS = ("schema_version", "balls")
 _BALL_KEYS = (*_REQUIRED_STR, "official", "mass_kg", "diameter_m", "circumference_m", "drop_height_m",
-              "drop_measured_to", "rebound_m", "rebound_measured_to", "source", "paper", "departures", "aliases")
+              "drop_measured_to", "rebound_m", "rebound_measured_to", "measured_to_stated", "source", "paper",
+              "departures", "aliases")
 _RANGE_KEYS = ("min", "max", "nominal")
 _PAPER_KEYS = ("drop_height_m", "rebound_min_m", "rebound_max_m", "epsilon_min", "epsilon_max", "printed", "table2")
 
@@ -283,6 +285,9 @@ def _ball(key, fields, where, path):
     drop_to = _point(fields, "drop_measured_to", where, path)
     rebound = _range(fields, "rebound_m", where, path)
     rebound_to = _point(fields, "rebound_measured_to", where, path)
+    stated = fields.get("measured_to_stated", True)
+    if not isinstance(stated, bool):
+        raise _err(where, f"{path}.measured_to_stated", f"must be true or false, got {stated!r}")
     check_drop_test_height(drop, f"{path}.drop_height_m", where=where, field="drop_height_m", error=DataError)
     for label in ("max", "nominal"):
         check_drop_test_height(getattr(rebound, label), f"{path}.rebound_m.{label}", where=where, field="rebound_m",
@@ -316,7 +321,7 @@ def _ball(key, fields, where, path):
         key=key, official=official, mass_kg=mass, diameter_m=diameter, drop_height_m=drop,
         drop_measured_to=drop_to, rebound_m=rebound, rebound_measured_to=rebound_to,
         source=tuple(source), paper=paper, departures=tuple(departures),
-        aliases=tuple(normalised_name(a) for a in aliases), **strings,
+        aliases=tuple(normalised_name(a) for a in aliases), measured_to_stated=stated, **strings,
     )
 
 
@@ -432,7 +437,13 @@ def ball_epsilon(ball, as_paper=False):
         r = ball.rebound_m
         to_bottom = [height_to_bottom_m(h, ball.rebound_measured_to, D) for h in (r.min, r.nominal, r.max)]
         rebound = Range(to_bottom[0], to_bottom[2], to_bottom[1])
-        if ball.drop_measured_to == ball.rebound_measured_to == "bottom":
+        if not ball.measured_to_stated:
+            convention = (f"{BOTTOM_CONVENTION}, assumed: the rule does not state the point of the ball"
+                          if ball.drop_measured_to == ball.rebound_measured_to == "bottom" else
+                          f"the drop to the {ball.drop_measured_to} and the rebound to the "
+                          f"{ball.rebound_measured_to} of the ball, assumed (the rule does not state the point); "
+                          "H and h here are both to its bottom")
+        elif ball.drop_measured_to == ball.rebound_measured_to == "bottom":
             convention = f"{BOTTOM_CONVENTION}, as the rule measures them"
         else:
             convention = (f"the rule measures the drop to the {ball.drop_measured_to} and the rebound to the "

@@ -259,7 +259,8 @@ def regenerate(standards, K_per_s=DEFAULT_K_PER_S, as_paper=False):
         paper1 = None
         if ball.paper is not None and ball.paper.rebound_min_m is not None:
             p = ball_epsilon(ball, as_paper=True)
-            paper1 = {"min": p.min, "max": p.max}
+            # a blank max cell (basketball) stays blank: the window's max is its min there
+            paper1 = {"min": p.min, "max": p.max if ball.paper.rebound_max_m is not None else None}
         paper2 = ball.paper.table2["epsilon"] if ball.paper is not None and ball.paper.table2 else None
         rows.append({
             "ball": key,
@@ -305,7 +306,7 @@ def _rounded(obj):
 def _paper1_text(p):
     if p is None:
         return "-"
-    if abs(p["max"] - p["min"]) < 5e-4:
+    if p["max"] is None or abs(p["max"] - p["min"]) < 5e-4:
         return f"{p['min']:.3f}"
     return f"{p['min']:.3f}-{p['max']:.3f}"
 
