@@ -95,11 +95,18 @@ NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'h
 _HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "apex")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
-_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
+_TRIAL_WORDS = ("trial", "run", "try", "attempt", "test", "measurement", "versuch", "messung", "essai", "intento",
+                "prova", "tentativo", "tentative", "ensayo", "medicion", "mesure", "durchgang")
+_TRIAL = re.compile(rf"^(?:{'|'.join(_TRIAL_WORDS)})\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
 #: ... or by an ordinal before it (``1st bounce``, ``Second rebound``, ``3rd bounce height``).
 _ORDINAL_WORDS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
 _ORDINAL = re.compile(rf"^(?:(\d+)\s*(?:st|nd|rd|th)|({'|'.join(_ORDINAL_WORDS)}))\s+(?:rebound|bounce)(?:\s+height)?$")
+#: Any column numbered after its name (``h2``, ``Rückprallhöhe 2``, ``hauteur de rebond 2``, ``Drop 2``,
+#: ``Versuch 2``) or by a number before it (``2. Versuch``, ``2nd bounce``, ``2e essai``): the stem and the number
+#: (:func:`_stem_number`).
+_AFTER = re.compile(r"^(?P<stem>.*?[^\d\s#])\s*#?\s*(?P<n>\d+)$")
+_BEFORE = re.compile(r"^(?P<n>\d+)\s*(?:\.|st|nd|rd|th|e|er|re|eme|ème|º|°|o|a)?\s+(?P<stem>\D.*)$")
 #: Names of a column that numbers the trials or rows (read by no one, and no note needed).
 _INDEX_NAMES = ("trial", "trials", "trial #", "trial no", "trial number", "run", "n", "no", "nr", "#", "number",
                 "index", "versuch", "essai", "intento", "prova", "attempt", "try", "test", "measurement")
@@ -109,6 +116,9 @@ BALL_WORDS = ("ball", "pelota", "palla", "bola", "object", "objekt", "objet", "o
               "sorte", "materi")
 #: ... and onto what (``Surface``, ``Floor``, ``Boden``, ``Untergrund``, ``Suelo``).
 SURFACE_WORDS = ("surface", "floor", "ground", "boden", "untergrund", "suelo", "superfici", "pavimento")
+#: Word beginnings (folded, :func:`_folded`) of a column derived from the trials, not read: an average or a mean
+#: (``Average``, ``Mean``, ``Mittelwert``, ``Durchschnitt``, ``moyenne``, ``promedio``, ``media``, ``média``).
+DERIVED_WORDS = ("average", "mean", "avg", "mittelwert", "durchschn", "moyen", "promedio", "media", "medio")
 #: Word beginnings of a column of comments (named in a note whatever its rows hold).
 COMMENT_WORDS = ("comment", "note", "remark", "observ", "bemerk", "kommentar", "notiz", "remarque", "comentario",
                  "commento", "nota")
@@ -144,14 +154,48 @@ class DropColumns(NamedTuple):
     numbered: list   # trial-or-rebound columns the values must decide between (``Rebound 1``, ``Rebound 2``)
 
 
+def _stem_number(name):
+    """``(stem, number)`` of a column named with a number after its name or before it (``h2`` -> ``('h', 2)``,
+    ``Rückprallhöhe 2`` -> ``('rückprallhöhe', 2)``, ``2. Versuch`` -> ``('versuch', 2)``, ``2nd bounce``,
+    ``Second rebound`` -> ``('rebound', 2)``), or None."""
+    m = _ORDINAL.match(name)
+    if m is not None and m.group(2):
+        return name.split(None, 1)[1], _ORDINAL_WORDS.index(m.group(2)) + 1
+    m = _AFTER.match(name) or _BEFORE.match(name)
+    if m is None:
+        return None
+    return m.group("stem").strip(" .#-"), int(m.group("n"))
+
+
+def _numbered_group(heights):
+    """``(stem, columns)``: the columns of ``heights`` that number one stem 1, 2, ..., N (N >= 2, in that
+    order) -- a trial's or a rebound's columns whatever the word (``h1, h2, h3``, ``Trial 1, ...``, ``Drop 1, ...``,
+    ``Rückprallhöhe 1, ...``, ``1. Versuch, ...``) -- or None. The stem is a trial (:data:`_TRIAL_WORDS`), ``h``, or a
+    word of a height, a drop or a rebound."""
+    groups = {}
+    for c in heights:
+        found = _stem_number(c.name)
+        if found is not None:
+            groups.setdefault(_folded(found[0]), []).append((found[1], c))
+    for stem, members in groups.items():
+        numbers = sorted(n for n, _ in members)
+        if len(members) < 2 or numbers != list(range(1, len(members) + 1)):
+            continue
+        if stem in ("h", *_TRIAL_WORDS) or _has_word(stem, _HEIGHT_WORDS + DROP_WORDS + REBOUND_WORDS):
+            return stem, [c for _, c in sorted(members, key=lambda m: m[0])]
+    return None
+
+
 def _height_columns(cols):
     """:class:`DropColumns` of a drop table, or None when the columns are not one."""
     heights = [c for c in cols if _length_unit(c)]
-    drop = _drop_column(heights)
+    group = _numbered_group(heights)
+    numbered = {c.index for c in group[1]} if group else set()
+    drop = _drop_column([c for c in heights if c.index not in numbered])
     if drop is not None:
         return _rebound_columns(drop, heights)
     # a class's 'Height (cm), Rebound height (cm)': the height beside the rebounds is the drop height
-    plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS), None)
+    plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS and c.index not in numbered), None)
     found = None if plain is None else _rebound_columns(plain, heights)
     if found is None or not all(c.unit or _names_rebound(c) for c in _rebounds_of(found)):
         return None
@@ -193,6 +237,11 @@ def _rebound_columns(drop, heights):
     """:class:`DropColumns` of the drop column ``drop`` and the other columns of ``heights``, or None when
     none of them is a rebound."""
     rest = [c for c in heights if c.index != drop.index]
+    group = _numbered_group(rest)
+    if group is not None:   # one rule for numbered columns: a trial word says trials, else the values decide
+        stem, members = group
+        return DropColumns(drop, [{1: c} for c in members], []) if stem in _TRIAL_WORDS \
+            else DropColumns(drop, [], members)
     trials = [c for c in rest if _TRIAL.match(c.name)]
     if len(trials) >= 2:
         return DropColumns(drop, [{1: c} for c in trials], [])
@@ -252,14 +301,16 @@ def _trials_or_rebounds(path, line, values, columns):
     with np.errstate(invalid="ignore", divide="ignore"):
         agree = np.abs(values / first - 1.0) <= 0.25
         falling = np.diff(values, axis=1) < 0
-    agree, falling = agree[np.isfinite(values)].all(), falling[np.isfinite(values[:, 1:])].all()
+    finite = np.isfinite(values)   # an empty cell (a trial not made) says nothing either way
+    agree, falling = agree[finite & finite[:, :1]].all(), falling[finite[:, 1:] & finite[:, :-1]].all()
     names = ", ".join(f"'{c.raw}'" for c in columns)
     if agree and not falling:
         return [{1: c} for c in columns], f"columns {names}: trials of the row's drop height (their values agree)"
     if falling:
         return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
     fail(path, line, f"columns {names} neither agree (trials of one drop height) nor fall one after another "
-                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... or 'h1', 'h2', ...")
+                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... (trials) or 'h', 'h2', 'h3', ... "
+                     f"(successive rebounds)")
 
 
 def _beside_a_drop(cols, bounce):
@@ -381,7 +432,7 @@ def _unread_notes(path, table, ignored):
     :data:`BALL_WORDS` or :data:`SURFACE_WORDS`: ``Ball``, ``Ball type``, ``Surface``) that is an error naming
     the values (one file per ball); a comment column (:data:`COMMENT_WORDS`) is only named."""
     notes = []
-    derived = [c.raw for c in ignored if _has_word(c.name, ("average", "mean", "avg"))]
+    derived = [c.raw for c in ignored if _has_word(c.name, DERIVED_WORDS)]
     if derived:
         notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
     ignored = [c for c in ignored if c.raw not in derived]
@@ -392,8 +443,9 @@ def _unread_notes(path, table, ignored):
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
-                     f"{'its name' if len(other) == 1 else 'their names'} (name a rebound 'h2', '2nd bounce', ...; "
-                     f"docs/measurements.md)")
+                     f"{'its name' if len(other) == 1 else 'their names'} (if {'it holds' if len(other) == 1 else 'they hold'}"
+                     f" rebound heights, name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', "
+                     f"...; docs/measurements.md)")
     for c in (c for c in ignored if words[c.index]):
         name, values = c.raw or f"column {c.index + 1}", words[c.index]
         shown = ", ".join(values[:6]) + (", ..." if len(values) > 6 else "")

@@ -1,0 +1,89 @@
+"""Tables as classes write them in their own languages and programs (a probe's findings): numbered trial
+columns whatever the word, height columns named in German, French, Spanish and Italian, Google Sheets' quoted
+decimal commas, grouped thousands, units in the cells, two-row headers, title lines with --format, and the
+advice of the messages. Every table is planted with a known epsilon."""
+
+import numpy as np
+import pytest
+
+from vrcal.errors import DataError
+from vrcal.measurements import Runs, Trajectory, read_measurement
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
+
+EPS = 0.77
+DROPS_CM = (40.0, 60.0, 80.0, 100.0, 120.0)
+
+
+def write(tmp_path, name, text, encoding="utf-8"):
+    path = tmp_path / name
+    path.write_bytes(text.encode(encoding))
+    return str(path)
+
+
+def rebounds_cm(n_trials=3, eps=EPS, seed=1):
+    """{drop height [cm]: [rebound heights, cm, to 0.1 cm]} of ``n_trials`` trials, h = eps^2 H (+- 0.3 %)."""
+    rng = np.random.default_rng(seed)
+    return {H: [round(eps ** 2 * H * (1 + 0.003 * rng.standard_normal()), 1) for _ in range(n_trials)]
+            for H in DROPS_CM}
+
+
+def eps_of(runs):
+    """Least-squares epsilon of a drop table's first rebounds: h = eps^2 H."""
+    H = np.array([r.h_m[0] for r in runs.runs])
+    h = np.array([r.h_m[1] for r in runs.runs])
+    return float(np.sqrt(np.sum(h * H) / np.sum(H * H)))
+
+
+def de(x):
+    return f"{x:.1f}".replace(".", ",")
+
+
+def trials_table(header, sep=";", comma=True, average=False):
+    """A drop table with three trials per drop height side by side under ``header``."""
+    lines = [header]
+    for H, hs in rebounds_cm().items():
+        cells = [H, *hs] + ([sum(hs) / 3] if average else [])
+        lines.append(sep.join(de(v) if comma else f"{v:.1f}" for v in cells))
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("header", [
+    "Fallhöhe in cm;h1 in cm;h2 in cm;h3 in cm",                                  # probe: read as bounces, 0.827
+    "Fallhöhe (cm);Rückprallhöhe 1 (cm);Rückprallhöhe 2 (cm);Rückprallhöhe 3 (cm)",  # probe: 5 trials of 15
+    "hauteur de chute (cm);hauteur de rebond 1 (cm);hauteur de rebond 2 (cm);hauteur de rebond 3 (cm)",
+    "Fallhöhe (cm);1. Versuch (cm);2. Versuch (cm);3. Versuch (cm)",                # probe: refused
+    "Drop height (cm);Rebound height 1 (cm);Rebound height 2 (cm);Rebound height 3 (cm)",
+    "altura de caída (cm);intento 1 (cm);intento 2 (cm);intento 3 (cm)",
+])
+def test_numbered_trial_columns_are_trials_whatever_the_word(tmp_path, header):
+    got = read_measurement(write(tmp_path, "t.csv", trials_table(header)))
+    assert isinstance(got, Runs) and len(got.runs) == 15
+    assert all(r.bounce.tolist() == [0, 1] for r in got.runs)
+    assert abs(eps_of(got) - EPS) < 0.003
+    assert not any("not read" in n for n in got.notes)
+
+
+def test_gcse_drop_n_columns_beside_height_dropped_from_are_trials(tmp_path):
+    """p2/real/gcse_tabletennis_labelled.csv (refused: 'a drop table needs a drop-height column'); the
+    published numbers, eps 0.8185 by least squares h = eps^2 H."""
+    text = ("Height dropped from/cm,Drop 1/cm,Drop 2/cm,Drop 3/cm,Average/cm\n100,65,65,63,63.7\n80,51,51,51,51\n"
+            "60,42,42,42,42\n40,34,35,36,22\n20,15,16,15,15.3\n")
+    got = read_measurement(write(tmp_path, "gcse.csv", text))
+    assert len(got.runs) == 15 and abs(eps_of(got) - 0.8185) < 0.001
+    assert any("'Average' not read (derived from the trials)" in n for n in got.notes)
+
+
+def test_successive_rebounds_numbered_h1_h2_stay_rebounds(tmp_path):
+    rows = "".join(f"{H:.0f},{EPS**2 * H:.2f},{EPS**4 * H:.2f},{EPS**6 * H:.2f}\n" for H in DROPS_CM)
+    got = read_measurement(write(tmp_path, "r.csv", "H (cm),h1 (cm),h2 (cm),h3 (cm)\n" + rows))
+    assert len(got.runs) == 5 and all(r.bounce.tolist() == [0, 1, 2, 3] for r in got.runs)
+    assert any("successive rebounds" in n for n in got.notes)
+
+
+@pytest.mark.parametrize("word", ["Mittelwert", "moyenne", "promedio", "Average"])
+def test_an_average_column_is_named_derived_not_advised_as_a_rebound(tmp_path, word):
+    header = f"Fallhöhe (cm);Versuch 1 (cm);Versuch 2 (cm);Versuch 3 (cm);{word} (cm)"
+    got = read_measurement(write(tmp_path, "m.csv", trials_table(header, average=True)))
+    assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
+    assert any(f"'{word}' not read (derived from the trials)" in n for n in got.notes)
+    assert not any("h2" in n for n in got.notes)
