@@ -87,3 +87,43 @@ def test_an_average_column_is_named_derived_not_advised_as_a_rebound(tmp_path, w
     assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
     assert any(f"'{word}' not read (derived from the trials)" in n for n in got.notes)
     assert not any("h2" in n for n in got.notes)
+
+
+def flight(eps=0.74, H=1.2, fs=60.0, n_bounces=3):
+    """(t [s], y [m]) of a ball dropped from H [m] bouncing with eps, sampled at fs [Hz]."""
+    v0 = np.sqrt(2 * G * H)
+    flights = 2 * eps ** np.arange(1, n_bounces + 1) * v0 / G
+    impacts = np.sqrt(2 * H / G) + np.concatenate([[0.0], np.cumsum(flights)])
+    t = np.arange(0.0, impacts[-1], 1 / fs)
+    k = np.searchsorted(impacts, t)
+    d = t - np.where(k > 0, impacts[np.maximum(k - 1, 0)], 0.0)
+    y = np.where(k == 0, H - 0.5 * G * t * t, eps ** k * v0 * d - 0.5 * G * d * d)
+    return t, np.maximum(y, 0.0)
+
+
+@pytest.mark.parametrize("header, unit, encoding", [
+    ("Zeit [s];Höhe [m]", 1.0, "utf-8"),
+    ("Zeit t in s;Höhe h in m", 1.0, "utf-8"),            # the German school header
+    ("Zeit t / s;Höhe h / m", 1.0, "utf-8"),
+    ("temps t (s);hauteur h (m)", 1.0, "utf-8-sig"),
+    ("tiempo (s);altura (cm)", 100.0, "utf-8"),
+    ("tempo (s);altezza (m)", 1.0, "utf-16"),
+    ("t (s);z (m)", 1.0, "utf-8"),
+    ("Zeit (s);Hoehe (mm)", 1000.0, "utf-8"),
+])
+def test_height_columns_in_a_class_language_are_trajectories(tmp_path, header, unit, encoding):
+    t, y = flight()
+    body = "".join(f"{a:.4f};{b * unit:.4f}\n".replace(".", ",") for a, b in zip(t, y))
+    got = read_measurement(write(tmp_path, "traj.csv", header + "\n" + body, encoding))
+    assert isinstance(got, Trajectory) and got.t_s.size == t.size
+    assert np.allclose(got.y_m, y, atol=1e-4)
+
+
+def test_a_failing_column_look_up_names_what_the_column_may_be_called(tmp_path):
+    path = write(tmp_path, "w.csv", "Zeit (s);Weg (m)\n0;1\n0,1;0,9\n")
+    with pytest.raises(DataError) as err:
+        read_measurement(path, "trajectory")
+    assert "columns: Zeit, Weg" in str(err.value) and "'Höhe'" in str(err.value) and "'y (m)'" in str(err.value)
+    with pytest.raises(DataError) as err:
+        read_measurement(write(tmp_path, "i.csv", "Nr;Dauer\n1;0,5\n2;0,9\n"), "impacts")
+    assert "columns: Nr, Dauer" in str(err.value) and "'Zeit'" in str(err.value)

@@ -434,7 +434,7 @@ def check_impact_times(t_s, source="data"):
             _fail(source, f"the intervals between impacts do not shrink ({dt.size:,} intervals of about "
                           f"{float(np.median(dt)):.4g} s, median ratio {ratio:.4f}): epsilon would be 1, and no "
                           f"ball bounces like that; these look like a clock's ticks or a sensor's samples, not "
-                          f"impact times (a trajectory's height column is named 'y', 'height' or 'position'; "
+                          f"impact times (a trajectory's height column is named 'y', 'height', 'position' or 'Höhe'; "
                           f"or give --format trajectory)")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S

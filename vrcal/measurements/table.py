@@ -27,9 +27,14 @@ _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$"
 #: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo).
 TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time",
               "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo")
-#: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance" and a video tracker's
-#: "height" too; the first of them in the file's column order is taken).
-Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "distance")
+#: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance", a video tracker's
+#: "height" and a 3D tracker's "z" too; a class's own language: Höhe, hauteur, altura, altezza; the first of them
+#: in the file's column order is taken).
+Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "distance", "z",
+           "höhe", "hoehe", "hauteur", "altura", "altezza")
+#: How a failing look-up tells the columns may be named (``--format trajectory`` on a file without them).
+Y_NAMING = "'y', 'height', 'position', 'z', 'Höhe', 'hauteur', 'altura' or 'altezza'"
+TIME_NAMING = "'t', 'time', 'Zeit', 'temps', 'tiempo' or 'tempo'"
 #: Names of a frame-number column (times = frame / --fs when the file has no time column).
 FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
@@ -302,8 +307,15 @@ def repeated_columns(cols, col):
 
 
 def find_column(cols, names, *, contains=None):
+    """The first column of ``cols`` named one of ``names``; else the first whose words are all such names (a
+    name followed by its symbol: ``Zeit t``, ``Höhe h``, ``temps t``); else, with ``contains``, the first
+    whose name contains it."""
     for c in cols:
         if c.name in names:
+            return c
+    for c in cols:
+        words = c.name.split()
+        if len(words) >= 2 and all(w in names for w in words):
             return c
     if contains:
         for c in cols:
