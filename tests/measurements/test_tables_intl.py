@@ -127,3 +127,25 @@ def test_a_failing_column_look_up_names_what_the_column_may_be_called(tmp_path):
     with pytest.raises(DataError) as err:
         read_measurement(write(tmp_path, "i.csv", "Nr;Dauer\n1;0,5\n2;0,9\n"), "impacts")
     assert "columns: Nr, Dauer" in str(err.value) and "'Zeit'" in str(err.value)
+
+
+def test_google_sheets_csv_quoted_decimal_commas_are_read(tmp_path):
+    """Google Sheets in a decimal-comma locale saves '1,"0,9517"' (refused: '3 cells but the header names 2
+    columns (a decimal comma with comma separators?)')."""
+    rows = rebounds_cm(1)
+    drops = "Versuch,Fallhöhe (cm),Rückprallhöhe (cm)\n" + "".join(
+        f'{k},"{de(H)}","{de(hs[0])}"\n' for k, (H, hs) in enumerate(rows.items(), start=1))
+    got = read_measurement(write(tmp_path, "d.csv", drops))
+    assert len(got.runs) == 5 and abs(eps_of(got) - EPS) < 0.003
+    t, y = flight()
+    traj = "t (s),y (m)\n" + "".join(f'"{de4(a)}","{de4(b)}"\n' for a, b in zip(t, y))
+    got = read_measurement(write(tmp_path, "t.csv", traj))
+    assert isinstance(got, Trajectory) and np.allclose(got.y_m, y, atol=1e-4)
+    impacts = np.sqrt(2 / G) + np.concatenate([[0.0], np.cumsum(2 * 0.8 ** np.arange(1, 8) * np.sqrt(2 * G) / G)])
+    got = read_measurement(write(tmp_path, "i.csv", "Nr,Zeit (s)\n" + "".join(
+        f'{k},"{de4(v)}"\n' for k, v in enumerate(impacts, start=1))))
+    assert got.kind == "impacts" and np.allclose(got.t_s, impacts, atol=1e-4)
+
+
+def de4(x):
+    return f"{x:.4f}".replace(".", ",")

@@ -8,6 +8,7 @@ a malformed file gives the same one-line message ``FILE:LINE: what is wrong``
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import io
 import re
@@ -237,8 +238,10 @@ def sniff(header, sample):
         sep = " "
     else:
         sep = None
-    decimal_comma = sep != "," and any(
-        _NUMBER_WITH_DECIMAL_COMMA.match(strip_cell(c)) for s in sample for c in split_cells(s, sep))
+    # with comma separators only a quoted cell can hold a comma ('"0,52"': Google Sheets' CSV in a decimal-comma
+    # locale), and split_cells keeps it whole
+    decimal_comma = any(_NUMBER_WITH_DECIMAL_COMMA.match(strip_cell(c)) for s in sample for c in split_cells(s, sep)
+                        if sep != "," or '"' in s)
     return sep, decimal_comma
 
 
@@ -247,9 +250,13 @@ def unquoted(text):
 
 
 def loose_cells(line):
-    """The non-blank cells of a line split at any comma, semicolon or tab (before the separator is known:
-    is a first line numbers, or a title?)."""
-    return [c for c in re.split(r"[,;\t]", line) if c.strip()]
+    """The non-blank cells of a line split at any comma, semicolon or tab outside double quotes (before the
+    separator is known: is a first line numbers, or a title?)."""
+    return [strip_cell(c) for c in _LOOSE_SEPARATOR.split(line) if c.strip()]
+
+
+#: A comma, semicolon or tab outside double quotes ('"0,52","0,61"' is two cells).
+_LOOSE_SEPARATOR = re.compile(r'[,;\t](?=(?:[^"]*"[^"]*")*[^"]*$)')
 
 
 def split_cells(line, sep):
@@ -259,6 +266,8 @@ def split_cells(line, sep):
         cells = line.split()
     elif sep == "\t":
         cells = line.strip("\r\n ").split("\t")
+    elif '"' in line:   # quoted cells may hold the separator ('"0,52"' in a comma-separated file)
+        cells = next(csv.reader([line], delimiter=sep, skipinitialspace=True))
     else:
         cells = line.split(sep)
     cells = [strip_cell(c) for c in cells]
