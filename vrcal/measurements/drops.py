@@ -309,8 +309,8 @@ def _trials_or_rebounds(path, line, values, columns):
     if falling:
         return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
     fail(path, line, f"columns {names} neither agree (trials of one drop height) nor fall one after another "
-                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... (trials) or 'h', 'h2', 'h3', ... "
-                     f"(successive rebounds)")
+                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... (trials) or 'h', 'h2', "
+                     f"'h3', ... (successive rebounds)")
 
 
 def _beside_a_drop(cols, bounce):
@@ -442,10 +442,11 @@ def _unread_notes(path, table, ignored):
              for i, v in cells.items()}
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
+        one = len(other) == 1
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
-                     f"{'its name' if len(other) == 1 else 'their names'} (if {'it holds' if len(other) == 1 else 'they hold'}"
-                     f" rebound heights, name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', "
-                     f"...; docs/measurements.md)")
+                     f"{'its name' if one else 'their names'} (if {'it holds' if one else 'they hold'} rebound heights, "
+                     f"name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', ...; "
+                     f"docs/measurements.md)")
     for c in (c for c in ignored if words[c.index]):
         name, values = c.raw or f"column {c.index + 1}", words[c.index]
         shown = ", ".join(values[:6]) + (", ..." if len(values) > 6 else "")
