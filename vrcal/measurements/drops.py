@@ -444,8 +444,8 @@ def _unread_notes(path, table, ignored):
     if other:
         one = len(other) == 1
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
-                     f"{'its name' if one else 'their names'} (if {'it holds' if one else 'they hold'} rebound heights, "
-                     f"name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', ...; "
+                     f"{'its name' if one else 'their names'} (if {'it holds' if one else 'they hold'} rebound "
+                     f"heights, name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', ...; "
                      f"docs/measurements.md)")
     for c in (c for c in ignored if words[c.index]):
         name, values = c.raw or f"column {c.index + 1}", words[c.index]
