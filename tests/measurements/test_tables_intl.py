@@ -149,3 +149,37 @@ def test_google_sheets_csv_quoted_decimal_commas_are_read(tmp_path):
 
 def de4(x):
     return f"{x:.4f}".replace(".", ",")
+
+
+def grouped(x_mm, decimals):
+    """``x_mm`` written as a German spreadsheet does: thousands grouped by '.', a decimal comma."""
+    text = f"{x_mm:,.{decimals}f}"
+    return text.replace(",", "_").replace(".", ",").replace("_", ".")
+
+
+@pytest.mark.parametrize("decimals", [0, 1])
+def test_thousands_grouped_by_a_dot_are_read(tmp_path, decimals):
+    """'1.200,0' was refused without a hint; '1.200' beside '800' read as 1.2 mm ('columns swapped?')."""
+    rows = "".join(f"{k};{grouped(10 * H, decimals)};{grouped(10 * hs[k - 1], 1 if decimals else 0)}\n"
+                   for H, hs in rebounds_cm().items() for k in (1, 2, 3))
+    got = read_measurement(write(tmp_path, "g.csv", "Versuch;Fallhöhe (mm);Rückprallhöhe (mm)\n" + rows))
+    assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
+    assert sorted({r.h_m[0] for r in got.runs}) == pytest.approx([H / 100 for H in DROPS_CM])
+    assert any("thousands separator" in n for n in got.notes)
+    t, y = flight(H=1.5)
+    traj = "Zeit (s);Höhe (mm)\n" + "".join(f"{de4(a)};{grouped(1000 * b, 1)}\n" for a, b in zip(t, y))
+    got = read_measurement(write(tmp_path, "t.csv", traj))
+    assert np.allclose(got.y_m, y, atol=1e-4)
+
+
+def test_thousands_or_decimals_that_cannot_be_told_apart_are_refused_saying_so(tmp_path):
+    rows = "".join(f"{k};{grouped(H * 10 + 1000, 0)};{grouped(hs[0] * 10 + 1000, 0)}\n"
+                   for k, (H, hs) in enumerate(rebounds_cm().items(), start=1))
+    with pytest.raises(DataError) as err:
+        read_measurement(write(tmp_path, "b.csv", "Versuch;Fallhöhe (mm);Rückprallhöhe (mm)\n" + rows))
+    msg = str(err.value)
+    assert "b.csv:2: '1.400' in column 'Fallhöhe (mm)'" in msg and "groups thousands (1400)" in msg
+    assert "without thousands separators" in msg
+    # decimals written to three places with a decimal point are decimals: '1.000;0.593'
+    got = read_measurement(write(tmp_path, "m.csv", "H (m);h (m)\n1.000;0.593\n1.000;0.595\n"))
+    assert got.runs[0].h_m.tolist() == [1.0, 0.593]

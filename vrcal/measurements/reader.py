@@ -39,6 +39,7 @@ from vrcal.measurements.table import (
     loose_cells,
     merge_units_row,
     strip_cell,
+    ungroup_thousands,
 )
 from vrcal.measurements.types import Runs
 from vrcal.model.restitution import check_number
@@ -379,10 +380,13 @@ def _load(path, sheet=None):
 
 def _units_into_header(text, name=None):
     """``(text, note)``: a units row below the header written into it (:func:`merge_units_row`), except in
-    a Vernier export, whose reader joins its own names and units."""
+    a Vernier export, whose reader joins its own names and units; thousands grouped by '.' ungrouped
+    (:func:`ungroup_thousands`; both notes joined)."""
+    text, grouped = ungroup_thousands(text)
     if name == "vernier" or (name is None and vernier.detect(text)):
-        return text, None
-    return merge_units_row(text, MAX_TITLE_LINES)
+        return text, grouped
+    text, units = merge_units_row(text, MAX_TITLE_LINES)
+    return text, "; ".join(n for n in (units, grouped) if n) or None
 
 
 def _title_note(title):

@@ -574,3 +574,66 @@ def numeric_width(text, n_lines=20):
         widths.add(len(cells))
     return widths.pop() if len(widths) == 1 else 0
 
+
+
+#: A number with its thousands grouped by '.' (``1.200``, ``12.500``, ``1.200,5`` with a decimal comma).
+_GROUPED = re.compile(r"^[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d+)?$")
+#: ... somewhere in a text (a cheap look before splitting its lines).
+_GROUPED_IN_TEXT = re.compile(r"(?<![\d.,])[1-9]\d{0,2}(?:\.\d{3})+(?![\d.])")
+_INTEGER = re.compile(r"^[+-]?\d+$")
+
+
+def ungroup_thousands(text):
+    """``(text, note)``: the numbers of ``text`` whose thousands are grouped by '.' written without it
+    (``1.200`` -> ``1200``, ``1.200,5`` -> ``1200,5``) and a note saying so; ``(text, None)`` when none is.
+
+    A '.' followed by exactly three digits groups thousands, column by column: in a file with a decimal comma
+    (its decimals cannot use '.'), and in a column whose other cells are whole numbers (``800`` above
+    ``1.200``: one column is not written with three decimals in some rows and none in others). A
+    semicolon-separated column (the decimal-comma locale's CSV) of such numbers only, in a file with no other
+    decimal, may be either (``2.000``: 2000 or 2.0): an error saying so, naming the line.
+    """
+    lines = text.lines
+    if len(lines) < 2 or not any(_GROUPED_IN_TEXT.search(s) for _, s in lines):
+        return text, None
+    sep, decimal_comma = sniff(lines[0][1], [s for _, s in lines[1:200]])
+    if sep == ",":
+        return text, None
+    rows = [(no, split_cells(s, sep)) for no, s in lines]
+    decimal_comma = decimal_comma or any("," in c and _GROUPED.match(c) for _, cells in rows for c in cells)
+
+    def number(c):
+        return c == "" or _GROUPED.match(c) is not None or to_float(c, decimal_comma) is not None
+
+    data = [(k, cells) for k, (_, cells) in enumerate(rows) if cells and all(number(c) for c in cells)]
+    width = max((len(cells) for _, cells in data), default=0)
+    grouped_columns = set()
+    for j in range(width):
+        filled = [(k, cells[j]) for k, cells in data if j < len(cells) and cells[j] != ""]
+        grouped = [(k, c) for k, c in filled if _GROUPED.match(c)]
+        if not grouped:
+            continue
+        if decimal_comma or any(_INTEGER.match(c) for _, c in filled) and all(
+                _GROUPED.match(c) or _INTEGER.match(c) for _, c in filled):
+            grouped_columns.add(j)
+        elif sep == ";" and len(grouped) == len(filled) and not any(
+                "." in c and not _GROUPED.match(c) for _, cells in data for c in cells):
+            k, cell = grouped[0]
+            header = rows[data[0][0] - 1][1] if data[0][0] > 0 else []   # the line above the first row of numbers
+            name = header[j] if j < len(header) else f"column {j + 1}"
+            fail(text.path, rows[k][0], f"'{cell}' in column '{name}': a '.' before three digits groups thousands "
+                                        f"({cell.replace('.', '')}) or is a decimal point ({float(cell):g}); write "
+                                        f"the numbers without thousands separators, or with a decimal comma")
+    if not grouped_columns:
+        return text, None
+    changed, example = {}, None
+    for k, cells in data:
+        new = [c.replace(".", "") if j in grouped_columns and _GROUPED.match(c) else c for j, c in enumerate(cells)]
+        if new != cells:
+            example = example or next((a, b) for a, b in zip(cells, new) if a != b)
+            joiner = " " if sep == " " else (sep or "")
+            changed[rows[k][0]] = joiner.join(f'"{c}"' if sep and sep in c else c for c in new)
+    new_lines = [(no, changed.get(no, s)) for no, s in lines]
+    note = (f"'.' before three digits read as a thousands separator ('{example[0]}' = {example[1]}; "
+            f"{len(changed)} line(s))")
+    return dataclasses.replace(text, lines=new_lines), note
