@@ -183,3 +183,50 @@ def test_thousands_or_decimals_that_cannot_be_told_apart_are_refused_saying_so(t
     # decimals written to three places with a decimal point are decimals: '1.000;0.593'
     got = read_measurement(write(tmp_path, "m.csv", "H (m);h (m)\n1.000;0.593\n1.000;0.595\n"))
     assert got.runs[0].h_m.tolist() == [1.0, 0.593]
+
+
+def test_a_drop_height_merged_over_its_trials_in_xlsx_applies_to_each_row(tmp_path):
+    """xlsx_merged_H.xlsx: 'empty cell in column 'Fallhöhe'' before (a read-only workbook has no merges)."""
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(["Rückprall eines Tennisballs"])
+    ws.merge_cells("A1:C1")
+    ws.append(["Fallhöhe (cm)", "Versuch", "Rückprallhöhe (cm)"])
+    for H, hs in rebounds_cm().items():
+        first = ws.max_row + 1
+        for k, h in enumerate(hs, start=1):
+            ws.append([H if k == 1 else None, k, h])
+        ws.merge_cells(f"A{first}:A{first + 2}")
+    path = tmp_path / "merged.xlsx"
+    wb.save(path)
+    got = read_measurement(str(path))
+    assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
+    assert sorted({round(r.h_m[0], 6) for r in got.runs}) == [H / 100 for H in DROPS_CM]
+    assert any("'Rückprall eines Tennisballs' is a title" in n for n in got.notes)
+
+
+def test_an_ods_spreadsheet_is_named_and_told_to_save_as_xlsx_or_csv(tmp_path):
+    import zipfile
+    path = tmp_path / "lo.ods"
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("mimetype", "application/vnd.oasis.opendocument.spreadsheet")
+        zf.writestr("META-INF/manifest.xml", "<manifest/>")
+        zf.writestr("content.xml", "<office:document-content/>")
+    with pytest.raises(DataError) as err:
+        read_measurement(str(path))
+    assert "OpenDocument spreadsheet (LibreOffice" in str(err.value) and "save it as .xlsx or .csv" in str(err.value)
+
+
+@pytest.mark.parametrize("text, said", [
+    ("H,h\n0.50 m,0.303 m\n", "(column 'H'): remove the unit from the cells; put it in the header: 'H (m)'"),
+    ("H,h\n0.50,0.30 m\n", "(column 'h'): remove the unit from the cells; put it in the header: 'h (m)'"),
+    ("Drop (cm),Rebound (cm)\n50 cm,30\n", "(column 'Drop'): remove the unit from the cells (the header gives it: "
+                                           "'Drop (cm)')"),
+    ("t,y\n" + "".join(f"{k / 60:.4f} s,1.0\n" for k in range(30)), "(column 't'): remove the unit from the cells; "
+                                                                     "put it in the header: 't (s)'"),
+])
+def test_a_unit_in_the_cells_is_told_to_go_into_the_header_naming_the_column_as_written(tmp_path, text, said):
+    with pytest.raises(DataError) as err:
+        read_measurement(write(tmp_path, "u.csv", text))
+    assert said in str(err.value) and "u.csv:2:" in str(err.value)

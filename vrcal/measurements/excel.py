@@ -77,7 +77,8 @@ def _sheets(path, kind):
         except Exception as exc:  # noqa: BLE001 - any failure of the library is a bad file
             raise DataError(f"{path}: not a readable .xlsx workbook ({type(exc).__name__})") from None
         try:
-            return [(ws.title, [list(r) for r in ws.iter_rows(values_only=True, max_row=MAX_ROWS)])
+            return [(ws.title, _fill_merged([list(r) for r in ws.iter_rows(values_only=True, max_row=MAX_ROWS)],
+                                            _merged_ranges(path, getattr(ws, "_worksheet_path", None))))
                     for ws in wb.worksheets]
         finally:
             wb.close()
@@ -93,6 +94,46 @@ def _sheets(path, kind):
     for sh in book.sheets():
         out.append((sh.name, [sh.row_values(i) for i in range(min(sh.nrows, MAX_ROWS))]))
     return out
+
+
+def _merged_ranges(path, member):
+    """The merged cell ranges ``[(min_col, min_row, max_col, max_row)]`` (1-based) of the worksheet stored as
+    ``member`` of the .xlsx ``path`` (a read-only workbook does not give them; its sheets' own XML does), or []."""
+    import re
+    import zipfile
+
+    from openpyxl.utils.cell import range_boundaries
+
+    if not member:
+        return []
+    try:
+        with zipfile.ZipFile(path) as zf:
+            xml = zf.read(member.lstrip("/")).decode("utf-8", "replace")
+    except (KeyError, OSError, zipfile.BadZipFile):
+        return []
+    out = []
+    for ref in re.findall(r'<(?:\w+:)?mergeCell\s+ref="([A-Z]+\d+:[A-Z]+\d+)"', xml):
+        try:
+            out.append(range_boundaries(ref))
+        except ValueError:
+            continue
+    return out
+
+
+def _fill_merged(rows, ranges):
+    """``rows`` (lists of cell values) with the value of each merged range that spans rows (a drop height merged
+    over the rows of its trials) written into the cells below its first row, as the spreadsheet shows it; a range
+    across columns of one row (a title over the table) stays one cell."""
+    for min_col, min_row, max_col, max_row in ranges:
+        if min_row > len(rows) or min_col > len(rows[min_row - 1]):
+            continue
+        value = rows[min_row - 1][min_col - 1]
+        for r in range(min_row + 1, min(max_row, len(rows)) + 1):
+            row = rows[r - 1]
+            row.extend([None] * (max_col - len(row)))
+            for c in range(min_col, max_col + 1):
+                row[c - 1] = value
+    return rows
 
 
 def load_sheet_text(path, sheet=None):
@@ -211,6 +252,12 @@ def load_archive_text(path, member=None):
             names = [i.filename for i in infos]
             if "[Content_Types].xml" in names and any(n.startswith("xl/") for n in names):
                 raise DataError(f"{path}: an Excel workbook named as a zip archive: rename it to .xlsx")
+            if "content.xml" in names and "mimetype" in names and \
+                    zf.read("mimetype")[:64].startswith(b"application/vnd.oasis.opendocument"):
+                what = "spreadsheet (LibreOffice or OpenOffice Calc, .ods)" \
+                    if b"spreadsheet" in zf.read("mimetype")[:80] else "document (LibreOffice or OpenOffice)"
+                raise DataError(f"{path}: an OpenDocument {what}, which vrcal does not read: save it as .xlsx "
+                                f"or .csv (File > Save As)")
             tables = [i for i in infos if not i.is_dir() and i.filename.lower().endswith(_TABLE_SUFFIXES)
                       and not i.filename.startswith(("meta/", "__MACOSX/"))
                       and not Path(i.filename).name.startswith(".")]

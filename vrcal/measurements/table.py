@@ -459,7 +459,7 @@ def column_values(path, table, col, *, what, allow_empty=False):
     except (IndexError, ValueError):
         pass
     out = np.empty(len(table.rows))
-    label = col.name or f"column {col.index + 1}"
+    label = col.raw or f"column {col.index + 1}"
     for k, (no, cells) in enumerate(table.rows):
         if col.index >= len(cells) or cells[col.index] == "":
             if allow_empty:
@@ -468,11 +468,30 @@ def column_values(path, table, col, *, what, allow_empty=False):
             fail(path, no, f"empty cell in column '{label}' ({what})")
         value = to_float(cells[col.index], table.decimal_comma)
         if value is None:
-            fail(path, no, f"'{cells[col.index]}' is not a number (column '{label}')")
+            cell = cells[col.index]
+            fail(path, no, f"'{cell}' is not a number (column '{label}'){_unit_in_cell(cell, col)}")
         if not np.isfinite(value):
             fail(path, no, f"{cells[col.index]} in column '{label}': every value must be a finite number")
         out[k] = value
     return out
+
+
+#: A number followed by a unit in one cell (``0.50 m``, ``12,5cm``).
+_NUMBER_UNIT = re.compile(r"^[+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?\s*(?P<unit>[A-Za-zµ]+\.?)$")
+
+
+def _unit_in_cell(cell, col):
+    """The advice for a cell that holds a number and its unit (``0.50 m``): the unit goes into the header, once
+    for the column (``'H (m)'``); '' for any other cell."""
+    m = _NUMBER_UNIT.match(cell.strip())
+    if m is None:
+        return ""
+    unit = unit_symbol(m.group("unit"))
+    if unit not in TIME_UNITS and unit not in LENGTH_UNITS:
+        return ""
+    if col.unit:
+        return f": remove the unit from the cells (the header gives it: '{col.raw} ({col.unit})')"
+    return f": remove the unit from the cells; put it in the header: '{col.raw} ({unit})'"
 
 
 def column_cells(table, col):
@@ -483,7 +502,7 @@ def column_cells(table, col):
 
 def unit_factor(path, table, col, units, kind):
     if col.unit not in units:
-        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.name}' "
+        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.raw}' "
               f"(known: {known_units(units)})")
     return units[col.unit]
 
