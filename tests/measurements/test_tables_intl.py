@@ -230,3 +230,33 @@ def test_a_unit_in_the_cells_is_told_to_go_into_the_header_naming_the_column_as_
     with pytest.raises(DataError) as err:
         read_measurement(write(tmp_path, "u.csv", text))
     assert said in str(err.value) and "u.csv:2:" in str(err.value)
+
+
+@pytest.mark.parametrize("fmt", [None, "drops"])
+def test_a_title_line_is_skipped_with_or_without_format(tmp_path, fmt):
+    """--format drops turned title skipping off ('3 cells but the header names 1 columns')."""
+    rows = "".join(f"{k};{de(H)};{de(hs[k - 1])}\n" for H, hs in rebounds_cm().items() for k in (1, 2, 3))
+    path = write(tmp_path, "t.csv", "Ballsprung Gruppe 3\nVersuch;Fallhöhe (cm);Rückprallhöhe (cm)\n" + rows)
+    got = read_measurement(path, fmt)
+    assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
+    assert got.notes[0] == "line 1 'Ballsprung Gruppe 3' is a title: skipped"
+
+
+@pytest.mark.parametrize("fmt", [None, "trajectory"])
+def test_a_title_above_t_y_with_units_is_no_tracker_track_name(tmp_path, fmt):
+    """'Videoanalyse Tennisball' above 't (s);y (cm)' was a 'Tracker data export' whose positions were 'taken
+    as metres' before they were converted from cm."""
+    t, y = flight()
+    body = "".join(f"{de4(a)};{de(100 * b)}\n" for a, b in zip(t, y))
+    got = read_measurement(write(tmp_path, "v.csv", "Videoanalyse Tennisball\nt (s);y (cm)\n" + body), fmt)
+    assert np.allclose(got.y_m, y, atol=1e-3)
+    assert "line 1 'Videoanalyse Tennisball' is a title: skipped" in got.notes
+    assert not any("Tracker" in n or "taken as metres" in n for n in got.notes)
+
+
+def test_a_tracker_multi_track_export_names_its_track_over_its_time_column(tmp_path):
+    t, y = flight()
+    body = "".join(f"{a:.6E}\t0.1\t{b:.6E}\t{a:.6E}\t0.5\t0.0\n" for a, b in zip(t, y))
+    got = read_measurement(write(tmp_path, "m.txt", "#multi:\nmass A\t\t\tmass B\t\t\nt\tx\ty\tt\tx\ty\n" + body))
+    assert np.allclose(got.y_m, y, atol=1e-5)
+    assert got.notes[0].startswith("format: Tracker multi-track export; track 'mass A', whose y spans the most")

@@ -315,6 +315,8 @@ def read_measurement(path, fmt=None, **options):
     text, units_note = _units_into_header(text, name)
     if name is None:
         text, name, title = _detect_below_title(text)
+    elif not FORMATS[name].recording:
+        text, title = _below_title_for(FORMATS[name], text)
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
     if sheet is not None and not container:
@@ -387,6 +389,19 @@ def _units_into_header(text, name=None):
         return text, grouped
     text, units = merge_units_row(text, MAX_TITLE_LINES)
     return text, "; ".join(n for n in (units, grouped) if n) or None
+
+
+def _below_title_for(fmt, text):
+    """``(text, title)``: the text below its title lines (:func:`_title_lines`) when the format given
+    (``--format``) reads that and not the whole text (a Tracker export's track name above its columns is
+    no title), else ``(text, None)``."""
+    k = _title_lines(text)
+    if not k:
+        return text, None
+    below = dataclasses.replace(text, lines=text.lines[k:])
+    if fmt.detector(below) and not fmt.detector(text):
+        return below, text.lines[:k]
+    return text, None
 
 
 def _title_note(title):
