@@ -260,3 +260,24 @@ def test_a_tracker_multi_track_export_names_its_track_over_its_time_column(tmp_p
     got = read_measurement(write(tmp_path, "m.txt", "#multi:\nmass A\t\t\tmass B\t\t\nt\tx\ty\tt\tx\ty\n" + body))
     assert np.allclose(got.y_m, y, atol=1e-5)
     assert got.notes[0].startswith("format: Tracker multi-track export; track 'mass A', whose y spans the most")
+
+
+BOUNCY = "10 5 6 5 5.33\n20 11 11 11 11\n30 16 17 16 16.33\n40 22 22 22 22\n50 28 28 27 27.67\n"
+
+
+@pytest.mark.parametrize("sep, header", [
+    (" ", "Drop_height_cm Trial_1_cm Trial_2_cm Trial_3_cm Average_cm"),
+    (",", "Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)"),
+])
+@pytest.mark.parametrize("fmt", [None, "drops"])
+def test_a_headerless_drop_table_is_told_the_header_that_reads_it(tmp_path, sep, header, fmt):
+    """p2/real/bouncyball_scribd_as_published.csv: blank-separated, 'cannot tell the layout from the header
+    '10 5 6 5 5.33'' where its comma twin said 'no header row'."""
+    body = BOUNCY.replace(" ", sep)
+    with pytest.raises(DataError) as err:
+        read_measurement(write(tmp_path, "b.csv", body), fmt)
+    assert f"b.csv:1: no header row: the first line holds numbers; for a drop height and its trials, give the " \
+           f"file the header '{header}'" in str(err.value)
+    got = read_measurement(write(tmp_path, "fixed.csv", header + "\n" + body))
+    assert len(got.runs) == 15 and any("'Average' not read" in n for n in got.notes)
+    assert abs(eps_of(got) - 0.738) < 0.01

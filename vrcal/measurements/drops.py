@@ -348,6 +348,31 @@ def looks_like_heights(text):
     return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
 
 
+def headerless_hint(text):
+    """The header that makes a headerless table of three or more numbers per line a drop table
+    (``'Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)'``, with the file's separator;
+    ``'Drop_height_cm Trial_1_cm ...'`` between blanks) when its numbers look like one --
+    in every line the first, a drop height, above every other, none of them negative; the last column an
+    average when it is the mean of the others in most lines -- else None."""
+    sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
+    rows = [[to_float(c, decimal_comma) for c in split_cells(s, sep)] for _, s in text.lines[:50]]
+    width = len(rows[0])
+    if width < 3 or any(len(r) != width or None in r for r in rows):
+        return None
+    values = np.array(rows, dtype=float)
+    if not (np.all(values[:, 1:] >= 0) and np.all(values[:, :1] > values[:, 1:])):
+        return None
+    n = width - 1
+    mean = values[:, 1:-1].mean(axis=1)
+    if width >= 4 and np.mean(np.abs(values[:, -1] - mean) <= 0.02 * values[:, -1] + 0.01) > 0.8:
+        n -= 1   # the last column the trials' average (a wrong one in a line or two: a sheet's typing)
+    unit = "cm" if values[:, 0].max() > 3 else "m"
+    names = ["Drop height"] + [f"Trial {k}" for k in range(1, n + 1)] + (["Average"] if n < width - 1 else [])
+    if sep in (None, " "):   # blanks separate the cells: names without blanks, the unit after '_'
+        return " ".join(f"{name.replace(' ', '_')}_{unit}" for name in names)
+    return sep.join(f"{name} ({unit})" for name in names)
+
+
 def transposed(text):
     """``(trials, rows)`` of a table written with the trials as columns and the bounces as rows (``Data,Trial
     1,Trial 2,...`` over ``Bounce_1,18.125,17.875,...``), the layout vrcal does not read (one trial per row),
@@ -501,6 +526,10 @@ def _runs_of_rows(path, table, drop, trials, values, resolution_m):
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
+    header = headerless_hint(text) if header_columns(text) is None else None
+    if header is not None:
+        fail(path, text.lines[0][0], f"no header row: the first line holds numbers; for a drop height and its "
+                                     f"trials, give the file the header '{header}' (check the unit)")
     table = parse_table(text)
     cols, renamed = _inch_columns(table.cols)
     found = _height_columns(cols)

@@ -65,8 +65,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         notes = [f"format: Tracker multi-track export; {note}"]
     elif len(ys) > 1:
         notes.append(f"{len(ys)} 'y' columns: using the first")
-    y_unit = (y_col or find_column(table.cols, Y_NAMES)).unit
-    if scale_m_per_px is None and not y_down and not y_unit:
+    shown = y_col or find_column(table.cols, Y_NAMES)   # None: trajectory_from_table says what is missing
+    if scale_m_per_px is None and not y_down and not (shown is not None and shown.unit):
         notes.append("positions taken as metres (Tracker's calibrated units; use --scale for other units)")
     return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
                                   notes=notes, skip_empty_y=True, y_column=y_col, x_column=x_col)
