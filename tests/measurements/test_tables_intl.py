@@ -281,3 +281,33 @@ def test_a_headerless_drop_table_is_told_the_header_that_reads_it(tmp_path, sep,
     got = read_measurement(write(tmp_path, "fixed.csv", header + "\n" + body))
     assert len(got.runs) == 15 and any("'Average' not read" in n for n in got.notes)
     assert abs(eps_of(got) - 0.738) < 0.01
+
+
+@pytest.mark.parametrize("factor, unit", [(100, "cm"), (1000, "mm")])
+def test_a_rebound_many_times_its_drop_is_a_unit_not_a_swap(tmp_path, factor, unit):
+    """p4: 'H (m),h' over '1.00,55' was asked 'are the drop and rebound columns swapped?'."""
+    from vrcal.measurements.plausibility import check
+    rows = "".join(f"{H / 100:.2f},{hs[0] / 100 * factor:.1f}\n" for H, hs in rebounds_cm().items())
+    data = read_measurement(write(tmp_path, "h.csv", "H (m),h\n" + rows))
+    with pytest.raises(DataError) as err:
+        check(data)
+    assert f"is the rebound in {unit} and the drop in m? write each height column's unit in its header " \
+           f"('h ({unit})', 'H (m)')" in str(err.value) and "swapped" not in str(err.value)
+    swapped = "".join(f"{hs[0] / 100:.3f},{H / 100:.2f}\n" for H, hs in rebounds_cm().items())
+    with pytest.raises(DataError, match="are the drop and rebound columns swapped"):
+        check(read_measurement(write(tmp_path, "s.csv", "H (m),h (m)\n" + swapped)))
+
+
+def test_a_text_drop_table_named_xlsx_is_told_its_own_format(tmp_path):
+    path = write(tmp_path, "d.xlsx", "H (cm),h (cm)\n100,59\n80,47\n")
+    with pytest.raises(DataError) as err:
+        read_measurement(path)
+    assert str(err.value).endswith("rename it to .csv, or give --format drops")
+    assert len(read_measurement(path, "drops").runs) == 2
+
+
+def test_repeated_time_columns_without_numbers_are_an_error_not_a_crash(tmp_path):
+    """Found by the fuzz test: '0.0,t,t' over '0.0' ended in numpy's 'zero-size array' (printed_resolution of no
+    number)."""
+    with pytest.raises(DataError, match="only 0 impact"):
+        read_measurement(write(tmp_path, "h.csv", "0.0,t,t\n0.0\n"))

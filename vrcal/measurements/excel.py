@@ -183,8 +183,9 @@ def load_sheet_text(path, sheet=None):
 WORKBOOK_SUFFIXES = (".xlsx", ".xlsm", ".xls")
 
 
-def _looks_like(head):
-    """What a file's first bytes show it to be, for the error of a file named as a workbook that is none."""
+def _looks_like(head, layout=None):
+    """What a file's first bytes show it to be, for the error of a file named as a workbook that is none
+    (``layout``: the format its text reads as, or None)."""
     if head.startswith(_XLSX_MAGIC):
         return "it is a zip archive (an .xlsx workbook named .xls? rename it to .xlsx)"
     if not head.strip():
@@ -194,18 +195,21 @@ def _looks_like(head):
     if head.lstrip()[:1] == b"<":
         return ("it is an HTML or XML document (a web page saved as .xls?): open it in a spreadsheet "
                 "program and save it as .xlsx or .csv")
-    return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give --format "
-            "(e.g. --format impacts)")
+    return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give "
+            + (f"--format {layout}" if layout else "--format with its layout"))
 
 
-def check_workbook_name(path):
+def check_workbook_name(path, layout=None):
     """Refuse a file named as a workbook (``.xlsx``, ``.xls``) whose bytes are no workbook, saying what it
     looks like and how to read it; a workbook, or a file named otherwise, passes.
+
+    ``layout(path)``, when given, names the format of a text file so named (None when none reads it), which the
+    error then gives to ``--format``.
 
     Raises
     ------
     DataError
-        "FILE: not an Excel workbook: it is text (...): rename it to .csv, or give --format"
+        "FILE: not an Excel workbook: it is text (...): rename it to .csv, or give --format drops"
     """
     if not str(path).lower().endswith(WORKBOOK_SUFFIXES) or is_spreadsheet(path):
         return
@@ -216,7 +220,8 @@ def check_workbook_name(path):
             head = fh.read(4096)
     except OSError:
         return  # the text reader names the problem
-    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head)}")
+    text = head.strip() and b"\x00" not in head and head.lstrip()[:1] != b"<" and not head.startswith(_XLSX_MAGIC)
+    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head, layout(path) if text and layout else None)}")
 
 
 def is_spreadsheet(path):

@@ -114,8 +114,17 @@ def detect_format(path):
     name = _detect_recording(path)
     if name is not None:
         return name
-    excel.check_workbook_name(path)
+    excel.check_workbook_name(path, _text_layout)
     return _detect_below_title(_units_into_header(_load(path))[0])[1]
+
+
+def _text_layout(path):
+    """The format the text file ``path`` reads as (detected), or None (a file named as a workbook that is text:
+    the error names it for ``--format``)."""
+    try:
+        return _detect_below_title(_units_into_header(load_text(path))[0])[1]
+    except (DataError, UsageError):
+        return None
 
 
 #: Largest input read from a pipe, a FIFO or stdin ('-') [bytes] (a phone's video of a drop is tens of MB).
@@ -316,7 +325,7 @@ def read_measurement(path, fmt=None, **options):
         options.pop(key, None)
     sheet = options.pop("sheet", None)
     if fmt is None:
-        excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
+        excel.check_workbook_name(path, _text_layout)   # a CSV named .xlsx: say so, not 'header but no data rows'
     container = excel.container_kind(path) in ("xlsx", "xls", "zip")
     text = _load(path, sheet if container else None)
     title = None
