@@ -311,3 +311,16 @@ def test_repeated_time_columns_without_numbers_are_an_error_not_a_crash(tmp_path
     number)."""
     with pytest.raises(DataError, match="only 0 impact"):
         read_measurement(write(tmp_path, "h.csv", "0.0,t,t\n0.0\n"))
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_a_header_of_two_rows_is_read_as_one(tmp_path, sep):
+    """intl/de_two_row_header.csv ('4 cells but the header names 2 columns'): a name spanning the trials over
+    their own names, as a spreadsheet's merged cell saves it."""
+    body = trials_table("x", sep=sep).split("\n", 1)[1]
+    head = sep.join(["Fallhöhe (cm)", "Rückprallhöhe (cm)", "", ""]) + "\n" + \
+        sep.join(["", "1. Versuch", "2. Versuch", "3. Versuch"]) + "\n"
+    got = read_measurement(write(tmp_path, "two.csv", "Ballsprung Klasse 10b\n" + head + body))
+    assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
+    assert "lines 2-3 are a header of two rows: read as one ('Fallhöhe (cm)', '1. Versuch (cm)', '2. Versuch (cm)', " \
+           "'3. Versuch (cm)')" in got.notes

@@ -37,6 +37,7 @@ from vrcal.measurements.table import (
     is_numeric_row,
     load_text,
     loose_cells,
+    merge_two_row_header,
     merge_units_row,
     strip_cell,
     ungroup_thousands,
@@ -399,12 +400,15 @@ def _load(path, sheet=None):
 
 def _units_into_header(text, name=None):
     """``(text, note)``: a units row below the header written into it (:func:`merge_units_row`), except in
-    a Vernier export, whose reader joins its own names and units; thousands grouped by '.' ungrouped
-    (:func:`ungroup_thousands`; both notes joined)."""
+    a Vernier export, whose reader joins its own names and units; else a header of two rows written as one
+    (:func:`merge_two_row_header`); thousands grouped by '.' ungrouped (:func:`ungroup_thousands`; the notes
+    joined)."""
     text, grouped = ungroup_thousands(text)
     if name == "vernier" or (name is None and vernier.detect(text)):
         return text, grouped
     text, units = merge_units_row(text, MAX_TITLE_LINES)
+    if units is None:
+        text, units = merge_two_row_header(text, MAX_TITLE_LINES)
     return text, "; ".join(n for n in (units, grouped) if n) or None
 
 

@@ -562,6 +562,52 @@ def merge_units_row(text, max_title_lines=5):
     return text, None
 
 
+def merge_two_row_header(text, max_title_lines=5):
+    """``(text, note)``: a header of two rows -- names, some spanning the columns to their right (a merged cell
+    saved as a name and empty cells: ``Fallhöhe (cm);Rückprallhöhe (cm);;``), over the names of the spanned
+    columns (``;1. Versuch;2. Versuch;3. Versuch``) -- written as one row, each spanned column named by the row
+    below with the unit of the name above (``1. Versuch (cm)``), and a note saying so; ``(text, None)`` when the
+    text has no such header.
+
+    The two rows lie under at most ``max_title_lines`` title lines, above a line of numbers as wide as the lower
+    row; a name of the upper row that spans no column stands over an empty cell, and every name of the lower row
+    stands under a spanning one, and one name at least spans no column (a title spans them all).
+    """
+    lines = text.lines
+    for k in range(1, min(max_title_lines + 1, len(lines) - 2) + 1):
+        (upper_no, upper), (lower_no, lower), (_, first) = lines[k - 1], lines[k], lines[k + 1]
+        if has_number(upper) or has_number(lower) or not has_number(first):
+            continue
+        sep, _ = sniff(upper, [lower, first])
+        if sep in (None, " "):
+            continue
+        names, subs = split_cells(upper, sep), split_cells(lower, sep)
+        width = len(split_cells(first, sep))
+        if len(subs) != width or len(names) > width or sum(1 for c in subs if c) < 2:
+            continue
+        names += [""] * (width - len(names))
+        spans, above = [], ""
+        for i, name in enumerate(names):
+            above = name or above
+            spans.append(above if subs[i] else "")
+        alone = [i for i, name in enumerate(names) if name and (i + 1 == width or names[i + 1])]
+        if not alone or any(subs[i] for i in alone) or not all(spans[i] for i, c in enumerate(subs) if c):
+            continue   # (a title over the header spans every column: no name stands alone)
+        merged = []
+        for i, sub in enumerate(subs):
+            if not sub:
+                merged.append(names[i])
+                continue
+            unit, own = columns([spans[i]])[0].unit, columns([sub])[0].unit
+            merged.append(f"{sub} ({unit})" if unit and not own else sub)
+        line = sep.join(merged)
+        note = (f"lines {upper_no}-{lower_no} are a header of two rows: read as one "
+                f"({', '.join(repr(c) for c in merged)})")
+        new = [(no, line if no == upper_no else s) for no, s in lines if no != lower_no]
+        return dataclasses.replace(text, lines=new), note
+    return text, None
+
+
 def has_number(line):
     """True when a cell of ``line`` (split at any comma, semicolon or tab) is a number."""
     return any(is_numeric_row([cell]) for cell in loose_cells(line))
