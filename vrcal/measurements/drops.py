@@ -11,14 +11,15 @@ The header names which column is which (case matters only for ``H`` and ``h``):
   (``Height bounced (m)``, ``Bounced to (cm)``, ``Final height``; ``Rückprallhöhe``, ``Sprunghöhe``, ``hauteur du
   rebond``, ``altura de rebote``, ``altezza di rimbalzo``, ``altura do ressalto``; a ``bounce``
   column with a length unit is a height, not a bounce number); further rebounds of the same trial
-  may follow as ``h2``, ``h3``, ...; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
+  may follow as ``h2``, ``h3``, ... after ``h``; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
   ``caida``);
-* **trials side by side**: a drop height and several rebound columns numbered by trial
-  (``Trial 1 (cm)``, ``Trial 2 (cm)``, ``Run 3``, ``Try 2``), the classroom table with one row per
-  drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... (or ``1st bounce``, ``Second
-  rebound``, ...) are trials when their values
-  agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
-  when each is clearly below the one before; the notes say which;
+* **trials side by side**: a drop height and several rebound columns numbered 1, 2, ..., N, one rule
+  whatever the word and wherever the number (:func:`_numbered_group`): by a trial word (``Trial 1 (cm)``,
+  ``Run 3``, ``Versuch 2``, ``1. Versuch``, ``essai 2``: :data:`_TRIAL_WORDS`) they are trials, the classroom
+  table with one row per drop height; any other numbered columns (``h1, h2, h3``, ``Rebound 1``,
+  ``Rückprallhöhe 2``, ``hauteur de rebond 3``, ``Drop 1`` beside ``Height dropped from``, ``1st bounce``,
+  ``Second rebound``) are trials when their values agree (every column within 25 % of the first, row by
+  row) and successive rebounds of one drop when each is clearly below the one before; the notes say which;
 * a column headed just as a height (``Height (cm)``, ``Höhe``: :data:`_PLAIN_HEIGHTS`) is the drop height
   when the other height columns are rebounds with a length unit (``Height (cm), Rebound height (cm)``,
   ``Height (cm), Bounce (cm)``, ``Height (cm), Bounce 1 (cm), Bounce 2 (cm)``); a rebound column without any
