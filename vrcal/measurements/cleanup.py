@@ -151,6 +151,8 @@ def printed_resolution(t, max_decimals=9, written=None):
         if d is not None:
             return 10.0**-d if d <= max_decimals else None
     t = np.asarray(t, dtype=float)
+    if t.size == 0:   # no number (a column of empty cells): no step to tell
+        return None
     for d in range(max_decimals + 1):
         q = t * 10.0**d
         if np.all(np.abs(q - np.round(q)) < 1e-6 * max(1.0, float(np.max(np.abs(q))) * 1e-9)):

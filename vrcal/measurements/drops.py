@@ -11,14 +11,15 @@ The header names which column is which (case matters only for ``H`` and ``h``):
   (``Height bounced (m)``, ``Bounced to (cm)``, ``Final height``; ``Rückprallhöhe``, ``Sprunghöhe``, ``hauteur du
   rebond``, ``altura de rebote``, ``altezza di rimbalzo``, ``altura do ressalto``; a ``bounce``
   column with a length unit is a height, not a bounce number); further rebounds of the same trial
-  may follow as ``h2``, ``h3``, ...; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
+  may follow as ``h2``, ``h3``, ... after ``h``; accents are optional (``Fallhoehe``, ``Rueckprallhoehe``,
   ``caida``);
-* **trials side by side**: a drop height and several rebound columns numbered by trial
-  (``Trial 1 (cm)``, ``Trial 2 (cm)``, ``Run 3``, ``Try 2``), the classroom table with one row per
-  drop height. Columns numbered ``Rebound 1``, ``Bounce 2``, ... (or ``1st bounce``, ``Second
-  rebound``, ...) are trials when their values
-  agree (every column within 25 % of the first, row by row) and successive rebounds of one drop
-  when each is clearly below the one before; the notes say which;
+* **trials side by side**: a drop height and several rebound columns numbered 1, 2, ..., N, one rule
+  whatever the word and wherever the number (:func:`_numbered_group`): by a trial word (``Trial 1 (cm)``,
+  ``Run 3``, ``Versuch 2``, ``1. Versuch``, ``essai 2``: :data:`_TRIAL_WORDS`) they are trials, the classroom
+  table with one row per drop height; any other numbered columns (``h1, h2, h3``, ``Rebound 1``,
+  ``Rückprallhöhe 2``, ``hauteur de rebond 3``, ``Drop 1`` beside ``Height dropped from``, ``1st bounce``,
+  ``Second rebound``) are trials when their values agree (every column within 25 % of the first, row by
+  row) and successive rebounds of one drop when each is clearly below the one before; the notes say which;
 * a column headed just as a height (``Height (cm)``, ``Höhe``: :data:`_PLAIN_HEIGHTS`) is the drop height
   when the other height columns are rebounds with a length unit (``Height (cm), Rebound height (cm)``,
   ``Height (cm), Bounce (cm)``, ``Height (cm), Bounce 1 (cm), Bounce 2 (cm)``); a rebound column without any
@@ -95,11 +96,18 @@ NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'h
 _HEIGHT_WORDS = ("height", "hohe", "hoehe", "hauteur", "altura", "altezza", "apex")
 #: A rebound column numbered by trial (``Trial 2``), or numbered without saying whether by trial or by
 #: bounce (``Rebound 2``, ``Bounce 2``: the values decide, :func:`_trials_or_rebounds`).
-_TRIAL = re.compile(r"^(?:trial|run|try|attempt|test|measurement|versuch|messung|essai|intento|prova)\s*#?\s*(\d+)$")
+_TRIAL_WORDS = ("trial", "run", "try", "attempt", "test", "measurement", "versuch", "messung", "essai", "intento",
+                "prova", "tentativo", "tentative", "ensayo", "medicion", "mesure", "durchgang")
+_TRIAL = re.compile(rf"^(?:{'|'.join(_TRIAL_WORDS)})\s*#?\s*(\d+)$")
 _NUMBERED = re.compile(r"^(?:rebound|bounce|rebound height|bounce height)\s*#?\s*(\d+)$")
 #: ... or by an ordinal before it (``1st bounce``, ``Second rebound``, ``3rd bounce height``).
 _ORDINAL_WORDS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
 _ORDINAL = re.compile(rf"^(?:(\d+)\s*(?:st|nd|rd|th)|({'|'.join(_ORDINAL_WORDS)}))\s+(?:rebound|bounce)(?:\s+height)?$")
+#: Any column numbered after its name (``h2``, ``Rückprallhöhe 2``, ``hauteur de rebond 2``, ``Drop 2``,
+#: ``Versuch 2``) or by a number before it (``2. Versuch``, ``2nd bounce``, ``2e essai``): the stem and the number
+#: (:func:`_stem_number`).
+_AFTER = re.compile(r"^(?P<stem>.*?[^\d\s#])\s*#?\s*(?P<n>\d+)$")
+_BEFORE = re.compile(r"^(?P<n>\d+)\s*(?:\.|st|nd|rd|th|e|er|re|eme|ème|º|°|o|a)?\s+(?P<stem>\D.*)$")
 #: Names of a column that numbers the trials or rows (read by no one, and no note needed).
 _INDEX_NAMES = ("trial", "trials", "trial #", "trial no", "trial number", "run", "n", "no", "nr", "#", "number",
                 "index", "versuch", "essai", "intento", "prova", "attempt", "try", "test", "measurement")
@@ -109,6 +117,9 @@ BALL_WORDS = ("ball", "pelota", "palla", "bola", "object", "objekt", "objet", "o
               "sorte", "materi")
 #: ... and onto what (``Surface``, ``Floor``, ``Boden``, ``Untergrund``, ``Suelo``).
 SURFACE_WORDS = ("surface", "floor", "ground", "boden", "untergrund", "suelo", "superfici", "pavimento")
+#: Word beginnings (folded, :func:`_folded`) of a column derived from the trials, not read: an average or a mean
+#: (``Average``, ``Mean``, ``Mittelwert``, ``Durchschnitt``, ``moyenne``, ``promedio``, ``media``, ``média``).
+DERIVED_WORDS = ("average", "mean", "avg", "mittelwert", "durchschn", "moyen", "promedio", "media", "medio")
 #: Word beginnings of a column of comments (named in a note whatever its rows hold).
 COMMENT_WORDS = ("comment", "note", "remark", "observ", "bemerk", "kommentar", "notiz", "remarque", "comentario",
                  "commento", "nota")
@@ -144,14 +155,48 @@ class DropColumns(NamedTuple):
     numbered: list   # trial-or-rebound columns the values must decide between (``Rebound 1``, ``Rebound 2``)
 
 
+def _stem_number(name):
+    """``(stem, number)`` of a column named with a number after its name or before it (``h2`` -> ``('h', 2)``,
+    ``Rückprallhöhe 2`` -> ``('rückprallhöhe', 2)``, ``2. Versuch`` -> ``('versuch', 2)``, ``2nd bounce``,
+    ``Second rebound`` -> ``('rebound', 2)``), or None."""
+    m = _ORDINAL.match(name)
+    if m is not None and m.group(2):
+        return name.split(None, 1)[1], _ORDINAL_WORDS.index(m.group(2)) + 1
+    m = _AFTER.match(name) or _BEFORE.match(name)
+    if m is None:
+        return None
+    return m.group("stem").strip(" .#-"), int(m.group("n"))
+
+
+def _numbered_group(heights):
+    """``(stem, columns)``: the columns of ``heights`` that number one stem 1, 2, ..., N (N >= 2, in that
+    order) -- a trial's or a rebound's columns whatever the word (``h1, h2, h3``, ``Trial 1, ...``, ``Drop 1, ...``,
+    ``Rückprallhöhe 1, ...``, ``1. Versuch, ...``) -- or None. The stem is a trial (:data:`_TRIAL_WORDS`), ``h``, or a
+    word of a height, a drop or a rebound."""
+    groups = {}
+    for c in heights:
+        found = _stem_number(c.name)
+        if found is not None:
+            groups.setdefault(_folded(found[0]), []).append((found[1], c))
+    for stem, members in groups.items():
+        numbers = sorted(n for n, _ in members)
+        if len(members) < 2 or numbers != list(range(1, len(members) + 1)):
+            continue
+        if stem in ("h", *_TRIAL_WORDS) or _has_word(stem, _HEIGHT_WORDS + DROP_WORDS + REBOUND_WORDS):
+            return stem, [c for _, c in sorted(members, key=lambda m: m[0])]
+    return None
+
+
 def _height_columns(cols):
     """:class:`DropColumns` of a drop table, or None when the columns are not one."""
     heights = [c for c in cols if _length_unit(c)]
-    drop = _drop_column(heights)
+    group = _numbered_group(heights)
+    numbered = {c.index for c in group[1]} if group else set()
+    drop = _drop_column([c for c in heights if c.index not in numbered])
     if drop is not None:
         return _rebound_columns(drop, heights)
     # a class's 'Height (cm), Rebound height (cm)': the height beside the rebounds is the drop height
-    plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS), None)
+    plain = next((c for c in heights if _folded(c.name) in _PLAIN_HEIGHTS and c.index not in numbered), None)
     found = None if plain is None else _rebound_columns(plain, heights)
     if found is None or not all(c.unit or _names_rebound(c) for c in _rebounds_of(found)):
         return None
@@ -193,6 +238,11 @@ def _rebound_columns(drop, heights):
     """:class:`DropColumns` of the drop column ``drop`` and the other columns of ``heights``, or None when
     none of them is a rebound."""
     rest = [c for c in heights if c.index != drop.index]
+    group = _numbered_group(rest)
+    if group is not None:   # one rule for numbered columns: a trial word says trials, else the values decide
+        stem, members = group
+        return DropColumns(drop, [{1: c} for c in members], []) if stem in _TRIAL_WORDS \
+            else DropColumns(drop, [], members)
     trials = [c for c in rest if _TRIAL.match(c.name)]
     if len(trials) >= 2:
         return DropColumns(drop, [{1: c} for c in trials], [])
@@ -252,14 +302,16 @@ def _trials_or_rebounds(path, line, values, columns):
     with np.errstate(invalid="ignore", divide="ignore"):
         agree = np.abs(values / first - 1.0) <= 0.25
         falling = np.diff(values, axis=1) < 0
-    agree, falling = agree[np.isfinite(values)].all(), falling[np.isfinite(values[:, 1:])].all()
+    finite = np.isfinite(values)   # an empty cell (a trial not made) says nothing either way
+    agree, falling = agree[finite & finite[:, :1]].all(), falling[finite[:, 1:] & finite[:, :-1]].all()
     names = ", ".join(f"'{c.raw}'" for c in columns)
     if agree and not falling:
         return [{1: c} for c in columns], f"columns {names}: trials of the row's drop height (their values agree)"
     if falling:
         return [dict(enumerate(columns, start=1))], f"columns {names}: successive rebounds of one drop"
     fail(path, line, f"columns {names} neither agree (trials of one drop height) nor fall one after another "
-                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... or 'h1', 'h2', ...")
+                     f"(successive rebounds of one drop): name them 'Trial 1', 'Trial 2', ... (trials) or 'h', 'h2', "
+                     f"'h3', ... (successive rebounds)")
 
 
 def _beside_a_drop(cols, bounce):
@@ -295,6 +347,31 @@ def looks_like_heights(text):
     sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
     cells = split_cells(text.lines[1][1], sep)
     return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
+
+
+def headerless_hint(text):
+    """The header that makes a headerless table of three or more numbers per line a drop table
+    (``'Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)'``, with the file's separator;
+    ``'Drop_height_cm Trial_1_cm ...'`` between blanks) when its numbers look like one --
+    in every line the first, a drop height, above every other, none of them negative; the last column an
+    average when it is the mean of the others in most lines -- else None."""
+    sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
+    rows = [[to_float(c, decimal_comma) for c in split_cells(s, sep)] for _, s in text.lines[:50]]
+    width = len(rows[0])
+    if width < 3 or any(len(r) != width or None in r for r in rows):
+        return None
+    values = np.array(rows, dtype=float)
+    if not (np.all(values[:, 1:] >= 0) and np.all(values[:, :1] > values[:, 1:])):
+        return None
+    n = width - 1
+    mean = values[:, 1:-1].mean(axis=1)
+    if width >= 4 and np.mean(np.abs(values[:, -1] - mean) <= 0.02 * values[:, -1] + 0.01) > 0.8:
+        n -= 1   # the last column the trials' average (a wrong one in a line or two: a sheet's typing)
+    unit = "cm" if values[:, 0].max() > 3 else "m"
+    names = ["Drop height"] + [f"Trial {k}" for k in range(1, n + 1)] + (["Average"] if n < width - 1 else [])
+    if sep in (None, " "):   # blanks separate the cells: names without blanks, the unit after '_'
+        return " ".join(f"{name.replace(' ', '_')}_{unit}" for name in names)
+    return sep.join(f"{name} ({unit})" for name in names)
 
 
 def transposed(text):
@@ -381,7 +458,7 @@ def _unread_notes(path, table, ignored):
     :data:`BALL_WORDS` or :data:`SURFACE_WORDS`: ``Ball``, ``Ball type``, ``Surface``) that is an error naming
     the values (one file per ball); a comment column (:data:`COMMENT_WORDS`) is only named."""
     notes = []
-    derived = [c.raw for c in ignored if _has_word(c.name, ("average", "mean", "avg"))]
+    derived = [c.raw for c in ignored if _has_word(c.name, DERIVED_WORDS)]
     if derived:
         notes.append(f"column(s) {', '.join(repr(n) for n in derived)} not read (derived from the trials)")
     ignored = [c for c in ignored if c.raw not in derived]
@@ -391,8 +468,10 @@ def _unread_notes(path, table, ignored):
              for i, v in cells.items()}
     other = [c.raw or f"column {c.index + 1}" for c in ignored if cells[c.index] and not words[c.index]]
     if other:
+        one = len(other) == 1
         notes.append(f"column(s) {', '.join(repr(n) for n in other)} not read: not a drop or rebound height by "
-                     f"{'its name' if len(other) == 1 else 'their names'} (name a rebound 'h2', '2nd bounce', ...; "
+                     f"{'its name' if one else 'their names'} (if {'it holds' if one else 'they hold'} rebound "
+                     f"heights, name the trials 'Trial 1', 'Trial 2', ... or successive rebounds 'h', 'h2', ...; "
                      f"docs/measurements.md)")
     for c in (c for c in ignored if words[c.index]):
         name, values = c.raw or f"column {c.index + 1}", words[c.index]
@@ -448,6 +527,10 @@ def _runs_of_rows(path, table, drop, trials, values, resolution_m):
 
 def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
+    header = headerless_hint(text) if header_columns(text) is None else None
+    if header is not None:
+        fail(path, text.lines[0][0], f"no header row: the first line holds numbers; for a drop height and its "
+                                     f"trials, give the file the header '{header}' (check the unit)")
     table = parse_table(text)
     cols, renamed = _inch_columns(table.cols)
     found = _height_columns(cols)

@@ -77,7 +77,8 @@ def _sheets(path, kind):
         except Exception as exc:  # noqa: BLE001 - any failure of the library is a bad file
             raise DataError(f"{path}: not a readable .xlsx workbook ({type(exc).__name__})") from None
         try:
-            return [(ws.title, [list(r) for r in ws.iter_rows(values_only=True, max_row=MAX_ROWS)])
+            return [(ws.title, _fill_merged([list(r) for r in ws.iter_rows(values_only=True, max_row=MAX_ROWS)],
+                                            _merged_ranges(path, getattr(ws, "_worksheet_path", None))))
                     for ws in wb.worksheets]
         finally:
             wb.close()
@@ -93,6 +94,46 @@ def _sheets(path, kind):
     for sh in book.sheets():
         out.append((sh.name, [sh.row_values(i) for i in range(min(sh.nrows, MAX_ROWS))]))
     return out
+
+
+def _merged_ranges(path, member):
+    """The merged cell ranges ``[(min_col, min_row, max_col, max_row)]`` (1-based) of the worksheet stored as
+    ``member`` of the .xlsx ``path`` (a read-only workbook does not give them; its sheets' own XML does), or []."""
+    import re
+    import zipfile
+
+    from openpyxl.utils.cell import range_boundaries
+
+    if not member:
+        return []
+    try:
+        with zipfile.ZipFile(path) as zf:
+            xml = zf.read(member.lstrip("/")).decode("utf-8", "replace")
+    except (KeyError, OSError, zipfile.BadZipFile):
+        return []
+    out = []
+    for ref in re.findall(r'<(?:\w+:)?mergeCell\s+ref="([A-Z]+\d+:[A-Z]+\d+)"', xml):
+        try:
+            out.append(range_boundaries(ref))
+        except ValueError:
+            continue
+    return out
+
+
+def _fill_merged(rows, ranges):
+    """``rows`` (lists of cell values) with the value of each merged range that spans rows (a drop height merged
+    over the rows of its trials) written into the cells below its first row, as the spreadsheet shows it; a range
+    across columns of one row (a title over the table) stays one cell."""
+    for min_col, min_row, max_col, max_row in ranges:
+        if min_row > len(rows) or min_col > len(rows[min_row - 1]):
+            continue
+        value = rows[min_row - 1][min_col - 1]
+        for r in range(min_row + 1, min(max_row, len(rows)) + 1):
+            row = rows[r - 1]
+            row.extend([None] * (max_col - len(row)))
+            for c in range(min_col, max_col + 1):
+                row[c - 1] = value
+    return rows
 
 
 def load_sheet_text(path, sheet=None):
@@ -142,8 +183,9 @@ def load_sheet_text(path, sheet=None):
 WORKBOOK_SUFFIXES = (".xlsx", ".xlsm", ".xls")
 
 
-def _looks_like(head):
-    """What a file's first bytes show it to be, for the error of a file named as a workbook that is none."""
+def _looks_like(head, layout=None):
+    """What a file's first bytes show it to be, for the error of a file named as a workbook that is none
+    (``layout``: the format its text reads as, or None)."""
     if head.startswith(_XLSX_MAGIC):
         return "it is a zip archive (an .xlsx workbook named .xls? rename it to .xlsx)"
     if not head.strip():
@@ -153,18 +195,21 @@ def _looks_like(head):
     if head.lstrip()[:1] == b"<":
         return ("it is an HTML or XML document (a web page saved as .xls?): open it in a spreadsheet "
                 "program and save it as .xlsx or .csv")
-    return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give --format "
-            "(e.g. --format impacts)")
+    return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give "
+            + (f"--format {layout}" if layout else "--format with its layout"))
 
 
-def check_workbook_name(path):
+def check_workbook_name(path, layout=None):
     """Refuse a file named as a workbook (``.xlsx``, ``.xls``) whose bytes are no workbook, saying what it
     looks like and how to read it; a workbook, or a file named otherwise, passes.
+
+    ``layout(path)``, when given, names the format of a text file so named (None when none reads it), which the
+    error then gives to ``--format``.
 
     Raises
     ------
     DataError
-        "FILE: not an Excel workbook: it is text (...): rename it to .csv, or give --format"
+        "FILE: not an Excel workbook: it is text (...): rename it to .csv, or give --format drops"
     """
     if not str(path).lower().endswith(WORKBOOK_SUFFIXES) or is_spreadsheet(path):
         return
@@ -175,7 +220,8 @@ def check_workbook_name(path):
             head = fh.read(4096)
     except OSError:
         return  # the text reader names the problem
-    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head)}")
+    text = head.strip() and b"\x00" not in head and head.lstrip()[:1] != b"<" and not head.startswith(_XLSX_MAGIC)
+    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head, layout(path) if text and layout else None)}")
 
 
 def is_spreadsheet(path):
@@ -211,6 +257,12 @@ def load_archive_text(path, member=None):
             names = [i.filename for i in infos]
             if "[Content_Types].xml" in names and any(n.startswith("xl/") for n in names):
                 raise DataError(f"{path}: an Excel workbook named as a zip archive: rename it to .xlsx")
+            if "content.xml" in names and "mimetype" in names and \
+                    zf.read("mimetype")[:64].startswith(b"application/vnd.oasis.opendocument"):
+                what = "spreadsheet (LibreOffice or OpenOffice Calc, .ods)" \
+                    if b"spreadsheet" in zf.read("mimetype")[:80] else "document (LibreOffice or OpenOffice)"
+                raise DataError(f"{path}: an OpenDocument {what}, which vrcal does not read: save it as .xlsx "
+                                f"or .csv (File > Save As)")
             tables = [i for i in infos if not i.is_dir() and i.filename.lower().endswith(_TABLE_SUFFIXES)
                       and not i.filename.startswith(("meta/", "__MACOSX/"))
                       and not Path(i.filename).name.startswith(".")]

@@ -25,6 +25,7 @@ from vrcal.measurements.table import (
     H_NAMES,
     LENGTH_UNITS,
     TIME_NAMES,
+    TIME_NAMING,
     TIME_UNITS,
     X_NAMES,
     Y_NAMES,
@@ -110,8 +111,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         if len(table.cols) == 1:
             col = table.cols[0]
         else:
-            fail(path, table.header_line, f"no time column (columns: {', '.join(c.name for c in table.cols)}); "
-                  "name it 't' or 'time'")
+            fail(path, table.header_line, f"no time column (columns: {', '.join(c.raw for c in table.cols)}); "
+                  f"name it {TIME_NAMING}")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     if table.decimal_comma:

@@ -434,7 +434,7 @@ def check_impact_times(t_s, source="data"):
             _fail(source, f"the intervals between impacts do not shrink ({dt.size:,} intervals of about "
                           f"{float(np.median(dt)):.4g} s, median ratio {ratio:.4f}): epsilon would be 1, and no "
                           f"ball bounces like that; these look like a clock's ticks or a sensor's samples, not "
-                          f"impact times (a trajectory's height column is named 'y', 'height' or 'position'; "
+                          f"impact times (a trajectory's height column is named 'y', 'height', 'position' or 'Höhe'; "
                           f"or give --format trajectory)")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S
@@ -521,6 +521,23 @@ def check_apexes(data, diameter_m=None, label=""):
 # --------------------------------------------------------------------------- the whole record
 
 
+#: Largest rebound / drop of a drop table whose columns are swapped: 1 / epsilon^2 of the deadest ball a class
+#: drops (epsilon 0.3); a rebound many times more than that is in another unit than its drop.
+SWAPPED_RATIO_MAX = 1 / 0.3 ** 2
+
+
+def _higher_rebound_cause(ratios):
+    """What makes most rebounds higher than their drops, from their ``ratios`` (rebound / drop): swapped columns,
+    or -- when the rebound is many times the drop (:data:`SWAPPED_RATIO_MAX`) -- a rebound in cm or mm beside a
+    drop in m (``H (m),h`` over ``1.00,55``)."""
+    ratio = float(np.median(ratios))
+    if ratio <= SWAPPED_RATIO_MAX:
+        return "are the drop and rebound columns swapped?"
+    unit = "cm" if ratio < 300 else "mm"
+    return (f"{ratio:.0f} times the drop (the median), which no swap explains: is the rebound in {unit} and the "
+            f"drop in m? write each height column's unit in its header ('h ({unit})', 'H (m)')")
+
+
 def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False, sigma_m=0.0,
           g_expected_m_per_s2=None, drag_per_m=()):
     """Every check that applies to ``data`` (one run, or :class:`vrcal.measurements.Runs`).
@@ -555,7 +572,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
     flights = {"g_expected_m_per_s2": g_expected_m_per_s2, "drag_per_m": drag_per_m}
     if isinstance(data, Runs):
         runs, labels, findings = [], [], []
-        dropped, equal = [], False
+        dropped, equal, ratios = [], False, []
         _check_above_floor(data.runs, data.source, diameter_m)
         for run, label in zip(data.runs, data.labels or [f"run {i + 1}" for i in range(len(data.runs))]):
             if run.kind == "apexes" and len(run.h_m) >= 2 and run.h_m[1] >= run.h_m[0]:
@@ -563,6 +580,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
                 lines = getattr(run, "lines", None)
                 at = f" (line {int(lines[1])})" if lines is not None and "(line " not in label else ""
                 dropped.append(f"{label}{at} {run.h_m[1]:.4g} m from {run.h_m[0]:.4g} m")
+                ratios.append(run.h_m[1] / run.h_m[0])
                 continue
             checked = _check_one(run, diameter_m, g_m_per_s2, y_down, sigma_m, label, flights)
             runs.append(checked.data)
@@ -572,7 +590,7 @@ def check(data, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down
             higher = "as high as the drop or higher" if equal else "higher than the drop"
             if len(dropped) * 2 > len(data.runs):
                 _fail(data.source, f"the rebound is {higher} in {len(dropped)} of {len(data.runs)} "
-                                   f"trials: are the drop and rebound columns swapped?")
+                                   f"trials: {_higher_rebound_cause(ratios)}")
             higher = "as high as its drop or higher (epsilon >= 1)" if equal else "higher than its drop"
             findings.append(Finding("warning", f"{len(dropped)} of {len(data.runs)} trials left out: a rebound "
                                                f"{higher} is impossible for a ball (a misread or "

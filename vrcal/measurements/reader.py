@@ -37,8 +37,10 @@ from vrcal.measurements.table import (
     is_numeric_row,
     load_text,
     loose_cells,
+    merge_two_row_header,
     merge_units_row,
     strip_cell,
+    ungroup_thousands,
 )
 from vrcal.measurements.types import Runs
 from vrcal.model.restitution import check_number
@@ -113,8 +115,17 @@ def detect_format(path):
     name = _detect_recording(path)
     if name is not None:
         return name
-    excel.check_workbook_name(path)
+    excel.check_workbook_name(path, _text_layout)
     return _detect_below_title(_units_into_header(_load(path))[0])[1]
+
+
+def _text_layout(path):
+    """The format the text file ``path`` reads as (detected), or None (a file named as a workbook that is text:
+    the error names it for ``--format``)."""
+    try:
+        return _detect_below_title(_units_into_header(load_text(path))[0])[1]
+    except (DataError, UsageError):
+        return None
 
 
 #: Largest input read from a pipe, a FIFO or stdin ('-') [bytes] (a phone's video of a drop is tens of MB).
@@ -213,10 +224,8 @@ def _detect(text, below=None):
     audacity_labels.explain(below or text)   # a label export with a bad line: name that line
     if below is not None:
         no, line = below.lines[0]
-    cells = loose_cells(line)
-    if is_numeric_row(cells):
-        fail(text.path, no, "no header row: the first line holds numbers; name the columns "
-              "(e.g. 't,y', 't', 'bounce,h')")
+    if is_numeric_row(loose_cells(line)) or is_numeric_row(line.split()):   # commas, semicolons, tabs or blanks
+        fail(text.path, no, no_header_message(below or text))
     if drops.transposed(below or text) is not None:   # a class's sheet with the trials side by side
         fail(text.path, no, drops.transposed_hint(below or text))
     if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
@@ -224,6 +233,16 @@ def _detect(text, below=None):
                             f"heights, {drops.NAMING} (other layouts: see --format)")
     fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r} "
           f"(known formats: {', '.join(FORMATS)}; see --format)")
+
+
+def no_header_message(text):
+    """The error of a file whose first line holds numbers: name the columns, and how to name them for a drop
+    table when the numbers look like one (:func:`vrcal.measurements.drops.headerless_hint`)."""
+    header = drops.headerless_hint(text)
+    if header is not None:
+        return (f"no header row: the first line holds numbers; for a drop height and its trials, give the file the "
+                f"header '{header}' (check the unit)")
+    return "no header row: the first line holds numbers; name the columns (e.g. 't,y', 't', 'bounce,h')"
 
 
 def _title_lines(text):
@@ -307,13 +326,15 @@ def read_measurement(path, fmt=None, **options):
         options.pop(key, None)
     sheet = options.pop("sheet", None)
     if fmt is None:
-        excel.check_workbook_name(path)   # a CSV named .xlsx: say so, not 'header but no data rows'
+        excel.check_workbook_name(path, _text_layout)   # a CSV named .xlsx: say so, not 'header but no data rows'
     container = excel.container_kind(path) in ("xlsx", "xls", "zip")
     text = _load(path, sheet if container else None)
     title = None
     text, units_note = _units_into_header(text, name)
     if name is None:
         text, name, title = _detect_below_title(text)
+    elif not FORMATS[name].recording:
+        text, title = _below_title_for(FORMATS[name], text)
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
     if sheet is not None and not container:
@@ -379,10 +400,29 @@ def _load(path, sheet=None):
 
 def _units_into_header(text, name=None):
     """``(text, note)``: a units row below the header written into it (:func:`merge_units_row`), except in
-    a Vernier export, whose reader joins its own names and units."""
+    a Vernier export, whose reader joins its own names and units; else a header of two rows written as one
+    (:func:`merge_two_row_header`); thousands grouped by '.' ungrouped (:func:`ungroup_thousands`; the notes
+    joined)."""
+    text, grouped = ungroup_thousands(text)
     if name == "vernier" or (name is None and vernier.detect(text)):
+        return text, grouped
+    text, units = merge_units_row(text, MAX_TITLE_LINES)
+    if units is None:
+        text, units = merge_two_row_header(text, MAX_TITLE_LINES)
+    return text, "; ".join(n for n in (units, grouped) if n) or None
+
+
+def _below_title_for(fmt, text):
+    """``(text, title)``: the text below its title lines (:func:`_title_lines`) when the format given
+    (``--format``) reads that and not the whole text (a Tracker export's track name above its columns is
+    no title), else ``(text, None)``."""
+    k = _title_lines(text)
+    if not k:
         return text, None
-    return merge_units_row(text, MAX_TITLE_LINES)
+    below = dataclasses.replace(text, lines=text.lines[k:])
+    if fmt.detector(below) and not fmt.detector(text):
+        return below, text.lines[:k]
+    return text, None
 
 
 def _title_note(title):

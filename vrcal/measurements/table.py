@@ -8,6 +8,7 @@ a malformed file gives the same one-line message ``FILE:LINE: what is wrong``
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import io
 import re
@@ -27,9 +28,14 @@ _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$"
 #: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo).
 TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time",
               "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo")
-#: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance" and a video tracker's
-#: "height" too; the first of them in the file's column order is taken).
-Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "distance")
+#: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance", a video tracker's
+#: "height" and a 3D tracker's "z" too; a class's own language: Höhe, hauteur, altura, altezza; the first of them
+#: in the file's column order is taken).
+Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "distance", "z",
+           "höhe", "hoehe", "hauteur", "altura", "altezza")
+#: How a failing look-up tells the columns may be named (``--format trajectory`` on a file without them).
+Y_NAMING = "'y', 'height', 'position', 'z', 'Höhe', 'hauteur', 'altura' or 'altezza'"
+TIME_NAMING = "'t', 'time', 'Zeit', 'temps', 'tiempo' or 'tempo'"
 #: Names of a frame-number column (times = frame / --fs when the file has no time column).
 FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
@@ -232,8 +238,10 @@ def sniff(header, sample):
         sep = " "
     else:
         sep = None
-    decimal_comma = sep != "," and any(
-        _NUMBER_WITH_DECIMAL_COMMA.match(strip_cell(c)) for s in sample for c in split_cells(s, sep))
+    # with comma separators only a quoted cell can hold a comma ('"0,52"': Google Sheets' CSV in a decimal-comma
+    # locale), and split_cells keeps it whole
+    decimal_comma = any(_NUMBER_WITH_DECIMAL_COMMA.match(strip_cell(c)) for s in sample for c in split_cells(s, sep)
+                        if sep != "," or '"' in s)
     return sep, decimal_comma
 
 
@@ -242,9 +250,13 @@ def unquoted(text):
 
 
 def loose_cells(line):
-    """The non-blank cells of a line split at any comma, semicolon or tab (before the separator is known:
-    is a first line numbers, or a title?)."""
-    return [c for c in re.split(r"[,;\t]", line) if c.strip()]
+    """The non-blank cells of a line split at any comma, semicolon or tab outside double quotes (before the
+    separator is known: is a first line numbers, or a title?)."""
+    return [strip_cell(c) for c in _LOOSE_SEPARATOR.split(line) if c.strip()]
+
+
+#: A comma, semicolon or tab outside double quotes ('"0,52","0,61"' is two cells).
+_LOOSE_SEPARATOR = re.compile(r'[,;\t](?=(?:[^"]*"[^"]*")*[^"]*$)')
 
 
 def split_cells(line, sep):
@@ -254,6 +266,8 @@ def split_cells(line, sep):
         cells = line.split()
     elif sep == "\t":
         cells = line.strip("\r\n ").split("\t")
+    elif '"' in line:   # quoted cells may hold the separator ('"0,52"' in a comma-separated file)
+        cells = next(csv.reader([line], delimiter=sep, skipinitialspace=True))
     else:
         cells = line.split(sep)
     cells = [strip_cell(c) for c in cells]
@@ -302,8 +316,15 @@ def repeated_columns(cols, col):
 
 
 def find_column(cols, names, *, contains=None):
+    """The first column of ``cols`` named one of ``names``; else the first whose words are all such names (a
+    name followed by its symbol: ``Zeit t``, ``Höhe h``, ``temps t``); else, with ``contains``, the first
+    whose name contains it."""
     for c in cols:
         if c.name in names:
+            return c
+    for c in cols:
+        words = c.name.split()
+        if len(words) >= 2 and all(w in names for w in words):
             return c
     if contains:
         for c in cols:
@@ -438,7 +459,7 @@ def column_values(path, table, col, *, what, allow_empty=False):
     except (IndexError, ValueError):
         pass
     out = np.empty(len(table.rows))
-    label = col.name or f"column {col.index + 1}"
+    label = col.raw or f"column {col.index + 1}"
     for k, (no, cells) in enumerate(table.rows):
         if col.index >= len(cells) or cells[col.index] == "":
             if allow_empty:
@@ -447,11 +468,30 @@ def column_values(path, table, col, *, what, allow_empty=False):
             fail(path, no, f"empty cell in column '{label}' ({what})")
         value = to_float(cells[col.index], table.decimal_comma)
         if value is None:
-            fail(path, no, f"'{cells[col.index]}' is not a number (column '{label}')")
+            cell = cells[col.index]
+            fail(path, no, f"'{cell}' is not a number (column '{label}'){_unit_in_cell(cell, col)}")
         if not np.isfinite(value):
             fail(path, no, f"{cells[col.index]} in column '{label}': every value must be a finite number")
         out[k] = value
     return out
+
+
+#: A number followed by a unit in one cell (``0.50 m``, ``12,5cm``).
+_NUMBER_UNIT = re.compile(r"^[+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?\s*(?P<unit>[A-Za-zµ]+\.?)$")
+
+
+def _unit_in_cell(cell, col):
+    """The advice for a cell that holds a number and its unit (``0.50 m``): the unit goes into the header, once
+    for the column (``'H (m)'``); '' for any other cell."""
+    m = _NUMBER_UNIT.match(cell.strip())
+    if m is None:
+        return ""
+    unit = unit_symbol(m.group("unit"))
+    if unit not in TIME_UNITS and unit not in LENGTH_UNITS:
+        return ""
+    if col.unit:
+        return f": remove the unit from the cells (the header gives it: '{col.raw} ({col.unit})')"
+    return f": remove the unit from the cells; put it in the header: '{col.raw} ({unit})'"
 
 
 def column_cells(table, col):
@@ -462,7 +502,7 @@ def column_cells(table, col):
 
 def unit_factor(path, table, col, units, kind):
     if col.unit not in units:
-        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.name}' "
+        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.raw}' "
               f"(known: {known_units(units)})")
     return units[col.unit]
 
@@ -522,6 +562,52 @@ def merge_units_row(text, max_title_lines=5):
     return text, None
 
 
+def merge_two_row_header(text, max_title_lines=5):
+    """``(text, note)``: a header of two rows -- names, some spanning the columns to their right (a merged cell
+    saved as a name and empty cells: ``Fallhöhe (cm);Rückprallhöhe (cm);;``), over the names of the spanned
+    columns (``;1. Versuch;2. Versuch;3. Versuch``) -- written as one row, each spanned column named by the row
+    below with the unit of the name above (``1. Versuch (cm)``), and a note saying so; ``(text, None)`` when the
+    text has no such header.
+
+    The two rows lie under at most ``max_title_lines`` title lines, above a line of numbers as wide as the lower
+    row; a name of the upper row that spans no column stands over an empty cell, and every name of the lower row
+    stands under a spanning one, and one name at least spans no column (a title spans them all).
+    """
+    lines = text.lines
+    for k in range(1, min(max_title_lines + 1, len(lines) - 2) + 1):
+        (upper_no, upper), (lower_no, lower), (_, first) = lines[k - 1], lines[k], lines[k + 1]
+        if has_number(upper) or has_number(lower) or not has_number(first):
+            continue
+        sep, _ = sniff(upper, [lower, first])
+        if sep in (None, " "):
+            continue
+        names, subs = split_cells(upper, sep), split_cells(lower, sep)
+        width = len(split_cells(first, sep))
+        if len(subs) != width or len(names) > width or sum(1 for c in subs if c) < 2:
+            continue
+        names += [""] * (width - len(names))
+        spans, above = [], ""
+        for i, name in enumerate(names):
+            above = name or above
+            spans.append(above if subs[i] else "")
+        alone = [i for i, name in enumerate(names) if name and (i + 1 == width or names[i + 1])]
+        if not alone or any(subs[i] for i in alone) or not all(spans[i] for i, c in enumerate(subs) if c):
+            continue   # (a title over the header spans every column: no name stands alone)
+        merged = []
+        for i, sub in enumerate(subs):
+            if not sub:
+                merged.append(names[i])
+                continue
+            unit, own = columns([spans[i]])[0].unit, columns([sub])[0].unit
+            merged.append(f"{sub} ({unit})" if unit and not own else sub)
+        line = sep.join(merged)
+        note = (f"lines {upper_no}-{lower_no} are a header of two rows: read as one "
+                f"({', '.join(repr(c) for c in merged)})")
+        new = [(no, line if no == upper_no else s) for no, s in lines if no != lower_no]
+        return dataclasses.replace(text, lines=new), note
+    return text, None
+
+
 def has_number(line):
     """True when a cell of ``line`` (split at any comma, semicolon or tab) is a number."""
     return any(is_numeric_row([cell]) for cell in loose_cells(line))
@@ -553,3 +639,66 @@ def numeric_width(text, n_lines=20):
         widths.add(len(cells))
     return widths.pop() if len(widths) == 1 else 0
 
+
+
+#: A number with its thousands grouped by '.' (``1.200``, ``12.500``, ``1.200,5`` with a decimal comma).
+_GROUPED = re.compile(r"^[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d+)?$")
+#: ... somewhere in a text (a cheap look before splitting its lines).
+_GROUPED_IN_TEXT = re.compile(r"(?<![\d.,])[1-9]\d{0,2}(?:\.\d{3})+(?![\d.])")
+_INTEGER = re.compile(r"^[+-]?\d+$")
+
+
+def ungroup_thousands(text):
+    """``(text, note)``: the numbers of ``text`` whose thousands are grouped by '.' written without it
+    (``1.200`` -> ``1200``, ``1.200,5`` -> ``1200,5``) and a note saying so; ``(text, None)`` when none is.
+
+    A '.' followed by exactly three digits groups thousands, column by column: in a file with a decimal comma
+    (its decimals cannot use '.'), and in a column whose other cells are whole numbers (``800`` above
+    ``1.200``: one column is not written with three decimals in some rows and none in others). A
+    semicolon-separated column (the decimal-comma locale's CSV) of such numbers only, in a file with no other
+    decimal, may be either (``2.000``: 2000 or 2.0): an error saying so, naming the line.
+    """
+    lines = text.lines
+    if len(lines) < 2 or not any(_GROUPED_IN_TEXT.search(s) for _, s in lines):
+        return text, None
+    sep, decimal_comma = sniff(lines[0][1], [s for _, s in lines[1:200]])
+    if sep == ",":
+        return text, None
+    rows = [(no, split_cells(s, sep)) for no, s in lines]
+    decimal_comma = decimal_comma or any("," in c and _GROUPED.match(c) for _, cells in rows for c in cells)
+
+    def number(c):
+        return c == "" or _GROUPED.match(c) is not None or to_float(c, decimal_comma) is not None
+
+    data = [(k, cells) for k, (_, cells) in enumerate(rows) if cells and all(number(c) for c in cells)]
+    width = max((len(cells) for _, cells in data), default=0)
+    grouped_columns = set()
+    for j in range(width):
+        filled = [(k, cells[j]) for k, cells in data if j < len(cells) and cells[j] != ""]
+        grouped = [(k, c) for k, c in filled if _GROUPED.match(c)]
+        if not grouped:
+            continue
+        if decimal_comma or any(_INTEGER.match(c) for _, c in filled) and all(
+                _GROUPED.match(c) or _INTEGER.match(c) for _, c in filled):
+            grouped_columns.add(j)
+        elif sep == ";" and len(grouped) == len(filled) and not any(
+                "." in c and not _GROUPED.match(c) for _, cells in data for c in cells):
+            k, cell = grouped[0]
+            header = rows[data[0][0] - 1][1] if data[0][0] > 0 else []   # the line above the first row of numbers
+            name = header[j] if j < len(header) else f"column {j + 1}"
+            fail(text.path, rows[k][0], f"'{cell}' in column '{name}': a '.' before three digits groups thousands "
+                                        f"({cell.replace('.', '')}) or is a decimal point ({float(cell):g}); write "
+                                        f"the numbers without thousands separators, or with a decimal comma")
+    if not grouped_columns:
+        return text, None
+    changed, example = {}, None
+    for k, cells in data:
+        new = [c.replace(".", "") if j in grouped_columns and _GROUPED.match(c) else c for j, c in enumerate(cells)]
+        if new != cells:
+            example = example or next((a, b) for a, b in zip(cells, new) if a != b)
+            joiner = " " if sep == " " else (sep or "")
+            changed[rows[k][0]] = joiner.join(f'"{c}"' if sep and sep in c else c for c in new)
+    new_lines = [(no, changed.get(no, s)) for no, s in lines]
+    note = (f"'.' before three digits read as a thousands separator ('{example[0]}' = {example[1]}; "
+            f"{len(changed)} line(s))")
+    return dataclasses.replace(text, lines=new_lines), note

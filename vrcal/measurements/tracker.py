@@ -38,7 +38,9 @@ def detect(text):
     cols = header_columns(text, at)
     if cols and text.multi and find_column(cols, Y_NAMES) is None:  # '#multi:' then a row of track names
         at, cols = 2, header_columns(text, 2)
-    return bool(cols) and find_column(cols, TIME_NAMES) is not None and find_column(cols, Y_NAMES) is not None
+    # Tracker names its columns without units ('t', 'x', 'y'): a title above 't (s), y (cm)' is no track name
+    return bool(cols) and find_column(cols, TIME_NAMES) is not None and find_column(cols, Y_NAMES) is not None \
+        and not any(c.unit for c in cols)
 
 
 
@@ -57,13 +59,14 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         if len(names) == len(table.cols) - 1:
             names = ["", *names]    # the time column's empty name lost to a blank separator
         tracks = [strip_cell(names[c.index]) if c.index < len(names) else "" for c in table.cols]
-        for i in range(2, len(tracks)):   # a name above a track's first column only: its other columns follow
+        for i in range(1, len(tracks)):   # a name above a track's first column only: its other columns follow
             tracks[i] = tracks[i] or tracks[i - 1]
         y_col, x_col, note = _moving_track(text.path, table, tracks, ys)
         notes = [f"format: Tracker multi-track export; {note}"]
     elif len(ys) > 1:
         notes.append(f"{len(ys)} 'y' columns: using the first")
-    if scale_m_per_px is None and not y_down:
+    shown = y_col or find_column(table.cols, Y_NAMES)   # None: trajectory_from_table says what is missing
+    if scale_m_per_px is None and not y_down and not (shown is not None and shown.unit):
         notes.append("positions taken as metres (Tracker's calibrated units; use --scale for other units)")
     return trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
                                   notes=notes, skip_empty_y=True, y_column=y_col, x_column=x_col)

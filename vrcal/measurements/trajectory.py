@@ -28,6 +28,7 @@ from vrcal.measurements.table import (
     TIME_UNITS,
     X_NAMES,
     Y_NAMES,
+    Y_NAMING,
     check_increasing,
     column_cells,
     column_values,
@@ -112,7 +113,8 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     y_col = y_column or find_column(cols, Y_NAMES)
     x_col = x_column if y_column is not None else find_column(cols, X_NAMES)
     if y_col is None:
-        fail(path, table.header_line, f"no height column 'y' (columns: {', '.join(c.name for c in cols)})")
+        fail(path, table.header_line, f"no height column 'y' (columns: {', '.join(c.raw for c in cols)}): name the "
+                                      f"height column {Y_NAMING}, with its unit ('y (m)')")
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     notes = list(notes)
