@@ -197,3 +197,14 @@ def test_epsilon_one_is_the_lossless_body_x_0_v_0():
     assert fit_ball(body, 4.0, epsilon=1.0, v_m_per_s=0.1)["fixed"]["x_m"]["nominal"] == 0.0
     with pytest.raises(UsageError, match="only x = 0"):
         fit_ball(body, 4.0, epsilon=1.0, x_m=0.01)
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("x=0.01,v=0.1,x=0.5", "body 'x=0.01,v=0.1,x=0.5': x= given more than once; give each of x= and v= once"),
+    ("v=0.1,x=0.01,v=0.2", "v= given more than once"),
+    ("x=0.01,v=0.1,x=0.5,v=1", "v= and x= given more than once"),
+])
+def test_a_repeated_virtual_body_key_is_refused_not_the_last_kept(spec, message):
+    """`vrcal pair x=0.01,v=0.1,x=0.5 floor` kept x = 0.5 silently (a dict keeps the last)."""
+    with pytest.raises(UsageError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        pair(spec, "floor")

@@ -485,11 +485,17 @@ def parse_body(spec, K_per_s, standards=None, as_paper=False):
         return f"{body.name} from {path}", vb, eps
     if "=" in text:
         try:
-            parts = dict(p.split("=", 1) for p in text.replace(" ", "").split(","))
-            x, v = float(parts.pop("x")), float(parts.pop("v"))
+            items = [p.split("=", 1) for p in text.replace(" ", "").split(",")]
+            parts = dict(items)
+            repeated = sorted({k for k, _ in items if sum(key == k for key, _ in items) > 1})
+            if not repeated:
+                x, v = float(parts.pop("x")), float(parts.pop("v"))
         except (KeyError, ValueError):
             raise UsageError(f"body '{spec}': give a ball name, 'floor', 'x=DEPTH_M,v=SPEED_M_PER_S' "
                              "or 'from=DISCOVER.json'") from None
+        if repeated:   # a dict keeps the last: refused like an unknown field, not silently
+            raise UsageError(f"body '{spec}': {' and '.join(f'{k}=' for k in repeated)} given more than once; "
+                             "give each of x= and v= once")
         if parts:
             raise UsageError(f"body '{spec}': unknown field(s) {sorted(parts)}; use x= and v=")
         body = VirtualBody(x, v)
