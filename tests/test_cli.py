@@ -100,7 +100,8 @@ def test_pair_command():
 
 def test_pair_output_file_format_follows_its_extension_as_the_help_says(tmp_path):
     help_text = " ".join(run("pair", "--help").output.split())
-    assert ".txt for the table; other -o files get yaml" in help_text
+    assert (".txt for the table; an extension of another format, such as .csv, or one that contradicts --format is "
+            "refused; an unknown extension gets yaml, with a warning") in help_text
     assert run("pair", "tennis", "floor", "-o", str(tmp_path / "out.txt")).exit_code == 0
     assert (tmp_path / "out.txt").read_text() == run("pair", "tennis", "floor").output
     assert run("pair", "tennis", "floor", "-o", str(tmp_path / "out.dat")).exit_code == 0

@@ -65,14 +65,30 @@ def test_read_yaml_of_a_directory_or_a_missing_file(tmp_path):
 @pytest.mark.parametrize("where", ["name: {b}", "K_per_s: {b}", "schema_version: {b}"])
 def test_billion_laughs_is_refused_before_it_expands(where):
     t0 = time.perf_counter()
-    with pytest.raises(DataError, match=r"x.yaml:1: alias \*a0: aliases are not allowed"):
+    with pytest.raises(DataError, match=r"x.yaml:1: alias \*a4: the aliases repeat more than 10000 values"):
         parse_yaml(where.format(b=billion_laughs()), "x.yaml")
     assert time.perf_counter() - t0 < 5  # expanded, it would take about a minute and gigabytes
 
 
-def test_a_single_alias_is_refused_too_with_its_line():
-    with pytest.raises(DataError, match=r"x.yaml:3: alias \*a"):
-        parse_yaml("a: &a 1\nb: 2\nc: *a\n", "x.yaml")
+def test_anchors_aliases_and_merge_keys_copy_a_balls_settings():
+    """Aliases were all refused ('aliases are not allowed'); a bounded number of repeated values is read,
+    merge keys included, and a merged key may be overridden (not a duplicate)."""
+    assert parse_yaml("a: &a 1\nb: 2\nc: *a\n", "x.yaml") == {"a": 1, "b": 2, "c": 1}
+    doc = parse_yaml("bodies:\n  - &b {name: s, mass_kg: 0.2, virtual_body: {x_m: 0.01, v_m_per_s: 0.1}}\n"
+                     "  - {<<: *b, name: t}\n", "x.yaml")
+    assert doc["bodies"][1] == {"name": "t", "mass_kg": 0.2, "virtual_body": {"x_m": 0.01, "v_m_per_s": 0.1}}
+    with pytest.raises(DataError, match=r"x.yaml:2: duplicate key 'y'"):
+        parse_yaml("a: &a {x: 1}\nb: {<<: *a, y: 1, y: 2}\n", "x.yaml")
+
+
+def test_aliases_repeating_more_than_the_limit_are_refused_with_the_line():
+    from vrcal.fileio import MAX_YAML_ALIAS_VALUES
+
+    n = MAX_YAML_ALIAS_VALUES // 100           # aliases of a list of 99 numbers: 100 values each
+    text = "a: &a [" + ", ".join(["1"] * 99) + "]\n" + "".join(f"k{i}: *a\n" for i in range(n))
+    assert len(parse_yaml(text, "x.yaml")) == 1 + n
+    with pytest.raises(DataError, match=rf"x.yaml:{2 + n}: alias \*a: the aliases repeat"):
+        parse_yaml(text + "last: *a\n", "x.yaml")
 
 
 @pytest.mark.parametrize("text", [

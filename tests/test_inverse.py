@@ -197,3 +197,33 @@ def test_epsilon_one_is_the_lossless_body_x_0_v_0():
     assert fit_ball(body, 4.0, epsilon=1.0, v_m_per_s=0.1)["fixed"]["x_m"]["nominal"] == 0.0
     with pytest.raises(UsageError, match="only x = 0"):
         fit_ball(body, 4.0, epsilon=1.0, x_m=0.01)
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("x=0.01,v=0.1,x=0.5", "body 'x=0.01,v=0.1,x=0.5': x= given more than once; give each of x= and v= once"),
+    ("v=0.1,x=0.01,v=0.2", "v= given more than once"),
+    ("x=0.01,v=0.1,x=0.5,v=1", "v= and x= given more than once"),
+])
+def test_a_repeated_virtual_body_key_is_refused_not_the_last_kept(spec, message):
+    """`vrcal pair x=0.01,v=0.1,x=0.5 floor` kept x = 0.5 silently (a dict keeps the last)."""
+    with pytest.raises(UsageError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        pair(spec, "floor")
+
+
+def test_a_discovered_balls_left_out_effects_are_named_in_the_pair(tmp_path):
+    """`vrcal pair from=DISCOVER.json tennis` dropped a speed-dependent epsilon with no note: the notes name
+    what is left out and the impact speed the constant epsilon holds at."""
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+
+    runner = CliRunner()
+    csv, doc = tmp_path / "vdr.csv", tmp_path / "vdr.json"
+    assert runner.invoke(main, ["simulate", "basketball", "--effect", "velocity_dependent_restitution",
+                                "--noise", "0.0005", "--seed", "1", "-o", str(csv)]).exit_code == 0
+    assert runner.invoke(main, ["discover", str(csv), "--ball", "basketball", "--json", str(doc), "-q"]).exit_code == 0
+    result = pair(f"from={doc}", "tennis")
+    notes = " ".join(result["notes"])
+    assert "velocity_dependent_restitution left out" in notes
+    assert "the pair takes its one constant epsilon" in notes and " m/s impacts" in notes
+    assert pair("basketball", "tennis")["notes"] == []

@@ -160,3 +160,30 @@ def test_the_surfaces_of_the_cli_are_the_registrys():
     from vrcal.drop.effects import SURFACES
 
     assert tuple(opt.SURFACE.choices) == SURFACES
+
+
+@pytest.mark.parametrize("args, message", [
+    (["fit", "tennis", "--drop-height", "1", "--rebound-height", "0.55", "--rebound-height", "0.54"],
+     "--rebound-height given 2 times: it takes one value, and only the last would count; give it once; for several "
+     "drops write a drop table (H,h rows) and run vrcal discover TABLE.csv --ball BALL"),
+    (["fit", "tennis", "--drop-height", "1", "--rebound-height", "0.55", "0.54", "0.56"],
+     "--rebound-height takes one value: --rebound-height 0.55 0.54 0.56 gives it 0.55 and leaves 0.54 0.56 over; "
+     "for several drops"),
+    (["fit", "--drop-height", "1", "--rebound-height", "0.55", "0.54"],
+     "--rebound-height takes one value: --rebound-height 0.55 0.54 gives it 0.55 and 0.54 would be BALL"),
+    (["pair", "tennis", "floor", "--K=4", "--K", "5"], "--K given 2 times"),
+    (["simulate", "tennis", "--drop", "1", "--drop-height", "2"], "--drop/--drop-height given 2 times"),
+])
+def test_an_option_given_twice_or_with_several_values_is_refused(args, message):
+    """click kept the last of a repeated option silently (fit ran with --rebound-height 0.54) and said only
+    'Got unexpected extra arguments (0.54 0.56)' for several values."""
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2 and message in " ".join(result.output.split()), result.output
+
+
+def test_an_option_given_once_and_a_multiple_option_given_twice_still_run(tmp_path):
+    result = CliRunner().invoke(main, ["fit", "tennis", "--drop-height", "1", "--rebound-height", "0.55"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(main, ["simulate", "tennis", "--effect", "air_drag", "--effect",
+                                       "velocity_dependent_restitution", "-o", str(tmp_path / "d.csv")])
+    assert result.exit_code == 0, result.output

@@ -116,7 +116,7 @@ def test_fit_machine_file_keeps_every_key_and_adds_schema_version(fmt, tmp_path)
 
 def test_pair_machine_file_keeps_every_key_and_adds_schema_version():
     data = json.loads(run("pair", "basketball", "tennis", "--format", "json").output)
-    assert set(data) == {"K_per_s", "T_s", "bodies", "epsilon", "equations", "schema_version"}
+    assert set(data) == {"K_per_s", "T_s", "bodies", "epsilon", "equations", "notes", "schema_version"}
     assert data["epsilon"] == pytest.approx(0.5707493661430295, rel=1e-15)
 
 
@@ -204,3 +204,29 @@ def test_fit_does_not_import_scipy_or_matplotlib():
     assert done.returncode == 0, done.stderr
     assert "basketball: ε = 0.766" in done.stdout
     assert done.stdout.strip().splitlines()[-1] == "HEAVY []"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-o", "p.json", "--format", "text"],
+     "--format text with -o 'p.json', a .json file (json): name the file text (.txt) or leave out --format"),
+    (["-o", "p.txt", "--format", "yaml"], "--format yaml with -o 'p.txt', a .txt file (text)"),
+    (["-o", "p.csv"], "a .csv file is csv, which this command does not write"),
+])
+def test_pair_o_refuses_a_suffix_that_contradicts_the_format(tmp_path, args, message):
+    """`pair -o p.json --format text` wrote text into p.json silently; the help said 'other -o files get
+    yaml' while -o p.csv is refused: the help now says which are refused, and the behaviour follows it."""
+    args = [a if not a.startswith("p.") else str(tmp_path / a) for a in args]
+    result = CliRunner().invoke(main, ["pair", "tennis", "floor", *args])
+    assert result.exit_code == 2 and message.replace("p.", str(tmp_path / "p.")) in " ".join(result.output.split())
+    assert not list(tmp_path.iterdir())
+    help_text = " ".join(CliRunner().invoke(main, ["pair", "--help"]).output.split())
+    assert "other -o files get yaml" not in help_text and "such as .csv" in help_text
+
+
+def test_pair_o_with_a_matching_or_unknown_suffix_writes(tmp_path):
+    runner = CliRunner()
+    txt = str(tmp_path / "p.txt")
+    assert runner.invoke(main, ["pair", "tennis", "floor", "-o", txt, "--format", "text"]).exit_code == 0
+    assert (tmp_path / "p.txt").read_text().startswith("tennis against floor")
+    assert runner.invoke(main, ["pair", "tennis", "floor", "-o", str(tmp_path / "p.dat")]).exit_code == 0
+    assert yaml.safe_load((tmp_path / "p.dat").read_text())["schema_version"] == 1

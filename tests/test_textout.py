@@ -22,7 +22,9 @@ def test_choose_format_by_option_then_extension():
     assert choose_format(None, None) == "text"
     assert choose_format(None, "out.json") == "json"
     assert choose_format(None, "out.YML") == "yaml"
-    assert choose_format("yaml", "out.json") == "yaml"
+    assert choose_format("yaml", "out.yml") == "yaml" and choose_format("text", "out.txt") == "text"
+    with pytest.raises(UsageError, match="--format yaml with -o 'out.json', a .json file"):
+        choose_format("yaml", "out.json")
     with pytest.warns(UserWarning, match="names no format vrcal knows: wrote text"):
         assert choose_format(None, "out.dat") == "text"
     with pytest.raises(UsageError, match="known: text, json, yaml"):

@@ -215,8 +215,9 @@ def emit_result(data, human, fmt, output, file_default="yaml"):
 FORMAT_OPTION = click.option(
     "--format", "fmt", type=click.Choice(["text", "yaml", "json"]), default=None, show_default="text",
     help="text: a table for people (stdout's default); yaml, json: the full-precision machine file "
-         "(also chosen by -o's extension: .yaml/.yml/.json, and .txt for the table; other -o files get "
-         "yaml).")
+         "(also chosen by -o's extension: .yaml/.yml/.json, and .txt for the table; an extension of "
+         "another format, such as .csv, or one that contradicts --format is refused; an unknown "
+         "extension gets yaml, with a warning).")
 
 
 K_OPTION = click.option("--K", "K", type=opt.K_PER_S, default=None, show_default="4.0",
@@ -418,8 +419,8 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 @K_OPTION
 @click.option("--format", "fmt", type=click.Choice(["text", "markdown", "csv", "json", "yaml"]), default=None,
               show_default="text", help="text: a table for people (stdout's default); markdown: the page "
-              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; other -o files "
-              "get markdown).")
+              "docs/table2.md; csv, json, yaml: for machines (also chosen by -o's extension; one that "
+              "contradicts --format is refused; an unknown extension gets markdown, with a warning).")
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")

@@ -20,6 +20,9 @@ from vrcal.errors import DataError, UsageError
 MAX_YAML_BYTES = 1 << 20
 #: Deepest nesting of lists and mappings in a YAML file.
 MAX_YAML_DEPTH = 50
+#: Most values the aliases (``*name``) of one YAML file may expand to, counted with the values they
+#: repeat: anchors and merge keys copy a ball's settings, a "billion laughs" is refused at once.
+MAX_YAML_ALIAS_VALUES = 10_000
 #: Largest measurement text file read (a 10**6-row trajectory is about 30 MB) [bytes].
 MAX_TEXT_BYTES = 256 << 20
 
@@ -263,13 +266,15 @@ def dumps(data, fmt):
 
 
 class _Refused(yaml.MarkedYAMLError):
-    """Valid YAML that vrcal refuses (an alias, a duplicate key, too deep a nesting)."""
+    """Valid YAML that vrcal refuses (aliases repeating too much, a duplicate key, too deep a nesting)."""
 
 
 class BoundedSafeLoader(yaml.SafeLoader):
     """PyYAML's safe loader, refusing what could bomb it or silently lose data.
 
-    * aliases (``*name``): refused, so "billion laughs" (aliases of aliases) cannot expand;
+    * aliases (``*name``, also in merge keys ``<<: *name``): allowed as long as all of them together
+      repeat at most :data:`MAX_YAML_ALIAS_VALUES` values (scalars, lists and mappings, counted as
+      expanded), so a "billion laughs" (aliases of aliases) is refused before anything expands;
     * nesting deeper than :data:`MAX_YAML_DEPTH` lists or mappings: refused before Python's
       recursion limit is reached;
     * a key given twice in one mapping: refused (PyYAML keeps the last one silently);
@@ -282,12 +287,31 @@ class BoundedSafeLoader(yaml.SafeLoader):
     def __init__(self, stream):
         super().__init__(stream)
         self._depth = 0
+        self._alias_values = 0
+        self._sizes = {}
+
+    def _expanded_size(self, node):
+        """Values ``node`` stands for when every alias in it is written out (memoised by node)."""
+        size = self._sizes.get(id(node))
+        if size is None:
+            size = 1
+            if isinstance(node, yaml.SequenceNode):
+                size += sum(self._expanded_size(child) for child in node.value)
+            elif isinstance(node, yaml.MappingNode):
+                size += sum(self._expanded_size(k) + self._expanded_size(v) for k, v in node.value)
+            self._sizes[id(node)] = size
+        return size
 
     def compose_node(self, parent, index):
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
-            raise _Refused(None, None, f"alias *{_short(event.anchor)}: aliases are not allowed "
-                                       "(write the value out)", event.start_mark)
+            node = super().compose_node(parent, index)
+            self._alias_values += self._expanded_size(node)
+            if self._alias_values > MAX_YAML_ALIAS_VALUES:
+                raise _Refused(None, None, f"alias *{_short(event.anchor)}: the aliases repeat more than "
+                                           f"{MAX_YAML_ALIAS_VALUES} values (aliases of aliases: a 'billion "
+                                           "laughs'); write the values out", event.start_mark)
+            return node
         if self.check_event(yaml.ScalarEvent):
             return super().compose_node(parent, index)
         self._depth += 1  # a list or a mapping
@@ -303,8 +327,8 @@ class BoundedSafeLoader(yaml.SafeLoader):
         if isinstance(node, yaml.MappingNode):
             seen = {}
             for key_node, _value_node in node.value:
-                if not isinstance(key_node, yaml.ScalarNode):
-                    continue
+                if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+                    continue  # a merge key (<<: *base) is flattened by the base class: its keys may be overridden
                 key = self.construct_object(key_node, deep=True)
                 try:
                     first = seen.setdefault(key, key_node)
@@ -357,7 +381,7 @@ def parse_yaml(text, where, *, trusted=False):
     Raises
     ------
     DataError
-        malformed YAML, an alias, a duplicate key or too deep a nesting, with the line when
+        malformed YAML, aliases that repeat too much, a duplicate key or too deep a nesting, with the line when
         the parser knows it (``where:LINE: ...``)
     """
     try:

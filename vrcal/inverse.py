@@ -340,13 +340,31 @@ def _single_fit(body, K, as_paper, epsilon):
         out["drop_height_m"] = body.drop_height_m
         if epsilon is None and isinstance(doc.get("epsilon_uncertainty"), (int, float)):
             out["epsilon_uncertainty"] = float(doc["epsilon_uncertainty"])
-        effects = list(body.effects)
-        notes.append(f"{body.source}: {', '.join(effects) or 'no effect'} named by vrcal discover"
-                     + ("; epsilon is the contact's own, the flights' effects apart" if effects else ""))
-        if "velocity_dependent_restitution" in effects and body.reference_speed_m_per_s:
-            notes.append(f"epsilon depends on the impact speed: this is its value at "
-                         f"{body.reference_speed_m_per_s:.3g} m/s")
+        notes.extend(discovered_notes(body))
     return out
+
+
+def discovered_notes(body):
+    """Notes on the epsilon of a discover result's body: its effects and the speed a speed-dependent ε holds at.
+
+    Parameters
+    ----------
+    body : vrcal.model.body.Body
+        with ``discovered`` (a ``vrcal discover --json`` result)
+
+    Returns
+    -------
+    list of str
+        the effects vrcal discover named (epsilon is the contact's own, the flights' effects apart)
+        and, for a speed-dependent epsilon, the impact speed [m/s] its value holds at
+    """
+    effects = list(body.effects)
+    notes = [f"{body.source}: {', '.join(effects) or 'no effect'} named by vrcal discover"
+             + ("; epsilon is the contact's own, the flights' effects apart" if effects else "")]
+    if "velocity_dependent_restitution" in effects and body.reference_speed_m_per_s:
+        notes.append(f"epsilon depends on the impact speed: this is its value at "
+                     f"{body.reference_speed_m_per_s:.3g} m/s")
+    return notes
 
 
 def fit_text(result):
@@ -459,12 +477,13 @@ def _or_inf(fn, T):
     return math.inf if T == 0 else fn(T)
 
 
-def parse_body(spec, K_per_s, standards=None, as_paper=False):
+def parse_body(spec, K_per_s, standards=None, as_paper=False, notes=None):
     """A body for :func:`pair`: a ball key, 'floor' (rigid, x = 0), 'x=..,v=..' or 'from=FILE'.
 
     A ball of the standards, or the ball of a ``vrcal discover --json`` result ('from=FILE'),
     is given the virtual body of its epsilon at depth x = R/2 (:func:`ball_virtual_body`; any
-    member of its family gives the same pair epsilon).
+    member of its family gives the same pair epsilon). For 'from=FILE' the list ``notes`` (if
+    given) gets what the constant epsilon leaves out (:func:`discovered_notes`).
 
     Returns
     -------
@@ -482,14 +501,27 @@ def parse_body(spec, K_per_s, standards=None, as_paper=False):
             raise UsageError(f"body '{spec}': give the discover JSON after 'from='")
         body = describe_body(from_json=path, standards=standards)
         vb, eps = ball_virtual_body(body, K_per_s)
+        if notes is not None:
+            notes.extend(discovered_notes(body))
+            if body.effects:
+                held = (f" (its value at {body.reference_speed_m_per_s:.3g} m/s impacts)"
+                        if "velocity_dependent_restitution" in body.effects and body.reference_speed_m_per_s else "")
+                notes.append(f"{body.name}: the pair takes its one constant epsilon {eps:.4f}{held}; "
+                             f"{', '.join(body.effects)} left out (Eq. 6 adds constant contact times)")
         return f"{body.name} from {path}", vb, eps
     if "=" in text:
         try:
-            parts = dict(p.split("=", 1) for p in text.replace(" ", "").split(","))
-            x, v = float(parts.pop("x")), float(parts.pop("v"))
+            items = [p.split("=", 1) for p in text.replace(" ", "").split(",")]
+            parts = dict(items)
+            repeated = sorted({k for k, _ in items if sum(key == k for key, _ in items) > 1})
+            if not repeated:
+                x, v = float(parts.pop("x")), float(parts.pop("v"))
         except (KeyError, ValueError):
             raise UsageError(f"body '{spec}': give a ball name, 'floor', 'x=DEPTH_M,v=SPEED_M_PER_S' "
                              "or 'from=DISCOVER.json'") from None
+        if repeated:   # a dict keeps the last: refused like an unknown field, not silently
+            raise UsageError(f"body '{spec}': {' and '.join(f'{k}=' for k in repeated)} given more than once; "
+                             "give each of x= and v= once")
         if parts:
             raise UsageError(f"body '{spec}': unknown field(s) {sorted(parts)}; use x= and v=")
         body = VirtualBody(x, v)
@@ -545,7 +577,8 @@ def pair(spec_a, spec_b, K_per_s=DEFAULT_K_PER_S, standards=None, as_paper=False
         epsilon; JSON-ready.
     """
     K = check_K(K_per_s)
-    bodies = [parse_body(s, K, standards, as_paper) for s in (spec_a, spec_b)]
+    notes = []
+    bodies = [parse_body(s, K, standards, as_paper, notes) for s in (spec_a, spec_b)]
     (name_a, a, eps_a), (name_b, b, eps_b) = bodies
     T = eq.contact_time_pair_s(a.x_m, a.v_m_per_s, b.x_m, b.v_m_per_s)
     eps = eq.epsilon_from_contact_time(T, K)
@@ -559,6 +592,7 @@ def pair(spec_a, spec_b, K_per_s=DEFAULT_K_PER_S, standards=None, as_paper=False
         "T_s": T,
         "epsilon": eps,
         "equations": "T = x_A/(2 v_A) + x_B/(2 v_B) (Eq. 6), epsilon = exp(-K T) (Eq. 7)",
+        "notes": notes,
     }
 
 
@@ -574,4 +608,6 @@ def pair_text(result):
     text += "\n" + table(rows, ["body", "x [mm]", "v [m/s]", "T [ms]", "ε"], align="lrrrr")
     text += "\n" + wrap("T = x_A/(2 v_A) + x_B/(2 v_B) (Eq. 6), ε = exp(−K T) (Eq. 7). A body's ε is its ε "
                          "against a rigid floor; the contact times add, so the pair's ε is their product.")
+    for note in r.get("notes", ()):
+        text += wrap(f"note: {note}")
     return text

@@ -17,6 +17,7 @@ it refuses NaN and infinities for every float option of a command that uses it.
 from __future__ import annotations
 
 import math
+import os
 
 import click
 
@@ -158,14 +159,112 @@ def _brief(value, limit=40):
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+#: What a repeated option (or one given several values) is told, by command and option: where to put
+#: several values instead.
+REPEAT_HINTS = {
+    ("fit", "--rebound-height"): "for several drops write a drop table (H,h rows) and run "
+                                 "vrcal discover TABLE.csv --ball BALL",
+    ("fit", "--drop-height"): "for several drops write a drop table (H,h rows) and run "
+                              "vrcal discover TABLE.csv --ball BALL",
+}
+
+
+def _repeat_hint(ctx, option):
+    hint = REPEAT_HINTS.get((ctx.info_name, option))
+    return f"; {hint}" if hint else ""
+
+
+def _value_options(command):
+    """``{'--name': param}`` of every option that takes one value (not a flag, a count or ``multiple``)."""
+    out = {}
+    for p in command.params:
+        if isinstance(p, click.Option) and not (p.is_flag or p.count or p.multiple) and p.nargs == 1:
+            for name in p.opts + p.secondary_opts:
+                out[name] = p
+    return out
+
+
+def refuse_repeated_options(command, ctx, args):
+    """UsageError (one line) when an option that takes one value is given more than once: click keeps
+    the last silently (``--rebound-height 0.55 --rebound-height 0.54`` ran with 0.54)."""
+    options = _value_options(command)
+    seen = {}
+    for token in args:
+        if token == "--":
+            break
+        name = token.split("=", 1)[0] if token.startswith("--") else token
+        param = options.get(name)
+        if param is not None:
+            seen.setdefault(param.name, []).append(name)
+    for names in seen.values():
+        if len(names) > 1:
+            label = "/".join(dict.fromkeys(names))
+            raise click.UsageError(f"{label} given {len(names)} times: it takes one value, and only the last "
+                                   f"would count; give it once{_repeat_hint(ctx, names[-1])}", ctx)
+
+
+def explain_extra_arguments(command, ctx, args, exc):
+    """click's 'Got unexpected extra arguments (0.54 0.56)' after an option's value, as what happened:
+    the option took its first value only (``--rebound-height 0.55 0.54 0.56``). Other errors unchanged."""
+    message = exc.format_message()
+    if not message.startswith("Got unexpected extra argument"):
+        return exc
+    options = _value_options(command)
+    tokens = list(args)
+    for k in range(len(tokens) - 2):
+        name = tokens[k].split("=", 1)[0]
+        if name in options and "=" not in tokens[k] and not tokens[k + 2].startswith("-"):
+            extra = []
+            for token in tokens[k + 2:]:
+                if token.startswith("-"):
+                    break
+                extra.append(token)
+            if extra and message.endswith(f"({' '.join(extra)})"):
+                return click.UsageError(f"{name} takes one value: {name} {tokens[k + 1]} {' '.join(extra)} gives it "
+                                        f"{tokens[k + 1]} and leaves {' '.join(extra)} over"
+                                        f"{_repeat_hint(ctx, name)}", ctx)
+    return exc
+
+
+def _refuse_number_as_argument(command, ctx, given):
+    """A number taken as a positional argument right after an option's value (``fit --rebound-height 0.55
+    0.54``: 0.54 became BALL) is refused like extra arguments: the option takes one value."""
+    options = _value_options(command)
+    for p in command.params:
+        value = ctx.params.get(p.name)
+        if not isinstance(p, click.Argument) or not isinstance(value, str):
+            continue
+        try:
+            float(value)
+        except ValueError:
+            continue
+        if os.path.exists(value):            # a file named like a number is an argument
+            continue
+        for k in range(2, len(given)):
+            if given[k] == value and given[k - 2] in options:
+                name = given[k - 2]
+                raise click.UsageError(f"{name} takes one value: {name} {given[k - 1]} {value} gives it "
+                                       f"{given[k - 1]} and {value} would be {p.human_readable_name}"
+                                       f"{_repeat_hint(ctx, name)}", ctx)
+
+
 class FiniteCommand(click.Command):
-    """A command that refuses NaN and infinities for every float option, whatever its declared type.
+    """A command that refuses NaN and infinities for every float option, whatever its declared type,
+    and an option that takes one value given more than once (:func:`refuse_repeated_options`).
 
     The options typed with :class:`Real` already do; this catches one declared ``type=float``.
     """
 
     def parse_args(self, ctx, args):
-        rest = super().parse_args(ctx, args)
+        given = list(args)                       # click's parser consumes the list
+        if not ctx.resilient_parsing:
+            refuse_repeated_options(self, ctx, given)
+        try:
+            rest = super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            raise explain_extra_arguments(self, ctx, given, exc) from None
+        if not ctx.resilient_parsing:
+            _refuse_number_as_argument(self, ctx, given)
         for p in self.params:
             value = ctx.params.get(p.name)
             if isinstance(p.type, click.types.FloatParamType) and isinstance(value, float) \

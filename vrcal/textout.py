@@ -60,11 +60,17 @@ def choose_format(fmt, output, default="text", allowed=("text", "json", "yaml"))
     Raises
     ------
     UsageError
-        a ``--format`` the command cannot write; an ``-o`` extension that names one
+        a ``--format`` the command cannot write; an ``-o`` extension that names one; a ``--format``
+        and an ``-o`` extension that name different formats (``--format text -o p.json``)
     """
     if fmt is not None:
         if fmt not in allowed:
             raise UsageError(f"unknown --format '{fmt}' (known: {', '.join(allowed)})")
+        suffix = Path(str(output)).suffix.lower() if output not in (None, "-") else ""
+        named = KNOWN_EXTENSIONS.get(suffix)
+        if named is not None and named != fmt and (named, fmt) not in COMPATIBLE_FORMATS:
+            raise UsageError(f"--format {fmt} with -o '{output}', a {suffix} file ({named}): name the file "
+                             f"{writes_text((fmt,))} or leave out --format (the extension chooses)")
         return fmt
     if output not in (None, "-"):
         return file_format(output, allowed, default)

@@ -582,3 +582,15 @@ def test_a_penetration_limit_at_or_above_the_radius_is_refused(tmp_path):
     assert result.exit_code == 2 and "the file's max_penetration_m 35 mm is not below the ball's radius" in \
         result.output and "give --max-penetration less than the radius" in result.output
     assert run("verify", "--engine", "ode", "--file", path, "--max-penetration", 0.005).exit_code == 0
+
+
+def test_the_floor_rows_how_names_the_floors_own_restitution():
+    """`--floor x=0.002,v=0.5 --K 8`: the PhysX floor row said 'restitution': 0.9841 but 'how': 'floor material:
+    restitution 1, eMULTIPLY' (Unity: 'bounciness 1'); a rigid floor still says 1."""
+    rows = export("basketball", "tables", against="tennis", floor="x=0.002,v=0.5", K_per_s=8).data["rows"]
+    floors = {r["engine"]: r for r in rows if r["body"] == "floor"}
+    assert floors["PhysX"]["restitution"] == pytest.approx(0.9841, abs=1e-4)
+    assert "restitution 0.9841 (Eq. 6: the floor's own factor), eMULTIPLY" in floors["PhysX"]["how"]
+    assert "bounciness 0.9841 (Eq. 6: the floor's own factor), Multiply" in floors["Unity"]["how"]
+    rigid = {r["engine"]: r for r in export("basketball", "tables").data["rows"] if r["body"] == "floor"}
+    assert rigid["PhysX"]["restitution"] == 1 and "restitution 1 (rigid)" in rigid["PhysX"]["how"]

@@ -394,3 +394,53 @@ def test_a_refusal_names_the_penetration_that_keeps_the_users_step():
     depth = float(re.search(r"--max-penetration ([0-9.]+);", str(info.value)).group(1))
     ex = export("tennis", "mujoco", dt_s=0.004, max_penetration_m=depth)
     assert max(ex.data["penetration_m"], ex.data["hover_m"]) <= depth
+
+
+def _floor_solrefs(text):
+    return {m.group(1): m.group(2) for m in re.finditer(r'<pair geom1="(\w+)" geom2="floor".*?solref="([^"]+)"', text,
+                                                        re.S)}
+
+
+def test_identical_balls_of_an_against_export_get_identical_floor_contacts():
+    """``--against basketball``: both basketballs' floor contacts are calibrated in MuJoCo (the second had
+    the untuned -(1+eps)/dt, 0 -882.53 against 0 -883.09, and bounced 0.7674 against 0.7663)."""
+    require_engine("mujoco")
+    solrefs = _floor_solrefs(export("basketball", "mujoco", against="basketball").text)
+    assert solrefs["ball"] == solrefs["ball2"] == "0 -882.5348449"
+
+
+def test_verify_file_drops_both_balls_of_an_against_export_and_names_the_pair_not_verified(tmp_path):
+    """The probe's bb_mj_against.xml: verify checked only the ball/floor contact and said PASSED; the
+    tennis ball's floor contact was the untuned -872.47 (not -(1+eps)/dt any more: calibrated)."""
+    require_engine("mujoco")
+    ex = export("basketball", "mujoco", against="tennis")
+    assert _floor_solrefs(ex.text)["ball2"] != f"0 {-(1 + ex.pair['pairs']['tennis/floor']) / 0.002:.7f}"
+    path = tmp_path / "bt.xml"
+    path.write_text(ex.text)
+    result = CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path)])
+    assert result.exit_code == 0, result.output
+    out = " ".join(result.output.split())
+    assert "contacts verified: ball (basketball)/floor; ball2 (tennis)/floor (target 0.7449: worst error" in out
+    assert "not verified: basketball/tennis (the two balls' pair, epsilon 0.5707 from Eq. 6" in out
+    data = __import__("json").loads(CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path),
+                                                             "--format", "json"]).output)
+    other = data["other_bodies"][0]
+    assert other["target_epsilon"] == pytest.approx(0.7449, abs=1e-4) and other["error"] <= 0.01
+    assert data["not_verified"] and data["passed"]
+
+
+def test_verify_file_fails_when_the_second_balls_floor_contact_misses(tmp_path):
+    """Planted effects: the second ball's floor damping 5 % stronger bounces too high (0.83 against 0.745), and
+    half of it does not bounce at all; the ball's own drop still passes, the file does not."""
+    require_engine("mujoco")
+    text = export("basketball", "mujoco", against="tennis").text
+    tuned = _floor_solrefs(text)["ball2"]
+    damping = float(tuned.split()[1])
+    path = tmp_path / "bt.xml"
+    path.write_text(text.replace(f'solref="{tuned}"', f'solref="0 {damping * 1.05:.7f}"', 1))
+    result = CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path)])
+    assert result.exit_code == 1 and "FAILED" in result.output
+    assert "vrcal: error: ball2 (tennis) on the floor: epsilon error" in result.output
+    path.write_text(text.replace(f'solref="{tuned}"', f'solref="0 {damping / 2:.7f}"', 1))
+    result = CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path)])
+    assert result.exit_code == 1 and "vrcal: error: ball2 (tennis) on the floor: the ball made only 0" in result.output

@@ -4,8 +4,10 @@ import json
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from helpers import EPSILONS, require_engine
 
+from vrcal.cli import main
 from vrcal.engines import ode as E
 from vrcal.engines.export import export, parse_exported
 from vrcal.errors import DataError, UsageError
@@ -310,3 +312,17 @@ def test_a_step_that_passes_at_4_phases_is_confirmed_with_16():
         export(None, "ode", dt_s=1e-3, **soft)
     dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
     assert _run_in_engine(setup, "ode", dt_ok, CONFIRM_PHASES).worst_error <= 0.01
+
+
+def test_verify_file_of_an_against_export_names_the_contacts_it_did_not_drop(tmp_path):
+    """The probe's bb_ode_against.json: PASSED with no word that the tennis ball's floor contact and the
+    pair were not tested."""
+    require_engine("ode")
+    path = tmp_path / "bt.json"
+    path.write_text(export("basketball", "ode", against="tennis").text)
+    result = CliRunner().invoke(main, ["verify", "--engine", "ode", "--file", str(path)])
+    assert result.exit_code == 0, result.output
+    out = " ".join(result.output.split())
+    assert "contacts verified: basketball/floor" in out
+    assert ("not verified: tennis/floor (epsilon 0.7449) and basketball/tennis (epsilon 0.5707, Eq. 6): the file "
+            "has no second body to drop") in out

@@ -240,3 +240,33 @@ def test_a_typo_of_name_is_named_as_a_typo_not_a_missing_name():
     with pytest.raises(DataError) as err:
         validate_scene(doc, "s.yaml")
     assert "bodies[1]: unknown field(s) ['nam']; did you mean 'name'?" in str(err.value)
+
+
+def test_a_balls_radius_override_rescales_its_virtual_body_into_the_ball():
+    """`ball: basketball, radius_m: 0.05` printed x 60.84 mm (outside the 50 mm ball) and ran, while an
+    explicit virtual_body with x > R is refused: now x = R/2 = 25 mm, the same contact time and epsilon."""
+    doc = {"name": "r", "K_per_s": 4.0, "duration_s": 1.0, "floor": {"material": "steel"},
+           "bodies": [{"name": "b", "ball": "basketball", "radius_m": 0.05, "position_m": [0, 0, 1]},
+                      {"name": "c", "ball": "basketball", "position_m": [1, 0, 1]}]}
+    scene = validate_scene(doc, "r.yaml")
+    small, own = scene.bodies
+    assert small.radius_m == 0.05 and small.x_m == pytest.approx(0.025) and small.x_m <= small.radius_m
+    assert small.contact_time_s == pytest.approx(own.contact_time_s)
+    eps = scene.epsilon_matrix()
+    assert eps[0, -1] == pytest.approx(eps[1, -1])
+    assert any("radius_m 0.05 m instead of the ball's" in n for n in scene.notes)
+
+
+def test_k_defaults_like_pair_center_is_centre_and_anchors_copy_a_body(tmp_path):
+    """A scene without K_per_s failed 'K_per_s: missing' (pair defaults to 4); 'position_of: center' was
+    refused; anchors and merge keys were refused ('aliases are not allowed')."""
+    path = tmp_path / "row.yaml"
+    path.write_text("duration_s: 0.5\nfloor: {material: steel}\nbodies:\n"
+                    "  - &b {name: a, mass_kg: 0.2, radius_m: 0.1, virtual_body: {x_m: 0.01, v_m_per_s: 0.1},\n"
+                    "        position_m: [0, 0, 0], position_of: bottom}\n"
+                    "  - {<<: *b, name: c, position_m: [0.3, 0, 0.1], position_of: center}\n")
+    scene = load_scene(path)
+    assert scene.K_per_s == 4.0
+    a, c = scene.bodies
+    assert (c.mass_kg, c.radius_m, c.x_m, c.v_m_per_s) == (a.mass_kg, a.radius_m, a.x_m, a.v_m_per_s)
+    assert a.position_m == (0.0, 0.0, 0.1) and c.position_m == (0.3, 0.0, 0.1)

@@ -857,6 +857,8 @@ class VerifyResult(RunsSummary):
     impact_speeds_m_per_s: tuple = ()
     holds_down_to_m_per_s: float | None = None
     drop_height_m: float | None = None
+    others: tuple = ()       # drop tests of the file's other bodies on the floor (``--against``)
+    unverified: tuple = ()   # the contacts a file writes that no drop test ran (text)
 
     @property
     def apex_ratios(self):
@@ -886,11 +888,14 @@ class VerifyResult(RunsSummary):
 
     @property
     def passed(self):
-        return self.error <= self.tolerance and self.depth_ok
+        return self.error <= self.tolerance and self.depth_ok and all(o.passed for o in self.others)
 
     def failure(self):
         """Why the drop test failed, in one line for the terminal ('' when it passed): the error or
         the depth, and for an error at impacts slower than the export holds for, what to do."""
+        failed = next((o for o in self.others if not o.passed), None)
+        if self.error <= self.tolerance and self.depth_ok and failed is not None:
+            return f"{failed.ball} on the floor: {failed.failure()}"
         if self.error > self.tolerance:
             return f"epsilon error {self.error:.4g} exceeds the tolerance {self.tolerance:g}" + self.slow_impacts()
         if not self.depth_ok:
@@ -946,4 +951,5 @@ class VerifyResult(RunsSummary):
             "passed": self.passed, "settings": self.settings, "notes": list(self.notes),
             "impact_speeds_m_per_s": [float(x) for x in self.impact_speeds_m_per_s],
             "holds_down_to_m_per_s": self.holds_down_to_m_per_s,
+            "other_bodies": [o.as_dict() for o in self.others], "not_verified": list(self.unverified),
         }

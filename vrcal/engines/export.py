@@ -477,6 +477,33 @@ def _check_bounces_reachable(setup):
                          f"(a bounce must rise {RISE_M * 1e3:g} mm): ask for {fewer}")
 
 
+def second_setup(setup, name, mass_kg, radius_m, epsilon, ball_epsilon_rigid):
+    """The drop setup of an ``--against`` export's second ball on the export's floor.
+
+    Parameters
+    ----------
+    setup : DropSetup
+        the first ball's
+    name : str
+        the second ball's key
+    mass_kg, radius_m : float
+        its mass [kg] and radius [m]
+    epsilon : float
+        its epsilon on the export's floor (Eq. 6)
+    ball_epsilon_rigid : float
+        its epsilon against a rigid floor
+
+    Returns
+    -------
+    DropSetup
+        dropped from the export's drop height at its step, gravity, tolerance and integrator, with a
+        constant epsilon (no drag): the same body as the first gets the same setup, so the same contact
+    """
+    return replace(setup, ball=name, mass_kg=float(mass_kg), radius_m=float(radius_m), epsilon=float(epsilon),
+                   ball_epsilon=float(ball_epsilon_rigid), notes=(), drag_coefficient=0.0, restitution_exponent=0.0,
+                   release_time_s=0.0, height_offset_m=0.0, baseline_epsilon=None)
+
+
 def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
            K_per_s=None, tolerance=None, mass_kg=None, diameter_m=None,
            drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
@@ -529,19 +556,18 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         pair = {"name": f"{setup.ball}/{b2.key}", "ball2": b2.key, "epsilon_ball2": eps2,
                 "epsilon": pairs[f"{setup.ball}/{b2.key}"], "pairs": pairs,
                 "equation": "Eq. 6: T = T_A + T_B, epsilon = exp(-K T) = epsilon_A * epsilon_B"}
-        second = DropSetup(ball=b2.key, mass_kg=b2.mass_kg.nominal, radius_m=b2.radius_m,
-                           drop_height_m=ball_epsilon(b2).drop_height_m, epsilon=pairs[f"{b2.key}/floor"],
-                           dt_s=setup.dt_s, g_m_per_s2=setup.g_m_per_s2, ball_epsilon=eps2,
-                           floor_epsilon=setup.floor_epsilon)
+        second = second_setup(setup, b2.key, b2.mass_kg.nominal, b2.radius_m, pairs[f"{b2.key}/floor"], eps2)
     module = load(eng.name)
     summary = ""
     asked_lo = parse_impact_speed(impact_speed)[0] if isinstance(impact_speed, str) else \
         (impact_speed[0] if impact_speed is not None else None)
     if eng.name == "mujoco":
         cal = calibrate_or_refuse(setup, stiffness, n_phases)
+        # the second ball's floor contact is tuned in MuJoCo like the ball's (the same body gets the same solref)
+        cal2 = calibrate_or_refuse(second, stiffness, n_phases) if second is not None else None
         # compiled once: each of the scan's drops runs the same model
         coverage = speed_coverage(setup, "mujoco", module.load_model(module.export_mjcf(setup, cal)), asked_lo)
-        text = module.export_mjcf(setup, cal, pair, second, coverage)
+        text = module.export_mjcf(setup, cal, pair, second, coverage, cal2)
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}

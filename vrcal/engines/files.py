@@ -181,7 +181,8 @@ def read_mjcf(text):
     -------
     dict
         ``timestep`` [s], ``integrator`` (lower case), ``ball`` (the ``vrcal_ball`` label, else
-        'ball') and ``target`` {name: number} from the ``vrcal_*`` custom numerics. The ball's and
+        'ball'), ``target`` {name: number} from the ``vrcal_*`` custom numerics and ``texts``
+        {name: text} from the ``vrcal_*`` custom texts (``--against``: ``ball2``). The ball's and
         the floor's geoms, its radius and mass are read from the compiled model
         (:func:`vrcal.engines.mujoco.scene_of`), which resolves a user's defaults and classes.
 
@@ -211,9 +212,12 @@ def read_mjcf(text):
             target[name[len("vrcal_"):]] = _xml_number(numeric.get("data"), f"<numeric {name}>")
     out["target"] = target
     out["ball"] = "ball"
+    out["texts"] = {}
     for text_el in root.iter("text"):
-        if text_el.get("name") == "vrcal_ball":
-            out["ball"] = (text_el.get("data") or "ball")[:80]
+        name = text_el.get("name") or ""
+        if name.startswith("vrcal_"):
+            out["texts"][name[len("vrcal_"):]] = (text_el.get("data") or "")[:80]
+    out["ball"] = out["texts"].get("ball") or "ball"
     return out
 
 

@@ -367,7 +367,7 @@ def integrator_name(setup):
     return INTEGRATORS[key]
 
 
-def model_xml(setup, contact, header=(), pairs=(), extra_bodies=(), numbers=None):
+def model_xml(setup, contact, header=(), pairs=(), extra_bodies=(), numbers=None, texts=None):
     """A complete MJCF model: floor plane, the ball on a free joint, the contact pair(s).
 
     Parameters
@@ -382,7 +382,10 @@ def model_xml(setup, contact, header=(), pairs=(), extra_bodies=(), numbers=None
     extra_bodies : sequence of str
         MJCF lines of further bodies
     numbers : dict, optional
-        further ``vrcal_*`` numerics after the drop test's (e.g. ``holds_down_to_m_per_s``)
+        further ``vrcal_*`` numerics after the drop test's (e.g. ``holds_down_to_m_per_s``; with
+        ``--against`` ``ball2_epsilon`` and ``pair_epsilon``)
+    texts : dict, optional
+        further ``vrcal_*`` texts after ``vrcal_ball`` (``--against``: ``ball2``, the second ball's name)
 
     Returns
     -------
@@ -424,7 +427,9 @@ def model_xml(setup, contact, header=(), pairs=(), extra_bodies=(), numbers=None
     lines += ["  </contact>", "  <custom>"]
     for key, value in {**metadata(setup), **(numbers or {})}.items():
         lines.append(f'    <numeric name="vrcal_{key}" data="{_fmt(value)}"/>')
-    lines += [f'    <text name="vrcal_ball" data="{_xml_text(setup.ball)}"/>', "  </custom>", "</mujoco>", ""]
+    lines += [f'    <text name="vrcal_{key}" data="{_xml_text(value)}"/>'
+              for key, value in {"ball": setup.ball, **(texts or {})}.items()]
+    lines += ["  </custom>", "</mujoco>", ""]
     return "\n".join(lines)
 
 
@@ -971,9 +976,10 @@ def pair_contact(eps, setup):
     return contact_for(eps, "spring", setup.dt_s, w)
 
 
-def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
-    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs; with a
-    :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the calibration holds for)."""
+def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None):
+    """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs, ``cal2`` the
+    second ball's floor contact calibrated in MuJoCo; with a :class:`vrcal.engines.export.SpeedCoverage`,
+    the impact speeds the calibration holds for)."""
     from vrcal.engines.export import RECORD_NOTE
 
     header = header_lines(setup, cal)
@@ -988,12 +994,19 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None):
             f'      <geom name="ball2" type="sphere" size="{_fmt(R2)}" mass="{_fmt(second.mass_kg)}"/>',
             "    </body>",
         ]
-        pairs = [("ball2", "floor", pair_contact(pair["pairs"][f"{pair['ball2']}/floor"], setup)),
-                 ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
+        floor2 = cal2.contact if cal2 is not None else pair_contact(second.epsilon, setup)
+        pairs = [("ball2", "floor", floor2), ("ball", "ball2", pair_contact(pair["epsilon"], setup))]
+        if cal2 is not None:
+            header += textwrap.wrap(f"ball2 ({second.ball}) on the floor: epsilon {second.epsilon:.4f}, calibrated "
+                                    f"in MuJoCo like the ball's over the same drop (worst eps error "
+                                    f"{cal2.worst_error:.4f})", 88)
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")
-    numbers = {"holds_down_to_m_per_s": coverage.holds_down_to_m_per_s} if coverage is not None else None
-    return model_xml(setup, cal.contact, header, pairs, bodies, numbers)
+    numbers = {"holds_down_to_m_per_s": coverage.holds_down_to_m_per_s} if coverage is not None else {}
+    if pair and second is not None:
+        numbers.update(ball2_epsilon=second.epsilon, pair_epsilon=pair["epsilon"])
+    return model_xml(setup, cal.contact, header, pairs, bodies, numbers or None,
+                     {"ball2": second.ball} if pair and second is not None else None)
 
 
 def ball_of(scene):

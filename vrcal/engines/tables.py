@@ -26,19 +26,20 @@ def table(setup, pair=None):
     """
     e_pair = constant_epsilon(setup) if setup.drop_height_m is not None else float(setup.epsilon)
     e_ball = e_pair / setup.floor_epsilon
+    e_floor = f"{setup.floor_epsilon:.4f} (Eq. 6: the floor's own factor)" if setup.floor_epsilon != 1 else "1 (rigid)"
     rows = [
         {"engine": "PhysX", "body": setup.ball, "restitution": e_ball, "combine": "Multiply",
          "threshold_m_per_s": 0.01,
          "how": "PxMaterial::setRestitution; setRestitutionCombineMode(PxCombineMode::eMULTIPLY); "
                 "PxSceneDesc::bounceThresholdVelocity (default 2 m/s) below your slowest impact"},
         {"engine": "PhysX", "body": "floor", "restitution": setup.floor_epsilon, "combine": "Multiply",
-         "threshold_m_per_s": 0.01, "how": "floor material: restitution 1, eMULTIPLY"},
+         "threshold_m_per_s": 0.01, "how": f"floor material: restitution {e_floor}, eMULTIPLY"},
         {"engine": "Unity", "body": setup.ball, "restitution": e_ball, "combine": "Multiply",
          "threshold_m_per_s": 0.01,
          "how": "PhysicMaterial.bounciness; bounceCombine = PhysicMaterialCombine.Multiply; "
                 "Physics.bounceThreshold (default 2 m/s) below your slowest impact"},
         {"engine": "Unity", "body": "floor", "restitution": setup.floor_epsilon, "combine": "Multiply",
-         "threshold_m_per_s": 0.01, "how": "floor material: bounciness 1, Multiply"},
+         "threshold_m_per_s": 0.01, "how": f"floor material: bounciness {e_floor}, Multiply"},
         {"engine": "Box2D", "body": setup.ball, "restitution": e_pair, "combine": "max (built in)",
          "threshold_m_per_s": 0.01,
          "how": "b2FixtureDef.restitution (v2.4) / b2ShapeDef restitution (v3); floor restitution 0 so "

@@ -129,13 +129,69 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         if other_step is None:
             raise
         raise DataError(f"{exc}; {other_step}: export again with --dt {setup.dt_s:g}") from None
+    others, unverified = ((), ()) if exported_text is None else \
+        _other_contacts(eng.name, exported_text, loaded, runnable, setup, n_bounces, n_phases, geoms)
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
         settings=_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
         impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
         holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
+        others=others, unverified=unverified,
     )
+
+
+def _other_contacts(engine, text, loaded, runnable, setup, n_bounces, n_phases, geoms):
+    """(drop tests of the file's other balls on the floor, the contacts not tested) of an exported file.
+
+    An ``--against`` export writes three contacts: ball/floor, ball2/floor and the pair ball/ball2.
+    MuJoCo's file carries ball2's target (``vrcal_ball2_epsilon``): ball2 is dropped on the floor like
+    the ball (a :class:`VerifyResult` each). The pair (two balls meeting) has no drop test, and the
+    JSON exports of ODE and PyBullet and Gazebo's world carry no second body to drop: they are named,
+    with their epsilon, as not verified.
+    """
+    if engine == "mujoco":
+        from vrcal.engines.files import read_mjcf
+        from vrcal.engines.mujoco import ball_of, geom_names, scene_of
+
+        info = read_mjcf(text)
+        if geoms.get("ball_geom") is not None or "ball2" not in geom_names(runnable.model):
+            return (), ()
+        target = info["target"]
+        name2 = info["texts"].get("ball2", "ball2")
+        pair = f"{setup.ball}/{name2}"
+        if "ball2_epsilon" not in target:
+            return (), (f"{name2}/floor and {pair}: the file carries no target for them (an export of an older "
+                        "vrcal): export again",)
+        from vrcal.engines.export import second_setup
+
+        scene2 = scene_of(runnable.model, ball_geom="ball2", floor_geom=runnable.floor_geom)
+        radius2, mass2 = ball_of(scene2)
+        eps2 = float(target["ball2_epsilon"])
+        setup2 = second_setup(setup, name2, mass2, radius2, eps2, eps2)
+        check_steps(setup2, n_phases, runtime(engine).label, runtime(engine).max_steps)
+        try:
+            runs2 = load(engine).drop_test(scene2, setup2, n_bounces, n_phases)
+        except DataError as exc:
+            raise DataError(f"ball2 ({name2}) on the floor: {exc}") from None
+        other = VerifyResult(engine=engine, engine_version="", ball=f"ball2 ({name2})", target=eps2, dt_s=setup.dt_s,
+                             tolerance=setup.tolerance, runs=runs2, max_penetration_m=setup2.penetration_limit_m,
+                             g_m_per_s2=setup.g_m_per_s2, drop_height_m=setup.drop_height_m,
+                             impact_speeds_m_per_s=tuple(float(v) for v in setup2.impact_speeds_m_per_s[:n_bounces]))
+        return (other,), (f"{pair} (the two balls' pair, epsilon {target.get('pair_epsilon', math.nan):.4f} from "
+                          "Eq. 6, one-step reversal): no drop test of two balls",)
+    if engine == "gazebo":
+        if 'name="ball2"' not in text:
+            return (), ()
+        return (), ("ball2/floor and ball/ball2 (the world's second ball): this drop test runs the ball only",)
+    pair, pairs = loaded.get("pair"), loaded.get("pairs") or {}
+    if not isinstance(pair, dict) or "ball2" not in pair:
+        return (), ()
+    b2 = str(pair["ball2"])[:80]
+    floor2 = pairs.get(f"{b2}/floor", math.nan)
+    return (), (f"{b2}/floor (epsilon {floor2:.4f}) and {pair.get('name', 'the pair')} (epsilon "
+                f"{pair.get('epsilon', math.nan):.4f}, Eq. 6): the file has no second body to drop; this drop test "
+                f"runs the ball ({setup.ball}) on the floor only",)
 
 
 def _holds_down_to(engine, loaded):
@@ -414,6 +470,13 @@ def format_report(result):
     verdict = "PASSED" if r.passed else "FAILED"
     text += (f"worst error {r.error:.4f} (tolerance {r.tolerance:g}), median {r.median_error:.4f}\n"
              f"penetration {r.penetration_m * 1e3:.3g} mm, hover {r.hover_m * 1e3:.3g} mm "
-             f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n"
-             f"{verdict}\n")
-    return text
+             f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
+    if r.others or r.unverified:
+        first = f"ball ({r.ball})" if r.engine == "mujoco" else r.ball
+        tested = [f"{first}/floor"] + [f"{o.ball}/floor (target {o.target:.4f}: worst error {o.error:.4f}, "
+                                        f"penetration {o.penetration_m * 1e3:.3g} mm, hover {o.hover_m * 1e3:.3g} mm"
+                                        f"{'' if o.passed else ', FAILED'})" for o in r.others]
+        text += "\n".join(textwrap.wrap("contacts verified: " + "; ".join(tested), 100, subsequent_indent="  ")) + "\n"
+        for line in r.unverified:
+            text += "\n".join(textwrap.wrap("not verified: " + line, 100, subsequent_indent="  ")) + "\n"
+    return text + f"{verdict}\n"

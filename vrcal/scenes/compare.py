@@ -58,8 +58,10 @@ EXPLANATIONS = (
     "ODE's bounce: the LCP sets the outgoing normal speed to bounce * incoming speed at the start of "
     "the step; gravity's dt*g during the contact step and the ERP push-out (capped at 0.1 m/s) change "
     "the rebound speed by O(g dt) -- apex heights differ by O(dt), impact times accumulate the error.",
-    "bounce_vel: ODE does not bounce an impact slower than bounce_vel; vrcal puts such a ball at rest "
-    "(both use the scene's rest_speed_m_per_s), so the last, tiny bounces can differ in number.",
+    "rest: a floor impact slower than the scene's rest_speed_m_per_s does not bounce in either run (ODE: "
+    "bounce_vel on floor contacts; vrcal puts the ball at rest), but ODE's late contact step changes the "
+    "speed it compares, so the last, tiny floor bounces can differ in number. Ball-ball contacts "
+    "bounce at any speed in both (ODE: bounce_vel 0).",
     "simultaneous contacts (stacks): vrcal applies the impulses one after another (sequential "
     "impulses); ODE's LCP solves all contacts of a step together -- the results agree when the "
     "contacts are separated by more than one step (e.g. a small gap), and can differ when not.",

@@ -23,7 +23,9 @@ Choices (departures from [1], which relied on ODE for all of this):
   ("sequential impulses"). For a stack this is the classic sequential-collision result.
 * Resting: a floor impact slower than the scene's ``rest_speed_m_per_s`` is perfectly inelastic
   (epsilon = 0, with the same friction impulse) and puts the ball at rest on the floor: its
-  vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno).
+  vertical motion stops. This ends the infinite series of ever smaller bounces (Zeno). It is a
+  floor-only rule: a ball-ball contact bounces with its pair epsilon at any speed (ODE's run sets
+  ``bounce_vel`` 0 between balls for the same reason, :func:`vrcal.scenes.ode.bounce_velocity`).
 * Sliding on the floor: while a ball rests on the floor (placed there, or after its last impact) and
   its lowest point slips, kinetic Coulomb friction mu m g acts against the slip
   (:func:`floor_sliding_friction`) until the ball rolls -- a closed-form event like the impacts;

@@ -20,8 +20,11 @@ contact point's relative tangential velocity (:func:`slip_direction`): the slip 
 axis of the pyramid, nothing slips along the other, and the friction opposes the slip with at most
 mu N -- the Coulomb circle of vrcal's simulator, for the slip at the start of each step (tested:
 2.861 m/s in both directions). Where a contact does not slip ODE chooses the axes; a
-sticking contact needs no friction beyond mu N along the slip it stops. ``bounce_vel`` = the scene's
-``rest_speed_m_per_s`` (slower impacts do not bounce: vrcal's resting rule). The hollow
+sticking contact needs no friction beyond mu N along the slip it stops. ``bounce_vel``: on a floor
+contact the scene's ``rest_speed_m_per_s`` (slower floor impacts do not bounce: vrcal's resting rule,
+which ends a ball's infinite series of ever smaller bounces under gravity), on a ball-ball contact 0
+(every approaching ball-ball contact bounces, as in vrcal: a slow horizontal hit is no settling ball;
+:data:`BALL_BALL_BOUNCE_VEL_M_PER_S`). The hollow
 shell inertia I = k m R^2 of each body is set in its ``dMass``.
 
 World settings (see /work/shared/engines-facts.md): fixed step :data:`DEFAULT_DT_S`,
@@ -60,6 +63,9 @@ WORLD_CFM = 1e-10
 #: World error reduction parameter and the cap on its push-out speed [m/s].
 WORLD_ERP = 0.2
 MAX_CORRECTING_VEL_M_PER_S = 0.1
+#: ``bounce_vel`` of a ball-ball contact [m/s]: every approaching ball-ball contact bounces (vrcal's rule;
+#: the rest speed is a floor-only cut-off of the Zeno series of bounces under gravity).
+BALL_BALL_BOUNCE_VEL_M_PER_S = 0.0
 #: Largest number of contact points per geom pair.
 MAX_CONTACTS = 4
 #: Most body-steps (time steps x bodies) of one run: about 30 s at ~15 us a body-step.
@@ -217,6 +223,7 @@ def _run(O, lib, scene, dt_s):
             if key not in bounce_cache:          # "calculate time constant T, calculate epsilon"
                 bounce_cache[key] = near_callback_bounce(virtual[i], virtual[j], scene.K_per_s)
             bounce = bounce_cache[key]
+            bounce_vel = bounce_velocity(scene, j == -1)
             touching_now.add(key)
             b1 = lib.dGeomGetBody(o1)
             b2 = lib.dGeomGetBody(o2) if j != -1 else None
@@ -228,10 +235,10 @@ def _run(O, lib, scene, dt_s):
                 approach = float(-nrm @ (va - vb))
                 if approach > 0.0:               # an impact; a touch that does not approach (placed) is none
                     names = [scene.bodies[k].name for k in key if k != -1] + (["floor"] if key[1] == -1 else [])
-                    note = "" if approach >= scene.rest_speed_m_per_s else "no bounce: slower than bounce_vel"
+                    bounces = approach > bounce_vel
+                    note = "" if bounces else "no bounce: slower than bounce_vel"
                     contacts.append(SceneContact(state["t"], names[0], names[1], approach,
-                                                 bounce if approach >= scene.rest_speed_m_per_s else 0.0,
-                                                 math.nan, math.nan, note))
+                                                 bounce if bounces else 0.0, math.nan, math.nan, note))
                     feedback = (O.dJointFeedback * count)()
                     impacts_now.append((len(contacts) - 1, feedback, nrm))
             for c in range(count):
@@ -239,7 +246,7 @@ def _run(O, lib, scene, dt_s):
                 s.mode = mode                    # "enable contact bounce parameter"
                 s.mu = scene.friction_mu
                 s.bounce = bounce
-                s.bounce_vel = scene.rest_speed_m_per_s
+                s.bounce_vel = bounce_vel
                 if friction:
                     direction = slip_direction(O, lib, geoms[c].geom, b1, b2)
                     if direction is not None:    # the pyramid's first axis along the slip: Coulomb's circle
@@ -299,11 +306,30 @@ def _run(O, lib, scene, dt_s):
     return SceneResult(scene=scene, engine="ode", t_s=times, position_m=pos[idx], velocity_m_per_s=vel[idx],
                        spin_rad_per_s=spin[idx], angle_y_rad=ang[idx], contacts=contacts, apexes=apexes,
                        notes=[f"ODE {n_steps} steps of {dt_s:g} s (dWorldStep); bounce from Eqs. 6, 7 in the "
-                              f"near-callback; bounce_vel = {scene.rest_speed_m_per_s:g} m/s; "
+                              f"near-callback; bounce_vel = {scene.rest_speed_m_per_s:g} m/s on the floor, "
+                              f"{BALL_BALL_BOUNCE_VEL_M_PER_S:g} between balls; "
                               + (f"dContactApprox1 with fdir1 along the slip, mu = {scene.friction_mu:g}" if friction
                                  else "no friction")],
                        settings={"dt_s": dt_s, "steps": n_steps, "cfm": WORLD_CFM, "erp": WORLD_ERP,
                                  "max_correcting_vel_m_per_s": MAX_CORRECTING_VEL_M_PER_S})
+
+
+def bounce_velocity(scene, on_floor):
+    """ODE's ``bounce_vel`` of one contact [m/s]: below it an impact does not bounce.
+
+    Parameters
+    ----------
+    scene : vrcal.scenes.spec.Scene
+    on_floor : bool
+        the contact is between a ball and the floor
+
+    Returns
+    -------
+    float
+        the scene's ``rest_speed_m_per_s`` on the floor (vrcal's resting rule), else
+        :data:`BALL_BALL_BOUNCE_VEL_M_PER_S` (0: every approaching ball-ball contact bounces, as in vrcal)
+    """
+    return scene.rest_speed_m_per_s if on_floor else BALL_BALL_BOUNCE_VEL_M_PER_S
 
 
 def slip_direction(O, lib, contact_geom, body_a, body_b, tolerance_m_per_s=1e-9):

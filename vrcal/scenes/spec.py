@@ -10,7 +10,7 @@ Schema (validated on load; a bad field is reported by its path, e.g.
 
     name: str                     optional; default: the file name without suffix
     description: str              optional
-    K_per_s: 4.0                  rate constant K of Eq. (7) [1/s], > 0
+    K_per_s: 4.0                  optional; rate constant K of Eq. (7) [1/s], > 0 (default 4, as vrcal pair)
     duration_s: 5.0               simulated time [s], > 0
     sample_dt_s: 0.01             optional; spacing of the output samples [s] (default 0.01)
     gravity_m_per_s2: 9.80665     optional; g [m/s^2], > 0
@@ -29,11 +29,12 @@ Schema (validated on load; a bad field is reported by its path, e.g.
                                   its ball's mass and radius, virtual body of its measured contact
                                   epsilon at K with x = R/2 (effects such as air drag are not simulated)
         mass_kg: 0.6              required without `ball` (overrides the ball's when given)
-        radius_m: 0.12            required without `ball` (overrides the ball's when given)
+        radius_m: 0.12            required without `ball` (overrides the ball's when given: without a
+                                  virtual_body, the ball's moves to x = R/2, same T, same epsilon)
         virtual_body: {x_m: 0.06, v_m_per_s: 0.18}   required without `ball`
         inertia: hollow           hollow (thin shell, I = 2/3 m R^2; default) | solid (I = 2/5 m R^2)
         position_m: [0, 0, 1.8]   initial position [m]
-        position_of: centre       centre (default) | bottom: position_m locates the sphere's bottom
+        position_of: centre       centre (default; also 'center') | bottom: position_m locates the sphere's bottom
         velocity_m_per_s: [0, 0, 0]   optional, default 0
         spin_rad_per_s: [0, 0, 0]     optional angular velocity [rad/s], default 0
 
@@ -316,9 +317,9 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None, 
     Scene
     """
     if not isinstance(doc, dict):
-        raise DataError(f"{where}: top level must be a mapping with K_per_s, duration_s, floor and bodies")
+        raise DataError(f"{where}: top level must be a mapping with duration_s, floor and bodies (and K_per_s)")
     _unknown(doc, _TOP_FIELDS, where, "")
-    K = _number(doc, "K_per_s", where, "", minimum=0, maximum=MAX_K_PER_S)
+    K = _number(doc, "K_per_s", where, "", default=eq.DEFAULT_K_PER_S, minimum=0, maximum=MAX_K_PER_S)
     duration = _number(doc, "duration_s", where, "", minimum=0)
     sample_dt = _number(doc, "sample_dt_s", where, "", default=DEFAULT_SAMPLE_DT_S, minimum=0)
     if sample_dt > duration:
@@ -431,7 +432,17 @@ def _body(fields, i, where, K, standards, base_dir=None, notes=None):
     elif "as_paper" in fields:
         raise _err(where, f"{path}as_paper", "only applies to a body with a 'ball'")
     mass = _number(fields, "mass_kg", where, path, default=mass, minimum=0, maximum=MAX_MASS_KG)
+    own_radius = radius
     radius = _number(fields, "radius_m", where, path, default=radius, minimum=0, maximum=MAX_RADIUS_M)
+    if ball_key is not None and "virtual_body" not in fields and radius != own_radius:
+        # the ball's virtual body is x = R/2 (inverse.ball_virtual_body): another radius takes its own
+        # x = R/2 with the same contact time T, so the same epsilon, and x stays inside the ball
+        T = eq.contact_time_single_s(x, v)
+        x = radius / 2.0
+        v = eq.virtual_speed_m_per_s(x, T) if T > 0 else 0.0
+        if notes is not None:
+            notes.append(f"{name}: radius_m {radius:g} m instead of the ball's {own_radius:g} m: its virtual body "
+                         f"is x = R/2 = {1e3 * x:.4g} mm, v = {v:.4g} m/s (the same contact time, so the same epsilon)")
     if "virtual_body" in fields or ball_key is None:
         vb = fields.get("virtual_body")
         vpath = f"{path}virtual_body"
@@ -452,8 +463,10 @@ def _body(fields, i, where, K, standards, base_dir=None, notes=None):
         raise _err(where, f"{path}inertia", f"must be one of {sorted(INERTIA_FACTORS)}, got {inertia!r}")
     position = _vector(fields, "position_m", where, path, maximum=MAX_POSITION_M)
     position_of = fields.get("position_of", "centre")
+    if position_of == "center":          # both spellings
+        position_of = "centre"
     if position_of not in ("centre", "bottom"):
-        raise _err(where, f"{path}position_of", f"must be 'centre' or 'bottom', got {position_of!r}")
+        raise _err(where, f"{path}position_of", f"must be 'centre' (or 'center') or 'bottom', got {position_of!r}")
     if position_of == "bottom":
         position = (position[0], position[1], position[2] + radius)
     if position[2] < radius:
