@@ -380,7 +380,7 @@ def fit_text(result):
     levels = tuple(k for k in _LEVELS if k in eps)
     T = {k: eq.contact_time_from_epsilon_s(eps[k], K) for k in levels}
     window = levels == _LEVELS
-    model_time = f"model time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s; not the real contact"
+    model_time = f"model time, T = −ln ε / K (Eq. 7), K = {K:g} 1/s"
     if window:
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [
