@@ -49,6 +49,13 @@ RESOLVED_SIGMAS = 20.0
 #: and out of line with the other flights of the record by as many (:func:`unfree_flights`).
 FREE_FLIGHT_SIGMAS = 5.0
 
+#: A flight out of line by :data:`FREE_FLIGHT_SIGMAS` is still kept as free when its jerk beyond the range the
+#: drag and the other flights allow changes the speeds at its contacts, against the parabola that fits it, by
+#: less than this fraction (:func:`unfree_flights`): a long, sharply sampled fall shows a jerk of a few m/s^3
+#: (a lens's slight distortion) at 10 standard errors that moves its impact speed by 0.4 %, far less than a
+#: bounce's own speed ratio is known to; cut, it took the record's best-resolved bounce with it.
+FREE_FLIGHT_SPEED_EFFECT = 0.01
+
 #: Relative spread of the flights' apparent g above which the reason a flight is no free flight quotes it (a
 #: length scale that changes across the picture makes the high flights' g differ from the low ones').
 SCALE_SPREAD = 0.03
@@ -295,7 +302,8 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
     Returns
     -------
     list of (jerk [m/s^3], standard error [m/s^3], mean speed [m/s], first sample, last sample, g [m/s^2]:
-    the flight's downward acceleration at its middle) or None for a flight with fewer than
+    the flight's downward acceleration at its middle, duration [s] and the larger speed at its two ends
+    [m/s]) or None for a flight with fewer than
     :data:`FREE_FLIGHT_MIN_SAMPLES` samples clear of its contacts (the sample next to each contact is
     left out)
     """
@@ -326,7 +334,8 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
         var = np.linalg.inv(basis.T @ basis)[0, 0] * sd * sd
         speed = np.abs(np.polyval(np.polyder(coef), u)) / half
         out.append((6.0 * float(coef[0]) / half ** 3, 6.0 * math.sqrt(float(var)) / half ** 3, float(np.mean(speed)),
-                    int(idx[0]), int(idx[-1]), -2.0 * float(coef[1]) / half ** 2))
+                    int(idx[0]), int(idx[-1]), -2.0 * float(coef[1]) / half ** 2, 2.0 * half,
+                    float(max(speed[0], speed[-1]))))
     return out
 
 
@@ -341,6 +350,12 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     A scale that changes across the picture unevenly (a lens's distortion, perspective) bends the
     flights differently too: the reason names it, with the spread of the flights' apparent g when
     that exceeds :data:`SCALE_SPREAD` (a marble on paper filmed at 200 fps: 9.5-9.96 m/s^2).
+
+    The decision is on the size of the effect as well as its significance: a jerk j beyond that range
+    over a flight of duration T moves the flight's end speeds off the parabola that best fits it by
+    j T^2 / 10 (a cubic's end slope less that of its least-squares parabola), and a flight whose end
+    speeds move by less than :data:`FREE_FLIGHT_SPEED_EFFECT` of themselves is a free flight to what
+    the fit takes from it (the speeds into and out of its bounces).
     """
     from vrcal.drop.effects import drag_constant_per_m, get_effect
 
@@ -360,19 +375,23 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     se = {i: j[1] / (2.0 * g * j[2]) for i, j in known}
     z = FREE_FLIGHT_SIGMAS
     out = []
-    for i, (jerk, err, speed, lo, hi, _) in known:
+    for i, (jerk, err, speed, lo, hi, _, duration, end_speed) in known:
         w = np.array([1.0 / se[o] ** 2 for o, _ in known if o != i])
         k_others = float(np.sum(w * np.array([k[o] for o, _ in known if o != i])) / np.sum(w))
         apart = (k[i] - k_others) / math.hypot(se[i], 1.0 / math.sqrt(float(np.sum(w))))
         j_max = 2.0 * k_max * g * speed
         if not ((jerk - j_max > z * err and apart > z) or (jerk < -z * err and apart < -z)):
             continue
+        j_others = 2.0 * k_others * g * speed
+        excess = min(abs(jerk - min(max(jerk, 0.0), j_max)), abs(jerk - j_others))
+        if excess * duration ** 2 / 10.0 < FREE_FLIGHT_SPEED_EFFECT * end_speed:
+            continue
         what = "the first fall" if i == 0 else f"the flight after bounce {i}"
         cause = ("the ball was pushed, spun or still held at release" if i == 0 else
                  "it touched something, or the tracker followed something else")
         out.append((i, f"{what} ({_line(data, lo)} to {_line(data, hi)}) is no free flight: its acceleration "
                        f"changes at {jerk:.3g} ± {err:.2g} m/s^3, where air drag allows 0 to {j_max:.3g} and the "
-                       f"other flights show {2.0 * k_others * g * speed:.3g} at its speed: {cause}{scale}"))
+                       f"other flights show {j_others:.3g} at its speed: {cause}{scale}"))
     return out
 
 
