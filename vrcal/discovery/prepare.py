@@ -326,41 +326,14 @@ CONTACT_DRIFT_SIGMAS = 5.0
 CONTACT_DRIFT_DIAMETERS = 0.05
 
 
-def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m):
-    """A note when the bounces of a trajectory touch at levels that drift from bounce to bounce, else None.
-
-    Each contact's height is where the parabolas of g through its flights meet (:func:`contact_points`,
-    with :func:`contact_level_errors`); a weighted straight line through them against the bounce number
-    drifts when its change over the bounces exceeds :data:`CONTACT_DRIFT_SIGMAS` standard errors and
-    :data:`CONTACT_DRIFT_DIAMETERS` ball diameters. A soft floor that compresses under the bounces (a
-    stack of paper, foam) does so, and so does a tilted floor under a ball that moves sideways; the
-    models have one contact level for the record, so they cannot
-    follow it (a marble on 30 sheets of A5 paper sank 5.3 mm over three bounces, and the fit left a gap
-    of 1.7 mm at 0.07 mm of noise). The bounces' own speed ratios (out/in, where free parabolas through
-    their flights meet; the table of ``--details``) hold no contact level and remain the ε per bounce.
-
-    Parameters
-    ----------
-    data : Trajectory
-        heights [m], times [s], release index
-    minima : ndarray of int
-        the bounces' sample indices
-    g_m_per_s2 : float
-        gravity [m/s^2]
-    sigma_m : float
-        noise of one height [m]
-    diameter_m : float
-        the ball's diameter [m]
-
-    Returns
-    -------
-    str or None
-    """
+def _contact_drift(t_s, y_m, minima, release_index, g_m_per_s2, sigma_m):
+    """(change [m], its standard error [m], indices of the bounces used, their contact heights [m]) of a
+    weighted straight line through the contacts' heights (:func:`contact_points`, :func:`contact_level_errors`)
+    against the bounce number, over the bounces; None with fewer than three contacts of known height."""
     if len(minima) < 3:
         return None
-    r = int(getattr(data, "release_index", 0) or 0)
-    tc, yc = contact_points(data.t_s, data.y_m, minima, r, g_m_per_s2)
-    se = contact_level_errors(data.t_s, data.y_m, minima, r, g_m_per_s2, tc, sigma_m)
+    tc, yc = contact_points(t_s, y_m, minima, release_index, g_m_per_s2)
+    se = contact_level_errors(t_s, y_m, minima, release_index, g_m_per_s2, tc, sigma_m)
     ok = np.isfinite(yc) & np.isfinite(se) & (se > 0)
     if np.sum(ok) < 3:
         return None
@@ -370,14 +343,64 @@ def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m):
     cov = np.linalg.inv(x.T @ (w[:, None] * x))
     slope = float((cov @ x.T @ (w * yc[ok]))[0])
     span = n[-1] - n[0]
-    change, err = slope * span, math.sqrt(float(cov[0, 0])) * span
-    if abs(change) <= max(CONTACT_DRIFT_SIGMAS * err, CONTACT_DRIFT_DIAMETERS * diameter_m):
+    return slope * span, math.sqrt(float(cov[0, 0])) * span, np.flatnonzero(ok), yc[ok]
+
+
+def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m, model_y_m=None):
+    """A note when the bounces of a trajectory touch at levels that drift from bounce to bounce beyond what
+    a model's heights show, else None.
+
+    Each contact's height is where the parabolas of g through its flights meet (:func:`contact_points`,
+    with :func:`contact_level_errors`); a weighted straight line through them against the bounce number
+    changes over the bounces by some amount. The same estimator on a fitted model's heights at the same
+    samples (``model_y_m``) drifts too -- a contact's duration lowers the meeting point in proportion to
+    the impact speed, drag bends the flights near it -- and the difference is what the model's one
+    contact level cannot follow when it exceeds :data:`CONTACT_DRIFT_SIGMAS` standard errors and
+    :data:`CONTACT_DRIFT_DIAMETERS` ball diameters. A soft floor that compresses under the bounces (a
+    stack of paper, foam) does so, and so does a tilted floor under a ball that moves sideways (a marble
+    on 30 sheets of A5 paper sank 5.3 mm over three bounces, and the fit left a gap of 1.7 mm at 0.07 mm of
+    noise). The bounces' own speed ratios (out/in, where free parabolas through their flights meet; the
+    table of ``--details``) hold no contact level and remain the epsilon of each bounce.
+
+    Parameters
+    ----------
+    data : Trajectory
+        heights [m], times [s], release index
+    minima : sequence of int
+        the bounces' sample indices
+    g_m_per_s2 : float
+        gravity [m/s^2]
+    sigma_m : float
+        noise of one height [m]
+    diameter_m : float
+        the ball's diameter [m]
+    model_y_m : ndarray or None
+        a model's heights [m] at the samples (None: the data's drift is judged against none)
+
+    Returns
+    -------
+    str or None
+    """
+    r = int(getattr(data, "release_index", 0) or 0)
+    found = _contact_drift(data.t_s, data.y_m, minima, r, g_m_per_s2, sigma_m)
+    if found is None:
         return None
-    first, last = int(n[0]) + 1, int(n[-1]) + 1
-    levels = ", ".join(f"{1e3 * (v - yc[ok][0]):+.2f}" for v in yc[ok][:8]) + (", ..." if np.sum(ok) > 8 else "")
+    change, err, used, yc = found
+    own = 0.0
+    if model_y_m is not None:
+        model = _contact_drift(data.t_s, model_y_m, [minima[i] for i in used], r, g_m_per_s2, sigma_m)
+        if model is None:
+            return None
+        own = model[0]
+    beyond = change - own
+    if abs(beyond) <= max(CONTACT_DRIFT_SIGMAS * err, CONTACT_DRIFT_DIAMETERS * diameter_m):
+        return None
+    first, last = int(used[0]) + 1, int(used[-1]) + 1
+    levels = ", ".join(f"{1e3 * (v - yc[0]):+.2f}" for v in yc[:8]) + (", ..." if yc.size > 8 else "")
+    model_text = "" if model_y_m is None else f" (the model's: {1e3 * own:+.2f} mm)"
     return (f"the contact level {'sinks' if change < 0 else 'rises'} by {1e3 * abs(change):.3g} ± {1e3 * err:.2g} "
-            f"mm from bounce {first} to bounce {last} ({_line(data, int(minima[int(n[0])]))} to "
-            f"{_line(data, int(minima[int(n[-1])]))}; each contact against the first: {levels} mm): a soft floor "
+            f"mm from bounce {first} to bounce {last}{model_text} ({_line(data, int(minima[used[0]]))} to "
+            f"{_line(data, int(minima[used[-1]]))}; each contact against the first: {levels} mm): a soft floor "
             "that gives under the bounces (a stack of paper, foam), or a floor tilted across the picture while "
             "the ball moves sideways; the models have one contact level and cannot follow it, the bounces' own "
             "speed ratios (--details) can")
@@ -790,10 +813,6 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
             out += _impact_runs(run, label)
         elif run.kind == "trajectory":
             odd, minima = odd_bounces(run, ball, g_m_per_s2, sigma or 0.0)
-            drift = contact_level_drift(run, [m for m in minima if m not in dict(odd)], g_m_per_s2,
-                                        sigma or 0.0, diameter)
-            if drift:
-                notes.append(_of_run(label, drift))
             if not odd:
                 out.append((run, label))
                 continue
