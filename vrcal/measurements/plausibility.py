@@ -408,6 +408,7 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     # named where buoyancy matters (a light ball); the judgement is against g_exp all the same
     expected = "" if abs(g_exp / g_m_per_s2 - 1.0) < 0.05 else f"; this ball's {g_exp:.3g} with buoyancy"
     ratio = None     # the parabolas' g over the expected one, when they curve downward
+    apart = None     # how the flights disagree on g (flight_g_disagreement)
     if g_fit is not None and g_fit >= 0:
         ratio = g_fit / g_exp
         flights = max(len(_flight_edges(y[release:], sigma_m)) - 1, n)
@@ -416,11 +417,11 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
             f"of their contacts, or no one parabola)")
         text = f"g from the parabolas of {which}: {number(g_fit, 3)} m/s^2 ({g_fit / g_m_per_s2:.3f} x " \
                f"{g_m_per_s2:.4g}{expected})"
-        apart = flight_g_disagreement(_flight_fits(t, y, 1.0, release, sigma_m))
-        if apart:
-            text += f"; {apart}"
+        # flights that disagree on g beyond drag's doing (a light ball's high flights curve less), said where g
+        # is about right (a wrong frame rate or unit is told first)
+        apart = None if dragged else flight_g_disagreement(_flight_fits(t, y, 1.0, release, sigma_m))
         if G_OK[0] <= ratio <= G_OK[1]:
-            return [Finding("note", text)]
+            return [Finding("note", f"{text}; {apart}" if apart else text)]
     if dragged:
         segments = _flight_segments(t, y, 1.0, release, sigma_m)
         drag_fits = [(_drag_fit_g(segments, k, sigma_m), k) for k in ks]
@@ -448,7 +449,8 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
     if g_fit < 0:
         return [Finding("note", "g cannot be checked: the flights do not curve one way")]
     if G_WARN[0] <= ratio <= G_WARN[1]:
-        return [Finding("warning", f"{text}: the frame rate or the length scale looks off (check --fs, --scale "
+        said = f"{text}; {apart}" if apart and text.startswith("g from the parabolas") else text
+        return [Finding("warning", f"{said}: the frame rate or the length scale looks off (check --fs, --scale "
                                    f"and the units in the header)")]
     drop = float(np.ptp(data.y_m))
     for factor, unit, scale in LENGTH_MIXUPS:
