@@ -30,6 +30,8 @@ import numpy as np
 from vrcal.drop.effects import flight_expectation
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
+from vrcal.measurements.plausibility import FLIGHT_G_SPREAD
+from vrcal.measurements.trajectory import release_with_noise
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -49,9 +51,17 @@ RESOLVED_SIGMAS = 20.0
 #: and out of line with the other flights of the record by as many (:func:`unfree_flights`).
 FREE_FLIGHT_SIGMAS = 5.0
 
+#: A flight out of line by :data:`FREE_FLIGHT_SIGMAS` is still kept as free when its jerk beyond the range the
+#: drag and the other flights allow changes the speeds at its contacts, against the parabola that fits it, by
+#: less than this fraction (:func:`unfree_flights`): a long, sharply sampled fall shows a jerk of a few m/s^3
+#: (a lens's slight distortion) at 10 standard errors that moves its impact speed by 0.4 %, far less than a
+#: bounce's own speed ratio is known to; cut, it took the record's best-resolved bounce with it.
+FREE_FLIGHT_SPEED_EFFECT = 0.01
+
 #: Relative spread of the flights' apparent g above which the reason a flight is no free flight quotes it (a
-#: length scale that changes across the picture makes the high flights' g differ from the low ones').
-SCALE_SPREAD = 0.03
+#: length scale that changes across the picture makes the high flights' g differ from the low ones'): the
+#: spread at which the plausibility check says the flights disagree on g.
+SCALE_SPREAD = FLIGHT_G_SPREAD
 
 #: Fewest samples of a flight (clear of its contacts) whose jerk is judged.
 FREE_FLIGHT_MIN_SAMPLES = 7
@@ -268,6 +278,134 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
     return np.asarray(tc), np.asarray(yc)
 
 
+def _line_sd_at(t, lo, hi, tm, sigma):
+    """Standard error [m] at time ``tm`` of the line :func:`_flight_line` fits through samples lo..hi-1 with
+    noise ``sigma`` [m] (inf with fewer than three samples)."""
+    if hi - lo < 3:
+        return math.inf
+    x = np.vander(t[lo:hi] - tm, 2)
+    return float(sigma) * math.sqrt(float(np.linalg.inv(x.T @ x)[1, 1]))
+
+
+def contact_level_errors(t_s, y_m, minima, release_index, g_m_per_s2, contact_t_s, sigma_m):
+    """Standard error [m] of each contact's height from :func:`contact_points`.
+
+    The contact is where the flight before a bounce (speed v_in < 0 there) meets the one after it
+    (v_out > 0); errors dy_in, dy_out of the two lines at that time move the meeting point's height by
+    (v_out dy_in - v_in dy_out) / (v_out - v_in). The noise of a sample is the larger of ``sigma_m`` and
+    the lines' own scatter about their parabolas.
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(y_m, dtype=float)
+    g = float(g_m_per_s2)
+    edges = [int(release_index)] + [int(m) for m in minima] + [t.size]
+    out = []
+    for k, (m, tm) in enumerate(zip(minima, contact_t_s)):
+        lo_in, hi_in = max(edges[k], int(m) - 6), int(m)
+        lo_out, hi_out = int(m) + 1, min(edges[k + 2], int(m) + 7)
+        before, after = _flight_line(t, y, lo_in, hi_in, g), _flight_line(t, y, lo_out, hi_out, g)
+        if before is None or after is None or hi_in - lo_in < 3 or hi_out - lo_out < 3:
+            out.append(math.inf)
+            continue
+        scatter = [y[a:b] - (line[0] + line[1] * t[a:b] - 0.5 * g * t[a:b] ** 2)
+                   for line, a, b in ((before, lo_in, hi_in), (after, lo_out, hi_out))]
+        sd = max(float(sigma_m), math.sqrt(float(np.mean(np.concatenate(scatter) ** 2))))
+        v_in, v_out = before[1] - g * tm, after[1] - g * tm
+        if not v_in < 0 < v_out:
+            out.append(math.inf)
+            continue
+        e_in, e_out = _line_sd_at(t, lo_in, hi_in, tm, sd), _line_sd_at(t, lo_out, hi_out, tm, sd)
+        out.append(math.hypot(v_out * e_in, v_in * e_out) / (v_out - v_in))
+    return np.asarray(out, dtype=float)
+
+
+#: The contact level drifts when a straight line through the contacts' heights against the bounce number
+#: changes by this many standard errors and by at least one ball radius / 10 over the bounces
+#: (:func:`contact_level_drift`).
+CONTACT_DRIFT_SIGMAS = 5.0
+CONTACT_DRIFT_DIAMETERS = 0.05
+
+
+def _contact_drift(t_s, y_m, minima, release_index, g_m_per_s2, sigma_m):
+    """(change [m], its standard error [m], indices of the bounces used, their contact heights [m]) of a
+    weighted straight line through the contacts' heights (:func:`contact_points`, :func:`contact_level_errors`)
+    against the bounce number, over the bounces; None with fewer than three contacts of known height."""
+    if len(minima) < 3:
+        return None
+    tc, yc = contact_points(t_s, y_m, minima, release_index, g_m_per_s2)
+    se = contact_level_errors(t_s, y_m, minima, release_index, g_m_per_s2, tc, sigma_m)
+    ok = np.isfinite(yc) & np.isfinite(se) & (se > 0)
+    if np.sum(ok) < 3:
+        return None
+    n = np.flatnonzero(ok).astype(float)
+    w = 1.0 / se[ok] ** 2
+    x = np.vander(n, 2)
+    cov = np.linalg.inv(x.T @ (w[:, None] * x))
+    slope = float((cov @ x.T @ (w * yc[ok]))[0])
+    span = n[-1] - n[0]
+    return slope * span, math.sqrt(float(cov[0, 0])) * span, np.flatnonzero(ok), yc[ok]
+
+
+def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m, model_y_m=None):
+    """A note when the bounces of a trajectory touch at levels that drift from bounce to bounce beyond what
+    a model's heights show, else None.
+
+    Each contact's height is where the parabolas of g through its flights meet (:func:`contact_points`,
+    with :func:`contact_level_errors`); a weighted straight line through them against the bounce number
+    changes over the bounces by some amount. The same estimator on a fitted model's heights at the same
+    samples (``model_y_m``) drifts too -- a contact's duration lowers the meeting point in proportion to
+    the impact speed, drag bends the flights near it -- and the difference is what the model's one
+    contact level cannot follow when it exceeds :data:`CONTACT_DRIFT_SIGMAS` standard errors and
+    :data:`CONTACT_DRIFT_DIAMETERS` ball diameters. A soft floor that compresses under the bounces (a
+    stack of paper, foam) does so, and so does a tilted floor under a ball that moves sideways (a marble
+    on 30 sheets of A5 paper sank 5.3 mm over three bounces, and the fit left a gap of 1.7 mm at 0.07 mm of
+    noise). The bounces' own speed ratios (out/in, where free parabolas through their flights meet; the
+    table of ``--details``) hold no contact level and remain the epsilon of each bounce.
+
+    Parameters
+    ----------
+    data : Trajectory
+        heights [m], times [s], release index
+    minima : sequence of int
+        the bounces' sample indices
+    g_m_per_s2 : float
+        gravity [m/s^2]
+    sigma_m : float
+        noise of one height [m]
+    diameter_m : float
+        the ball's diameter [m]
+    model_y_m : ndarray or None
+        a model's heights [m] at the samples (None: the data's drift is judged against none)
+
+    Returns
+    -------
+    str or None
+    """
+    r = int(getattr(data, "release_index", 0) or 0)
+    found = _contact_drift(data.t_s, data.y_m, minima, r, g_m_per_s2, sigma_m)
+    if found is None:
+        return None
+    change, err, used, yc = found
+    own = 0.0
+    if model_y_m is not None:
+        model = _contact_drift(data.t_s, model_y_m, [minima[i] for i in used], r, g_m_per_s2, sigma_m)
+        if model is None:
+            return None
+        own = model[0]
+    beyond = change - own
+    if abs(beyond) <= max(CONTACT_DRIFT_SIGMAS * err, CONTACT_DRIFT_DIAMETERS * diameter_m):
+        return None
+    first, last = int(used[0]) + 1, int(used[-1]) + 1
+    levels = ", ".join(f"{1e3 * (v - yc[0]):+.2f}" for v in yc[:8]) + (", ..." if yc.size > 8 else "")
+    model_text = "" if model_y_m is None else f" (the model's: {1e3 * own:+.2f} mm)"
+    return (f"the contact level {'sinks' if change < 0 else 'rises'} by {1e3 * abs(change):.3g} ± {1e3 * err:.2g} "
+            f"mm from bounce {first} to bounce {last}{model_text} ({_line(data, int(minima[used[0]]))} to "
+            f"{_line(data, int(minima[used[-1]]))}; each contact against the first: {levels} mm): a soft floor "
+            "that gives under the bounces (a stack of paper, foam), or a floor tilted across the picture while "
+            "the ball moves sideways; the models have one contact level and cannot follow it, the bounces' own "
+            "speed ratios (--details) can")
+
+
 def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
     """The jerk (rate of change of the acceleration) of each flight of a trajectory, from a cubic
     through its samples clear of the contacts.
@@ -295,7 +433,8 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
     Returns
     -------
     list of (jerk [m/s^3], standard error [m/s^3], mean speed [m/s], first sample, last sample, g [m/s^2]:
-    the flight's downward acceleration at its middle) or None for a flight with fewer than
+    the flight's downward acceleration at its middle, duration [s] and the larger speed at its two ends
+    [m/s]) or None for a flight with fewer than
     :data:`FREE_FLIGHT_MIN_SAMPLES` samples clear of its contacts (the sample next to each contact is
     left out)
     """
@@ -326,7 +465,8 @@ def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):
         var = np.linalg.inv(basis.T @ basis)[0, 0] * sd * sd
         speed = np.abs(np.polyval(np.polyder(coef), u)) / half
         out.append((6.0 * float(coef[0]) / half ** 3, 6.0 * math.sqrt(float(var)) / half ** 3, float(np.mean(speed)),
-                    int(idx[0]), int(idx[-1]), -2.0 * float(coef[1]) / half ** 2))
+                    int(idx[0]), int(idx[-1]), -2.0 * float(coef[1]) / half ** 2, 2.0 * half,
+                    float(max(speed[0], speed[-1]))))
     return out
 
 
@@ -341,6 +481,12 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     A scale that changes across the picture unevenly (a lens's distortion, perspective) bends the
     flights differently too: the reason names it, with the spread of the flights' apparent g when
     that exceeds :data:`SCALE_SPREAD` (a marble on paper filmed at 200 fps: 9.5-9.96 m/s^2).
+
+    The decision is on the size of the effect as well as its significance: a jerk j beyond that range
+    over a flight of duration T moves the flight's end speeds off the parabola that best fits it by
+    j T^2 / 10 (a cubic's end slope less that of its least-squares parabola), and a flight whose end
+    speeds move by less than :data:`FREE_FLIGHT_SPEED_EFFECT` of themselves is a free flight to what
+    the fit takes from it (the speeds into and out of its bounces).
     """
     from vrcal.drop.effects import drag_constant_per_m, get_effect
 
@@ -360,19 +506,23 @@ def unfree_flights(data, jerks, mass_kg, diameter_m, g_m_per_s2):
     se = {i: j[1] / (2.0 * g * j[2]) for i, j in known}
     z = FREE_FLIGHT_SIGMAS
     out = []
-    for i, (jerk, err, speed, lo, hi, _) in known:
+    for i, (jerk, err, speed, lo, hi, _, duration, end_speed) in known:
         w = np.array([1.0 / se[o] ** 2 for o, _ in known if o != i])
         k_others = float(np.sum(w * np.array([k[o] for o, _ in known if o != i])) / np.sum(w))
         apart = (k[i] - k_others) / math.hypot(se[i], 1.0 / math.sqrt(float(np.sum(w))))
         j_max = 2.0 * k_max * g * speed
         if not ((jerk - j_max > z * err and apart > z) or (jerk < -z * err and apart < -z)):
             continue
+        j_others = 2.0 * k_others * g * speed
+        excess = min(abs(jerk - min(max(jerk, 0.0), j_max)), abs(jerk - j_others))
+        if excess * duration ** 2 / 10.0 < FREE_FLIGHT_SPEED_EFFECT * end_speed:
+            continue
         what = "the first fall" if i == 0 else f"the flight after bounce {i}"
         cause = ("the ball was pushed, spun or still held at release" if i == 0 else
                  "it touched something, or the tracker followed something else")
         out.append((i, f"{what} ({_line(data, lo)} to {_line(data, hi)}) is no free flight: its acceleration "
                        f"changes at {jerk:.3g} ± {err:.2g} m/s^3, where air drag allows 0 to {j_max:.3g} and the "
-                       f"other flights show {2.0 * k_others * g * speed:.3g} at its speed: {cause}{scale}"))
+                       f"other flights show {j_others:.3g} at its speed: {cause}{scale}"))
     return out
 
 
@@ -612,6 +762,8 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     from vrcal.measurements import Runs, plausibility
 
     runs = list(data.runs) if isinstance(data, Runs) else [data]
+    if sigma_m is not None:   # the release of a trajectory at the noise given, not the reader's estimate
+        runs = [release_with_noise(run, sigma_m) if run.kind == "trajectory" else run for run in runs]
     labels = list(data.labels) if isinstance(data, Runs) and data.labels else (
         [f"run {i + 1}" for i in range(len(runs))] if len(runs) > 1 else [""])
     notes, shifted = list(getattr(data, "notes", ()) if isinstance(data, Runs) else ()), []

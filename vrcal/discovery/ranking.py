@@ -1621,6 +1621,8 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                       noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                       dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
                       prepared.decimation, n_read, split, nuisance, judged, scatter_limit, list(cut), max_effects)
+    if kind == "trajectory":
+        notes.extend(_contact_drifts(found))
     for e in found.at_limit:
         within = e["chi2"] <= th.indistinguishable_chi2
         notes.append(f"{e['effect']}: {e['parameter']} held at its physical limit {e['limit']:.4g}; the best fit "
@@ -1629,6 +1631,24 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      + "; a value at the edge of what is physical: "
                      + EFFECTS[e['effect']].check_for(found.kind, surface_of(ball)))
     return found
+
+
+def _contact_drifts(found):
+    """Notes on the runs of a trajectory whose contact level drifts from bounce to bounce beyond what the
+    final model's heights show (:func:`vrcal.discovery.prepare.contact_level_drift`)."""
+    from vrcal.discovery.prepare import _of_run, contact_level_drift
+
+    out = []
+    diameter = float(np.mean(found.ball.diameter_m))
+    g = found.final.problem.g_m_per_s2
+    for r, (run, label) in enumerate(zip(found.runs, found.labels or [""] * len(found.runs))):
+        start = int(getattr(run, "release_index", 0) or 0)
+        minima = [int(m) for m in res.impacts_in_trajectory(run.t_s, run.y_m, start, found.noise_floor or None)]
+        model = found.final.predict_at(np.asarray(run.t_s, dtype=float), run=r)
+        note = contact_level_drift(run, minima, g, float(found.noise_floor or 0.0), diameter, model_y_m=model)
+        if note:
+            out.append(_of_run(label, note))
+    return out
 
 
 def _check_noise_scale(data, noise):

@@ -16,13 +16,16 @@ import numpy as np
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 
-def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
+def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400, sigma=None):
     """Index of the first sample after the still segment that precedes a release.
 
     The still level at sample i is the median of the ``window`` samples before it. The
     departure is the first sample that, with the two after it, lies more than
     ``n_sigma`` noise sigmas (and at least two resolution steps) from that level on
-    the same side. The release is then backed up to the start of the departure: a
+    the same side, and after which no sample of the next ``window`` comes back within
+    that threshold of the level: a ball let go moves away for good, while a held ball's
+    jitter (a 0.8 px shift of a marble's track for three frames) returns. The release
+    is then backed up to the start of the departure: a
     body released from rest departs as ``|y - level| = a (t - t_r)^2``, so
     ``sqrt(|y - level|)`` is a straight line in the sample index; a least-squares line
     through the departure (at most ``n_fit`` samples, while it keeps growing and stays
@@ -44,6 +47,9 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
         fewest still samples for a still segment; a shorter one gives 0
     n_fit : int
         most samples of the departure used to extrapolate back to the release
+    sigma : float or None
+        noise of one sample [unit of ``y``] when known (given by the user, or measured); None:
+        estimated as in the notes
 
     Returns
     -------
@@ -52,7 +58,7 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
 
     Notes
     -----
-    The noise sigma is estimated robustly from second differences of the whole record,
+    Without ``sigma``, the noise sigma is estimated robustly from second differences of the whole record,
     ``sigma = 1.4826 MAD(diff(y, 2)) / sqrt(6)`` (free flight has a constant second
     difference, bounces are outliers), floored at the resolution step / sqrt(12); the
     resolution step is the smallest non-zero |diff(y)| (1 px for pixel data). Within
@@ -66,9 +72,10 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     step = np.abs(np.diff(y))
     step = step[step > 0]
     quantum = float(step.min()) if step.size else 0.0
-    d2 = np.diff(y, 2)
-    sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0) if d2.size else 0.0
-    sigma = max(sigma, quantum / np.sqrt(12.0))
+    if sigma is None:
+        d2 = np.diff(y, 2)
+        sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0) if d2.size else 0.0
+    sigma = max(float(sigma), quantum / np.sqrt(12.0))
     threshold = max(n_sigma * sigma, 2.0 * quantum)
     band = max(2.0 * sigma, quantum)
     padded = np.concatenate([np.full(window, np.nan), y])
@@ -86,10 +93,11 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400):
     dev = y - level
     beyond = np.where(np.isnan(dev), 0, np.sign(dev) * (np.abs(dev) > threshold))
     persistent = (beyond[:-2] != 0) & (beyond[:-2] == beyond[1:-1]) & (beyond[:-2] == beyond[2:])
-    hits = np.flatnonzero(persistent)
-    if hits.size == 0:
+    # the first that moves away for good (in flight nearly every sample is a hit: stop at the first)
+    i = next((int(h) for h in np.flatnonzero(persistent)
+              if not np.any(np.abs(y[h + 3:h + 3 + window] - level[h]) <= threshold)), None)
+    if i is None:
         return 0
-    i = int(hits[0])
     within = np.flatnonzero(np.abs(y[:i] - level[i]) <= band)
     release = int(within[-1]) + 1 if within.size else 0
     still_level = level[i]

@@ -95,13 +95,35 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
     if t_s.size < MIN_TRAJECTORY_SAMPLES:
         fail(path, int(line_numbers[-1]) if line_numbers.size else 0,
               f"only {t_s.size} samples; a trajectory needs at least {MIN_TRAJECTORY_SAMPLES}")
-    if release > 0:
-        notes.append(f"still segment: samples 0-{release - 1} (release detected at sample {release}, "
-                     f"t = {t_s[release]:.4g} s, line {int(line_numbers[release])}); kept for the fit")
-    else:
-        notes.append("no still segment before release detected")
+    notes.append(release_note(t_s, line_numbers, release))
     return Trajectory(t_s=t_s, y_m=y_m, source=path, notes=tuple(notes), release_index=int(release),
                       lines=np.asarray(line_numbers, dtype=int))
+
+
+def release_note(t_s, line_numbers, release):
+    """The note on a trajectory's still segment: where the release was detected (``line_numbers``: the file's
+    line of each sample, or None), or that none was."""
+    if release <= 0:
+        return "no still segment before release detected"
+    line = "" if line_numbers is None else f", line {int(line_numbers[release])}"
+    return (f"still segment: samples 0-{release - 1} (release detected at sample {release}, "
+            f"t = {t_s[release]:.4g} s{line}); kept for the fit")
+
+
+def release_with_noise(run, sigma_m):
+    """``run`` (a :class:`Trajectory`) with its release detected again at a known noise of one height
+    ``sigma_m`` [m] (the user's, or one measured on the samples; the reader estimated its own), its note
+    rewritten; ``run`` itself when the release stays where it was."""
+    import dataclasses
+
+    release = detect_release_index(np.asarray(run.y_m, dtype=float), sigma=float(sigma_m))
+    if release == int(run.release_index or 0):
+        return run
+    t = np.asarray(run.t_s, dtype=float)
+    note = release_note(t, run.lines, release) + f" (at the noise of {1e3 * sigma_m:.3g} mm)"
+    notes = tuple(note if n.startswith(("still segment: ", "no still segment before release")) else n
+                  for n in run.notes)
+    return dataclasses.replace(run, release_index=int(release), notes=notes)
 
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
