@@ -185,7 +185,13 @@ def test_finely_timed_impacts_have_no_grid():
        gap=st.integers(3, 40))
 @example(fs=24.0, t0=4.0, n=289, decimals=2, gap=3)   # printed intervals 0.04/0.05 s: the first step guess is low
 @example(fs=142.0, t0=1.9375, n=20, decimals=3, gap=4)  # the least-squares line missed the grid by 0.81 ms at an end
+@example(fs=66.6875, t0=0.4375, n=21, decimals=3, gap=3)  # a period 0.014995 s ~ 15 print steps: errors all ~+0.45
 def test_regular_grid_recovery_is_never_worse_than_the_rounding(fs, t0, n, decimals, gap):
+    """The recovered grid is never further from the true times than the printed ones (rms), or, when the
+    frame period is so near a whole number of print steps that every time is rounded alike (the errors'
+    phases on the digit's circle agree, resultant > 0.9), within half a digit: the grid's offset inside one
+    digit is then not in the data (fs 66.6875 printed to 1 ms: errors near the tie, +-0.37..0.50 of a
+    digit, resultant 0.97; found 0.486 ms rms for the printed 0.437)."""
     from vrcal.measurements.cleanup import regular_frame_times
 
     k = np.flatnonzero(np.arange(n + n // gap) % gap != 1)[:n]
@@ -200,8 +206,13 @@ def test_regular_grid_recovery_is_never_worse_than_the_rounding(fs, t0, n, decim
         ties = np.max(np.abs(np.abs(printed - t_true) - 0.5 * res)) < 1e-9
         assert not 0.02 / fs <= res <= 0.25 / fs or np.max(np.abs(line - printed)) < 1e-9 or ties
         return
-    assert np.max(np.abs(found.t_s - printed)) <= 0.8 * 10.0 ** -decimals
-    assert np.sqrt(np.mean((found.t_s - t_true) ** 2)) <= np.sqrt(np.mean((printed - t_true) ** 2)) + 1e-12
+    res = 10.0 ** -decimals
+    assert np.max(np.abs(found.t_s - printed)) <= 0.8 * res
+    rms_found, rms_printed = np.sqrt(np.mean((found.t_s - t_true) ** 2)), np.sqrt(np.mean((printed - t_true) ** 2))
+    # how alike the times are rounded: 1 when every rounding error is the same point of the digit (on a circle:
+    # -0.5 and +0.5 of a digit are one tie), about 0 when they spread over it
+    alike = np.abs(np.mean(np.exp(2j * np.pi * (printed - t_true) / res)))
+    assert rms_found <= rms_printed + 1e-12 or (alike > 0.9 and rms_found <= 0.5 * res)
 
 
 def test_irregular_or_finely_printed_times_are_left_alone():
