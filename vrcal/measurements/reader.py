@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import os
 from typing import Callable, NamedTuple
 
@@ -430,11 +431,13 @@ def read_measurements(paths, fmt=None, **options):
     Raises
     ------
     UsageError
-        files of different kinds
+        files of different kinds; a file given twice (the same file, or files of identical content):
+        its data would count twice and shrink every uncertainty
     """
     paths = [str(p) for p in paths]
     if len(paths) == 1:
         return read_measurement(paths[0], fmt, **options)
+    _refuse_repeated_files(paths)
     runs, labels, notes = [], [], []
     for path in paths:
         data = read_measurement(path, fmt, **options)
@@ -449,5 +452,25 @@ def read_measurements(paths, fmt=None, **options):
     if len(kinds) > 1:
         names = {k: sorted({lab.split(" ")[0] for r, lab in zip(runs, labels) if r.kind == k}) for k in kinds}
         by_kind = "; ".join(f"{k}: {', '.join(names[k])}" for k in kinds)
-        raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind})")
+        raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind}): "
+                         "run them separately")
     return Runs(runs=tuple(runs), source=", ".join(paths), notes=tuple(notes), labels=tuple(labels))
+
+
+def _refuse_repeated_files(paths):
+    """Raise :class:`UsageError` when one file is given twice among ``paths`` (the same resolved path, or
+    two files of identical content): a joint fit would count its data twice, halve its noise's
+    uncertainty and take its rows for repeated trials."""
+    seen = {}
+    for path in paths:
+        try:
+            with open(path, "rb") as fh:
+                key = hashlib.sha256(fh.read()).hexdigest()
+        except OSError:
+            continue   # the reader says what is wrong with it
+        if key in seen:
+            same = os.path.realpath(seen[key]) == os.path.realpath(path)
+            how = "the same file" if same else "its content is identical"
+            raise UsageError(f"{path} repeats {seen[key]} ({how}): give each file once (a file given twice "
+                             "counts its data twice and shrinks every uncertainty)")
+        seen[key] = path
