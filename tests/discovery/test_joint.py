@@ -517,3 +517,55 @@ def test_a_reading_bias_on_the_second_rebounds_is_caught_and_planted_tables_with
                 assert d.gap_after < 3 * d.reference_gap    # the gap alone (1.1-1.4 noise floors) would pass it
                 caught += d.verdict == "unexplained" and d.lack_of_fit["p"] < 1e-3
     assert caught == 5
+
+
+def _table_of(ball, eps, heights, trials, noise_m, seed, effects=None, reference_speed=None):
+    """CSV of a drop table (``H (m),h (m)``, one trial per row): vrcal's simulator, rebounds read with noise."""
+    H = np.repeat(np.asarray(heights, float), trials)
+    drops = simulate_drops(H, eps, 1, ball, effects=effects, reference_speed_m_per_s=reference_speed)
+    h = drops.observed_apex_heights_m[:, 1] + np.random.default_rng(seed).normal(0, noise_m, H.size)
+    return "H (m),h (m)\n" + "".join(f"{a:.3f},{b:.4f}\n" for a, b in zip(H, h))
+
+
+def test_heights_that_exclude_a_spheres_drag_say_so_instead_of_offering_its_epsilon(tmp_path):
+    """A drop table of a ping-pong ball without drag (eps 0.90, 0.2-2.5 m, 3 trials, 5 mm): a sphere's C_d
+    0.47 is rejected by chi2 +45,000, yet the report offered 'epsilon 0.9990, +0.0985' with it. The held drag
+    is excluded like a held speed law, and said to be."""
+    p = tmp_path / "tt.csv"
+    p.write_text(_table_of(TT, 0.90, (0.2, 0.5, 1.0, 1.5, 2.0, 2.5), 3, 0.005, 1))
+    out = tmp_path / "tt.json"
+    r = run("discover", p, "--ball", "table_tennis", "-q", "--json", out)
+    assert r.exit_code == 0, r.output
+    text = " ".join(r.output.split())
+    assert "a sphere's air drag (C_d 0.47), which every ball has, is excluded by these apex heights: chi2 +" in text
+    assert "check the ball's mass and diameter" in text
+    assert "with a sphere's air drag (C_d 0.47), which these data do not resolve" not in text
+    sys_ = json.loads(out.read_text())["epsilon_systematic"]
+    assert sys_["excluded"]["air_drag.drag_coefficient"] > 1000
+    assert "air_drag.drag_coefficient" not in sys_["held"]
+
+
+def test_two_balls_tables_fitted_jointly_are_named_not_pooled(tmp_path):
+    """A tennis ball's table (eps 0.75) and a golf ball's (0.80), the same drop heights, 5 mm readings, given
+    together: their rows at one height were pooled as repeated trials (a "noise" of 65 mm) and eps 0.776 was
+    "explained". Repeated trials are of one file, and the files' own epsilons are compared."""
+    heights = (0.2, 0.5, 1.0, 1.5, 2.0, 2.5)
+    a, b = tmp_path / "tennis.csv", tmp_path / "golf.csv"
+    a.write_text(_table_of(TENNIS, 0.75, heights, 3, 0.005, 2))
+    b.write_text(_table_of(BallProperties(0.0459, 0.0427, "golf"), 0.80, heights, 3, 0.005, 3))
+    out = tmp_path / "both.json"
+    r = run("discover", a, b, "--ball", "tennis", "-q", "--json", out)
+    assert r.exit_code == 0, r.output
+    doc = json.loads(out.read_text())
+    assert doc["verdict"] == "suspect input"
+    text = " ".join(r.output.split())
+    found = re.search(r"file golf\.csv disagrees with file tennis\.csv \(epsilon ([0-9.]+) vs ([0-9.]+), ", text)
+    assert found, text
+    assert float(found.group(1)) == pytest.approx(0.80, abs=0.01)
+    assert float(found.group(2)) == pytest.approx(0.75, abs=0.01)
+    assert doc["noise_floor"] < 0.008   # the trials of each file, not the two files' rows pooled (65 mm)
+    # one ball's two tables agree: no warning
+    c = tmp_path / "tennis2.csv"
+    c.write_text(_table_of(TENNIS, 0.75, heights, 3, 0.005, 4))
+    r = run("discover", a, c, "--ball", "tennis", "-q")
+    assert r.exit_code == 0 and "disagrees" not in r.output

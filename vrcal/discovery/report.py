@@ -195,8 +195,9 @@ def answer(discovery):
             # with drag, each saying what it holds
             held = (d.systematic or {}).get("held", {})
             alone = " alone" if len(held) > 1 and "air_drag.drag_coefficient" in held else ""
-            parts.append(f"With a sphere's air drag{alone} (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights "
-                         f"give epsilon = {d.epsilon_with_sphere_drag:.4f}.")
+            if not _excluded_drag_lines(d):
+                parts.append(f"With a sphere's air drag{alone} (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same "
+                             f"heights give epsilon = {d.epsilon_with_sphere_drag:.4f}.")
     else:
         if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
@@ -334,11 +335,12 @@ def _systematic_lines(d, sigma):
     sys_ = d.systematic
     if sys_ is None:
         return []
+    out = _excluded_drag_lines(d)
     shift = sys_["epsilon_shift"]
     band = sys_.get("epsilon_shift_range") or [shift, shift]
     largest = max(abs(band[0]), abs(band[1]), abs(shift))
-    if largest < 0.5 * (sigma or 0.0) or largest < 5e-5:
-        return []
+    if not sys_["held"] or largest < 0.5 * (sigma or 0.0) or largest < 5e-5:
+        return out
     ranges = sys_.get("held_range", {})
 
     def contact(v):
@@ -369,8 +371,18 @@ def _systematic_lines(d, sigma):
     dec = max(4, 1 - math.floor(math.log10(largest)))
     over = (f" ({d.epsilon + band[0]:.{dec}f} to {d.epsilon + band[1]:.{dec}f} over that range)"
             if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
-    return [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
-            f"{shift:+.{dec}f}{over}; {tail})"]
+    return out + [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
+                  f"{shift:+.{dec}f}{over}; {tail})"]
+
+
+def _excluded_drag_lines(d):
+    """The line saying that the record rejects a sphere's air drag, which every ball has
+    (:attr:`Discovery.systematic`'s ``excluded``): the ball's mass or size is then not the one given."""
+    increase = ((d.systematic or {}).get("excluded") or {}).get("air_drag.drag_coefficient")
+    if increase is None:
+        return []
+    return [f"(a sphere's air drag (C_d {SPHERE_DRAG_COEFFICIENT:g}), which every ball has, is excluded by "
+            f"{RECORD_OF_KIND[d.kind]}: chi2 +{increase:,.0f} with it; check the ball's mass and diameter)"]
 
 
 def _split_advice(d):

@@ -431,14 +431,13 @@ def read_measurements(paths, fmt=None, **options):
     Raises
     ------
     UsageError
-        files of different kinds; a file given twice (the same file, or files of identical content):
-        its data would count twice and shrink every uncertainty
+        files of different kinds; a file given twice (the same resolved path): its data would count
+        twice and shrink every uncertainty (files of identical content are kept, with a note)
     """
     paths = [str(p) for p in paths]
     if len(paths) == 1:
         return read_measurement(paths[0], fmt, **options)
-    _refuse_repeated_files(paths)
-    runs, labels, notes = [], [], []
+    runs, labels, notes = [], [], _repeated_files(paths)
     for path in paths:
         data = read_measurement(path, fmt, **options)
         if isinstance(data, Runs):
@@ -457,20 +456,26 @@ def read_measurements(paths, fmt=None, **options):
     return Runs(runs=tuple(runs), source=", ".join(paths), notes=tuple(notes), labels=tuple(labels))
 
 
-def _refuse_repeated_files(paths):
-    """Raise :class:`UsageError` when one file is given twice among ``paths`` (the same resolved path, or
-    two files of identical content): a joint fit would count its data twice, halve its noise's
-    uncertainty and take its rows for repeated trials."""
-    seen = {}
+def _repeated_files(paths):
+    """Notes on files of identical content among ``paths``, after raising :class:`UsageError` when one file
+    is given twice (the same resolved path): a joint fit would count its data twice, shrink every
+    uncertainty and take its rows for repeated trials. Two files of one content are kept (trials read off a
+    video's frame grid repeat to the frame), with a note in case one is a copy."""
+    seen, by_path, notes = {}, {}, []
     for path in paths:
+        real = os.path.realpath(path)
+        if real in by_path:
+            raise UsageError(f"{path} is {by_path[real]} given again: give each file once (a file given twice "
+                             "counts its data twice and shrinks every uncertainty)")
+        by_path[real] = path
         try:
             with open(path, "rb") as fh:
                 key = hashlib.sha256(fh.read()).hexdigest()
         except OSError:
             continue   # the reader says what is wrong with it
         if key in seen:
-            same = os.path.realpath(seen[key]) == os.path.realpath(path)
-            how = "the same file" if same else "its content is identical"
-            raise UsageError(f"{path} repeats {seen[key]} ({how}): give each file once (a file given twice "
-                             "counts its data twice and shrinks every uncertainty)")
-        seen[key] = path
+            notes.append(f"{path} has the same content as {seen[key]}: fitted as a repeated trial (if it is a "
+                         "copy, give it once: it counts twice and shrinks every uncertainty)")
+        else:
+            seen[key] = path
+    return notes
