@@ -173,6 +173,9 @@ def answer(discovery):
         parts.append(f"{phrase[0].upper() + phrase[1:]} {verb} here: {params}.")
         it = "it" if len(d.effects) == 1 else "them"
         parts.append(f"With {it} the gap falls from {before} to {after}; {_noise_text(d)}.")
+        moved = _named_with_held(d)
+        if moved:
+            parts.append(moved)
         if any(name in d.ambiguous for name in d.effects):
             rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
             drops = "drops over a wider range of heights" if len(d.runs) > 1 else "drops from several heights"
@@ -348,11 +351,7 @@ def _systematic_lines(d, sigma):
         span = f", {ms(lo, 2)} to {ms(hi, 2)} for this kind of ball" if hi > lo else ""
         return f"a contact of the {ms(v, 2)} expected of this ball{span}"
 
-    what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
-            "contact_duration.contact_time_s": contact,
-            "velocity_dependent_restitution.exponent":
-                lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
-    held = " and ".join(what[k](v) for k, v in sys_["held"].items())
+    held = _held_phrase(sys_, contact)
     value, at = d.epsilon + shift, ""
     fastest = sys_.get("fastest_impact")
     if fastest is not None:
@@ -373,6 +372,37 @@ def _systematic_lines(d, sigma):
             if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
     return out + [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
                   f"{shift:+.{dec}f}{over}; {tail})"]
+
+
+def _held_phrase(sys_, contact=None):
+    """'a sphere's air drag (C_d 0.47) and ...': what :attr:`Discovery.systematic` holds."""
+    what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
+            "contact_duration.contact_time_s": contact or (lambda v: f"a contact of {ms(v, 2)}"),
+            "velocity_dependent_restitution.exponent":
+                lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
+    return " and ".join(what[k](v) for k, v in sys_["held"].items())
+
+
+def _named_with_held(d):
+    """The sentence on how far the named effects' parameters move with the effects every ball has held where
+    physics puts them (:attr:`Discovery.systematic`), when some moves by more than twice its ±: the data do not
+    tell the two apart, and the ± is statistical only. '' otherwise."""
+    from vrcal.drop.effects import EFFECTS
+
+    sys_ = d.systematic or {}
+    moved = []
+    for key, value in (sys_.get("named_with_held") or {}).items():
+        effect, name = key.split(".", 1)
+        own = d.final.effect_values.get(effect, {}).get(name)
+        unc = d.final.effect_uncertainties.get(effect, {}).get(name) or 0.0
+        if own is None or abs(value - own) <= 2.0 * unc:
+            continue
+        p = EFFECTS[effect].parameter(name)
+        moved.append(f"{PHRASES[effect][1]} = {pm(value, None, p.unit)}")
+    if not moved or not sys_.get("held"):
+        return ""
+    return (f"With {_held_phrase(sys_)}, which these data do not resolve, {' and '.join(moved)} instead: the data "
+            f"do not tell the two apart, and the ± is statistical only.")
 
 
 def _excluded_drag_lines(d):
