@@ -692,15 +692,38 @@ class Discovery:
         joint = list(getattr(self.data, "notes", ())) if len(runs) > 1 else []
         return list(dict.fromkeys(joint + read + list(self.notes)))
 
+    @functools.cached_property
+    def drag_or_speed_law_chi2(self):
+        """How far apart air drag alone and a speed-dependent ε alone fit this record: the chi-square (at
+        the record's noise) of the final model with one of them in place of the other, the larger less
+        the smaller; None where the question does not arise: a trajectory (which resolves both), both
+        named (each was material on top of the other), an untested record, or neither named nor both held
+        as the systematic (:attr:`systematic`: apex heights)."""
+        pair = ("air_drag", "velocity_dependent_restitution")
+        if self.kind == "trajectory" or self.verdict == "untested":
+            return None
+        named = [e for e in pair if e in self.effects]
+        if len(named) == 2:
+            return None
+        if not named:
+            held = (self.systematic or {}).get("held", {})
+            if not all(any(k.startswith(e + ".") for k in held) for e in pair):
+                return None
+        f = self.final
+        others = tuple(e for e in f.effects if e not in pair)
+        start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
+        rss = [f.rss if e in named else fit_physical(f.problem, others + (e,), start).rss for e in pair]
+        return abs(rss[0] - rss[1]) / self.reference_sigma ** 2
+
     @property
     def speeds_too_narrow(self):
-        """Whether air drag and a speed-dependent ε both fit and these speeds cannot tell them apart:
-        one is named and the other is its ambiguous rival. Not when both are named: then each was
-        material on top of the other, and the data did tell them apart."""
-        pair = {"air_drag", "velocity_dependent_restitution"}
-        named = pair & set(self.effects)
-        rivals = pair & {r for v in self.ambiguous.values() for r in v}
-        return len(named) == 1 and bool(rivals - named)
+        """Whether these speeds cannot tell air drag from a speed-dependent ε: each alone fits the record
+        within ``Thresholds.indistinguishable_chi2`` of the other (:attr:`drag_or_speed_law_chi2`), asked
+        when one of them is named or, with neither named, when the systematic holds both (a drop table).
+        One rule whatever the heights' spread: a table of 0.2-2.5 m may not tell them apart, one of
+        1.0-1.2 m never does."""
+        apart = self.drag_or_speed_law_chi2
+        return apart is not None and apart <= self.thresholds.indistinguishable_chi2
 
     def epsilon_at(self, speeds_m_per_s, fit=None):
         """ε of the final model (or of ``fit``, e.g. ``split``) at these impact speeds [m/s] (the
@@ -851,6 +874,7 @@ class Discovery:
             "epsilon_reference_speed_m_per_s": self.reference_speed,
             "impact_speed_range_m_per_s": [lo, hi],
             "speeds_too_narrow": self.speeds_too_narrow,
+            "drag_or_speed_law_chi2": self.drag_or_speed_law_chi2,
             "baseline": self.baseline.baseline_values,
             "model": self.final.baseline_values,
             "runs": [{"source": str(run.source), "label": label, "kind": run.kind,
@@ -1677,7 +1701,7 @@ def files_disagree(fit, n_sigma):
     problem = fit.problem
     runs = problem.runs
     files = list(dict.fromkeys(res.run_file(r) for r in runs))
-    if len(files) < 2:
+    if len(files) < 2 or None in files:
         return []
     start = {p.key: float(v) for p, v in zip(fit.layout, fit.values) if p.run is None}
     found = []

@@ -461,6 +461,10 @@ def _runs_table(d):
     return table(rows, ["run", "what", "data", "fitted drop height m"], align="llrr", indent="  ")
 
 
+#: The two effects whose rivalry :attr:`vrcal.discovery.ranking.Discovery.speeds_too_narrow` is about.
+PAIR = frozenset({"air_drag", "velocity_dependent_restitution"})
+
+
 def _speed_lines(d):
     lo, hi = d.speed_range()
     lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
@@ -470,8 +474,11 @@ def _speed_lines(d):
     if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")
-        lines.append(_wrap(f"Air drag and a speed-dependent epsilon both fit: the speeds covered ({lo:.2f}-{hi:.2f} "
-                           f"m/s, a factor {hi / lo:.2g}) are too narrow to tell them apart; add {more}.", "  "))
+        lead = ("Air drag and a speed-dependent epsilon both fit:" if set(d.effects) & PAIR else
+                "Neither air drag nor a speed-dependent epsilon is named, and")
+        lines.append(_wrap(f"{lead} the speeds covered ({lo:.2f}-{hi:.2f} m/s, a factor {hi / lo:.2g}) are too "
+                           f"narrow to tell them apart (chi2 {number(d.drag_or_speed_law_chi2, 2)} apart); add {more}.",
+                           "  "))
     return lines
 
 

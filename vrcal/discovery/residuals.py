@@ -37,6 +37,7 @@ Departures from [1]
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -246,10 +247,12 @@ def replicate_sigma(runs):
 
 
 def run_file(run):
-    """The file a run was read from: its ``source`` without the ``:LINE`` a drop table's row adds to it."""
+    """The file a run was read from: its ``source`` without the ``:LINE`` a drop table's row adds to it; None
+    when that names no file (runs built in code, whose sources are labels: one record)."""
     source = str(getattr(run, "source", "") or "")
     head, colon, line = source.rpartition(":")
-    return head if colon and line.isdigit() else source
+    path = head if colon and line.isdigit() else source
+    return path if path and os.path.isfile(path) else None
 
 
 def _replicate_groups(runs):
@@ -262,7 +265,7 @@ def _replicate_groups(runs):
         b, h = np.asarray(run.bounce, dtype=int), np.asarray(run.h_m, dtype=float)
         if b.size >= 2 and b[0] == 0:
             for i, bounce in enumerate(b[1:], start=1):
-                groups.setdefault((run_file(run), round(float(h[0]), 9), int(bounce)), []).append(start + i)
+                groups.setdefault((run_file(run) or "", round(float(h[0]), 9), int(bounce)), []).append(start + i)
         start += b.size
     return {key: np.asarray(idx) for key, idx in groups.items() if len(idx) >= 2}
 
