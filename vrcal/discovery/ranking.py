@@ -695,10 +695,10 @@ class Discovery:
     @functools.cached_property
     def drag_or_speed_law_chi2(self):
         """How far apart air drag alone and a speed-dependent ε alone fit this record: the chi-square (at
-        the record's noise) of the final model with one of them in place of the other, the larger less
-        the smaller; None where the question does not arise: a trajectory (which resolves both), both
-        named (each was material on top of the other), an untested record, or neither named nor both held
-        as the systematic (:attr:`systematic`: apex heights)."""
+        the record's noise, or at the final model's own misfit when larger) of the final model with one of
+        them in place of the other, the larger less the smaller; None where the question does not arise: a
+        trajectory (which resolves both), both named (each was material on top of the other), an untested
+        record, or neither named nor both held as the systematic (:attr:`systematic`: apex heights)."""
         pair = ("air_drag", "velocity_dependent_restitution")
         if self.kind == "trajectory" or self.verdict == "untested":
             return None
@@ -709,11 +709,14 @@ class Discovery:
             held = (self.systematic or {}).get("held", {})
             if not all(any(k.startswith(e + ".") for k in held) for e in pair):
                 return None
-        f = self.final
+        f = self.judged_final   # as the candidates are judged: weighted by the bounces' scatter when they scatter
         others = tuple(e for e in f.effects if e not in pair)
         start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
         rss = [f.rss if e in named else fit_physical(f.problem, others + (e,), start).rss for e in pair]
-        return abs(rss[0] - rss[1]) / self.reference_sigma ** 2
+        # at the final model's own misfit when it leaves more than the noise (five ping-pong records fitted
+        # jointly, chi2 286 for 61 degrees of freedom: 17 apart at the noise floor, 3.6 at their misfit)
+        sigma2 = self.reference_sigma ** 2
+        return abs(rss[0] - rss[1]) / (sigma2 * max(1.0, f.rss / sigma2 / max(f.n - f.k, 1)))
 
     @property
     def speeds_too_narrow(self):
