@@ -758,8 +758,23 @@ def test_several_files_of_one_kind_are_runs(tmp_path):
     assert isinstance(data, Runs) and data.labels == (str(a), str(b))
     t, y = fall()
     c = write(tmp_path, "c.csv", "t,y\n" + "\n".join(f"{float(u)!r},{float(v)!r}" for u, v in zip(t, y)) + "\n")
-    with pytest.raises(UsageError, match="one kind"):
+    with pytest.raises(UsageError, match="one kind") as err:
         read_measurements([a, c])
+    assert str(err.value).endswith("run them separately")
+
+
+def test_a_file_given_twice_is_refused(tmp_path):
+    """The same file twice counted its data twice: C_d's ± fell from 0.078 to 0.051 and a table's repeated
+    trials doubled, silently. Refused in one line naming it; a copy (identical content, which trials read off a
+    video's frame grid can be) is kept with a note naming both."""
+    a = write(tmp_path, "a.csv", "t\n" + "\n".join(repr(float(v)) for v in impact_times(0.8)) + "\n")
+    b = write(tmp_path, "b.csv", "t\n" + "\n".join(repr(float(v)) for v in impact_times(1.2)) + "\n")
+    copy = write(tmp_path, "copy.csv", (tmp_path / "a.csv").read_text())
+    with pytest.raises(UsageError, match=r"a\.csv is .*a\.csv given again: give each file once"):
+        read_measurements([a, b, str(tmp_path / "." / "a.csv")])
+    data = read_measurements([a, copy])
+    assert len(data.runs) == 2
+    assert any(n.startswith(f"{copy} has the same content as {a}: fitted as a repeated trial") for n in data.notes)
 
 
 def test_columns_of_the_same_name_are_runs_side_by_side(tmp_path):

@@ -140,8 +140,11 @@ EXPECTED_EFFECTS = (("air_drag", "drag_coefficient", ("impacts", "apexes")),
 #: Of :data:`EXPECTED_EFFECTS`, those :attr:`Discovery.systematic` holds only when the record does not
 #: reject the held value (its chi-square at most ``Thresholds.indistinguishable_chi2`` above the final
 #: model's): a drop table of a ball of constant epsilon excludes a viscoelastic p = 1/5 (chi2 +34 on
-#: ``examples/data/drop-table.csv``), one of a Hertzian ping-pong ball does not (+0.2 to +1.5).
-HELD_IF_ALLOWED = frozenset({"velocity_dependent_restitution"})
+#: ``examples/data/drop-table.csv``), one of a Hertzian ping-pong ball does not (+0.2 to +1.5). Air drag
+#: too: every ball has it, but heights that reject a sphere's C_d (a ping-pong table of 0.2-2.5 m fitted
+#: without drag: chi2 +50,909, epsilon pinned at 1 with it) say the ball's mass or size is not the one
+#: given, not that epsilon is 0.999; the drag only at a noise measured (repeated trials) or given.
+HELD_IF_ALLOWED = frozenset({"velocity_dependent_restitution", "air_drag"})
 
 #: The verdicts (``Discovery.verdict``; the JSON's ``verdict``).
 VERDICTS = ("explained", "unexplained", "untested", "suspect input")
@@ -156,6 +159,8 @@ class Thresholds:
     gap_factor: float = 0.9
     removed_noise_fraction: float = 0.2
     indistinguishable_bic: float = 6.0   # a rival within this of the winner's -2 ln Z (odds < 20:1) is ambiguous
+    #: files of a joint fit whose own ε lie this many standard deviations apart are no one ball (:func:`files_disagree`)
+    file_sigmas: float = 5.0
     #: a rival of the winner's CONFUSABLE group is ambiguous when its chi-square is within this of the winner's (3
     #: sigma: the data cannot reject it), however the priors weigh the two; the chi-square is at the noise floor, or
     #: at the winner's residual variance when that is larger
@@ -271,14 +276,16 @@ class Discovery:
     @functools.cached_property
     def systematic(self):
         """What ε would be if the effects every ball has, which this record did not resolve, acted as
-        physics expects of this ball: ``{"held": {parameter key: value}, "epsilon_shift": ...}``, or
+        physics expects of this ball: ``{"held": {parameter key: value}, "epsilon_shift": ...,
+        "named_with_held": {the named effects' parameter keys: their values so}}``, or
         None (a trajectory, which resolves them; nothing left to hold; an untested record).
 
         Held (when not named, :data:`EXPECTED_EFFECTS`): air drag at a smooth sphere's C_d (the prior's
         median, 0.47) for impact times and apex heights, and for impact times the contact's duration
         expected of the ball (its prior's median, :func:`vrcal.drop.effects.expected_contact_time_s`);
-        for apex heights a viscoelastic ball's speed-dependent epsilon (p = 1/5, the prior's median)
-        when the data allow it (:data:`HELD_IF_ALLOWED`; else ``excluded``: {key: chi-square increase}).
+        for apex heights a viscoelastic ball's speed-dependent epsilon (p = 1/5, the prior's median);
+        the speed law and the drag only when the data allow them (:data:`HELD_IF_ALLOWED`; else
+        ``excluded``: {key: chi-square increase}).
         Impact times cannot tell a contact of duration tau from a higher epsilon (each interval grows
         by tau), nor a little drag from a slightly speed-dependent one; a drop table's few heights
         cannot prove drag at its size, yet the ball has it, nor tell drag from a speed law (both take
@@ -308,11 +315,16 @@ class Discovery:
         start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
         excluded = {}
         sigma2 = self.reference_sigma ** 2
+        # drag, which every ball has, is excluded only by a noise measured or given, not by an assumed one
+        # (three rows of a table, two at one height, "excluded" it at an assumed 2 mm), and judged at the final
+        # model's own misfit when that does not explain the record (a joint fit of two balls' tables): a
+        # chi-square increase there says how much worse, not that the drag is excluded
+        drag_sigma2 = sigma2 * (1.0 if self.within_noise else max(1.0, f.rss / sigma2 / max(f.n - f.k, 1)))
         for effect, name in added:
-            if effect in HELD_IF_ALLOWED:
+            if effect in HELD_IF_ALLOWED and (effect != "air_drag" or f.problem.noise_known):
                 key = f"{effect}.{name}"
                 alone = res.fit_model(f.problem, tuple(f.effects) + (effect,), start, fixed={key: held[key]})
-                increase = (alone.rss - f.rss) / sigma2
+                increase = (alone.rss - f.rss) / (drag_sigma2 if effect == "air_drag" else sigma2)
                 if increase > self.thresholds.indistinguishable_chi2:
                     excluded[key] = float(increase)
                     del held[key]
@@ -325,6 +337,11 @@ class Discovery:
 
         out = {"held": held, "epsilon_shift": shift(held)}
         held_fit = self.held_fit(held)
+        # the named effects' own parameters move too (a speed law named alone on a table of a ball with drag and
+        # a speed law: p 0.387 +- 0.012, 0.30 planted with C_d 0.55, 0.326 with a sphere's 0.47 held):
+        # {parameter key: value held}
+        out["named_with_held"] = {p.key: float(v) for p, v in zip(held_fit.layout, held_fit.values)
+                                  if p.effect in f.effects}
         if "velocity_dependent_restitution" in held_fit.effects:
             # a speed law: epsilon at the fastest impact the held model makes (its drag slows the ball)
             eps, v = self.fastest_impact(held_fit)
@@ -675,15 +692,41 @@ class Discovery:
         joint = list(getattr(self.data, "notes", ())) if len(runs) > 1 else []
         return list(dict.fromkeys(joint + read + list(self.notes)))
 
+    @functools.cached_property
+    def drag_or_speed_law_chi2(self):
+        """How far apart air drag alone and a speed-dependent ε alone fit this record: the chi-square (at
+        the record's noise, or at the final model's own misfit when larger) of the final model with one of
+        them in place of the other, the larger less the smaller; None where the question does not arise: a
+        trajectory (which resolves both), both named (each was material on top of the other), an untested
+        record, or neither named nor both held as the systematic (:attr:`systematic`: apex heights)."""
+        pair = ("air_drag", "velocity_dependent_restitution")
+        if self.kind == "trajectory" or self.verdict == "untested":
+            return None
+        named = [e for e in pair if e in self.effects]
+        if len(named) == 2:
+            return None
+        if not named:
+            held = (self.systematic or {}).get("held", {})
+            if not all(any(k.startswith(e + ".") for k in held) for e in pair):
+                return None
+        f = self.judged_final   # as the candidates are judged: weighted by the bounces' scatter when they scatter
+        others = tuple(e for e in f.effects if e not in pair)
+        start = {p.key: float(v) for p, v in zip(f.layout, f.values)}
+        rss = [f.rss if e in named else fit_physical(f.problem, others + (e,), start).rss for e in pair]
+        # at the final model's own misfit when it leaves more than the noise (five ping-pong records fitted
+        # jointly, chi2 286 for 61 degrees of freedom: 17 apart at the noise floor, 3.6 at their misfit)
+        sigma2 = self.reference_sigma ** 2
+        return abs(rss[0] - rss[1]) / (sigma2 * max(1.0, f.rss / sigma2 / max(f.n - f.k, 1)))
+
     @property
     def speeds_too_narrow(self):
-        """Whether air drag and a speed-dependent ε both fit and these speeds cannot tell them apart:
-        one is named and the other is its ambiguous rival. Not when both are named: then each was
-        material on top of the other, and the data did tell them apart."""
-        pair = {"air_drag", "velocity_dependent_restitution"}
-        named = pair & set(self.effects)
-        rivals = pair & {r for v in self.ambiguous.values() for r in v}
-        return len(named) == 1 and bool(rivals - named)
+        """Whether these speeds cannot tell air drag from a speed-dependent ε: each alone fits the record
+        within ``Thresholds.indistinguishable_chi2`` of the other (:attr:`drag_or_speed_law_chi2`), asked
+        when one of them is named or, with neither named, when the systematic holds both (a drop table).
+        One rule whatever the heights' spread: a table of 0.2-2.5 m may not tell them apart, one of
+        1.0-1.2 m never does."""
+        apart = self.drag_or_speed_law_chi2
+        return apart is not None and apart <= self.thresholds.indistinguishable_chi2
 
     def epsilon_at(self, speeds_m_per_s, fit=None):
         """ε of the final model (or of ``fit``, e.g. ``split``) at these impact speeds [m/s] (the
@@ -834,6 +877,7 @@ class Discovery:
             "epsilon_reference_speed_m_per_s": self.reference_speed,
             "impact_speed_range_m_per_s": [lo, hi],
             "speeds_too_narrow": self.speeds_too_narrow,
+            "drag_or_speed_law_chi2": self.drag_or_speed_law_chi2,
             "baseline": self.baseline.baseline_values,
             "model": self.final.baseline_values,
             "runs": [{"source": str(run.source), "label": label, "kind": run.kind,
@@ -1623,6 +1667,9 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                       prepared.decimation, n_read, split, nuisance, judged, scatter_limit, list(cut), max_effects)
     if kind == "trajectory":
         notes.extend(_contact_drifts(found))
+    if not found.within_noise:
+        # files fitted jointly that the shared contact does not reproduce: is each file one ball?
+        found.warnings.extend(files_disagree(current, th.file_sigmas))
     for e in found.at_limit:
         within = e["chi2"] <= th.indistinguishable_chi2
         notes.append(f"{e['effect']}: {e['parameter']} held at its physical limit {e['limit']:.4g}; the best fit "
@@ -1648,6 +1695,53 @@ def _contact_drifts(found):
         note = contact_level_drift(run, minima, g, float(found.noise_floor or 0.0), diameter, model_y_m=model)
         if note:
             out.append(_of_run(label, note))
+    return out
+
+
+def files_disagree(fit, n_sigma):
+    """Sentences naming the files of a joint fit whose own ε disagrees with the first file's, or [].
+
+    Each file's runs are fitted alone with the joint model's effects (its ε at the joint fit's reference
+    speed); a file whose ε lies more than ``n_sigma`` combined standard deviations from the first file's is
+    named with both values: two balls' drop tables (a tennis ball's ε 0.75, a golf ball's 0.80) pooled
+    as one gave ε 0.776 "explained" by a "noise" of 65 mm, the two files' rows taken for repeated trials.
+
+    Parameters
+    ----------
+    fit : FitResult
+        the joint fit (the final model)
+    n_sigma : float
+        standard deviations apart that make two files disagree
+
+    Returns
+    -------
+    list of str
+    """
+    import os
+
+    from vrcal.measurements import Runs
+
+    problem = fit.problem
+    runs = problem.runs
+    files = list(dict.fromkeys(res.run_file(r) for r in runs))
+    if len(files) < 2 or None in files:
+        return []
+    start = {p.key: float(v) for p, v in zip(fit.layout, fit.values) if p.run is None}
+    found = []
+    for name in files:
+        own = tuple(r for r in runs if res.run_file(r) == name)
+        sub = res.make_problem(Runs(runs=own, source=name), problem.ball, problem.g_m_per_s2, noise=problem.noise,
+                               noise_known=problem.noise_known)
+        sub = replace(sub, reference_speed_m_per_s=problem.reference_speed_m_per_s)
+        alone = res.fit_model(sub, tuple(fit.effects), start)
+        found.append((name, alone.value("epsilon"), alone.uncertainty("epsilon")))
+    (first, e0, u0), out = found[0], []
+    for name, e, u in found[1:]:
+        apart = abs(e - e0) / math.hypot(u, u0) if math.hypot(u, u0) > 0 else math.inf
+        if apart > n_sigma:
+            out.append(f"file {os.path.basename(name)} disagrees with file {os.path.basename(first)} (epsilon "
+                       f"{e:.4f} vs {e0:.4f}, {number(apart, 2)} standard deviations apart): not the same ball or "
+                       f"conditions? Fit them separately")
     return out
 
 

@@ -173,6 +173,9 @@ def answer(discovery):
         parts.append(f"{phrase[0].upper() + phrase[1:]} {verb} here: {params}.")
         it = "it" if len(d.effects) == 1 else "them"
         parts.append(f"With {it} the gap falls from {before} to {after}; {_noise_text(d)}.")
+        moved = _named_with_held(d)
+        if moved:
+            parts.append(moved)
         if any(name in d.ambiguous for name in d.effects):
             rivals = sorted({r for name in d.effects for r in d.ambiguous.get(name, ())})
             drops = "drops over a wider range of heights" if len(d.runs) > 1 else "drops from several heights"
@@ -195,8 +198,9 @@ def answer(discovery):
             # with drag, each saying what it holds
             held = (d.systematic or {}).get("held", {})
             alone = " alone" if len(held) > 1 and "air_drag.drag_coefficient" in held else ""
-            parts.append(f"With a sphere's air drag{alone} (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same heights "
-                         f"give epsilon = {d.epsilon_with_sphere_drag:.4f}.")
+            if not _excluded_drag_lines(d):
+                parts.append(f"With a sphere's air drag{alone} (C_d = {SPHERE_DRAG_COEFFICIENT:g}) the same "
+                             f"heights give epsilon = {d.epsilon_with_sphere_drag:.4f}.")
     else:
         if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
@@ -334,11 +338,12 @@ def _systematic_lines(d, sigma):
     sys_ = d.systematic
     if sys_ is None:
         return []
+    out = _excluded_drag_lines(d)
     shift = sys_["epsilon_shift"]
     band = sys_.get("epsilon_shift_range") or [shift, shift]
     largest = max(abs(band[0]), abs(band[1]), abs(shift))
-    if largest < 0.5 * (sigma or 0.0) or largest < 5e-5:
-        return []
+    if not sys_["held"] or largest < 0.5 * (sigma or 0.0) or largest < 5e-5:
+        return out
     ranges = sys_.get("held_range", {})
 
     def contact(v):
@@ -346,11 +351,7 @@ def _systematic_lines(d, sigma):
         span = f", {ms(lo, 2)} to {ms(hi, 2)} for this kind of ball" if hi > lo else ""
         return f"a contact of the {ms(v, 2)} expected of this ball{span}"
 
-    what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
-            "contact_duration.contact_time_s": contact,
-            "velocity_dependent_restitution.exponent":
-                lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
-    held = " and ".join(what[k](v) for k, v in sys_["held"].items())
+    held = _held_phrase(sys_, contact)
     value, at = d.epsilon + shift, ""
     fastest = sys_.get("fastest_impact")
     if fastest is not None:
@@ -369,8 +370,49 @@ def _systematic_lines(d, sigma):
     dec = max(4, 1 - math.floor(math.log10(largest)))
     over = (f" ({d.epsilon + band[0]:.{dec}f} to {d.epsilon + band[1]:.{dec}f} over that range)"
             if band[1] - band[0] >= 0.5 * 10.0 ** -dec else "")
-    return [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
-            f"{shift:+.{dec}f}{over}; {tail})"]
+    return out + [f"(with {held}, which these data do not resolve: epsilon {value:.{dec}f}{at}, "
+                  f"{shift:+.{dec}f}{over}; {tail})"]
+
+
+def _held_phrase(sys_, contact=None):
+    """'a sphere's air drag (C_d 0.47) and ...': what :attr:`Discovery.systematic` holds."""
+    what = {"air_drag.drag_coefficient": lambda v: f"a sphere's air drag (C_d {v:.2g})",
+            "contact_duration.contact_time_s": contact or (lambda v: f"a contact of {ms(v, 2)}"),
+            "velocity_dependent_restitution.exponent":
+                lambda v: f"a viscoelastic ball's speed-dependent epsilon (p {v:.2g})"}
+    return " and ".join(what[k](v) for k, v in sys_["held"].items())
+
+
+def _named_with_held(d):
+    """The sentence on how far the named effects' parameters move with the effects every ball has held where
+    physics puts them (:attr:`Discovery.systematic`), when some moves by more than twice its ±: the data do not
+    tell the two apart, and the ± is statistical only. '' otherwise."""
+    from vrcal.drop.effects import EFFECTS
+
+    sys_ = d.systematic or {}
+    moved = []
+    for key, value in (sys_.get("named_with_held") or {}).items():
+        effect, name = key.split(".", 1)
+        own = d.final.effect_values.get(effect, {}).get(name)
+        unc = d.final.effect_uncertainties.get(effect, {}).get(name) or 0.0
+        if own is None or abs(value - own) <= 2.0 * unc:
+            continue
+        p = EFFECTS[effect].parameter(name)
+        moved.append(f"{PHRASES[effect][1]} = {pm(value, None, p.unit)}")
+    if not moved or not sys_.get("held"):
+        return ""
+    return (f"With {_held_phrase(sys_)}, which these data do not resolve, {' and '.join(moved)} instead: the data "
+            f"do not tell the two apart, and the ± is statistical only.")
+
+
+def _excluded_drag_lines(d):
+    """The line saying that the record rejects a sphere's air drag, which every ball has
+    (:attr:`Discovery.systematic`'s ``excluded``): the ball's mass or size is then not the one given."""
+    increase = ((d.systematic or {}).get("excluded") or {}).get("air_drag.drag_coefficient")
+    if increase is None:
+        return []
+    return [f"(a sphere's air drag (C_d {SPHERE_DRAG_COEFFICIENT:g}), which every ball has, is excluded by "
+            f"{RECORD_OF_KIND[d.kind]}: chi2 +{increase:,.0f} with it; check the ball's mass and diameter)"]
 
 
 def _split_advice(d):
@@ -419,6 +461,10 @@ def _runs_table(d):
     return table(rows, ["run", "what", "data", "fitted drop height m"], align="llrr", indent="  ")
 
 
+#: The two effects whose rivalry :attr:`vrcal.discovery.ranking.Discovery.speeds_too_narrow` is about.
+PAIR = frozenset({"air_drag", "velocity_dependent_restitution"})
+
+
 def _speed_lines(d):
     lo, hi = d.speed_range()
     lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
@@ -428,8 +474,11 @@ def _speed_lines(d):
     if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")
-        lines.append(_wrap(f"Air drag and a speed-dependent epsilon both fit: the speeds covered ({lo:.2f}-{hi:.2f} "
-                           f"m/s, a factor {hi / lo:.2g}) are too narrow to tell them apart; add {more}.", "  "))
+        lead = ("Air drag and a speed-dependent epsilon both fit:" if set(d.effects) & PAIR else
+                "Neither air drag nor a speed-dependent epsilon is named, and")
+        lines.append(_wrap(f"{lead} the speeds covered ({lo:.2f}-{hi:.2f} m/s, a factor {hi / lo:.2g}) are too "
+                           f"narrow to tell them apart (chi2 {number(d.drag_or_speed_law_chi2, 2)} apart); add {more}.",
+                           "  "))
     return lines
 
 

@@ -37,6 +37,7 @@ Departures from [1]
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -233,7 +234,7 @@ MIN_REPLICATE_DOF = 3
 
 def replicate_sigma(runs):
     """(σ [m] or None, degrees of freedom): the pooled standard deviation of the rebound heights of
-    trials repeated at one drop height (the same drop height as written, the same bounce number).
+    trials repeated at one drop height (in one file, the same drop height as written, the same bounce number).
 
     It is the "pure error" of a lack-of-fit test: what no model of the contact can follow (the
     reading of each rebound, and the ball's own bounce-to-bounce scatter), measured without a model.
@@ -245,15 +246,26 @@ def replicate_sigma(runs):
     return math.sqrt(ss / dof), dof
 
 
+def run_file(run):
+    """The file a run was read from: its ``source`` without the ``:LINE`` a drop table's row adds to it; None
+    when that names no file (runs built in code, whose sources are labels: one record)."""
+    source = str(getattr(run, "source", "") or "")
+    head, colon, line = source.rpartition(":")
+    path = head if colon and line.isdigit() else source
+    return path if path and os.path.isfile(path) else None
+
+
 def _replicate_groups(runs):
-    """{(drop height as written [m], bounce number): [index of the rebound among the runs' heights, one run
-    after another]} of the rebounds of runs that start at their drop height (bounce 0), two or more a group."""
+    """{(file, drop height as written [m], bounce number): [index of the rebound among the runs' heights, one
+    run after another]} of the rebounds of runs that start at their drop height (bounce 0), two or more a
+    group. Trials of one file only (:func:`run_file`): two files' rows at one height are no repeated trials
+    until they are shown to be of one ball (two balls' tables pooled gave a "noise" of 65 mm for 5 mm)."""
     groups, start = {}, 0
     for run in runs:
         b, h = np.asarray(run.bounce, dtype=int), np.asarray(run.h_m, dtype=float)
         if b.size >= 2 and b[0] == 0:
             for i, bounce in enumerate(b[1:], start=1):
-                groups.setdefault((round(float(h[0]), 9), int(bounce)), []).append(start + i)
+                groups.setdefault((run_file(run) or "", round(float(h[0]), 9), int(bounce)), []).append(start + i)
         start += b.size
     return {key: np.asarray(idx) for key, idx in groups.items() if len(idx) >= 2}
 
@@ -310,8 +322,9 @@ def lack_of_fit(runs, residuals_m, k_shared, sigma_floor_m=0.0):
         return None
     r = np.asarray(residuals_m, dtype=float)
     sigma = max(math.sqrt(ss_pe / dof_pe), float(sigma_floor_m))
-    rows = [{"drop_height_m": key[0], "bounce": key[1], "trials": int(i.size), "mean_residual_m": float(r[i].mean()),
-             "standard_error_m": sigma / math.sqrt(i.size)} for key, i in sorted(groups.items())]
+    rows = [{"drop_height_m": key[1], "bounce": key[2], "trials": int(i.size), "mean_residual_m": float(r[i].mean()),
+             "standard_error_m": sigma / math.sqrt(i.size)}
+            for key, i in sorted(groups.items(), key=lambda item: (item[0][1], item[0][2], item[0][0]))]
     ss_lof = sum(g["trials"] * g["mean_residual_m"] ** 2 for g in rows)
     dof_lof = max(len(rows) - int(k_shared), 1)
     F = (ss_lof / dof_lof) / sigma ** 2

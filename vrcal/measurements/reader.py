@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import os
 from typing import Callable, NamedTuple
 
@@ -470,12 +471,13 @@ def read_measurements(paths, fmt=None, **options):
     Raises
     ------
     UsageError
-        files of different kinds
+        files of different kinds; a file given twice (the same resolved path): its data would count
+        twice and shrink every uncertainty (files of identical content are kept, with a note)
     """
     paths = [str(p) for p in paths]
     if len(paths) == 1:
         return read_measurement(paths[0], fmt, **options)
-    runs, labels, notes = [], [], []
+    runs, labels, notes = [], [], _repeated_files(paths)
     for path in paths:
         data = read_measurement(path, fmt, **options)
         if isinstance(data, Runs):
@@ -489,5 +491,31 @@ def read_measurements(paths, fmt=None, **options):
     if len(kinds) > 1:
         names = {k: sorted({lab.split(" ")[0] for r, lab in zip(runs, labels) if r.kind == k}) for k in kinds}
         by_kind = "; ".join(f"{k}: {', '.join(names[k])}" for k in kinds)
-        raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind})")
+        raise UsageError(f"a joint fit needs files of one kind, got {' and '.join(kinds)} ({by_kind}): "
+                         "run them separately")
     return Runs(runs=tuple(runs), source=", ".join(paths), notes=tuple(notes), labels=tuple(labels))
+
+
+def _repeated_files(paths):
+    """Notes on files of identical content among ``paths``, after raising :class:`UsageError` when one file
+    is given twice (the same resolved path): a joint fit would count its data twice, shrink every
+    uncertainty and take its rows for repeated trials. Two files of one content are kept (trials read off a
+    video's frame grid repeat to the frame), with a note in case one is a copy."""
+    seen, by_path, notes = {}, {}, []
+    for path in paths:
+        real = os.path.realpath(path)
+        if real in by_path:
+            raise UsageError(f"{path} is {by_path[real]} given again: give each file once (a file given twice "
+                             "counts its data twice and shrinks every uncertainty)")
+        by_path[real] = path
+        try:
+            with open(path, "rb") as fh:
+                key = hashlib.sha256(fh.read()).hexdigest()
+        except OSError:
+            continue   # the reader says what is wrong with it
+        if key in seen:
+            notes.append(f"{path} has the same content as {seen[key]}: fitted as a repeated trial (if it is a "
+                         "copy, give it once: it counts twice and shrinks every uncertainty)")
+        else:
+            seen[key] = path
+    return notes
