@@ -183,6 +183,10 @@ def test_thousands_or_decimals_that_cannot_be_told_apart_are_refused_saying_so(t
     # decimals written to three places with a decimal point are decimals: '1.000;0.593'
     got = read_measurement(write(tmp_path, "m.csv", "H (m);h (m)\n1.000;0.593\n1.000;0.595\n"))
     assert got.runs[0].h_m.tolist() == [1.0, 0.593]
+    # ... and so is '1.500' beside drops of '1' and '2' m, in a file whose rebounds use the same point (the
+    # re-check found '1.500' read as 1500 and the table refused: 'heights look like mm')
+    got = read_measurement(write(tmp_path, "w.csv", "H (m);h (m)\n1;0.562\n1.500;0.844\n2;1.125\n"))
+    assert [r.h_m[0] for r in got.runs] == [1.0, 1.5, 2.0] and not any("thousands" in n for n in got.notes)
 
 
 def test_a_drop_height_merged_over_its_trials_in_xlsx_applies_to_each_row(tmp_path):
@@ -324,3 +328,15 @@ def test_a_header_of_two_rows_is_read_as_one(tmp_path, sep):
     assert len(got.runs) == 15 and abs(eps_of(got) - EPS) < 0.003
     assert "lines 2-3 are a header of two rows: read as one ('Fallhöhe (cm)', '1. Versuch (cm)', '2. Versuch (cm)', " \
            "'3. Versuch (cm)')" in got.notes
+
+
+def test_a_headerless_pixel_track_is_not_told_it_is_a_drop_table(tmp_path):
+    """The re-check: BenHagenau/ASEN2003's imp1 (x pixel, y pixel, time in s; 114 lines) was told the header
+    'Drop height (cm),Trial 1 (cm),Trial 2 (cm)', which reads it as 114 trials."""
+    t = np.arange(114) / 30.0
+    y = 120.0 + 80.0 * np.abs(np.cos(2.0 * t))
+    body = "".join(f"{310.0 + 0.1 * k:.1f},{b:.1f},{a:.4f}\n" for k, (a, b) in enumerate(zip(t, y)))
+    with pytest.raises(DataError) as err:
+        read_measurement(write(tmp_path, "imp1.csv", body))
+    assert "no header row" in str(err.value) and "Trial 1" not in str(err.value)
+    assert "name the columns (e.g. 't,y'" in str(err.value)

@@ -349,19 +349,28 @@ def looks_like_heights(text):
     return all(c.index < len(cells) and to_float(cells[c.index], decimal_comma) is not None for c in heights)
 
 
+#: Most lines of a headerless table that :func:`headerless_hint` takes for a class's drop table.
+MAX_HINTED_ROWS = 40
+
+
 def headerless_hint(text):
     """The header that makes a headerless table of three or more numbers per line a drop table
     (``'Drop height (cm),Trial 1 (cm),Trial 2 (cm),Trial 3 (cm),Average (cm)'``, with the file's separator;
     ``'Drop_height_cm Trial_1_cm ...'`` between blanks) when its numbers look like one --
-    in every line the first, a drop height, above every other, none of them negative; the last column an
+    in every line the first, a drop height, above every other, none of them negative, and the trials of a
+    line within a factor 2 of each other; at most :data:`MAX_HINTED_ROWS` lines (a class's table, not a
+    track: pixel columns x, y and a time column of 114 lines are no drop table); the last column an
     average when it is the mean of the others in most lines -- else None."""
+    if len(text.lines) > MAX_HINTED_ROWS:
+        return None
     sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
-    rows = [[to_float(c, decimal_comma) for c in split_cells(s, sep)] for _, s in text.lines[:50]]
+    rows = [[to_float(c, decimal_comma) for c in split_cells(s, sep)] for _, s in text.lines]
     width = len(rows[0])
     if width < 3 or any(len(r) != width or None in r for r in rows):
         return None
     values = np.array(rows, dtype=float)
-    if not (np.all(values[:, 1:] >= 0) and np.all(values[:, :1] > values[:, 1:])):
+    if not (np.all(values[:, 1:] > 0) and np.all(values[:, :1] > values[:, 1:])
+            and np.all(values[:, 1:].max(axis=1) <= 2.0 * values[:, 1:].min(axis=1))):
         return None
     n = width - 1
     mean = values[:, 1:-1].mean(axis=1)

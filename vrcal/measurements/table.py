@@ -653,8 +653,10 @@ def ungroup_thousands(text):
     (``1.200`` -> ``1200``, ``1.200,5`` -> ``1200,5``) and a note saying so; ``(text, None)`` when none is.
 
     A '.' followed by exactly three digits groups thousands, column by column: in a file with a decimal comma
-    (its decimals cannot use '.'), and in a column whose other cells are whole numbers (``800`` above
-    ``1.200``: one column is not written with three decimals in some rows and none in others). A
+    (its decimals cannot use '.'), and in a column whose other cells are whole numbers of three digits or more
+    (``800`` above ``1.200``: one column is not written with three decimals in some rows and none in others)
+    while the file writes no decimal with a '.' (``1;0.562`` over ``1.500;0.844`` is 1.5 m: a decimal
+    point, beside drops of 1 and 2 m). A
     semicolon-separated column (the decimal-comma locale's CSV) of such numbers only, in a file with no other
     decimal, may be either (``2.000``: 2000 or 2.0): an error saying so, naming the line.
     """
@@ -672,17 +674,19 @@ def ungroup_thousands(text):
 
     data = [(k, cells) for k, (_, cells) in enumerate(rows) if cells and all(number(c) for c in cells)]
     width = max((len(cells) for _, cells in data), default=0)
+    # a '.' the file uses as a decimal point elsewhere ('0.562'): it is no thousands separator there either
+    point_decimals = not decimal_comma and any("." in c and not _GROUPED.match(c) for _, cells in data for c in cells)
     grouped_columns = set()
     for j in range(width):
         filled = [(k, cells[j]) for k, cells in data if j < len(cells) and cells[j] != ""]
         grouped = [(k, c) for k, c in filled if _GROUPED.match(c)]
         if not grouped:
             continue
-        if decimal_comma or any(_INTEGER.match(c) for _, c in filled) and all(
-                _GROUPED.match(c) or _INTEGER.match(c) for _, c in filled):
+        integers = [abs(int(c)) for _, c in filled if _INTEGER.match(c)]
+        if decimal_comma or (integers and min(integers) >= 100 and not point_decimals
+                             and all(_GROUPED.match(c) or _INTEGER.match(c) for _, c in filled)):
             grouped_columns.add(j)
-        elif sep == ";" and len(grouped) == len(filled) and not any(
-                "." in c and not _GROUPED.match(c) for _, cells in data for c in cells):
+        elif sep == ";" and len(grouped) == len(filled) and not point_decimals:
             k, cell = grouped[0]
             header = rows[data[0][0] - 1][1] if data[0][0] > 0 else []   # the line above the first row of numbers
             name = header[j] if j < len(header) else f"column {j + 1}"
