@@ -341,9 +341,10 @@ def _contact_drift(t_s, y_m, minima, release_index, g_m_per_s2, sigma_m):
     w = 1.0 / se[ok] ** 2
     x = np.vander(n, 2)
     cov = np.linalg.inv(x.T @ (w[:, None] * x))
-    slope = float((cov @ x.T @ (w * yc[ok]))[0])
+    slope, icpt = (float(c) for c in cov @ x.T @ (w * yc[ok]))
     span = n[-1] - n[0]
-    return slope * span, math.sqrt(float(cov[0, 0])) * span, np.flatnonzero(ok), yc[ok]
+    off_line = float(np.sqrt(np.mean((yc[ok] - (slope * n + icpt)) ** 2)))
+    return slope * span, math.sqrt(float(cov[0, 0])) * span, np.flatnonzero(ok), yc[ok], off_line
 
 
 def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m, model_y_m=None):
@@ -385,7 +386,9 @@ def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m, model_y_m
     found = _contact_drift(data.t_s, data.y_m, minima, r, g_m_per_s2, sigma_m)
     if found is None:
         return None
-    change, err, used, yc = found
+    change, err, used, yc, off_line = found
+    if abs(change) <= CONTACT_DRIFT_SIGMAS * err:
+        return None   # the data's own level does not move: a model that drifts is no soft floor
     own = 0.0
     if model_y_m is not None:
         model = _contact_drift(data.t_s, model_y_m, [minima[i] for i in used], r, g_m_per_s2, sigma_m)
@@ -397,13 +400,19 @@ def contact_level_drift(data, minima, g_m_per_s2, sigma_m, diameter_m, model_y_m
         return None
     first, last = int(used[0]) + 1, int(used[-1]) + 1
     levels = ", ".join(f"{1e3 * (v - yc[0]):+.2f}" for v in yc[:8]) + (", ..." if yc.size > 8 else "")
-    model_text = "" if model_y_m is None else f" (the model's: {1e3 * own:+.2f} mm)"
+    model_text = "" if model_y_m is None else f"; the model's line {1e3 * own:+.2f} mm"
+    where = f"bounces {first} to {last}, {_line(data, int(minima[used[0]]))} to {_line(data, int(minima[used[-1]]))}"
+    tail = ("the model has one contact level and cannot follow it; the bounces' own speed ratios (--details) "
+            "need none")
+    if off_line > 0.5 * abs(change):   # up and down: no drift a line describes
+        return (f"the contact level varies from bounce to bounce ({where}; each contact against the first: "
+                f"{levels} mm): a tracked point that moves on the ball, a camera or floor that moves; {tail}")
+    why = ("a soft floor that gives under the bounces (paper, foam), or a floor tilted while the ball moves "
+           "sideways" if change < 0 else
+           "a floor tilted while the ball moves sideways, or a camera or tracked point that moves")
     return (f"the contact level {'sinks' if change < 0 else 'rises'} by {1e3 * abs(change):.3g} ± {1e3 * err:.2g} "
-            f"mm from bounce {first} to bounce {last}{model_text} ({_line(data, int(minima[used[0]]))} to "
-            f"{_line(data, int(minima[used[-1]]))}; each contact against the first: {levels} mm): a soft floor "
-            "that gives under the bounces (a stack of paper, foam), or a floor tilted across the picture while "
-            "the ball moves sideways; the models have one contact level and cannot follow it, the bounces' own "
-            "speed ratios (--details) can")
+            f"mm along a line through the contacts ({where}; each against the first: {levels} mm{model_text}): "
+            f"{why}; {tail}")
 
 
 def flight_jerks(t_s, y_m, release_index, contact_t_s, floor_m, sigma_m=0.0):

@@ -505,8 +505,9 @@ def _repeated_files(paths):
     for path in paths:
         real = os.path.realpath(path)
         if real in by_path:
-            raise UsageError(f"{path} is {by_path[real]} given again: give each file once (a file given twice "
-                             "counts its data twice and shrinks every uncertainty)")
+            same = "given twice" if path == by_path[real] else f"the same file as {by_path[real]}"
+            raise UsageError(f"{path} is {same}: give each file once (a file given twice counts its data twice "
+                             "and shrinks every uncertainty)")
         by_path[real] = path
         try:
             with open(path, "rb") as fh:

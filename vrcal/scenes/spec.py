@@ -317,7 +317,8 @@ def validate_scene(doc, where="scene", *, default_name="scene", standards=None, 
     Scene
     """
     if not isinstance(doc, dict):
-        raise DataError(f"{where}: top level must be a mapping with duration_s, floor and bodies (and K_per_s)")
+        raise DataError(f"{where}: top level must be a mapping with duration_s, floor and bodies (K_per_s "
+                        "optional, default 4)")
     _unknown(doc, _TOP_FIELDS, where, "")
     K = _number(doc, "K_per_s", where, "", default=eq.DEFAULT_K_PER_S, minimum=0, maximum=MAX_K_PER_S)
     duration = _number(doc, "duration_s", where, "", minimum=0)
