@@ -171,6 +171,12 @@ def test_the_surfaces_of_the_cli_are_the_registrys():
      "for several drops"),
     (["fit", "--drop-height", "1", "--rebound-height", "0.55", "0.54"],
      "--rebound-height takes one value: --rebound-height 0.55 0.54 gives it 0.55 and 0.54 would be BALL"),
+    # the re-check: with no ball, 0.54 became BALL and click said 'Got unexpected extra argument (0.56)'
+    (["fit", "--mass", "0.0577", "--diameter", "0.067", "--drop-height", "1", "--rebound-height", "0.55", "0.54",
+      "0.56"], "--rebound-height takes one value: --rebound-height 0.55 0.54 0.56 gives it 0.55 and leaves 0.54 0.56"),
+    # ... and a second number after discover's --noise was taken for a DATA file: "File '0.002' does not exist"
+    (["discover", "README.md", "--ball", "tennis", "--noise", "0.001", "0.002"],
+     "--noise takes one value: --noise 0.001 0.002 gives it 0.001 and leaves 0.002 over"),
     (["pair", "tennis", "floor", "--K=4", "--K", "5"], "--K given 2 times"),
     (["simulate", "tennis", "--drop", "1", "--drop-height", "2"], "--drop/--drop-height given 2 times"),
 ])

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 
 import click
 
@@ -207,7 +208,8 @@ def explain_extra_arguments(command, ctx, args, exc):
     """click's 'Got unexpected extra arguments (0.54 0.56)' after an option's value, as what happened:
     the option took its first value only (``--rebound-height 0.55 0.54 0.56``). Other errors unchanged."""
     message = exc.format_message()
-    if not message.startswith("Got unexpected extra argument"):
+    missing = re.search(r"'([^']*)' does not exist", message)   # a number taken for a file argument
+    if not message.startswith("Got unexpected extra argument") and not missing:
         return exc
     options = _value_options(command)
     tokens = list(args)
@@ -219,11 +221,25 @@ def explain_extra_arguments(command, ctx, args, exc):
                 if token.startswith("-"):
                     break
                 extra.append(token)
-            if extra and message.endswith(f"({' '.join(extra)})"):
+            # click names the extras it could not place: all of them, or the tail after a positional took
+            # the first (fit --rebound-height 0.55 0.54 0.56: 0.54 became BALL, '(0.56)' is left)
+            said = message[message.rfind("(") + 1:-1].split() if message.endswith(")") else []
+            tail = bool(said) and extra[-len(said):] == said
+            if missing and _is_number(missing.group(1)) and missing.group(1) in extra:
+                tail = True
+            if extra and tail and all(_is_number(e) for e in extra):
                 return click.UsageError(f"{name} takes one value: {name} {tokens[k + 1]} {' '.join(extra)} gives it "
                                         f"{tokens[k + 1]} and leaves {' '.join(extra)} over"
                                         f"{_repeat_hint(ctx, name)}", ctx)
     return exc
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _refuse_number_as_argument(command, ctx, given):
