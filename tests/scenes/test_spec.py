@@ -255,6 +255,11 @@ def test_a_balls_radius_override_rescales_its_virtual_body_into_the_ball():
     eps = scene.epsilon_matrix()
     assert eps[0, -1] == pytest.approx(eps[1, -1])
     assert any("radius_m 0.05 m instead of the ball's" in n for n in scene.notes)
+    # a radius written to four digits (0.1217 for 0.121674 m) is the ball's: rescaled, without a note
+    doc["bodies"][0]["radius_m"] = 0.1217
+    rounded = validate_scene(doc, "r.yaml")
+    assert rounded.bodies[0].contact_time_s == pytest.approx(own.contact_time_s)
+    assert not any("instead of the ball's" in n for n in rounded.notes)
 
 
 def test_k_defaults_like_pair_center_is_centre_and_anchors_copy_a_body(tmp_path):

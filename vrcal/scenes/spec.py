@@ -441,7 +441,7 @@ def _body(fields, i, where, K, standards, base_dir=None, notes=None):
         T = eq.contact_time_single_s(x, v)
         x = radius / 2.0
         v = eq.virtual_speed_m_per_s(x, T) if T > 0 else 0.0
-        if notes is not None:
+        if notes is not None and abs(radius / own_radius - 1.0) > 0.01:   # not a rounding of the ball's radius
             notes.append(f"{name}: radius_m {radius:g} m instead of the ball's {own_radius:g} m: its virtual body "
                          f"is x = R/2 = {1e3 * x:.4g} mm, v = {v:.4g} m/s (the same contact time, so the same epsilon)")
     if "virtual_body" in fields or ball_key is None:
