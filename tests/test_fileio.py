@@ -258,3 +258,11 @@ def test_the_yaml_shipped_with_vrcal_passes_the_strict_loader():
     assert parse_yaml(text, "standards.yaml") == parse_yaml(text, "standards.yaml", trusted=True)
     for path in EXAMPLES.glob("*.yaml"):
         parse_yaml(path.read_text(encoding="utf-8"), str(path))
+
+
+@pytest.mark.parametrize("text", ["a: &x [1, *x]\n", "a: &x {b: *x}\n", "bodies: &b [*b]\n"])
+def test_a_recursive_alias_is_refused(text):
+    """An alias inside the value it names loaded as a self-containing list or mapping ([1, [...]]), which any
+    code walking it recurses into forever; refused with its line like the other aliases vrcal does not take."""
+    with pytest.raises(DataError, match=r"alias \*\w is inside the value it names \(a recursive alias\)"):
+        parse_yaml(text, "x.yaml")

@@ -306,6 +306,9 @@ class BoundedSafeLoader(yaml.SafeLoader):
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
             node = super().compose_node(parent, index)
+            if node.end_mark is None:   # a list or mapping still being read: the alias is inside its anchor
+                raise _Refused(None, None, f"alias *{_short(event.anchor)} is inside the value it names (a "
+                                           "recursive alias): write the values out", event.start_mark)
             self._alias_values += self._expanded_size(node)
             if self._alias_values > MAX_YAML_ALIAS_VALUES:
                 raise _Refused(None, None, f"alias *{_short(event.anchor)}: the aliases repeat more than "
