@@ -248,11 +248,7 @@ def _refuse_number_as_argument(command, ctx, given):
     options = _value_options(command)
     for p in command.params:
         value = ctx.params.get(p.name)
-        if not isinstance(p, click.Argument) or not isinstance(value, str):
-            continue
-        try:
-            float(value)
-        except ValueError:
+        if not isinstance(p, click.Argument) or not isinstance(value, str) or not _is_number(value):
             continue
         if os.path.exists(value):            # a file named like a number is an argument
             continue

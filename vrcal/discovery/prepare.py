@@ -245,6 +245,12 @@ def _flight_line(t, y, lo, hi, g):
     return a, b
 
 
+def _contact_windows(edges, k, m):
+    """(lo_in, hi_in, lo_out, hi_out): the samples of the flight lines before and after bounce ``k`` at sample
+    ``m`` (up to six a side, within the flights' ``edges``; the sample at the bounce in neither)."""
+    return max(edges[k], m - 6), m, m + 1, min(edges[k + 2], m + 7)
+
+
 def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
     """Time and height of each contact: where the flight before a bounce meets the flight after it.
 
@@ -264,8 +270,8 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
     edges = [int(release_index)] + [int(m) for m in minima] + [t.size]
     tc, yc = [], []
     for k, m in enumerate(minima):
-        before = _flight_line(t, y, max(edges[k], m - 6), m, g)
-        after = _flight_line(t, y, m + 1, min(edges[k + 2], m + 7), g)
+        lo_in, hi_in, lo_out, hi_out = _contact_windows(edges, k, m)
+        before, after = _flight_line(t, y, lo_in, hi_in, g), _flight_line(t, y, lo_out, hi_out, g)
         if before is None or after is None or before[1] == after[1]:
             tc.append(float(t[m]))
             yc.append(float(y[m]) if before is not None and after is not None else math.nan)
@@ -301,8 +307,7 @@ def contact_level_errors(t_s, y_m, minima, release_index, g_m_per_s2, contact_t_
     edges = [int(release_index)] + [int(m) for m in minima] + [t.size]
     out = []
     for k, (m, tm) in enumerate(zip(minima, contact_t_s)):
-        lo_in, hi_in = max(edges[k], int(m) - 6), int(m)
-        lo_out, hi_out = int(m) + 1, min(edges[k + 2], int(m) + 7)
+        lo_in, hi_in, lo_out, hi_out = _contact_windows(edges, k, int(m))
         before, after = _flight_line(t, y, lo_in, hi_in, g), _flight_line(t, y, lo_out, hi_out, g)
         if before is None or after is None or hi_in - lo_in < 3 or hi_out - lo_out < 3:
             out.append(math.inf)

@@ -319,7 +319,7 @@ class Discovery:
         # (three rows of a table, two at one height, "excluded" it at an assumed 2 mm), and judged at the final
         # model's own misfit when that does not explain the record (a joint fit of two balls' tables): a
         # chi-square increase there says how much worse, not that the drag is excluded
-        drag_sigma2 = sigma2 * (1.0 if self.within_noise else max(1.0, f.rss / sigma2 / max(f.n - f.k, 1)))
+        drag_sigma2 = sigma2 if self.within_noise else _at_misfit(sigma2, f)
         for effect, name in added:
             if effect in HELD_IF_ALLOWED and (effect != "air_drag" or f.problem.noise_known):
                 key = f"{effect}.{name}"
@@ -715,8 +715,7 @@ class Discovery:
         rss = [f.rss if e in named else fit_physical(f.problem, others + (e,), start).rss for e in pair]
         # at the final model's own misfit when it leaves more than the noise (five ping-pong records fitted
         # jointly, chi2 286 for 61 degrees of freedom: 17 apart at the noise floor, 3.6 at their misfit)
-        sigma2 = self.reference_sigma ** 2
-        return abs(rss[0] - rss[1]) / (sigma2 * max(1.0, f.rss / sigma2 / max(f.n - f.k, 1)))
+        return abs(rss[0] - rss[1]) / _at_misfit(self.reference_sigma ** 2, f)
 
     @property
     def speeds_too_narrow(self):
@@ -1678,6 +1677,12 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      + "; a value at the edge of what is physical: "
                      + EFFECTS[e['effect']].check_for(found.kind, surface_of(ball)))
     return found
+
+
+def _at_misfit(sigma2, fit):
+    """The variance [unit^2] a chi-square of ``fit``'s record is taken at: the noise's ``sigma2``, or the
+    model's own residual variance (its RSS over its degrees of freedom) when that is larger."""
+    return sigma2 * max(1.0, fit.rss / sigma2 / max(fit.n - fit.k, 1))
 
 
 def _contact_drifts(found):

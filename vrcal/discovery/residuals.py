@@ -1353,13 +1353,14 @@ def _in_flight_start(t, y, eps, g):
     if not minima:
         return None
     floor = min(float(np.min(y)), 0.0)
+    noise = third_difference_sigma(t, y) or 0.0
     first = lines[0]
-    if first is not None and not _parabolic(t, y, first, g):
+    if first is not None and not _parabolic(t, y, first, g, noise):
         # the first samples may fall into a bounce at the record's edge (no minimum seen there): the
         # first flight rises from the sample after the first turn upward on
         turn = int(np.argmax(np.diff(y) > 0)) + 1
         after = flight_parabolas(t, y, turn, g, 2)[1][0] if turn < first[0][-1] else None
-        if after is None or not _parabolic(t, y, after, g):
+        if after is None or not _parabolic(t, y, after, g, noise):
             return None
         first = after
     if first is not None:
@@ -1370,7 +1371,7 @@ def _in_flight_start(t, y, eps, g):
             return None
         if top_t <= t[idx[0]]:            # falling from the start: the drop itself
             return top, top_t
-        if not float(np.max(y[idx]) - y[idx[0]]) > max(8.0 * (third_difference_sigma(t, y) or 0.0), 1e-3 * top):
+        if not float(np.max(y[idx]) - y[idx[0]]) > max(8.0 * noise, 1e-3 * top):
             return None                 # no rise: at rest at the top
         v = math.sqrt(2.0 * g * top)
         w = v / eps
@@ -1398,12 +1399,11 @@ def _parabola_rms(t, y, line, g):
     return float(np.sqrt(np.mean((y[idx] - fit) ** 2)))
 
 
-def _parabolic(t, y, line, g):
+def _parabolic(t, y, line, g, noise):
     """Do a flight's samples lie on its parabola of g (a line of :func:`flight_parabolas`) to within
-    4 times the record's noise (:func:`vrcal.measurements.cleanup.third_difference_sigma`) or
+    4 times the record's ``noise`` [m] (:func:`vrcal.measurements.cleanup.third_difference_sigma`) or
     :data:`FLIGHT_PARABOLA_TOLERANCE` of its height? A ball held still before its release bends it, and so
     does a sample before a bounce at the record's edge."""
-    noise = third_difference_sigma(t, y) or 0.0
     limit = max(4.0 * noise, FLIGHT_PARABOLA_TOLERANCE * float(np.max(y[line[0]]) - np.min(y)))
     return _parabola_rms(t, y, line, g) <= limit
 

@@ -41,6 +41,7 @@ from vrcal.engines.common import (
     check_positive,
     confirmed,
     engine_label,
+    metadata,
     round_down,
 )
 from vrcal.errors import DataError, UsageError
@@ -591,8 +592,6 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     elif eng.name == "gazebo":
         refuse_constant_for_law(setup, eng.label)
         setup, checked, coverage, summary = _checked_export(setup, "gazebo", n_phases, asked_lo)  # runs in ODE
-        from vrcal.engines.common import metadata
-
         target = metadata(setup)
         if coverage:
             target["holds_down_to_m_per_s"] = coverage.holds_down_to_m_per_s

@@ -383,6 +383,15 @@ def headerless_hint(text):
     return sep.join(f"{name} ({unit})" for name in names)
 
 
+def no_header_message(header):
+    """The error of a file whose first line holds numbers: how to name its columns -- ``header``, the one
+    :func:`headerless_hint` gives a drop table, when not None."""
+    if header is not None:
+        return (f"no header row: the first line holds numbers; for a drop height and its trials, give the file the "
+                f"header '{header}' (check the unit)")
+    return "no header row: the first line holds numbers; name the columns (e.g. 't,y', 't', 'bounce,h')"
+
+
 def transposed(text):
     """``(trials, rows)`` of a table written with the trials as columns and the bounces as rows (``Data,Trial
     1,Trial 2,...`` over ``Bounce_1,18.125,17.875,...``), the layout vrcal does not read (one trial per row),
@@ -538,8 +547,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     path = text.path
     header = headerless_hint(text) if header_columns(text) is None else None
     if header is not None:
-        fail(path, text.lines[0][0], f"no header row: the first line holds numbers; for a drop height and its "
-                                     f"trials, give the file the header '{header}' (check the unit)")
+        fail(path, text.lines[0][0], no_header_message(header))
     table = parse_table(text)
     cols, renamed = _inch_columns(table.cols)
     found = _height_columns(cols)

@@ -185,7 +185,7 @@ WORKBOOK_SUFFIXES = (".xlsx", ".xlsm", ".xls")
 
 def _looks_like(head, layout=None):
     """What a file's first bytes show it to be, for the error of a file named as a workbook that is none
-    (``layout``: the format its text reads as, or None)."""
+    (``layout()``, asked only of text: the format it reads as, or None)."""
     if head.startswith(_XLSX_MAGIC):
         return "it is a zip archive (an .xlsx workbook named .xls? rename it to .xlsx)"
     if not head.strip():
@@ -195,8 +195,9 @@ def _looks_like(head, layout=None):
     if head.lstrip()[:1] == b"<":
         return ("it is an HTML or XML document (a web page saved as .xls?): open it in a spreadsheet "
                 "program and save it as .xlsx or .csv")
+    name = layout() if layout is not None else None
     return ("it is text (a CSV or text table named as a workbook?): rename it to .csv, or give "
-            + (f"--format {layout}" if layout else "--format with its layout"))
+            + (f"--format {name}" if name else "--format with its layout"))
 
 
 def check_workbook_name(path, layout=None):
@@ -220,8 +221,8 @@ def check_workbook_name(path, layout=None):
             head = fh.read(4096)
     except OSError:
         return  # the text reader names the problem
-    text = head.strip() and b"\x00" not in head and head.lstrip()[:1] != b"<" and not head.startswith(_XLSX_MAGIC)
-    raise DataError(f"{path}: not an Excel workbook: {_looks_like(head, layout(path) if text and layout else None)}")
+    raise DataError(f"{path}: not an Excel workbook: "
+                    f"{_looks_like(head, (lambda: layout(path)) if layout is not None else None)}")
 
 
 def is_spreadsheet(path):

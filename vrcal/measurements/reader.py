@@ -226,7 +226,7 @@ def _detect(text, below=None):
     if below is not None:
         no, line = below.lines[0]
     if is_numeric_row(loose_cells(line)) or is_numeric_row(line.split()):   # commas, semicolons, tabs or blanks
-        fail(text.path, no, no_header_message(below or text))
+        fail(text.path, no, drops.no_header_message(drops.headerless_hint(below or text)))
     if drops.transposed(below or text) is not None:   # a class's sheet with the trials side by side
         fail(text.path, no, drops.transposed_hint(below or text))
     if drops.looks_like_heights(below or text):   # the known formats' list would push the hint past a line
@@ -234,16 +234,6 @@ def _detect(text, below=None):
                             f"heights, {drops.NAMING} (other layouts: see --format)")
     fail(text.path, no, f"cannot tell the layout from the header {line.strip()!r} "
           f"(known formats: {', '.join(FORMATS)}; see --format)")
-
-
-def no_header_message(text):
-    """The error of a file whose first line holds numbers: name the columns, and how to name them for a drop
-    table when the numbers look like one (:func:`vrcal.measurements.drops.headerless_hint`)."""
-    header = drops.headerless_hint(text)
-    if header is not None:
-        return (f"no header row: the first line holds numbers; for a drop height and its trials, give the file the "
-                f"header '{header}' (check the unit)")
-    return "no header row: the first line holds numbers; name the columns (e.g. 't,y', 't', 'bounce,h')"
 
 
 def _title_lines(text):

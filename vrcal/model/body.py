@@ -370,9 +370,7 @@ def _effects_and_parameters(doc, where, prefix=""):
     effects = doc.get("effects")
     if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
         raise DataError(f"{where}: {prefix}effects must be a list of effect names")
-    params = doc.get("parameters")
-    if not isinstance(params, dict):
-        raise DataError(f"{where}: {prefix}parameters must be an object, got {type(params).__name__}")
+    params = _obj(doc, "parameters", where, prefix)
     for name, values in params.items():
         if not isinstance(values, dict):
             raise DataError(f"{where}: {prefix}parameters.{name} must be an object of numbers")
@@ -424,12 +422,13 @@ def _check_size(label, value, unit=""):
     return None if value is None else check_number(value, label, unit=unit)
 
 
-def _obj(doc, key, where):
+def _obj(doc, key, where, prefix=""):
+    """``doc[key]`` when it is an object (a dict); else a DataError naming ``where`` and ``prefix + key``."""
     from vrcal.errors import DataError
 
     value = doc.get(key)
     if not isinstance(value, dict):
-        raise DataError(f"{where}: {key} must be an object, got {type(value).__name__}")
+        raise DataError(f"{where}: {prefix}{key} must be an object, got {type(value).__name__}")
     return value
 
 
