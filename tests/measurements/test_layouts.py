@@ -313,6 +313,8 @@ def test_drop_tables_as_students_name_their_columns(tmp_path, header):
 @pytest.mark.parametrize("header", ["Versuch;Fallhöhe (cm);Rückprallhöhe (cm)",
                                     "Versuch;Fallhöhe in cm;Sprunghöhe in cm",
                                     "Versuch;Fallhoehe (cm);Rueckprallhoehe (cm)",
+                                    "Versuch;Starthöhe (cm);Endhöhe (cm)",
+                                    "Versuch;Fallhöhe in cm;Höhe nach 1. Aufprall in cm",
                                     "Essai;Hauteur de chute (cm);Hauteur du rebond (cm)",
                                     "Intento;Altura de caída (cm);Altura de rebote (cm)",
                                     "Intento;Altura de caida [cm];Altura de rebote [cm]",
