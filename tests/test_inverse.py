@@ -226,4 +226,5 @@ def test_a_discovered_balls_left_out_effects_are_named_in_the_pair(tmp_path):
     notes = " ".join(result["notes"])
     assert "velocity_dependent_restitution left out" in notes
     assert "the pair takes its one constant epsilon" in notes and " m/s impacts" in notes
+    assert notes.count(" m/s") == 1   # the speed it holds at, said once (two notes said it)
     assert pair("basketball", "tennis")["notes"] == []

@@ -502,7 +502,8 @@ def parse_body(spec, K_per_s, standards=None, as_paper=False, notes=None):
         body = describe_body(from_json=path, standards=standards)
         vb, eps = ball_virtual_body(body, K_per_s)
         if notes is not None:
-            notes.extend(discovered_notes(body))
+            # the speed a speed-dependent epsilon holds at is said once, in the pair's own note below
+            notes.extend(discovered_notes(body)[:1] if body.effects else discovered_notes(body))
             if body.effects:
                 held = (f" (its value at {body.reference_speed_m_per_s:.3g} m/s impacts)"
                         if "velocity_dependent_restitution" in body.effects and body.reference_speed_m_per_s else "")
