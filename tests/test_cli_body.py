@@ -330,6 +330,14 @@ def test_a_ball_that_cannot_exist_is_refused_with_the_unit_slip_named(args, hint
     assert "would be" in result.stderr and all(h in result.stderr for h in hints), result.stderr
 
 
+def test_a_ball_too_dense_is_told_what_solid_steel_of_its_size_weighs():
+    """A 5 mm bearing given as 2 g (it weighs 0.51 g): the only hint was '--mass is in kg: 0.002 g = 2e-06
+    kg', though the mass was in kg and simply wrong (an edge-case probe)."""
+    result = run("fit", "--mass", 0.002, "--diameter", 0.005, "--epsilon", 0.95)
+    assert result.exit_code == 2
+    assert "solid steel that size weighs 0.514 g" in result.stderr, result.stderr
+
+
 @pytest.mark.parametrize("mass,diameter", [(0.17, 0.5), (0.0027, 0.04), (0.535, 0.0508)])
 def test_real_balls_pass_the_density_check(mass, diameter):
     """A beach ball (3 kg/m^3), a table-tennis ball (80), a 2-inch steel ball (7,900)."""

@@ -17,6 +17,7 @@ import math
 import numpy as np
 
 from vrcal.errors import UsageError, unit_hint
+from vrcal.textout import number
 
 #: Mean densities a ball can have [kg/m^3]: above the air's (a lighter one floats away), below
 #: osmium's (22,590, the densest element). A beach ball is about 3, a table-tennis ball 80, a
@@ -26,6 +27,10 @@ BALL_DENSITY_KG_PER_M3 = (1.2, 23_000.0)
 #: A ball's typical mean density [kg/m^3] (between a basketball's 80 and a golf ball's 1,130): of two
 #: unit slips that both give a ball that can exist, the one nearer this is named.
 TYPICAL_BALL_DENSITY_KG_PER_M3 = 400.0
+
+#: Density of steel [kg/m^3]: a ball denser than any material is told what a solid steel ball of its
+#: size weighs (a 5 mm bearing: 0.51 g), so a mass that is simply wrong shows as such.
+STEEL_DENSITY_KG_PER_M3 = 7850.0
 
 #: Highest drop or rebound of a drop test [m]: of one's own (``vrcal fit --drop-height``) or of a
 #: standard (the associations drop from 0.3-2.6 m).
@@ -86,7 +91,10 @@ def check_ball_size(mass_kg, diameter_m, *, mass_label="--mass", size_label="--d
     fits = [(abs(math.log(float(ball_density_kg_per_m3(m2, D2)) / TYPICAL_BALL_DENSITY_KG_PER_M3)), label, hint)
             for label, hint, m2, D2 in slips if hint and lo <= ball_density_kg_per_m3(m2, D2) <= hi]
     what = "lighter than air" if rho < lo else "denser than any material"
-    text = f"a ball of {m:g} kg and {D:g} m would be {what} ({rho:.3g} kg/m^3)"
+    steel = STEEL_DENSITY_KG_PER_M3 * math.pi / 6.0 * D**3
+    steel_text = f"{number(steel, 3)} kg" if steel >= 1 else f"{number(steel * 1000, 3)} g"
+    scale = f"; solid steel that size weighs {steel_text}" if rho > hi else ""
+    text = f"a ball of {m:g} kg and {D:g} m would be {what} ({rho:.3g} kg/m^3{scale})"
     if fits:
         _, label, hint = min(fits)
         text += hint
