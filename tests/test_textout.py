@@ -3,7 +3,7 @@
 import pytest
 
 from vrcal.errors import UsageError
-from vrcal.textout import MAX_COLUMNS, choose_format, machine_document, ms, number, section, table
+from vrcal.textout import MAX_COLUMNS, choose_format, epsilon, machine_document, ms, number, section, table
 
 
 @pytest.mark.parametrize("value,digits,text", [
@@ -12,6 +12,13 @@ from vrcal.textout import MAX_COLUMNS, choose_format, machine_document, ms, numb
 ])
 def test_number(value, digits, text):
     assert number(value, digits) == text
+
+
+@pytest.mark.parametrize("value,text", [(0.7661781385597868, "0.766"), (0.9995, "0.9995"), (0.99999, "0.99999"),
+                                        (1.0, "1.00"), (0.05, "0.0500"), (None, "-")])
+def test_an_epsilon_below_one_never_prints_as_one(value, text):
+    """A superball's 0.9995 was the headline 'ε = 1.000' (an edge-case probe)."""
+    assert epsilon(value) == text
 
 
 def test_ms():

@@ -22,6 +22,7 @@ from vrcal.model import restitution as eq
 from vrcal.model.plausible import check_drop_test_height
 from vrcal.model.restitution import DEFAULT_K_PER_S, check_epsilon, check_integer, check_K, check_number
 from vrcal.model.standards import ball_epsilon, get_ball
+from vrcal.textout import epsilon as epsilon_text
 from vrcal.textout import mass, number, table, wrap
 
 _LEVELS = ("min", "nominal", "max")
@@ -415,16 +416,17 @@ def fit_text(result):
                      *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in levels), "x = 2vT (Eq. 10)"])
     if window:
         rule = "official rule" if r["official_rule"] else "not an official rule"
-        answer = (f"{r['ball']}: ε = {number(eps['nominal'], 3)} ({number(eps['min'], 3)} .. "
-                  f"{number(eps['max'], 3)}), T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
+        answer = (f"{r['ball']}: ε = {epsilon_text(eps['nominal'])} ({epsilon_text(eps['min'])} .. "
+                  f"{epsilon_text(eps['max'])}), T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
         text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}")
         text += "\n" + table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
     elif r["ball"] is None:   # one's own drop test alone
-        text = wrap(f"your drop test: ε = {number(eps['nominal'], 3)}, T = {_ms_or_inf(T['nominal'], 3)} ms at "
+        text = wrap(f"your drop test: ε = {epsilon_text(eps['nominal'])}, T = {_ms_or_inf(T['nominal'], 3)} ms at "
                     f"K = {K:g} 1/s") + wrap("no ball given: one ε from the two heights")
         text += "\n" + table(rows, ["", "ε", ""], align="lrl")
     else:
-        answer = f"{r['ball']}: ε = {number(eps['nominal'], 3)}, T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s"
+        answer = (f"{r['ball']}: ε = {epsilon_text(eps['nominal'])}, T = {_ms_or_inf(T['nominal'], 3)} ms "
+                  f"at K = {K:g} 1/s")
         if r["source"] not in ("standard", "options"):
             who, what = f"{r['ball_name']} from {r['source']}", "one measured ε"
         elif r["ball_name"] != r["ball"] or r["source"] == "standard":
@@ -604,7 +606,7 @@ def pair_text(result):
     rows = [[body["name"], number(body["x_m"] * 1e3, 4), number(body["v_m_per_s"], 4),
              _ms_or_inf(body["T_s"]), number(body["epsilon_on_rigid_floor"], 4)] for body in (a, b)]
     rows.append(["pair", "", "", _ms_or_inf(r["T_s"]), number(r["epsilon"], 4)])
-    text = wrap(f"{a['name']} against {b['name']}: ε = {number(r['epsilon'], 3)}, "
+    text = wrap(f"{a['name']} against {b['name']}: ε = {epsilon_text(r['epsilon'])}, "
                 f"T = {_ms_or_inf(r['T_s'], 3)} ms at K = {r['K_per_s']:g} 1/s")
     text += "\n" + table(rows, ["body", "x [mm]", "v [m/s]", "T [ms]", "ε"], align="lrrrr")
     text += "\n" + wrap("T = x_A/(2 v_A) + x_B/(2 v_B) (Eq. 6), ε = exp(−K T) (Eq. 7). A body's ε is its ε "

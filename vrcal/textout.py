@@ -155,6 +155,17 @@ def number(value, digits=4):
     return f"{v:.{digits - 1}e}"
 
 
+def epsilon(value, digits=3):
+    """A restitution to ``digits`` significant digits, or more where that would print 1 for a value below
+    it: ``epsilon(0.7662) == '0.766'``, ``epsilon(0.9995) == '0.9995'`` (not '1.000')."""
+    if value is None:
+        return "-"
+    v = float(value)
+    if 0.0 < v < 1.0:
+        digits = min(max(digits, math.ceil(-math.log10(1.0 - v) - 1e-9)), 8)
+    return number(v, digits)
+
+
 def ms(seconds, digits=3):
     """A time in seconds written in milliseconds: ``ms(0.06659) == '66.6 ms'``."""
     if seconds is None:

@@ -85,11 +85,11 @@ DROP_WORDS = ("drop", "releas", "initial", "start", "fall", "abwurf", "ausgangsh
               "inicial", "cadut", "inizial", "queda", "soltur")
 #: Word beginnings that mark a rebound column: English (``Bounced to``, ``Final height``), German (``Rückprallhöhe``,
 #: ``Rueckprallhoehe``, ``Sprunghöhe``, ``Rücksprunghöhe``, ``Abprallhöhe``, ``Steighöhe``, ``Endhöhe``,
-#: ``Höhe nach dem Aufprall``), French (``hauteur du rebond``), Spanish and Portuguese (``altura de rebote``, ``altura do ressalto``, ``quique``),
-#: Italian (``altezza di rimbalzo``).
+#: ``Höhe nach dem Aufprall``), French (``hauteur du rebond``), Spanish and Portuguese (``altura de rebote``,
+#: ``altura do ressalto``, ``quique``), Italian (``altezza di rimbalzo``).
 REBOUND_WORDS = ("rebound", "bounc", "return", "reach", "final", "ruckprall", "rueckprall", "rucksprung",
-                 "ruecksprung", "abprall", "sprung", "steigh", "endh", "aufprall", "rebond", "rebot", "ressalt", "quique",
-                 "rimbalz")
+                 "ruecksprung", "abprall", "sprung", "steigh", "endh", "aufprall", "rebond", "rebot", "ressalt",
+                 "quique", "rimbalz")
 #: What a drop table's header must name (the error of a table whose columns are not recognised).
 NAMING = ("a drop table needs a drop-height column ('H', 'drop', 'Fallhöhe', 'hauteur de chute') and a rebound "
           "column ('h', 'rebound', 'Rückprallhöhe', 'hauteur du rebond')")
