@@ -587,6 +587,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data["how_chosen"] = list(setup.notes)
         if pair:
             data["pair"] = {k: v for k, v in pair.items() if k != "pairs"}       # the pairs are data["pairs"]
+            # the second body, as "ball" is written: what verify's ball2/floor drop and pair test run
+            data["ball2"] = {"name": second.ball, "mass_kg": second.mass_kg, "radius_m": second.radius_m}
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":

@@ -48,6 +48,7 @@ from scipy.optimize import brentq
 from vrcal.engines.common import (
     N_PHASES,
     DropRuns,
+    PairResult,
     RunsSummary,
     StillBouncing,
     check_steps,
@@ -61,6 +62,7 @@ from vrcal.engines.common import (
     round_down,
     sized_run,
     step_note,
+    stepped_pair_test,
 )
 from vrcal.errors import DataError, EngineUnavailable, UsageError, install_hint
 
@@ -673,6 +675,72 @@ def drop_test(mjcf, setup, n_bounces, n_phases, resize=True, at_least=None):
                          drag_atol(setup))
 
     return sized_run(run, setup, n_phases, MAX_STEPS) if resize else run(None)
+
+
+def _pair_index(model, geom1, geom2):
+    """The index of the ``<pair>`` of two geoms in a compiled model (None without one)."""
+    ids = {model.geom(geom1).id, model.geom(geom2).id}
+    return next((i for i in range(model.npair) if {int(model.pair_geom1[i]), int(model.pair_geom2[i])} == ids), None)
+
+
+def pair_test(scene, pair, n_phases, ball2_geom="ball2"):
+    """The two-ball collision test of a :class:`Scene`'s ball and ``ball2_geom``: a
+    :class:`vrcal.engines.common.PairResult`.
+
+    Gravity is off for the runs (the balls fly 1 m above the floor, which they never reach); the
+    pair's margin and contact (its ``<pair>``'s solref: a damper acts in one step, a spring over
+    its period) set where the runs start and how long they last. Each run steps MuJoCo itself
+    (``mj_step``), reading the two sphere centres and the free joints' velocities.
+    """
+    mujoco = _mujoco()
+    model = scene.model
+    i = _pair_index(model, scene.ball_geom, ball2_geom)
+    if i is None:
+        raise DataError(f"the model has no <pair> of '{scene.ball_geom}' and '{ball2_geom}': the pair test runs "
+                        "the pair's own contact")
+    k = -float(model.pair_solref[i][0])
+    steps = 2 if k <= 0 else int(math.ceil(2.0 * math.pi / math.sqrt(k) / float(model.opt.timestep))) + 2
+    pair = replace(pair, margin_m=float(model.pair_margin[i]), contact_steps=steps,
+                   dt_s=float(model.opt.timestep))
+    data = mujoco.MjData(model)
+    geoms = [model.geom(scene.ball_geom).id, model.geom(ball2_geom).id]
+    joints = [int(model.body_jntadr[int(model.geom_bodyid[g])]) for g in geoms]
+    qadr = [int(model.jnt_qposadr[j]) for j in joints]
+    vadr = [int(model.jnt_dofadr[j]) for j in joints]
+    height = floor_top_m(model, _forward(model, data), scene.floor_geom) + 1.0 + pair.radius2_m + pair.margin_m
+    gravity = model.opt.gravity.copy()
+
+    def run(_params, pair, gap_m, n_steps):
+        mujoco.mj_resetData(model, data)
+        mujoco.mj_forward(model, data)
+        for g, q, x in zip(geoms, qadr, (0.0, pair.contact_distance_m + gap_m)):
+            centre = np.asarray(data.geom_xpos[g])
+            data.qpos[q:q + 3] += np.array([x, 0.0, height]) - centre
+        for a, v in zip(vadr, pair.velocities_m_per_s):
+            data.qvel[a:a + 6] = (v, 0.0, 0.0, 0.0, 0.0, 0.0)
+        mujoco.mj_forward(model, data)
+        out = np.empty((4, n_steps + 1))
+        for n in range(n_steps + 1):
+            if n:
+                mujoco.mj_step(model, data)
+            out[:, n] = (data.geom_xpos[geoms[0]][0], data.geom_xpos[geoms[1]][0], data.qvel[vadr[0]],
+                         data.qvel[vadr[1]])
+        return out
+
+    try:
+        model.opt.gravity[:] = 0.0
+        runs = stepped_pair_test(run, None, pair, n_phases)
+    finally:
+        model.opt.gravity[:] = gravity
+    return PairResult("mujoco", pair, runs)
+
+
+def _forward(model, data):
+    """``data`` after ``mj_resetData`` and ``mj_forward`` (the model's initial pose)."""
+    mujoco = _mujoco()
+    mujoco.mj_resetData(model, data)
+    mujoco.mj_forward(model, data)
+    return data
 
 
 # --------------------------------------------------------------------------- calibration in MuJoCo
