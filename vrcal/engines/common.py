@@ -877,6 +877,16 @@ class PairSetup:
         return self.radius_m + self.radius2_m
 
 
+def pair_setup(setup, name2, mass2_kg, radius2_m, target):
+    """The :class:`PairSetup` of an ``--against`` file: the ball of ``setup`` (a :class:`DropSetup`)
+    against the second ball (``name2``, ``mass2_kg`` [kg], ``radius2_m`` [m]), meeting at the ball's
+    first impact speed of the drop test, at its step and tolerance; ``target`` is the pair's Eq. 6 epsilon."""
+    return PairSetup(name=f"{setup.ball}/{name2}", target=check_epsilon(target, "the pair's epsilon"),
+                     mass_kg=float(setup.mass_kg), radius_m=float(setup.radius_m), mass2_kg=float(mass2_kg),
+                     radius2_m=float(radius2_m), speed_m_per_s=setup.impact_speed_m_per_s, dt_s=setup.dt_s,
+                     tolerance=setup.tolerance, max_penetration_m=setup.penetration_limit_m)
+
+
 def pair_gaps_m(pair, n_phases):
     """Gaps [m] between the two balls' surfaces at the start of each phase of the pair test.
 

@@ -20,7 +20,6 @@ from vrcal.engines.common import (
     DEFAULT_TOLERANCE,
     N_BOUNCES,
     DropSetup,
-    PairSetup,
     VerifyResult,
     check_counts,
     check_max_penetration,
@@ -190,11 +189,9 @@ def _other_contacts(engine, text, loaded, runnable, setup, n_bounces, n_phases, 
                     f"{pair.get('epsilon', math.nan):.4f}, Eq. 6): the file carries no second body (ball2's mass "
                     f"and radius{' and contact_pair' if engine == 'ode' else ''}; an export of an older vrcal): "
                     "export again",), None
-    from vrcal.engines.common import check_epsilon
-
     mass2, radius2 = float(body2["mass_kg"]), float(body2["radius_m"])
-    eps2_floor = check_epsilon(floor2, f"the file's pairs.{b2}/floor")
-    eps2 = check_epsilon(pair.get("epsilon_ball2", eps2_floor), "the file's pair.epsilon_ball2")
+    eps2_floor = _file_epsilon(floor2, f"the file's pairs.{b2}/floor")
+    eps2 = _file_epsilon(pair.get("epsilon_ball2", eps2_floor), "the file's pair.epsilon_ball2")
     params2 = {k: v for k, v in runnable.items() if k not in ("drag", "restitution_law")}   # the ball's own
     params2["ball"] = dict(runnable["ball"], name=b2, mass_kg=mass2, radius_m=radius2)
     if engine == "ode":
@@ -202,8 +199,18 @@ def _other_contacts(engine, text, loaded, runnable, setup, n_bounces, n_phases, 
     else:
         params2["changeDynamics"] = dict(runnable["changeDynamics"], ball=runnable["changeDynamics"]["ball2"])
     other = _second_drop(engine, params2, setup, b2, mass2, radius2, eps2_floor, eps2, n_bounces, n_phases)
-    target = check_epsilon(pair.get("epsilon"), "the file's pair.epsilon")
+    target = _file_epsilon(pair.get("epsilon"), "the file's pair.epsilon")
     return (other,), (), _pair_test(engine, runnable, setup, b2, mass2, radius2, target, n_phases)
+
+
+def _file_epsilon(value, what):
+    """An epsilon a file carries, as a float in (0, 1]; DataError (one line) naming ``what`` otherwise."""
+    from vrcal.engines.common import check_epsilon
+
+    try:
+        return check_epsilon(value, what)
+    except UsageError as exc:
+        raise DataError(f"{exc}: export again") from None
 
 
 def _second_drop(engine, runnable2, setup, name2, mass2, radius2, eps2, eps2_rigid, n_bounces, n_phases):
@@ -225,12 +232,9 @@ def _second_drop(engine, runnable2, setup, name2, mass2, radius2, eps2, eps2_rig
 def _pair_test(engine, runnable, setup, name2, mass2, radius2, target, n_phases):
     """The two balls of an ``--against`` file meeting head-on in the engine at the ball's first impact
     speed, over ``n_phases`` contact phases: a :class:`vrcal.engines.common.PairResult`."""
-    from vrcal.engines.common import check_epsilon
+    from vrcal.engines.common import pair_setup
 
-    pair = PairSetup(name=f"{setup.ball}/{name2}", target=check_epsilon(target, "the file's pair epsilon"),
-                     mass_kg=setup.mass_kg, radius_m=setup.radius_m, mass2_kg=float(mass2),
-                     radius2_m=float(radius2), speed_m_per_s=setup.impact_speed_m_per_s, dt_s=setup.dt_s,
-                     tolerance=setup.tolerance, max_penetration_m=setup.penetration_limit_m)
+    pair = pair_setup(setup, name2, mass2, radius2, _file_epsilon(target, "the file's pair epsilon"))
     return load(engine).pair_test(runnable, pair, n_phases)
 
 
