@@ -125,3 +125,24 @@ def test_the_pair_runs_start_a_step_apart_over_the_phases_and_measure_the_relati
     eps, overlap, parted = pair_run(pair, [0.0, 0.0, 0.0], [0.35, 0.28, 0.4], [1.5, 1.5, -0.5],
                                     [-0.5, -0.5, 0.5])
     assert eps == pytest.approx(0.5) and overlap == pytest.approx(0.02) and parted
+
+
+def test_mujoco_rk4_spring_pair_that_cannot_reach_eq6_is_said_by_export_and_failed_by_verify(tmp_path):
+    """RK4's pair is a spring: over the 16 phases its epsilon spreads wider than the tolerance, which
+    the calibration cannot centre away. The export said nothing ('not calibrated in MuJoCo') and verify
+    named the pair 'not verified'; now the export's terminal and header give the numbers and verify fails."""
+    require_engine("mujoco")
+    path = tmp_path / "rk4.xml"
+    result = CliRunner().invoke(main, ["export", "tennis", "--engine", "mujoco", "--integrator", "rk4", "--dt",
+                                       "0.00023", "--against", "basketball", "-o", str(path)])
+    assert result.exit_code == 0, result.output
+    said = re.search(r"the pair tennis/basketball reaches epsilon (0\.\d{4})\.\.(0\.\d{4}) in mujoco, Eq\. 6 gives "
+                     r"0\.5707: off by (0\.\d{4}) > tolerance 0\.01", " ".join(result.output.split()))
+    assert said, result.output
+    lo, hi, off = (float(x) for x in said.groups())
+    assert lo < 0.5707 < hi and off > 0.01 and hi - lo > 0.02
+    assert "checked in MuJoCo: the two balls" in " ".join(path.read_text().split())
+    verified = _verify("mujoco", path)
+    assert verified.exit_code == 1
+    out = " ".join(verified.output.split())
+    assert f"Eq. 6 target 0.5707: v_out/v_in {lo:.4f}..{hi:.4f}, worst error {off:.4f}" in out and "FAILED)" in out

@@ -1137,7 +1137,7 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None, pa
                 f"solref, so ball/ball2 has its own pair ({how}), checked in MuJoCo: the two balls head-on at "
                 f"{r.pair.speed_m_per_s:.3g} m/s (gravity off, {r.runs.epsilons.size} phases) give "
                 f"{float(np.min(r.runs.epsilons)):.4f}..{float(np.max(r.runs.epsilons)):.4f} (worst error "
-                f"{r.error:.4f}, overlap {1e3 * r.overlap_m:.3g} mm)", 88)
+                f"{r.error:.4f}, overlap {1e3 * r.overlap_m:.3g} mm)", 88, break_on_hyphens=False)
     numbers = {"holds_down_to_m_per_s": coverage.holds_down_to_m_per_s} if coverage is not None else {}
     if pair and second is not None:
         numbers.update(ball2_epsilon=second.epsilon, pair_epsilon=pair["epsilon"])
