@@ -409,9 +409,10 @@ def test_identical_balls_of_an_against_export_get_identical_floor_contacts():
     assert solrefs["ball"] == solrefs["ball2"] == "0 -882.5348449"
 
 
-def test_verify_file_drops_both_balls_of_an_against_export_and_names_the_pair_not_verified(tmp_path):
+def test_verify_file_drops_both_balls_of_an_against_export_and_runs_the_pair(tmp_path):
     """The probe's bb_mj_against.xml: verify checked only the ball/floor contact and said PASSED; the
-    tennis ball's floor contact was the untuned -872.47 (not -(1+eps)/dt any more: calibrated)."""
+    tennis ball's floor contact was the untuned -872.47 (not -(1+eps)/dt any more: calibrated). The
+    pair, once named 'not verified', now meets head-on in MuJoCo (tests/engines/test_pair_verify.py)."""
     require_engine("mujoco")
     ex = export("basketball", "mujoco", against="tennis")
     assert _floor_solrefs(ex.text)["ball2"] != f"0 {-(1 + ex.pair['pairs']['tennis/floor']) / 0.002:.7f}"
@@ -421,12 +422,14 @@ def test_verify_file_drops_both_balls_of_an_against_export_and_names_the_pair_no
     assert result.exit_code == 0, result.output
     out = " ".join(result.output.split())
     assert "contacts verified: ball (basketball)/floor; ball2 (tennis)/floor (target 0.7449: worst error" in out
-    assert "not verified: basketball/tennis (the two balls' pair, epsilon 0.5707 from Eq. 6" in out
+    assert "; basketball/tennis (the two balls head-on at 5.94 m/s, gravity off, 16 phase(s); Eq. 6 target " \
+           "0.5707" in out
+    assert "not verified" not in out
     data = __import__("json").loads(CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path),
                                                              "--format", "json"]).output)
     other = data["other_bodies"][0]
     assert other["target_epsilon"] == pytest.approx(0.7449, abs=1e-4) and other["error"] <= 0.01
-    assert data["not_verified"] and data["passed"]
+    assert not data["not_verified"] and data["passed"] and data["pair"]["passed"]
 
 
 def test_verify_file_fails_when_the_second_balls_floor_contact_misses(tmp_path):

@@ -314,15 +314,17 @@ def test_a_step_that_passes_at_4_phases_is_confirmed_with_16():
     assert _run_in_engine(setup, "ode", dt_ok, CONFIRM_PHASES).worst_error <= 0.01
 
 
-def test_verify_file_of_an_against_export_names_the_contacts_it_did_not_drop(tmp_path):
+def test_verify_file_of_an_against_export_drops_the_second_ball_and_runs_the_pair(tmp_path):
     """The probe's bb_ode_against.json: PASSED with no word that the tennis ball's floor contact and the
-    pair were not tested."""
+    pair were not tested; then they were named 'not verified' (the file had no second body); now the
+    file carries ball2 and the pair's contact, and both run in libode."""
     require_engine("ode")
     path = tmp_path / "bt.json"
     path.write_text(export("basketball", "ode", against="tennis").text)
     result = CliRunner().invoke(main, ["verify", "--engine", "ode", "--file", str(path)])
     assert result.exit_code == 0, result.output
     out = " ".join(result.output.split())
-    assert "contacts verified: basketball/floor" in out
-    assert ("not verified: tennis/floor (epsilon 0.7449) and basketball/tennis (epsilon 0.5707, Eq. 6): the file "
-            "has no second body to drop") in out
+    assert "contacts verified: basketball/floor; ball2 (tennis)/floor (target 0.7449: worst error" in out
+    assert "; basketball/tennis (the two balls head-on at 5.94 m/s, gravity off, 16 phase(s); Eq. 6 target " \
+           "0.5707" in out
+    assert "not verified" not in out

@@ -22,7 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from vrcal.engines import get_engine
-from vrcal.engines.common import metadata, step_note, stepped_drop_test
+from vrcal.engines.common import PairResult, metadata, step_note, stepped_drop_test, stepped_pair_test
 from vrcal.engines.ode import effect_params
 from vrcal.errors import EngineUnavailable, UsageError, install_hint
 from vrcal.textout import SCHEMA_VERSION
@@ -211,6 +211,43 @@ def drop_test(params, setup, n_bounces, n_phases):
     """Run the exported settings in PyBullet and measure them against vrcal's model: a DropRuns."""
     return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases,
                              get_engine("bullet").max_steps)
+
+
+def run_pair(params, pair, gap_m, n_steps):
+    """Run the two balls of the pair test in a DIRECT PyBullet client (gravity off, no floor), each with its
+    exported ``changeDynamics`` (Bullet's product rule makes the pair's restitution); returns the centres' x [m]
+    and x velocities [m/s] of every step (rows of a (4, n_steps + 1) array: ball x, ball2 x, ball v, ball2 v)."""
+    p = _pybullet()
+    cid = p.connect(p.DIRECT)
+    try:
+        p.setPhysicsEngineParameter(physicsClientId=cid, **dict(params["setPhysicsEngineParameter"]))
+        p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
+        bodies = []
+        for key, R, m, x, v in (("ball", pair.radius_m, pair.mass_kg, 0.0, pair.velocities_m_per_s[0]),
+                                ("ball2", pair.radius2_m, pair.mass2_kg, pair.contact_distance_m + gap_m,
+                                 pair.velocities_m_per_s[1])):
+            shape = p.createCollisionShape(p.GEOM_SPHERE, radius=float(R), physicsClientId=cid)
+            body = p.createMultiBody(float(m), shape, basePosition=[x, 0, 1.0], physicsClientId=cid)
+            p.changeDynamics(body, -1, physicsClientId=cid, **params["changeDynamics"][key])
+            p.resetBaseVelocity(body, [v, 0, 0], [0, 0, 0], physicsClientId=cid)
+            bodies.append(body)
+        out = np.empty((4, n_steps + 1))
+        for i in range(n_steps + 1):
+            if i:
+                p.stepSimulation(physicsClientId=cid)
+            (x1, _, _), _ = p.getBasePositionAndOrientation(bodies[0], physicsClientId=cid)
+            (x2, _, _), _ = p.getBasePositionAndOrientation(bodies[1], physicsClientId=cid)
+            out[:, i] = (x1, x2, p.getBaseVelocity(bodies[0], physicsClientId=cid)[0][0],
+                         p.getBaseVelocity(bodies[1], physicsClientId=cid)[0][0])
+        return out
+    finally:
+        p.disconnect(cid)
+
+
+def pair_test(params, pair, n_phases):
+    """The two-ball collision test of an exported file's pair in PyBullet: a PairResult."""
+    pair = replace(pair, dt_s=float(params["setPhysicsEngineParameter"]["fixedTimeStep"]), contact_steps=2)
+    return PairResult("bullet", pair, stepped_pair_test(run_pair, params, pair, n_phases))
 
 
 class _Bound:

@@ -813,6 +813,205 @@ def stepped_drop_test(run_drop, params, setup, n_bounces, n_phases, max_steps=No
     return sized_run(run, setup, n_phases, max_steps)
 
 
+#: Steps of free flight the two balls of the pair test close in before the (first phase's) contact.
+PAIR_APPROACH_STEPS = 3
+
+#: Steps the pair test runs past the contact (the balls fly apart, gravity off).
+PAIR_AFTER_STEPS = 4
+
+
+@dataclass(frozen=True)
+class PairSetup:
+    """The two-ball collision test of an ``--against`` export's pair ball/ball2, SI units.
+
+    The balls fly head-on along x with gravity off (far from the floor): ball at x = 0, ball2 at
+    ``R + R2 + gap``, their velocities in the frame of their centre of mass, so that they close at
+    ``speed_m_per_s``. The achieved epsilon is the relative normal speed after the contact over
+    the one before.
+
+    Attributes
+    ----------
+    name : str
+        the pair, 'BALL/BALL2'
+    target : float
+        the file's pair epsilon (Eq. 6 of [1]: the product of the two balls' own)
+    mass_kg, radius_m, mass2_kg, radius2_m : float
+        the two balls' masses [kg] and radii [m]
+    speed_m_per_s : float
+        relative speed at which they meet [m/s]: the ball's first impact speed of the drop test
+    dt_s : float
+        the engine's time step [s]
+    tolerance : float
+        largest accepted |achieved - target|
+    max_penetration_m : float
+        the floor contact's limit [m], shown beside the pair's overlap (not judged: the pair's
+        contact detection is the engine's, e.g. MuJoCo's margin of the ball's speed)
+    margin_m : float
+        distance [m] at which the engine's contact acts before touch (MuJoCo's pair margin; 0 else)
+    contact_steps : int
+        steps a contact may last (1 for the one-step contacts; a spring's half period)
+    """
+
+    name: str
+    target: float
+    mass_kg: float
+    radius_m: float
+    mass2_kg: float
+    radius2_m: float
+    speed_m_per_s: float
+    dt_s: float
+    tolerance: float = DEFAULT_TOLERANCE
+    max_penetration_m: float = math.inf
+    margin_m: float = 0.0
+    contact_steps: int = 1
+
+    @property
+    def velocities_m_per_s(self):
+        """(ball's, ball2's) x velocity [m/s] before the contact: centre-of-mass frame, closing at the speed."""
+        m1, m2, v = self.mass_kg, self.mass2_kg, self.speed_m_per_s
+        return v * m2 / (m1 + m2), -v * m1 / (m1 + m2)
+
+    @property
+    def contact_distance_m(self):
+        """Distance of the centres [m] at touch: R + R2."""
+        return self.radius_m + self.radius2_m
+
+
+def pair_setup(setup, name2, mass2_kg, radius2_m, target):
+    """The :class:`PairSetup` of an ``--against`` file: the ball of ``setup`` (a :class:`DropSetup`)
+    against the second ball (``name2``, ``mass2_kg`` [kg], ``radius2_m`` [m]), meeting at the ball's
+    first impact speed of the drop test, at its step and tolerance; ``target`` is the pair's Eq. 6 epsilon."""
+    return PairSetup(name=f"{setup.ball}/{name2}", target=check_epsilon(target, "the pair's epsilon"),
+                     mass_kg=float(setup.mass_kg), radius_m=float(setup.radius_m), mass2_kg=float(mass2_kg),
+                     radius2_m=float(radius2_m), speed_m_per_s=setup.impact_speed_m_per_s, dt_s=setup.dt_s,
+                     tolerance=setup.tolerance, max_penetration_m=setup.penetration_limit_m)
+
+
+def pair_gaps_m(pair, n_phases):
+    """Gaps [m] between the two balls' surfaces at the start of each phase of the pair test.
+
+    Like :func:`phase_shifts_m` for the drop: the balls close ``speed dt`` per step, so adding
+    ``k/n`` of that to the gap moves the contact by ``k/n`` of a step; each run starts
+    :data:`PAIR_APPROACH_STEPS` steps of flight outside the engine's margin.
+    """
+    n = max(int(n_phases), 1)
+    step = pair.speed_m_per_s * pair.dt_s
+    return pair.margin_m + step * (PAIR_APPROACH_STEPS + np.arange(n) / n)
+
+
+def pair_steps(pair, gap_m):
+    """Steps [-] a run of the pair test lasts from ``gap_m``: the approach, the contact, the parting."""
+    step = pair.speed_m_per_s * pair.dt_s
+    # the parting: out of an overlap up to a step's closing and the margin, at epsilon times the speed
+    parting = (step + 2.0 * pair.margin_m) / (max(pair.target, 0.05) * step)
+    return int(math.ceil(gap_m / step)) + int(pair.contact_steps) + int(math.ceil(parting)) + PAIR_AFTER_STEPS
+
+
+@dataclass
+class PairRuns:
+    """The pair test's runs, one per contact phase (arrays of shape (n_phases,)).
+
+    Attributes
+    ----------
+    gaps_m : ndarray
+        the starting gap of each run [m] (:func:`pair_gaps_m`)
+    epsilons : ndarray
+        achieved epsilon: relative normal speed after / before the contact
+    overlaps_m : ndarray
+        largest overlap of the two spheres in each run [m] (0 when they never touched)
+    parted : ndarray of bool
+        the balls were apart and flying apart when the run ended
+    phase_fractions : ndarray
+        where in its time step the contact of each run falls (0 ... 1)
+    """
+
+    gaps_m: np.ndarray
+    epsilons: np.ndarray
+    overlaps_m: np.ndarray
+    parted: np.ndarray
+    phase_fractions: np.ndarray
+
+
+def pair_run(pair, x1_m, x2_m, v1_m_per_s, v2_m_per_s):
+    """(achieved epsilon, largest overlap [m], parted) of one run of the pair test.
+
+    ``x1_m, x2_m, v1_m_per_s, v2_m_per_s`` are the two centres' x [m] and x velocities [m/s] at every
+    step, sample 0 = start. The speeds are the relative ones before (sample 0) and at the end.
+    """
+    x1, x2 = np.asarray(x1_m, dtype=float), np.asarray(x2_m, dtype=float)
+    rel = np.asarray(v2_m_per_s, dtype=float) - np.asarray(v1_m_per_s, dtype=float)   # > 0: apart
+    distance = x2 - x1
+    overlap = float(max(np.max(pair.contact_distance_m - distance), 0.0))
+    parted = bool(distance[-1] > pair.contact_distance_m + pair.margin_m and rel[-1] > 0)
+    return float(-rel[-1] / rel[0]), overlap, parted
+
+
+def stepped_pair_test(run_pair, params, pair, n_phases):
+    """The pair test of an engine, once per contact phase: a :class:`PairRuns`.
+
+    ``run_pair(params, pair, gap_m, n_steps)`` runs the two balls from ``gap_m`` apart for
+    ``n_steps`` steps and returns the arrays of :func:`pair_run`.
+    """
+    gaps = pair_gaps_m(pair, n_phases)
+    runs = [pair_run(pair, *run_pair(params, pair, float(gap), pair_steps(pair, gap))) for gap in gaps]
+    eps, overlap, parted = (np.array(x) for x in zip(*runs))
+    return PairRuns(gaps_m=gaps, epsilons=eps, overlaps_m=overlap, parted=parted,
+                    phase_fractions=np.arange(len(gaps)) / len(gaps))
+
+
+@dataclass
+class PairResult:
+    """The two-ball collision test of a file's pair in a real engine, judged against Eq. 6."""
+
+    engine: str
+    pair: PairSetup
+    runs: PairRuns
+    notes: tuple = ()
+
+    @property
+    def target(self):
+        return self.pair.target
+
+    @property
+    def tolerance(self):
+        return self.pair.tolerance
+
+    @property
+    def error(self):
+        """Largest |achieved - target| over the phases."""
+        return float(np.max(np.abs(self.runs.epsilons - self.pair.target)))
+
+    @property
+    def overlap_m(self):
+        """Largest overlap of the two balls over the phases [m]."""
+        return float(np.max(self.runs.overlaps_m))
+
+    @property
+    def passed(self):
+        return self.error <= self.pair.tolerance and bool(np.all(self.runs.parted))
+
+    def failure(self):
+        """Why the pair missed, in one line ('' when it passed)."""
+        if self.passed:
+            return ""
+        p, eps = self.pair, self.runs.epsilons
+        if not np.all(self.runs.parted):
+            return (f"the pair {p.name}: the two balls had not parted {p.contact_steps + PAIR_AFTER_STEPS} steps "
+                    "after the contact the file's engine settings make (a contact this long is not the file's)")
+        return (f"the pair {p.name} reaches epsilon {np.min(eps):.4f}..{np.max(eps):.4f} in {self.engine}, Eq. 6 "
+                f"gives {p.target:.4f}: off by {self.error:.4f} > tolerance {p.tolerance:g}")
+
+    def as_dict(self):
+        p, r = self.pair, self.runs
+        return {"name": p.name, "target_epsilon": p.target, "tolerance": p.tolerance,
+                "speed_m_per_s": p.speed_m_per_s, "dt_s": p.dt_s,
+                "mass_kg": [p.mass_kg, p.mass2_kg], "radius_m": [p.radius_m, p.radius2_m],
+                "gaps_m": [float(x) for x in r.gaps_m], "epsilons": [float(x) for x in r.epsilons],
+                "overlaps_m": [float(x) for x in r.overlaps_m], "error": self.error,
+                "overlap_m": self.overlap_m, "max_penetration_m": p.max_penetration_m,
+                "passed": self.passed, "notes": list(self.notes)}
+
+
 class RunsSummary:
     """What a result with a :class:`DropRuns` ``runs`` reports of it (verify and MuJoCo's calibration)."""
 
@@ -859,6 +1058,7 @@ class VerifyResult(RunsSummary):
     drop_height_m: float | None = None
     others: tuple = ()       # drop tests of the file's other bodies on the floor (``--against``)
     unverified: tuple = ()   # the contacts a file writes that no drop test ran (text)
+    pair: PairResult | None = None   # the two-ball collision test of the file's pair (``--against``)
 
     @property
     def apex_ratios(self):
@@ -888,7 +1088,8 @@ class VerifyResult(RunsSummary):
 
     @property
     def passed(self):
-        return self.error <= self.tolerance and self.depth_ok and all(o.passed for o in self.others)
+        return (self.error <= self.tolerance and self.depth_ok and all(o.passed for o in self.others)
+                and (self.pair is None or self.pair.passed))
 
     def failure(self):
         """Why the drop test failed, in one line for the terminal ('' when it passed): the error or
@@ -896,6 +1097,8 @@ class VerifyResult(RunsSummary):
         failed = next((o for o in self.others if not o.passed), None)
         if self.error <= self.tolerance and self.depth_ok and failed is not None:
             return f"{failed.ball} on the floor: {failed.failure()}"
+        if self.error <= self.tolerance and self.depth_ok and self.pair is not None and not self.pair.passed:
+            return self.pair.failure()
         if self.error > self.tolerance:
             return f"epsilon error {self.error:.4g} exceeds the tolerance {self.tolerance:g}" + self.slow_impacts()
         if not self.depth_ok:
@@ -952,4 +1155,5 @@ class VerifyResult(RunsSummary):
             "impact_speeds_m_per_s": [float(x) for x in self.impact_speeds_m_per_s],
             "holds_down_to_m_per_s": self.holds_down_to_m_per_s,
             "other_bodies": [o.as_dict() for o in self.others], "not_verified": list(self.unverified),
+            "pair": None if self.pair is None else self.pair.as_dict(),
         }

@@ -19,6 +19,7 @@ against the penetration a step allows (:func:`check_step`), and ``vrcal verify``
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -568,7 +569,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         cal2 = calibrate_or_refuse(second, stiffness, n_phases) if second is not None else None
         # compiled once: each of the scan's drops runs the same model
         coverage = speed_coverage(setup, "mujoco", module.load_model(module.export_mjcf(setup, cal)), asked_lo)
-        text = module.export_mjcf(setup, cal, pair, second, coverage, cal2)
+        # the ball/ball2 contact, run (and if need be tuned) in MuJoCo by the two balls meeting head-on
+        pair_cal = module.calibrate_pair(setup, second, pair, CONFIRM_PHASES) if second is not None else None
+        text = module.export_mjcf(setup, cal, pair, second, coverage, cal2, pair_cal)
         data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
@@ -576,8 +579,10 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"worst eps error "
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
+        missed = pair_cal is not None and not pair_cal.result.passed     # said, not refused: verify fails it
         summary = _lines(summary, module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
-                         _coverage_summary(setup, coverage))
+                         _coverage_summary(setup, coverage),
+                         "\n".join(textwrap.wrap(pair_cal.result.failure(), 100)) if missed else "")
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
         data = module.export_params(setup, setup.n_bounces, pair)
@@ -587,6 +592,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         data["how_chosen"] = list(setup.notes)
         if pair:
             data["pair"] = {k: v for k, v in pair.items() if k != "pairs"}       # the pairs are data["pairs"]
+            # the second body, as "ball" is written: what verify's ball2/floor drop and pair test run
+            data["ball2"] = {"name": second.ball, "mass_kg": second.mass_kg, "radius_m": second.radius_m}
         data["snippet"] = module.c_snippet(data) if eng.name == "ode" else module.py_snippet(data)
         text = dumps(data, "json")
     elif eng.name == "gazebo":
@@ -625,8 +632,6 @@ def _checked_coverage(setup, engine, checked, asked_lo):
 
 def _coverage_summary(setup, coverage):
     """The terminal's line when ``--impact-speed``'s slowest speed was not reached (else '')."""
-    import textwrap
-
     return "\n".join(textwrap.wrap(coverage.shortfall(setup.tolerance), 100)) if coverage else ""
 
 

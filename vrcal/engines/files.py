@@ -53,8 +53,12 @@ def _get(doc, path, engine):
 _OPTIONAL_NUMBERS = {
     "ode": [("world.erp", 0, 1), ("world.cfm", 0, 1e6), ("contact.soft_erp", 0, 1), ("contact.soft_cfm", 0, 1e6),
             ("world.contact_max_correcting_vel", 0, math.inf), ("world.contact_surface_layer", 0, 1e3),
-            ("world.quick_step_iterations", 1, 1e4)],
-    "bullet": [],
+            ("world.quick_step_iterations", 1, 1e4),
+            # an --against export's second ball and the two balls' contact (older files have neither)
+            ("ball2.mass_kg", 0, 1e6), ("ball2.radius_m", 0, 1e3), ("contact_pair.mu", 0, math.inf),
+            ("contact_pair.bounce", 0, 1), ("contact_pair.bounce_vel", 0, 1e6), ("contact_pair.soft_erp", 0, 1),
+            ("contact_pair.soft_cfm", 0, 1e6)],
+    "bullet": [("ball2.mass_kg", 0, 1e6), ("ball2.radius_m", 0, 1e3)],
 }
 
 #: (key path, low, high) of the numbers each runner reads.
@@ -101,19 +105,23 @@ def read_params(engine, text):
     for path, lo, hi in _OPTIONAL_NUMBERS[engine]:
         block, _, key = path.partition(".")
         if isinstance(data.get(block), dict) and key in data[block]:
-            _number(data[block][key], f"{engine} export: {path}", lo, hi)
+            _number(data[block][key], f"{engine} export: {path}", lo, hi,
+                    lo_open=path.endswith(("mass_kg", "radius_m")))
     if engine == "ode":
         gravity = _get(data, "world.gravity", engine)
         if not (isinstance(gravity, list) and len(gravity) == 3):
             raise DataError("ode export: world.gravity must be a list of 3 numbers")
         for x in gravity:
             _number(x, "ode export: world.gravity", -1e3, 1e3)
-        modes = _get(data, "contact.mode", engine)
         from vrcal.engines import ode_ctypes as O
 
-        if not (isinstance(modes, list) and all(isinstance(m, str) and m.startswith("dContact")
-                                                and isinstance(getattr(O, m, None), int) for m in modes)):
-            raise DataError("ode export: contact.mode must be a list of dContact... flag names")
+        for block in ("contact", "contact_pair"):
+            if block == "contact_pair" and not isinstance(data.get(block), dict):
+                continue
+            modes = _get(data, f"{block}.mode", engine)
+            if not (isinstance(modes, list) and all(isinstance(m, str) and m.startswith("dContact")
+                                                    and isinstance(getattr(O, m, None), int) for m in modes)):
+                raise DataError(f"ode export: {block}.mode must be a list of dContact... flag names")
         if data["world"].get("step", "dWorldStep") not in ("dWorldStep", "dWorldQuickStep"):
             raise DataError("ode export: world.step must be dWorldStep or dWorldQuickStep")
     else:
@@ -122,7 +130,9 @@ def read_params(engine, text):
             raise DataError("bullet export: setGravity must be a list of 3 numbers")
         for x in gravity:
             _number(x, "bullet export: setGravity", -1e3, 1e3)
-        for key in ("setPhysicsEngineParameter", "changeDynamics.ball", "changeDynamics.floor"):
+        ball2 = isinstance(data.get("changeDynamics"), dict) and "ball2" in data["changeDynamics"]
+        for key in ("setPhysicsEngineParameter", "changeDynamics.ball", "changeDynamics.floor",
+                    *(("changeDynamics.ball2",) if ball2 else ())):
             block = _get(data, key, engine)
             if not isinstance(block, dict):
                 raise DataError(f"bullet export: {key} must be an object")

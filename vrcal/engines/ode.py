@@ -22,11 +22,13 @@ from vrcal.drop.effects import AIR_DENSITY_KG_PER_M3
 from vrcal.engines import get_engine
 from vrcal.engines import ode_ctypes as O
 from vrcal.engines.common import (
+    PairResult,
     drag_force_coefficient_kg_per_m,
     metadata,
     restitution_table,
     step_note,
     stepped_drop_test,
+    stepped_pair_test,
 )
 from vrcal.errors import UsageError
 from vrcal.textout import SCHEMA_VERSION
@@ -124,10 +126,14 @@ def export_params(setup, n_bounces=None, pair=None):
                             "ball's normal speed (formula of 'restitution_law', or interpolate its table)")
     if pair:
         out["pairs"] = dict(pair["pairs"])      # every pair's epsilon, Eq. 6 (export.pair_epsilons)
+        # the two balls' own contact, whole: what a near callback sets on a contact of ball and ball2
+        out["contact_pair"] = dict(out["contact"], applies_to=f"the contacts of the two balls, {pair['name']} "
+                                   "(Eq. 6: bounce is the product of their epsilons)", bounce=pair["epsilon"])
         out["notes"].append(
             f"ODE has no mixing rule: the snippet's near callback sets each contact's bounce to its pair's value "
             f"from 'pairs' (ball_geom: your {setup.ball}, ball2_geom: your {pair['ball2']}; both balls: Eq. 6, "
-            "the product of the two bodies' epsilons)"
+            "the product of the two bodies' epsilons); 'contact_pair' is the two balls' contact whole (the "
+            "ball's 'contact' with the pair's bounce)"
         )
     return out
 
@@ -183,21 +189,10 @@ def run_drop(params, drop_height_m, duration_s):
     lib = O.load_ode()
     world_p, contact_p, ball = params["world"], params["contact"], params["ball"]
     dt = float(world_p["dt"])
-    world = lib.dWorldCreate()
+    world = _new_world(lib, world_p)
     space = lib.dHashSpaceCreate(None)
     group = lib.dJointGroupCreate(0)
     try:
-        lib.dWorldSetGravity(world, *[float(x) for x in world_p["gravity"]])
-        if "erp" in world_p:             # files of an earlier vrcal set the world's ERP and CFM
-            lib.dWorldSetERP(world, float(world_p["erp"]))
-        if "cfm" in world_p:
-            lib.dWorldSetCFM(world, float(world_p["cfm"]))
-        if "contact_max_correcting_vel" in world_p:     # a Gazebo world's (vrcal.engines.gazebo.ode_params)
-            lib.dWorldSetContactMaxCorrectingVel(world, float(world_p["contact_max_correcting_vel"]))
-        if "contact_surface_layer" in world_p:
-            lib.dWorldSetContactSurfaceLayer(world, float(world_p["contact_surface_layer"]))
-        if "quick_step_iterations" in world_p:
-            lib.dWorldSetQuickStepNumIterations(world, int(world_p["quick_step_iterations"]))
         body = lib.dBodyCreate(world)
         R = float(ball["radius_m"])
         mass = O.sphere_mass(float(ball["mass_kg"]), R)
@@ -206,9 +201,7 @@ def run_drop(params, drop_height_m, duration_s):
         lib.dGeomSetBody(sphere, body)
         lib.dCreatePlane(space, 0.0, 0.0, 1.0, 0.0)
         lib.dBodySetPosition(body, 0.0, 0.0, drop_height_m + R)
-        soft = {k: float(contact_p[k]) for k in ("soft_erp", "soft_cfm") if k in contact_p}
-        surf = O.surface(_mode_value(contact_p["mode"]), float(contact_p["mu"]), bounce=float(contact_p["bounce"]),
-                         bounce_vel=float(contact_p["bounce_vel"]), **soft)
+        surf = _surface(contact_p)
         step = getattr(lib, world_p.get("step", "dWorldStep"))
         n = int(math.ceil(duration_s / dt))
         z = np.empty(n + 1)
@@ -244,6 +237,91 @@ def drop_test(params, setup, n_bounces, n_phases):
     """Run the exported settings in libode and measure them against vrcal's model: a DropRuns."""
     return stepped_drop_test(run_drop, params, replace(setup, n_bounces=int(n_bounces)), n_bounces, n_phases,
                              get_engine("ode").max_steps)
+
+
+def _new_world(lib, world_p):
+    """A dWorld with the exported world settings (gravity, and any ERP/CFM/correcting velocity/layer/iterations)."""
+    world = lib.dWorldCreate()
+    lib.dWorldSetGravity(world, *[float(x) for x in world_p["gravity"]])
+    if "erp" in world_p:             # files of an earlier vrcal set the world's ERP and CFM
+        lib.dWorldSetERP(world, float(world_p["erp"]))
+    if "cfm" in world_p:
+        lib.dWorldSetCFM(world, float(world_p["cfm"]))
+    if "contact_max_correcting_vel" in world_p:     # a Gazebo world's (vrcal.engines.gazebo.ode_params)
+        lib.dWorldSetContactMaxCorrectingVel(world, float(world_p["contact_max_correcting_vel"]))
+    if "contact_surface_layer" in world_p:
+        lib.dWorldSetContactSurfaceLayer(world, float(world_p["contact_surface_layer"]))
+    if "quick_step_iterations" in world_p:
+        lib.dWorldSetQuickStepNumIterations(world, int(world_p["quick_step_iterations"]))
+    return world
+
+
+def _surface(contact_p):
+    """The dSurfaceParameters of an exported contact block (mode, mu, bounce, bounce_vel, soft_erp/cfm)."""
+    soft = {k: float(contact_p[k]) for k in ("soft_erp", "soft_cfm") if k in contact_p}
+    return O.surface(_mode_value(contact_p["mode"]), float(contact_p["mu"]), bounce=float(contact_p["bounce"]),
+                     bounce_vel=float(contact_p["bounce_vel"]), **soft)
+
+
+def pair_params(params):
+    """The file's ball/ball2 contact (``contact_pair``, what the near callback sets on the two balls' contacts)
+    as a parameter set with the world, for :func:`pair_test`; None for a file without it (an older export)."""
+    if not isinstance(params.get("contact_pair"), dict) or not isinstance(params.get("ball2"), dict):
+        return None
+    return {"world": params["world"], "contact": params["contact_pair"]}
+
+
+def run_pair(params, pair, gap_m, n_steps):
+    """Run the two balls of the pair test in libode (gravity off, no floor) with the pair's contact.
+
+    ``params`` is :func:`pair_params`'s; returns the centres' x [m] and x velocities [m/s] of every step
+    (rows of a (4, n_steps + 1) array: ball x, ball2 x, ball v, ball2 v).
+    """
+    lib = O.load_ode()
+    world_p = dict(params["world"], gravity=[0.0, 0.0, 0.0])
+    dt = float(world_p["dt"])
+    world = _new_world(lib, world_p)
+    space = lib.dHashSpaceCreate(None)
+    group = lib.dJointGroupCreate(0)
+    try:
+        bodies = []
+        for R, m, x, v in ((pair.radius_m, pair.mass_kg, 0.0, pair.velocities_m_per_s[0]),
+                           (pair.radius2_m, pair.mass2_kg, pair.contact_distance_m + gap_m,
+                            pair.velocities_m_per_s[1])):
+            body = lib.dBodyCreate(world)
+            mass = O.sphere_mass(float(m), float(R))
+            lib.dBodySetMass(body, ctypes.byref(mass))
+            sphere = lib.dCreateSphere(space, float(R))
+            lib.dGeomSetBody(sphere, body)
+            lib.dBodySetPosition(body, x, 0.0, 1.0)
+            lib.dBodySetLinearVel(body, v, 0.0, 0.0)
+            bodies.append(body)
+        surf = _surface(params["contact"])
+        step = getattr(lib, world_p.get("step", "dWorldStep"))
+        out = np.empty((4, n_steps + 1))
+
+        def sample(i):
+            out[:, i] = (lib.dBodyGetPosition(bodies[0])[0], lib.dBodyGetPosition(bodies[1])[0],
+                         lib.dBodyGetLinearVel(bodies[0])[0], lib.dBodyGetLinearVel(bodies[1])[0])
+
+        sample(0)
+        for i in range(1, n_steps + 1):
+            O.collide_pairs(lib, space, lambda o1, o2: O.add_contacts(lib, world, group, o1, o2, surf))
+            step(world, dt)
+            lib.dJointGroupEmpty(group)
+            sample(i)
+        return out
+    finally:
+        lib.dJointGroupDestroy(group)
+        lib.dSpaceDestroy(space)
+        lib.dWorldDestroy(world)
+
+
+def pair_test(params, pair, n_phases):
+    """The two-ball collision test of an exported file's pair in libode: a PairResult."""
+    runnable = pair_params(params)
+    pair = replace(pair, dt_s=float(params["world"]["dt"]), contact_steps=2)
+    return PairResult("ode", pair, stepped_pair_test(run_pair, runnable, pair, n_phases))
 
 
 C_SNIPPET = """\

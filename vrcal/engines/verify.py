@@ -129,7 +129,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         if other_step is None:
             raise
         raise DataError(f"{exc}; {other_step}: export again with --dt {setup.dt_s:g}") from None
-    others, unverified = ((), ()) if exported_text is None else \
+    others, unverified, pair = ((), (), None) if exported_text is None else \
         _other_contacts(eng.name, exported_text, loaded, runnable, setup, n_bounces, n_phases, geoms)
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
@@ -137,18 +137,19 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         settings=_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
         impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
         holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
-        others=others, unverified=unverified,
+        others=others, unverified=unverified, pair=pair,
     )
 
 
 def _other_contacts(engine, text, loaded, runnable, setup, n_bounces, n_phases, geoms):
-    """(drop tests of the file's other balls on the floor, the contacts not tested) of an exported file.
+    """(drop tests of the file's other balls on the floor, the contacts not tested, the pair test) of a file.
 
     An ``--against`` export writes three contacts: ball/floor, ball2/floor and the pair ball/ball2.
-    MuJoCo's file carries ball2's target (``vrcal_ball2_epsilon``): ball2 is dropped on the floor like
-    the ball (a :class:`VerifyResult` each). The pair (two balls meeting) has no drop test, and the
-    JSON exports of ODE and PyBullet and Gazebo's world carry no second body to drop: they are named,
-    with their epsilon, as not verified.
+    Its second ball (MuJoCo: the model's 'ball2' and ``vrcal_ball2_epsilon``; ODE and PyBullet: the
+    file's ``ball2`` body and its contact) is dropped on the floor like the ball (a
+    :class:`VerifyResult`), and the two balls meet head-on in the engine (:func:`_pair_test`, a
+    :class:`vrcal.engines.common.PairResult` judged against the file's Eq. 6 epsilon). A file of an older
+    vrcal without ball2's target or body, and Gazebo's world, name those contacts as not verified.
     """
     if engine == "mujoco":
         from vrcal.engines.files import read_mjcf
@@ -156,42 +157,85 @@ def _other_contacts(engine, text, loaded, runnable, setup, n_bounces, n_phases, 
 
         info = read_mjcf(text)
         if geoms.get("ball_geom") is not None or "ball2" not in geom_names(runnable.model):
-            return (), ()
+            return (), (), None
         target = info["target"]
         name2 = info["texts"].get("ball2", "ball2")
         pair = f"{setup.ball}/{name2}"
         if "ball2_epsilon" not in target:
             return (), (f"{name2}/floor and {pair}: the file carries no target for them (an export of an older "
-                        "vrcal): export again",)
-        from vrcal.engines.export import second_setup
-
+                        "vrcal): export again",), None
         scene2 = scene_of(runnable.model, ball_geom="ball2", floor_geom=runnable.floor_geom)
         radius2, mass2 = ball_of(scene2)
         eps2 = float(target["ball2_epsilon"])
-        setup2 = second_setup(setup, name2, mass2, radius2, eps2, eps2)
-        check_steps(setup2, n_phases, runtime(engine).label, runtime(engine).max_steps)
-        try:
-            runs2 = load(engine).drop_test(scene2, setup2, n_bounces, n_phases)
-        except DataError as exc:
-            raise DataError(f"ball2 ({name2}) on the floor: {exc}") from None
-        other = VerifyResult(engine=engine, engine_version="", ball=f"ball2 ({name2})", target=eps2, dt_s=setup.dt_s,
-                             tolerance=setup.tolerance, runs=runs2, max_penetration_m=setup2.penetration_limit_m,
-                             g_m_per_s2=setup.g_m_per_s2, drop_height_m=setup.drop_height_m,
-                             impact_speeds_m_per_s=tuple(float(v) for v in setup2.impact_speeds_m_per_s[:n_bounces]))
-        return (other,), (f"{pair} (the two balls' pair, epsilon {target.get('pair_epsilon', math.nan):.4f} from "
-                          "Eq. 6, one-step reversal): no drop test of two balls",)
+        other = _second_drop(engine, scene2, setup, name2, mass2, radius2, eps2, eps2, n_bounces, n_phases)
+        if "pair_epsilon" not in target:
+            return (other,), (f"{pair}: the file carries no target for it (an export of an older vrcal): "
+                              "export again",), None
+        return (other,), (), _pair_test(engine, runnable, setup, name2, mass2, radius2, target["pair_epsilon"],
+                                        n_phases)
     if engine == "gazebo":
         if 'name="ball2"' not in text:
-            return (), ()
-        return (), ("ball2/floor and ball/ball2 (the world's second ball): this drop test runs the ball only",)
+            return (), (), None
+        return (), ("ball2/floor and ball/ball2 (the world's second ball): this drop test runs the ball only",), None
     pair, pairs = loaded.get("pair"), loaded.get("pairs") or {}
     if not isinstance(pair, dict) or "ball2" not in pair:
-        return (), ()
+        return (), (), None
     b2 = str(pair["ball2"])[:80]
     floor2 = pairs.get(f"{b2}/floor", math.nan)
-    return (), (f"{b2}/floor (epsilon {floor2:.4f}) and {pair.get('name', 'the pair')} (epsilon "
-                f"{pair.get('epsilon', math.nan):.4f}, Eq. 6): the file has no second body to drop; this drop test "
-                f"runs the ball ({setup.ball}) on the floor only",)
+    body2 = loaded.get("ball2")
+    if not isinstance(body2, dict) or "mass_kg" not in body2 or "radius_m" not in body2 or \
+            (engine == "ode" and not isinstance(loaded.get("contact_pair"), dict)):
+        return (), (f"{b2}/floor (epsilon {floor2:.4f}) and {pair.get('name', 'the pair')} (epsilon "
+                    f"{pair.get('epsilon', math.nan):.4f}, Eq. 6): the file carries no second body (ball2's mass "
+                    f"and radius{' and contact_pair' if engine == 'ode' else ''}; an export of an older vrcal): "
+                    "export again",), None
+    mass2, radius2 = float(body2["mass_kg"]), float(body2["radius_m"])
+    eps2_floor = _file_epsilon(floor2, f"the file's pairs.{b2}/floor")
+    eps2 = _file_epsilon(pair.get("epsilon_ball2", eps2_floor), "the file's pair.epsilon_ball2")
+    params2 = {k: v for k, v in runnable.items() if k not in ("drag", "restitution_law")}   # the ball's own
+    params2["ball"] = dict(runnable["ball"], name=b2, mass_kg=mass2, radius_m=radius2)
+    if engine == "ode":
+        params2["contact"] = dict(runnable["contact"], bounce=eps2_floor)      # the snippet's ball2 bounce
+    else:
+        params2["changeDynamics"] = dict(runnable["changeDynamics"], ball=runnable["changeDynamics"]["ball2"])
+    other = _second_drop(engine, params2, setup, b2, mass2, radius2, eps2_floor, eps2, n_bounces, n_phases)
+    target = _file_epsilon(pair.get("epsilon"), "the file's pair.epsilon")
+    return (other,), (), _pair_test(engine, runnable, setup, b2, mass2, radius2, target, n_phases)
+
+
+def _file_epsilon(value, what):
+    """An epsilon a file carries, as a float in (0, 1]; DataError (one line) naming ``what`` otherwise."""
+    from vrcal.engines.common import check_epsilon
+
+    try:
+        return check_epsilon(value, what)
+    except UsageError as exc:
+        raise DataError(f"{exc}: export again") from None
+
+
+def _second_drop(engine, runnable2, setup, name2, mass2, radius2, eps2, eps2_rigid, n_bounces, n_phases):
+    """The drop test of an ``--against`` file's second ball on the floor: a :class:`VerifyResult`."""
+    from vrcal.engines.export import second_setup
+
+    setup2 = second_setup(setup, name2, mass2, radius2, eps2, eps2_rigid)
+    check_steps(setup2, n_phases, runtime(engine).label, runtime(engine).max_steps)
+    try:
+        runs2 = load(engine).drop_test(runnable2, setup2, n_bounces, n_phases)
+    except DataError as exc:
+        raise DataError(f"ball2 ({name2}) on the floor: {exc}") from None
+    return VerifyResult(engine=engine, engine_version="", ball=f"ball2 ({name2})", target=eps2, dt_s=setup.dt_s,
+                        tolerance=setup.tolerance, runs=runs2, max_penetration_m=setup2.penetration_limit_m,
+                        g_m_per_s2=setup.g_m_per_s2, drop_height_m=setup.drop_height_m,
+                        impact_speeds_m_per_s=tuple(float(v) for v in setup2.impact_speeds_m_per_s[:n_bounces]))
+
+
+def _pair_test(engine, runnable, setup, name2, mass2, radius2, target, n_phases):
+    """The two balls of an ``--against`` file meeting head-on in the engine at the ball's first impact
+    speed, over ``n_phases`` contact phases: a :class:`vrcal.engines.common.PairResult`."""
+    from vrcal.engines.common import pair_setup
+
+    pair = pair_setup(setup, name2, mass2, radius2, _file_epsilon(target, "the file's pair epsilon"))
+    return load(engine).pair_test(runnable, pair, n_phases)
 
 
 def _holds_down_to(engine, loaded):
@@ -471,12 +515,22 @@ def format_report(result):
     text += (f"worst error {r.error:.4f} (tolerance {r.tolerance:g}), median {r.median_error:.4f}\n"
              f"penetration {r.penetration_m * 1e3:.3g} mm, hover {r.hover_m * 1e3:.3g} mm "
              f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
-    if r.others or r.unverified:
+    if r.others or r.unverified or r.pair is not None:
         first = f"ball ({r.ball})" if r.engine == "mujoco" else r.ball
         tested = [f"{first}/floor"] + [f"{o.ball}/floor (target {o.target:.4f}: worst error {o.error:.4f}, "
                                         f"penetration {o.penetration_m * 1e3:.3g} mm, hover {o.hover_m * 1e3:.3g} mm"
                                         f"{'' if o.passed else ', FAILED'})" for o in r.others]
+        if r.pair is not None:
+            tested.append(format_pair(r.pair))
         text += "\n".join(textwrap.wrap("contacts verified: " + "; ".join(tested), 100, subsequent_indent="  ")) + "\n"
         for line in r.unverified:
             text += "\n".join(textwrap.wrap("not verified: " + line, 100, subsequent_indent="  ")) + "\n"
     return text + f"{verdict}\n"
+
+
+def format_pair(result):
+    """The pair test of a :class:`vrcal.engines.common.PairResult` in a few words, for the report."""
+    p, eps = result.pair, result.runs.epsilons
+    return (f"{p.name} (the two balls head-on at {p.speed_m_per_s:.3g} m/s, gravity off, {eps.size} phase(s); "
+            f"Eq. 6 target {p.target:.4f}: v_out/v_in {_range(eps)}, worst error {result.error:.4f}, overlap "
+            f"{result.overlap_m * 1e3:.3g} mm{'' if result.passed else ', FAILED'})")
