@@ -175,3 +175,16 @@ def test_a_run_too_long_is_refused_up_front_naming_the_limit():
 def test_round_down_keeps_two_digits_and_never_rounds_up():
     assert round_down(0.0013871) == 0.0013
     assert round_down(2.0e-4) == 2.0e-4
+
+
+def test_a_second_balls_depth_limit_is_a_quarter_of_its_own_radius():
+    """verify --file read the file's limit (a quarter of the tennis ball's radius, 8.37 mm) and judged the
+    basketball dropped beside it by it (26.7 mm: FAILED); a limit the user gave stays the same for both."""
+    from vrcal.engines.export import second_setup
+
+    tennis = DropSetup("tennis", 0.0577, 0.0335, 1.0, 0.745, 2e-4, max_penetration_m=0.25 * 0.0335)
+    basket = second_setup(tennis, "basketball", 0.6085, 0.1217, 0.766, 0.766)
+    assert basket.penetration_limit_m == pytest.approx(0.25 * 0.1217)
+    given = second_setup(DropSetup("tennis", 0.0577, 0.0335, 1.0, 0.745, 2e-4, max_penetration_m=0.02),
+                         "basketball", 0.6085, 0.1217, 0.766, 0.766)
+    assert given.penetration_limit_m == 0.02

@@ -499,9 +499,15 @@ def second_setup(setup, name, mass_kg, radius_m, epsilon, ball_epsilon_rigid):
     -------
     DropSetup
         dropped from the export's drop height at its step, gravity, tolerance and integrator, with a
-        constant epsilon (no drag): the same body as the first gets the same setup, so the same contact
+        constant epsilon (no drag): the same body as the first gets the same setup, so the same contact;
+        its depth limit is a quarter of its own radius unless a limit of its own was given (a file's
+        default limit, a quarter of the first ball's radius, judged a basketball by a tennis ball's 8.4 mm)
     """
+    limit = setup.max_penetration_m
+    if limit is not None and math.isclose(float(limit), 0.25 * float(setup.radius_m), rel_tol=1e-6):
+        limit = None
     return replace(setup, ball=name, mass_kg=float(mass_kg), radius_m=float(radius_m), epsilon=float(epsilon),
+                   max_penetration_m=limit,
                    ball_epsilon=float(ball_epsilon_rigid), notes=(), drag_coefficient=0.0, restitution_exponent=0.0,
                    release_time_s=0.0, height_offset_m=0.0, baseline_epsilon=None)
 
