@@ -1103,7 +1103,7 @@ def _fit_candidate(problem, named, names, current):
             eff = EFFECTS[name]
             for p in eff.parameters:
                 null = eff.null_values.get(p.name, p.default)
-                lo, hi = p.bounds
+                lo, hi = p.fit_bounds(problem.ball)
                 start2[f"{name}.{p.name}"] = float(np.clip(null, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)))
         fit2 = res.fit_model(problem, (*named, *names), start=start2)
         if fit2.rss < fit.rss:
