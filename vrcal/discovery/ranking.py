@@ -521,7 +521,7 @@ class Discovery:
     def effective_without_drag(self):
         """The constant ε an engine without air drag reproduces the record's bounce heights best with:
         {"epsilon", "bounces" (how many, from the first, it reproduces within the goal of ``vrcal verify``,
-        :data:`vrcal.engines.replay.APEX_GOAL`, 3 % of each rise), "of" (the bounces the record shows),
+        :data:`vrcal.model.restitution.APEX_GOAL`, 3 % of each rise), "of" (the bounces the record shows),
         "misfit" (the largest relative misfit over those bounces)}; "epsilon" None and "bounces" 0 when no
         constant reproduces even the first two within the goal ("misfit" then the nearest one's over them).
 
@@ -534,8 +534,7 @@ class Discovery:
         exercise ball with buoyancy, g_eff 0.8 g, and drag got 0.8238, 11.6 % to 35.7 % too high at its five
         rebounds, whose heights ask for 0.774 to 0.802), and which a tracked point off the ball's bottom or a
         contact's duration biased too."""
-        from vrcal.engines.replay import APEX_GOAL
-        from vrcal.model.restitution import constant_epsilon_for_heights
+        from vrcal.model.restitution import APEX_GOAL, constant_epsilon_for_heights
 
         model = self.split if self.split is not None else self.final
         H, h, n = [], [], []

@@ -332,7 +332,7 @@ def engine_advice(discovery):
 def _without_drag_line(d):
     """What an engine without drag should take (:attr:`Discovery.effective_without_drag`): the constant
     that reproduces the bounce heights, over which bounces, or that none does within the goal."""
-    from vrcal.engines.replay import APEX_GOAL
+    from vrcal.model.restitution import APEX_GOAL
 
     eff = d.effective_without_drag
     goal = f"{100 * APEX_GOAL:g} %"

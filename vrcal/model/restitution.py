@@ -597,6 +597,12 @@ def _drag_constant_per_m(cd, D, m, rho):
 
 #: Rounding allowed above epsilon = 1 by :func:`epsilon_from_heights_with_drag` (the closed form of a
 #: drop at epsilon 1 gives 1 only to a few units in the last place).
+#: An engine reproduces a measured rebound when its apex lies within this fraction of the rebound's rise
+#: (its height above the contact level): the goal of ``vrcal verify`` (:mod:`vrcal.engines.replay`) and of
+#: the constant epsilon ``vrcal discover`` offers for an engine without drag.
+APEX_GOAL = 0.03
+
+
 def constant_epsilon_for_heights(drop_height_m, apex_height_m, bounce):
     """The one constant epsilon whose drag-free bounce heights come nearest to given apex heights.
 
