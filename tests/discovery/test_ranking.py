@@ -833,6 +833,30 @@ def test_every_named_effect_stays_inside_its_physical_limits():
     assert abs(d.epsilon - 0.89) < 0.002
 
 
+def test_a_light_large_ball_with_buoyancy_and_drag_is_explained(tmp_path):
+    """A 0.1 kg, 0.5 m beach ball from 2 m with drag and buoyancy, made by ``vrcal simulate`` itself (the
+    probe's command): the buoyancy candidate's fitter tried an air density past the ball's own 1.528 kg/m^3
+    (its bounds reached 2), the simulation refused ("the ball is lighter than the air it displaces") and the
+    whole run aborted. Now the trial stays where the ball falls and the record is explained."""
+    rec = tmp_path / "beach_rec.csv"
+    made = run("simulate", "--mass", "0.1", "--diameter", "0.5", "--drop", "2", "--epsilon", "0.877", "--bounces",
+               "4", "--effect", "air_drag:drag_coefficient=0.47", "--effect", "buoyancy", "--noise", "0.001",
+               "-o", str(rec))
+    assert made.exit_code == 0, made.output
+    result = run("discover", str(rec), "--mass", "0.1", "--diameter", "0.5", "-q", "--json", str(tmp_path / "d.json"))
+    assert result.exit_code == 0, result.output
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["verdict"] == "explained" and sorted(d["effects"]) == ["air_drag", "buoyancy"]
+    assert abs(d["epsilon"] - 0.877) <= d["epsilon_uncertainty"]
+    assert d["parameters"]["buoyancy"]["air_density_kg_per_m3"] == pytest.approx(1.204, abs=0.01)
+    assert d["parameters"]["air_drag"]["drag_coefficient"] == pytest.approx(0.47, abs=0.01)
+    # its drag is too strong for any constant epsilon in an engine without it (the first two rebounds ask
+    # for 0.548 and 0.732)
+    assert d["epsilon_effective_without_drag"] is None
+    text = " ".join(result.output.split())
+    assert "no constant epsilon reproduces the bounce heights in an engine without drag" in text
+
+
 def _basketball_table(exponent, seed, noise_m=0.002):
     """A basketball's drop table (4 heights x 2 trials, rebounds read to ``noise_m``) whose epsilon (0.88
     at the highest drop's impact) follows the registry's speed law with ``exponent``."""

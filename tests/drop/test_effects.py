@@ -154,6 +154,40 @@ def test_buoyancy_leaves_drag_free_apexes_unchanged():
     assert np.all(light.impact_times_s > base.impact_times_s)
 
 
+BEACH = BallProperties(0.1, 0.5, "beach ball")
+
+
+def test_with_drag_buoyancy_changes_apexes_as_a_lower_drag_coefficient():
+    """docs/simulate.md said buoyancy shows in trajectories only: with drag its added mass enters k, and a
+    0.1 kg, 0.5 m beach ball (C_d 0.47, epsilon 0.877) from 2 m rises to 0.470 m without it, 0.600 m with it;
+    its apexes are those of C_d 0.47 m / (m + rho V / 2) without buoyancy, its impact times are not."""
+    drag = {"air_drag": {"drag_coefficient": 0.47}}
+    plain = simulate_drops(2.0, 0.877, 3, BEACH, effects=drag)
+    light = simulate_drops(2.0, 0.877, 3, BEACH, effects={**drag, "buoyancy": {}})
+    assert plain.apex_heights_m[0, 1] == pytest.approx(0.470, abs=5e-4)
+    assert light.apex_heights_m[0, 1] == pytest.approx(0.600, abs=5e-4)
+    added = 0.5 * 1.204 * math.pi * 0.5**3 / 6
+    lower = simulate_drops(2.0, 0.877, 3, BEACH, effects={"air_drag": {"drag_coefficient": 0.47 * 0.1 / (0.1 + added)}})
+    np.testing.assert_allclose(light.apex_heights_m, lower.apex_heights_m, rtol=1e-9)
+    assert np.all(light.impact_times_s > 2 * lower.impact_times_s)
+
+
+def test_the_fitter_never_tries_an_air_density_at_which_the_ball_would_float():
+    """The fitter's bounds of the air density (0-2 kg/m^3) reached past a beach ball's own density (0.1 kg,
+    0.5 m: 1.528 kg/m^3), where it would float and the simulation refuses: a trial step of the buoyancy
+    candidate aborted the whole ``vrcal discover``. For this ball the bounds, and the limits, stop below it."""
+    p = EFFECTS["buoyancy"].parameter("air_density_kg_per_m3")
+    floating = 0.1 / (math.pi * 0.5**3 / 6)
+    lo, hi = p.fit_bounds(BEACH)
+    assert lo == 0.0 and floating * 0.99 < hi < floating
+    assert p.fit_bounds() == p.bounds == (0.0, 2.0)          # no ball: the registry's
+    drops = simulate_drops(2.0, 0.877, 2, BEACH, effects={"buoyancy": {"air_density_kg_per_m3": hi}})
+    assert 0 < drops.g_m_per_s2[0] < 0.01 * 9.80665
+    assert p.physical_limits(BEACH) == (0.8, 1.4)            # the beach ball's limits are the air's
+    barely = BallProperties(1.3 * math.pi * 0.5**3 / 6, 0.5)  # a ball of 1.3 kg/m^3
+    assert p.physical_limits(barely)[1] == pytest.approx(1.3, rel=2e-3) and p.physical_limits(barely)[1] < 1.3
+
+
 @settings(max_examples=60, deadline=None)
 @given(eps=st.floats(0.05, 1.0), v=st.floats(0.05, 20.0), vref=st.floats(0.05, 20.0), p=st.floats(-1.0, 2.0))
 def test_speed_dependent_restitution_is_nested_and_bounded(eps, v, vref, p):

@@ -320,6 +320,15 @@ def test_cli_simulate_then_discover_round_trip(tmp_path):
     assert json.loads(result.read_text())["epsilon"] == pytest.approx(0.75, abs=1e-6)
 
 
+def test_a_ball_lighter_than_its_air_is_refused_with_the_densities():
+    """The refusal says at which air density, the ball's own density, and what to give instead."""
+    result = run("simulate", "--mass", "0.1", "--diameter", "0.5", "--drop", "2", "--epsilon", "0.877", "--effect",
+                 "buoyancy:air_density_kg_per_m3=1.6")
+    assert result.exit_code == 2
+    assert ("at an air density of 1.6 kg/m^3 a ball of 0.1 kg and 0.5 m (1.528 kg/m^3) is lighter than the air it "
+            "displaces (it would not fall); give an air density below 1.528 kg/m^3") in " ".join(result.output.split())
+
+
 def test_cli_virtual_body_and_free_ball():
     result = run("simulate", "marble", "--mass", "0.005", "--diameter", "0.016", "--drop", "0.5",
                  "--x", "0.01", "--v", "0.05", "--K", "4", "--bounces", "1", "--format", "apexes")

@@ -322,14 +322,31 @@ def engine_advice(discovery):
     elif "air_drag" in f.effects:
         out.append("Use it in an engine that also applies the air drag found here (a force -k v|v|);")
     if "air_drag" in (d.split if split else f).effects:
-        eff, kept = d.effective_without_drag
-        whose = (f"the effective epsilon = {eff:.4f} (a constant fitted without drag, with "
-                 f"{_effects_phrase(kept)} as named)" if kept else f"the baseline's effective epsilon = {eff:.4f}")
-        out.append(f"an engine without drag reproduces the bounce heights better with {whose}.")
+        out.append(_without_drag_line(d))
     elif d.split is None and ("height_offset" in d.effects or "contact_duration" in d.effects):
         out.append(f"The baseline's epsilon {d.epsilon_baseline:.4f} is biased by the effect(s) named; use "
                    f"{eps:.4f}.")
     return out
+
+
+def _without_drag_line(d):
+    """What an engine without drag should take (:attr:`Discovery.effective_without_drag`): the constant
+    that reproduces the bounce heights, over which bounces, or that none does within the goal."""
+    from vrcal.model.restitution import APEX_GOAL
+
+    eff = d.effective_without_drag
+    goal = f"{100 * APEX_GOAL:g} %"
+    n, of = eff["bounces"], eff["of"]
+    if eff["epsilon"] is None:
+        return (f"no constant epsilon reproduces the bounce heights in an engine without drag: the nearest misses "
+                f"the first two by {100 * eff['misfit']:.1f} % (more than {goal}); use one that applies the drag.")
+    which = (f"all {of} bounce heights" if n == of and n > 1 else "the bounce height" if of == 1
+             else f"the first {n} bounce heights")
+    text = (f"an engine without drag reproduces {which} within {100 * eff['misfit']:.1f} % with the effective "
+            f"epsilon = {eff['epsilon']:.4f} (the constant nearest the model's apexes)")
+    if n < of:
+        text += f"; no constant reproduces all {of} within {goal}"
+    return text + "."
 
 
 def _systematic_lines(d, sigma):

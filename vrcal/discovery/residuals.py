@@ -878,7 +878,9 @@ def _check_kind(kind):
 
 def parameter_layout(data, effects=(), ball=None):
     """The free parameters of the baseline plus ``effects`` for ``data`` (a tuple of FitParameter);
-    ``data`` is one measurement or :class:`vrcal.measurements.Runs` (a release state per run)."""
+    ``data`` is one measurement or :class:`vrcal.measurements.Runs` (a release state per run). With
+    ``ball`` the effects' bounds are those of this ball (:meth:`vrcal.drop.effects.Parameter.fit_bounds`:
+    an air density at which it would float is not tried)."""
     from vrcal.drop.effects import EFFECTS
 
     runs = _runs_of(data)
@@ -893,7 +895,7 @@ def parameter_layout(data, effects=(), ball=None):
             raise UsageError(f"effect '{name}' cannot be seen in {kind} data (it shows in: {', '.join(eff.kinds)})")
         for p in eff.parameters:
             null = eff.null_values.get(p.name) if eff.null_values else None
-            layout.append(FitParameter(f"{name}.{p.name}", name, p.name, p.unit, tuple(map(float, p.bounds)),
+            layout.append(FitParameter(f"{name}.{p.name}", name, p.name, p.unit, p.fit_bounds(ball),
                                        tuple(map(float, p.prior)), None if null is None else float(null)))
     return tuple(layout)
 
@@ -1691,7 +1693,7 @@ def fit_model(problem, effects=(), start=None, *, max_nfev=60, prior_sigma=None,
     from vrcal.drop.effects import EFFECTS
 
     data = problem.data
-    layout = parameter_layout(data, tuple(effects))
+    layout = parameter_layout(data, tuple(effects), problem.ball)
     start = dict(start or {})
     base0 = problem_start(problem)
     x0 = []

@@ -81,6 +81,11 @@ Physical limits (hard; ``Parameter.limits``)
   (bottom 0, centre D/2, top D), give or take a mis-set floor line;
 * ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day).
 
+The model of a ball exists over a range of its own (``Parameter.defined``), which caps both the
+fitter's bounds and the limits for that ball: ``buoyancy.air_density_kg_per_m3`` below the ball's own
+mean density m / V, where it would float (a 0.1 kg, 0.5 m beach ball: 1.53 kg/m^3, inside the fitter's
+bounds 0-2): a trial value beyond is never simulated (:func:`buoyancy_defined_range`).
+
 Departures from [1]
 -------------------
 [1] treats every contact as instantaneous with one epsilon and the flights as drag-free;
@@ -202,7 +207,10 @@ class Parameter:
     candidate outside them is never named; ``prior``: the plausible range (the uniform
     density's support); ``density``: a proper prior density (an object with
     ``pdf(x, ball)``; uniform over ``prior`` when None) for the evidence that ranks the
-    candidates (see the module docstring, "Prior densities").
+    candidates (see the module docstring, "Prior densities"); ``defined``: None, or a function of
+    (mass [kg], diameter [m]) giving the range ``(lo, hi)`` over which the model of this ball exists
+    (buoyancy: below the air density at which the ball would float), which caps ``bounds`` and
+    ``limits`` for that ball (:meth:`fit_bounds`, :meth:`physical_limits`).
     """
 
     name: str
@@ -213,17 +221,31 @@ class Parameter:
     description: str
     density: object = None
     limits: object = None
+    defined: object = None
 
     def physical_limits(self, ball=None):
         """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
         depend on it: ``limits`` is then a function of (mass [kg], diameter [m], surface: the floor,
-        :func:`surface_of`)); ``bounds`` when none are set."""
+        :func:`surface_of`)); ``bounds`` when none are set; inside the range where the model of this
+        ball exists (``defined``) when a ball is given."""
         lim = self.limits if self.limits is not None else self.bounds
         if callable(lim):
             if ball is None:
                 raise UsageError(f"the limits of {self.name} depend on the ball: give its mass and diameter")
             lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)), surface_of(ball))
-        return float(lim[0]), float(lim[1])
+        return self._within_defined(lim, ball)
+
+    def fit_bounds(self, ball=None):
+        """What the fitter may try ``(lo, hi)`` [unit]: ``bounds``, for a given ball inside the range where
+        its model exists (``defined``: a trial value beyond would fail the simulation, not the fit)."""
+        return self._within_defined(self.bounds, ball)
+
+    def _within_defined(self, lim, ball):
+        lo, hi = float(lim[0]), float(lim[1])
+        if self.defined is not None and ball is not None:
+            a, b = self.defined(float(np.min(ball.mass_kg)), float(np.max(ball.diameter_m)))
+            lo, hi = max(lo, a), min(hi, b)
+        return lo, hi
 
     def prior_pdf(self, x, ball=None):
         """Prior density at ``x`` [1/unit]; ``ball`` (mass_kg, diameter_m) for ball-dependent priors."""
@@ -315,7 +337,11 @@ def buoyant_gravity_m_per_s2(g_m_per_s2, diameter_m, mass_kg, air_density_kg_per
     size: rho V / m = 1.49 % for a 2.7 g, 40 mm table-tennis ball and for a basketball,
     2.2 % for a volleyball, 1.5 % for a football, 0.33 % for a tennis ball, so g_eff is
     2.2 %, 2.2 %, 3.2 %, 2.3 % and 0.5 % below g. Without drag it leaves the apex ratios
-    unchanged (they are energy ratios); it shows in the shape of a trajectory.
+    unchanged (they are energy ratios); it shows in the shape of a trajectory. With drag the added
+    mass also divides the drag constant k by (m + rho V / 2) / m (:func:`drag_constant_per_m`'s
+    ``added_mass_kg``), which changes the apexes (from rest they depend on k alone: exactly as a C_d
+    lower by that factor) and the impact times: a 0.1 kg, 0.5 m beach ball with C_d 0.47 and
+    epsilon 0.877 dropped from 2 m rises to 0.470 m without buoyancy and to 0.600 m with it.
     """
     g = check_array("g_m_per_s2", g_m_per_s2)
     D = check_array("diameter_m", diameter_m)
@@ -328,6 +354,25 @@ def _buoyant_gravity_m_per_s2(g, D, m, rho):
     """:func:`buoyant_gravity_m_per_s2` of checked arrays (the simulator's inner call)."""
     added = _added_mass_kg(D, rho)
     return g * (m - 2.0 * added) / (m + added)
+
+
+#: Share of a ball's mean density up to which the fitter may try the density of the air around it: at the
+#: ball's own density it would float (g_eff = 0, :func:`buoyant_gravity_m_per_s2`), where a drop has no model.
+FLOATING_MARGIN = 1e-3
+
+
+def buoyancy_defined_range(mass_kg, diameter_m):
+    """Air densities ``(lo, hi)`` [kg/m^3] at which a ball still falls (the range over which the buoyancy
+    model of this ball exists): 0 to just below the ball's mean density m / V, where g_eff reaches 0.
+
+    Parameters
+    ----------
+    mass_kg : float
+        ball mass m [kg], > 0
+    diameter_m : float
+        ball diameter D [m], > 0
+    """
+    return 0.0, float(ball_density_kg_per_m3(mass_kg, diameter_m)) * (1.0 - FLOATING_MARGIN)
 
 
 def restitution_at_speed(epsilon_ref, impact_speed_m_per_s, reference_speed_m_per_s, exponent):
@@ -763,12 +808,14 @@ EFFECTS = {
         name="buoyancy",
         parameters=(
             Parameter("air_density_kg_per_m3", "kg/m^3", AIR_DENSITY_KG_PER_M3, (0.0, 2.0), (0.9, 1.3),
-                      "density of the displacing air (1.204 at 20 C, sea level)", limits=(0.8, 1.4)),
+                      "density of the displacing air (1.204 at 20 C, sea level)", limits=(0.8, 1.4),
+                      defined=buoyancy_defined_range),
         ),
         equation="g_eff = g (m - rho V) / (m + rho V / 2),  V = pi D^3 / 6",
         description="Archimedes' force and the added mass of air: a hollow ball falls with a smaller "
                     "acceleration (table tennis and basketball -2.2 % of g, volleyball -3.2 %, tennis -0.5 %); "
-                    "apex ratios are unchanged, the flights are longer",
+                    "the flights are longer; without drag apex ratios are unchanged, with drag the added mass "
+                    "lowers k as a lower C_d would (higher apexes)",
         reference="Landau & Lifshitz, Fluid Mechanics, Sec. 11 (added mass of a sphere)",
         kinds=("trajectory",),
         null_values={"air_density_kg_per_m3": 0.0},

@@ -42,6 +42,7 @@ from vrcal.drop.effects import (
 )
 from vrcal.errors import UsageError
 from vrcal.model.body import ball_properties
+from vrcal.model.plausible import ball_density_kg_per_m3
 from vrcal.model.restitution import (
     AIR_DENSITY_KG_PER_M3,
     STANDARD_GRAVITY_M_PER_S2,
@@ -442,7 +443,12 @@ def simulate_drops(drop_height_m, epsilon, n_bounces, ball, *, effects=None,
         g = _buoyant_gravity_m_per_s2(g0, D, m, rho_b)
         added = _added_mass_kg(D, rho_b)
         if np.any(g <= 0):
-            raise UsageError("buoyancy: the ball is lighter than the air it displaces (it would not fall)")
+            i = int(np.argmin(g))
+            rho_ball = float(ball_density_kg_per_m3(m[i], D[i]))
+            raise UsageError(f"buoyancy: at an air density of {rho_b[i]:.4g} kg/m^3 a ball of {m[i]:g} kg and "
+                             f"{D[i]:g} m ({rho_ball:.4g} kg/m^3) is lighter than the air it displaces (it would "
+                             f"not fall); give an air density below {rho_ball:.4g} kg/m^3, or check the mass and "
+                             f"diameter")
     cd = param("air_drag", "drag_coefficient")
     k = np.zeros(N) if cd is None else _drag_constant_per_m(cd, D, m + added, AIR_DENSITY_KG_PER_M3) * np.ones(N)
     tc = param("contact_duration", "contact_time_s")

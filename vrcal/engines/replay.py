@@ -26,10 +26,10 @@ import numpy as np
 from vrcal.engines import get_engine, load, require_runtime
 from vrcal.engines.common import DEFAULT_TOLERANCE
 from vrcal.errors import DataError, UsageError
+from vrcal.model.restitution import APEX_GOAL  # noqa: F401 (re-exported)
 
-#: Each rebound apex of the engine should lie within this fraction of the measured rebound's rise
-#: (its height above the contact level) ...
-APEX_GOAL = 0.03
+# Each rebound apex of the engine should lie within APEX_GOAL of the measured rebound's rise
+# (its height above the contact level; one goal with discover's drag-free epsilon) ...
 #: ... or within this many noise sigmas of the measured apex (a sampled, noisy maximum).
 APEX_NOISE_SIGMAS = 3.0
 #: A measured apex is compared only when it rises this many noise sigmas above the contact level

@@ -597,6 +597,52 @@ def _drag_constant_per_m(cd, D, m, rho):
 
 #: Rounding allowed above epsilon = 1 by :func:`epsilon_from_heights_with_drag` (the closed form of a
 #: drop at epsilon 1 gives 1 only to a few units in the last place).
+#: An engine reproduces a measured rebound when its apex lies within this fraction of the rebound's rise
+#: (its height above the contact level): the goal of ``vrcal verify`` (:mod:`vrcal.engines.replay`) and of
+#: the constant epsilon ``vrcal discover`` offers for an engine without drag.
+APEX_GOAL = 0.03
+
+
+def constant_epsilon_for_heights(drop_height_m, apex_height_m, bounce):
+    """The one constant epsilon whose drag-free bounce heights come nearest to given apex heights.
+
+    Parameters
+    ----------
+    drop_height_m : float or ndarray
+        drop height H [m] of the ball's bottom above the floor from which each apex was reached, > 0
+    apex_height_m : float or ndarray
+        apex height h [m] of the ball's bottom after bounce ``bounce`` of its drop, > 0
+    bounce : int or ndarray
+        the bounce n (1 = the first rebound) of each apex, >= 1; the three broadcast together (several
+        drops of a drop table share the epsilon)
+
+    Returns
+    -------
+    epsilon : float
+        the constant whose heights H eps^(2n) (Eq. (9) of [1] bounce after bounce: no drag) miss the
+        apexes least at the worst one: it minimises max |ln(H eps^(2n) / h)|
+    misfit : ndarray
+        H eps^(2n) / h - 1 of each apex [1] (the broadcast shape)
+
+    Notes
+    -----
+    With x = ln eps every apex is a line 2 n x - ln(h / H); the least largest |line| (a Chebyshev fit of
+    one parameter) lies where two of them have equal size and opposite sign, at the pair (i, j) whose
+    |2 n_j ln(h_i / H_i) - 2 n_i ln(h_j / H_j)| / (2 n_i + 2 n_j) is largest (which is then that least
+    misfit). Without drag (and a constant epsilon) every line meets at x = ln eps and the misfit is 0.
+    """
+    H = check_array("drop height H", drop_height_m)
+    h = check_array("apex height h", apex_height_m)
+    n = check_array("bounce n", bounce, 1.0, lo_open=False)
+    H, h, n = np.broadcast_arrays(H, h, n)
+    a, y = 2.0 * np.ravel(n), np.log(np.ravel(h / H))
+    A = a[:, None] + a[None, :]
+    gap = np.abs(a[None, :] * y[:, None] - a[:, None] * y[None, :]) / A
+    i, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
+    x = (y[i] + y[j]) / A[i, j]
+    return float(math.exp(x)), np.expm1(a * x - y).reshape(h.shape)
+
+
 EPSILON_ROUNDING = 1e-12
 
 
