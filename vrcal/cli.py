@@ -673,7 +673,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import dumps, figure_bytes, write_files
     from vrcal.measurements.reader import spooled
-    from vrcal.textout import wrap
+    from vrcal.textout import printable_name, wrap
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -690,9 +690,9 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                                drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to,
                                surface=surface)
 
-    def named(text):   # the inputs as the user named them (not their temporary copies)
+    def named(text):   # the inputs as the user named them (not their temporary copies), as JSON writes names
         for copy, given in zip(readable, data):
-            text = text.replace(copy, given) if copy != given else text
+            text = text.replace(copy, printable_name(given)) if copy != given else text
         return text
 
     text = fit_report(result, details=details)
