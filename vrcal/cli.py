@@ -8,6 +8,8 @@ message on stderr and an exit status in one place, :class:`VrcalGroup`.
 from __future__ import annotations
 
 import contextlib
+import io
+import os
 import signal
 import sys
 import warnings
@@ -38,7 +40,7 @@ class VrcalGroup(click.Group):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         try:
-            with _terminate_as_interrupt() as signalled, warnings.catch_warnings():
+            with _terminate_as_interrupt() as signalled, warnings.catch_warnings(), _text_streams():
                 warnings.filterwarnings("ignore", category=RuntimeWarning, module="numpy")
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_WARNINGS)
                 warnings.showwarning = _show_warning
@@ -63,6 +65,14 @@ class VrcalGroup(click.Group):
             terminated = isinstance(exc.__context__, _Terminated)
             click.echo("vrcal: terminated" if terminated else "vrcal: aborted", err=True)
             sys.exit(143 if terminated else 1)
+        except OSError as exc:   # a write to stdout or stderr failed (a full disk); a broken pipe is click's
+            stream = _failed_stream(exc)
+            if stream is None:
+                raise
+            _discard(stream)
+            with contextlib.suppress(OSError):
+                click.echo(f"vrcal: error: cannot write to {stream}: {exc.strerror or exc}", err=True)
+            sys.exit(2)
         sys.exit(rv if isinstance(rv, int) else 0)
 
     def invoke(self, ctx):
@@ -104,6 +114,56 @@ def _one_line(message):
     if len(text) > MAX_MESSAGE_CHARS:
         text = f"{text[:MAX_MESSAGE_CHARS - 120]} ... [{len(text):,} characters] ... {text[-100:]}"
     return text
+
+
+@contextlib.contextmanager
+def _text_streams():
+    """stdout and stderr write what their encoding cannot hold in ASCII spellings (``ε`` -> ``eps`` on a
+    latin-1 or cp1252 stdout) and a file name's undecodable bytes as ``\\xNN``
+    (:data:`vrcal.textout.ASCII_FALLBACK`), for the command's run."""
+    from vrcal.textout import ASCII_FALLBACK
+
+    restore = []
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            errors = stream.errors
+            stream.reconfigure(errors=ASCII_FALLBACK)
+            restore.append((stream, errors))
+        except (AttributeError, ValueError, OSError):   # not a TextIOWrapper (a test's capture), or closed
+            pass
+    try:
+        yield
+    finally:
+        for stream, errors in restore:
+            with contextlib.suppress(AttributeError, ValueError, OSError):
+                stream.reconfigure(errors=errors)
+
+
+def _failed_stream(exc):
+    """'stdout' or 'stderr' when ``exc`` (an OSError) was raised writing to it, else None: the innermost
+    frame of its traceback (click.echo, or the command) holds the stream it wrote to."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    if tb is None:
+        return None
+    held = [id(v) for v in tb.tb_frame.f_locals.values()]
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if any(id(s) in held for s in (stream, getattr(stream, "buffer", None)) if s is not None):
+            return name
+    return None
+
+
+def _discard(name):
+    """Point the failed stream ``name`` at /dev/null: the text it still buffers would fail again at exit."""
+    stream = getattr(sys, name)
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, stream.fileno())
+        os.close(null)
+    except (AttributeError, ValueError, OSError, io.UnsupportedOperation):   # a test's capture: nothing at exit
+        pass
 
 
 class _Terminated(KeyboardInterrupt):
@@ -281,7 +341,7 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
 @click.option("--n", "n", type=opt.FAMILY_SIZE, default=11, show_default=True, help="Number of (x, v) family members.")
 @click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
 @FORMAT_OPTION
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebound_height_m, drop_measured_to,
@@ -324,7 +384,7 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
 @K_OPTION
 @click.option("--as-paper", is_flag=True, help="Balls use the paper's Table 1 heights as printed.")
 @FORMAT_OPTION
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def pair(ctx, body_a, body_b, K, as_paper, fmt, output):
@@ -377,7 +437,7 @@ def _output_dir(path):
 
 
 @plot.command("curves", short_help="Write Figs. 4-7 of the paper as PNGs.")
-@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=".", show_default=True,
+@click.option("-o", "--output", "out_dir", type=opt.OUTPUT_DIRECTORY, default=".", show_default=True,
               help="Directory for the PNGs (created, with missing parents).")
 @K_OPTION
 @click.option("--ball", default="basketball", show_default=True, help="Ball of Fig. 7.")
@@ -406,7 +466,7 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
     figures = curve_figures(DEFAULT_K_PER_S if K is None else K, ball, as_paper, standards_of(ctx))
     try:
         d = _output_dir(out_dir)
-        write_files({d / name: figure_bytes(figures[name], dpi=120, metadata={"Software": None})
+        write_files({d / name: figure_bytes(figures[name], dpi=120)
                      for name in sorted(figures)}, directories=[d])  # all of them or none
         click.echo(table([[str(d / name), figures[name].vrcal_description] for name in sorted(figures)],
                          ["wrote", "what"], align="ll"), nl=False)
@@ -424,7 +484,7 @@ def plot_curves(ctx, out_dir, K, ball, as_paper):
 @click.option("--compare-paper", is_flag=True,
               help="Check the paper's Table 2: K per row under T = x/(2v) and T = v/(2x), least-squares K.")
 @click.option("--as-paper", is_flag=True, help="ε from the paper's Table 1 heights as printed.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def table2(ctx, K, fmt, compare_paper, as_paper, output):
@@ -493,7 +553,7 @@ def table2(ctx, K, fmt, compare_paper, as_paper, output):
               default="trajectory", show_default=True,
               help="CSV data, or a recording to try 'vrcal track' on: wav (the impacts' sound in a room with "
                    "noise, hum and an echo) or video (an .avi of the ball, needs vrcal[video]); these need -o.")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon, K, x_m, v_m_per_s, effects,
@@ -578,9 +638,9 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
               help="Point of the ball the rebound heights were measured to (a ruler read at the ball's top: top).")
 @g_option(from_json=False)
 @click.option("--details", is_flag=True, help="Add the statistics of every candidate and the gap per bounce.")
-@click.option("--json", "json_file", type=click.Path(dir_okay=False), default=None,
+@click.option("--json", "json_file", type=opt.OUTPUT_FILE, default=None,
               help="Also write the result as JSON (sorted keys, full precision) here ('-' for stdout).")
-@click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
+@click.option("--report", "report_dir", type=opt.OUTPUT_DIRECTORY, default=None,
               help="Write report.txt, discover.json and the figure discover.png into this directory.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
@@ -613,7 +673,7 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
     from vrcal.discovery.report import REPORT_FILES, discovery_figure, fit_report
     from vrcal.fileio import dumps, figure_bytes, write_files
     from vrcal.measurements.reader import spooled
-    from vrcal.textout import wrap
+    from vrcal.textout import printable_name, wrap
 
     def progress(rnd, i, n, name):
         if not quiet:
@@ -630,9 +690,9 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                                drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to,
                                surface=surface)
 
-    def named(text):   # the inputs as the user named them (not their temporary copies)
+    def named(text):   # the inputs as the user named them (not their temporary copies), as JSON writes names
         for copy, given in zip(readable, data):
-            text = text.replace(copy, given) if copy != given else text
+            text = text.replace(copy, printable_name(given)) if copy != given else text
         return text
 
     text = fit_report(result, details=details)
@@ -673,7 +733,7 @@ def tracking_progress(command):
 
 @main.command(short_help="A sound or video recording -> the measurement file vrcal reads.")
 @click.argument("recording", type=opt.INPUT_FILE_OR_STDIN)
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None,
               help="Write the measurement (CSV, notes as # comments) here; without it, to stdout.")
 @click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
               help="Also draw what was detected (signal and impacts, or the ball's path) into this PNG/PDF/SVG.")
@@ -799,8 +859,10 @@ def _engine_options(f):
 @click.option("--trade-off", "trade_off", is_flag=True,
               help="MuJoCo: print the achievable (step, stiffness, epsilon error, penetration) table.")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default=None,
-              help="json: the machine file (tables rows, MuJoCo's achieved numbers) [default: the engine's file].")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None, help="Write here instead of stdout.")
+              help="text: the engine's own file (MJCF, SDF, the settings JSON, a table; -o: its extension or "
+                   ".txt); json: the machine file (tables rows, MuJoCo's achieved numbers; -o: .json) [default: "
+                   "the engine's file, or as -o's extension says].")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
@@ -835,11 +897,17 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                    tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
     form = choose_format(fmt, None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
-        if fmt is None:   # the extension chooses between the engine's own file and the json machine file
-            from vrcal.engines import get_engine
+        from vrcal.engines import get_engine
 
-            native = get_engine(engine).fmt          # the engine's own file (the registry's format)
-            form = "json" if file_format(output, (native, "json"), native) == "json" != native else "text"
+        # text is the engine's own file (MJCF, SDF, the settings JSON, a table), named by the engine's
+        # extension or .txt; json the machine file: the extension chooses, or must agree with --format
+        native = get_engine(engine).fmt
+        if fmt is None:
+            form = "json" if file_format(output, (native, "text", "json"), native) == "json" != native else "text"
+        elif fmt == "json":
+            choose_format(fmt, output, allowed=("text", "json"))
+        else:
+            file_format(output, (native, "text"), native, given=f"--format text ({native})")
         check_writable(output)                     # before the calibration, which takes seconds
     if trade_off:
         setup, rows = run_trade_off(ball, engine, against=against, stiffness=stiffness, **options)
@@ -1006,7 +1074,7 @@ def engines_cmd():
 
 @main.command()
 @click.argument("scene_file", type=opt.INPUT_FILE)
-@click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=None,
+@click.option("-o", "--output", "out_dir", type=opt.OUTPUT_DIRECTORY, default=None,
               help="Directory for the outputs [default: ./NAME, NAME = the scene file's name without suffix].")
 @click.option("--engine", type=click.Choice(["vrcal", "ode"]), default="vrcal", show_default=True,
               help="vrcal's event-driven simulator, or the real ODE library (libode8).")

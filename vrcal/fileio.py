@@ -15,6 +15,7 @@ from pathlib import Path
 import yaml
 
 from vrcal.errors import DataError, UsageError
+from vrcal.textout import ASCII_FALLBACK, printable_name
 
 #: Largest YAML file (standards, scene) read [bytes]; PyYAML's safe loader reads about 0.3 MB/s.
 MAX_YAML_BYTES = 1 << 20
@@ -66,7 +67,8 @@ def atomic_write(path, data):
 def write_files(files, directories=()):
     """Write every file of ``files`` (path -> str or bytes), or none of them.
 
-    Every regular file is first written to a temporary file beside it; only when all of them
+    Every regular file is first written to a temporary file beside it (with the permissions of the file it
+    replaces, else 0666 less the umask); only when all of them
     are written are they renamed into place (with SIGINT and SIGTERM held back for the
     renames). On any failure, or an interrupt, the temporary files and the ``directories``
     this call created are removed, so a failed run leaves nothing behind. Paths that exist
@@ -105,6 +107,11 @@ def write_files(files, directories=()):
                 d.rmdir()
             except OSError:
                 pass
+
+
+#: How text files are written: UTF-8, Unix newlines; an undecodable byte of a file name quoted in the text
+#: (a lone surrogate, which UTF-8 cannot hold) written ``\\xNN`` (:data:`vrcal.textout.ASCII_FALLBACK`).
+_TEXT_FILE = {"encoding": "utf-8", "newline": "\n", "errors": ASCII_FALLBACK}
 
 
 def _make_directory(d):
@@ -166,9 +173,9 @@ def _stage(path, data, staged):
         raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
     staged.append((path, tmp, data))  # from here on the caller removes it if anything fails
     try:
-        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8", "newline": "\n"})) as fh:
+        with os.fdopen(fd, mode, **({} if mode == "wb" else _TEXT_FILE)) as fh:
             fh.write(data)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual mode
+        os.chmod(tmp, _mode_for(path))  # mkstemp makes 0600
     except OSError as exc:
         raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
 
@@ -179,7 +186,7 @@ def _write_into(path, data):
         raise UsageError(f"cannot write '{path}': it is a socket")
     mode = "wb" if isinstance(data, (bytes, bytearray)) else "w"
     try:
-        with open(path, mode, **({} if mode == "wb" else {"encoding": "utf-8", "newline": "\n"})) as fh:
+        with open(path, mode, **({} if mode == "wb" else _TEXT_FILE)) as fh:
             fh.write(data)
     except OSError as exc:
         raise UsageError(f"cannot write '{path}': {exc.strerror or exc}") from None
@@ -206,8 +213,8 @@ def _commit(renames):
 @contextlib.contextmanager
 def temporary_beside(path):
     """A temporary path beside ``path`` with the same suffix, for a writer that takes a file name
-    (OpenCV picks the container by the suffix): renamed to ``path`` with the usual mode (0666 less
-    the umask, as :func:`write_files` gives) when the block succeeds, removed when it fails.
+    (OpenCV picks the container by the suffix): renamed to ``path`` with the mode :func:`write_files`
+    gives (the replaced file's, else 0666 less the umask) when the block succeeds, removed when it fails.
 
     Raises
     ------
@@ -227,11 +234,20 @@ def temporary_beside(path):
     os.close(fd)
     try:
         yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600
+        os.chmod(tmp, _mode_for(path))  # mkstemp makes 0600
         _commit([(path, tmp)])
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _mode_for(path):
+    """The permissions a file written to ``path`` gets: those of the file it replaces (``chmod 600`` kept),
+    else the usual 0666 less the umask."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        return 0o666 & ~_umask()
 
 
 def _umask():
@@ -245,17 +261,34 @@ def atomic_savefig(fig, path, **kwargs):
     atomic_write(path, figure_bytes(fig, Path(path).suffix.lstrip(".") or "png", **kwargs))
 
 
+#: Metadata matplotlib would stamp into a figure file that changes from run to run or names the
+#: software's version (None leaves it out): the same figure is the same bytes every time.
+_REPEATABLE_METADATA = {"png": {"Software": None}, "svg": {"Date": None, "Creator": None},
+                        "pdf": {"CreationDate": None, "Creator": None, "Producer": None}}
+
+
 def figure_bytes(fig, fmt="png", **kwargs):
-    """A matplotlib figure rendered to bytes in ``fmt`` (``savefig`` keywords pass through)."""
+    """A matplotlib figure rendered to bytes in ``fmt`` (``savefig`` keywords pass through), the same bytes
+    on every run: no date or version in the metadata (:data:`_REPEATABLE_METADATA`, a caller's ``metadata``
+    added), and SVG ids (clip paths) hashed from a fixed salt instead of a random one."""
     import io
 
+    import matplotlib
+
+    kwargs["metadata"] = {**_REPEATABLE_METADATA.get(fmt.lower(), {}), **(kwargs.get("metadata") or {})}
     buf = io.BytesIO()
-    fig.savefig(buf, format=fmt, **kwargs)
+    with matplotlib.rc_context({"svg.hashsalt": "vrcal"}):
+        fig.savefig(buf, format=fmt, **kwargs)
     return buf.getvalue()
 
 
 def dumps(data, fmt):
-    """Serialise a nested dict to 'json' or 'yaml' text with sorted keys (repeatable output)."""
+    """Serialise a nested dict to 'json' or 'yaml' text with sorted keys (repeatable output).
+
+    Texts (keys and values) are written with :func:`vrcal.textout.printable_name`: a file name that is not
+    UTF-8 keeps its undecodable bytes as ``\\xNN``, never a lone surrogate, which strict UTF-8 readers refuse.
+    """
+    data = _printable(data)
     if fmt == "json":
         import json
 
@@ -263,6 +296,17 @@ def dumps(data, fmt):
     if fmt == "yaml":
         return yaml.safe_dump(data, sort_keys=True, default_flow_style=False)
     raise UsageError(f"unknown format '{fmt}' (known: json, yaml)")
+
+
+def _printable(data):
+    """``data`` (nested dicts, lists, tuples) with every text passed through :func:`printable_name`."""
+    if isinstance(data, str):
+        return printable_name(data)
+    if isinstance(data, dict):
+        return {_printable(k): _printable(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_printable(v) for v in data]
+    return data
 
 
 class _Refused(yaml.MarkedYAMLError):

@@ -342,6 +342,28 @@ POSITIVE_COUNT = Count(1, None)
 INPUT_FILE = click.Path(exists=True, dir_okay=False)
 #: An input file that may be '-' (stdin, read once into a temporary copy: vrcal.measurements.reader.spooled).
 INPUT_FILE_OR_STDIN = click.Path(exists=True, dir_okay=False, allow_dash=True)
+#: An output file (``-o``, ``--json``): '-' is stdout, as the help says (never a file named '-').
+OUTPUT_FILE = click.Path(dir_okay=False, allow_dash=True)
+
+
+class OutputDirectory(click.Path):
+    """A directory of output files (created when missing); '-' (stdout) is refused: a folder of files cannot be
+    written there, and a directory named '-' would shadow stdout for every later ``-o -``."""
+
+    def __init__(self):
+        super().__init__(file_okay=False)
+
+    def convert(self, value, param, ctx):
+        if value == "-":
+            self.fail("'-' is stdout, but this is a directory of several files: give a directory name"
+                      + (" (--json - writes the result to stdout)" if param is not None and param.name == "report_dir"
+                         else ""), param, ctx)
+        return super().convert(value, param, ctx)
+
+
+#: ``-o DIR`` of plot curves and scene, discover's ``--report DIR``.
+OUTPUT_DIRECTORY = OutputDirectory()
+
 
 #: The points of a ball a height can be measured to (``--drop-measured-to``, ``--rebound-measured-to``; the
 #: keys of vrcal.model.restitution.POINT_OFFSET_DIAMETERS, and "center" for "centre").

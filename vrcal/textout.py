@@ -10,12 +10,18 @@ the full-precision machine file, with a ``schema_version`` (:func:`machine_docum
 * :func:`table` -- an aligned text table (numbers right-aligned, text left-aligned);
 * :func:`section` -- a titled block of ``key  value`` lines;
 * :func:`wrap` -- a paragraph (or a bullet) wrapped to :data:`MAX_COLUMNS`;
-* :func:`longest_line` -- the width of a text, for tests of the 100-column rule.
+* :func:`longest_line` -- the width of a text, for tests of the 100-column rule;
+* :data:`ASCII_FALLBACK` -- the codecs error handler the command line writes its text with: a stdout
+  whose encoding lacks a character (latin-1, cp1252) gets its ASCII spelling (ε -> eps), and a file
+  name's undecodable byte (a lone surrogate) is written escaped (``\\xe9``);
+* :func:`printable_name` -- such a name with its undecodable bytes escaped, for JSON and messages.
 """
 
 from __future__ import annotations
 
+import codecs
 import math
+import unicodedata
 from pathlib import Path
 
 from vrcal.errors import UsageError
@@ -133,6 +139,54 @@ def writes_text(formats):
 def machine_document(data):
     """``data`` (a dict) with ``schema_version`` added first, for a JSON/YAML file."""
     return {"schema_version": SCHEMA_VERSION, **data}
+
+
+#: Name of the codecs error handler of :func:`_ascii_fallback` (registered when this module is imported).
+ASCII_FALLBACK = "vrcal-ascii"
+
+#: ASCII spellings of the characters vrcal writes, for an output encoding without them.
+ASCII_SPELLINGS = {
+    "ε": "eps", "μ": "u", "µ": "u", "±": "+-", "−": "-", "√": "sqrt", "·": "*", "×": "x", "°": " deg",
+    "º": " deg", "σ": "sigma", "Σ": "sum", "Δ": "Delta", "χ": "chi", "τ": "tau", "π": "pi", "ρ": "rho",
+    "≤": "<=", "≥": ">=", "≈": "~", "≠": "!=", "→": "->", "←": "<-", "–": "-", "—": "--", "…": "...",
+    "ß": "ss", "\u2018": "'", "\u2019": "'", "\u201c": '"', "\u201d": '"', "\u00a0": " ",
+}
+
+
+def _ascii_fallback(exc):
+    """Codecs error handler: the characters ``exc`` could not encode in their ASCII spelling.
+
+    Lone surrogates (the bytes of a file name that is not UTF-8, as Python decodes them) become
+    ``\\xNN``; superscripts ``^`` and their digits (``s⁻¹`` -> ``s^-1``); the characters of
+    :data:`ASCII_SPELLINGS` their spelling; others their compatibility decomposition without
+    accents (``ö`` -> ``o``), else ``?``.
+    """
+    if not isinstance(exc, UnicodeEncodeError):
+        raise exc
+    out, superscript = [], False
+    for ch in exc.object[exc.start:exc.end]:
+        if 0xDC80 <= ord(ch) <= 0xDCFF:
+            out.append(f"\\x{ord(ch) - 0xDC00:02x}")
+            superscript = False
+            continue
+        is_super = unicodedata.decomposition(ch).startswith("<super>")
+        if ch in ASCII_SPELLINGS:
+            text = ASCII_SPELLINGS[ch]
+        else:
+            text = "".join(ASCII_SPELLINGS.get(c, c) for c in unicodedata.normalize("NFKD", ch))
+            text = text.encode("ascii", "ignore").decode("ascii") or "?"
+        out.append(("^" if is_super and not superscript else "") + text)
+        superscript = is_super
+    return "".join(out), exc.end
+
+
+codecs.register_error(ASCII_FALLBACK, _ascii_fallback)
+
+
+def printable_name(text):
+    """``text`` (a file name as Python decodes it) with every undecodable byte -- a lone surrogate,
+    invalid in UTF-8 -- written ``\\xNN``: ``printable_name('lat\\udce9.csv') == 'lat\\\\xe9.csv'``."""
+    return str(text).encode("utf-8", ASCII_FALLBACK).decode("utf-8")
 
 
 def number(value, digits=4):

@@ -804,6 +804,24 @@ class Discovery:
         return float(np.asarray(self.final.model().impact_speeds_m_per_s)[0, 0])
 
     @property
+    def recommended(self):
+        """The fit whose ε the report says to use, and ``fit/export/simulate/pair --from`` take: the named
+        effects and their ambiguous rivals shared by their priors (:attr:`split`) when the data cannot tell
+        them apart, else the final model."""
+        return self.final if self.split is None else self.split
+
+    @property
+    def recommended_epsilon_uncertainty(self):
+        """The 1-sigma of :attr:`recommended`'s ε: its fit's own, widened as :attr:`epsilon_uncertainty`
+        widens the final model's (the bounces' scatter, a misfit)."""
+        f = self.recommended
+        if f is self.final:
+            return self.epsilon_uncertainty
+        u_fit = self.final.uncertainty("epsilon")
+        scale = max(self.epsilon_uncertainty / u_fit, 1.0) if u_fit > 0 else 1.0
+        return float(f.uncertainty("epsilon") * scale)
+
+    @property
     def prior_split(self):
         """The named effects and their ambiguous rivals fitted together at the posterior mode with the
         registry's prior densities (:func:`split_by_priors`), or None when nothing is ambiguous:
@@ -865,19 +883,20 @@ class Discovery:
         return res.fit_model(self.final.problem, fit.effects, start=_start_from(fit))
 
     def as_dict(self):
-        """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader."""
-        from vrcal.textout import SCHEMA_VERSION
+        """JSON-ready summary: the stable keys of earlier versions, the verdict, the runs and the reader.
 
+        ``epsilon`` and what sits beside it (``epsilon_uncertainty``, ``effects``, ``parameters``,
+        ``uncertainties``) are :attr:`recommended`'s, the value to use; ``named`` holds the named model's own."""
         before, after = self.gap_per_bounce()
         runs = self.runs
         data = self.data
         lo, hi = self.speed_range()
         return {
-            "schema_version": SCHEMA_VERSION,
+            "schema_version": DISCOVER_SCHEMA_VERSION,
             "verdict": self.verdict,
             "verdict_reason": verdict_reason(self),
             "warnings": list(self.warnings),
-            "effects": list(self.effects),
+            "effects": [e for e in self.recommended.effects if e not in self.nuisance],
             "ambiguous": {k: list(v) for k, v in self.ambiguous.items()},
             "ambiguous_odds": self.ambiguous_odds,
             "ambiguous_epsilon": self.ambiguous_epsilon,
@@ -885,15 +904,22 @@ class Discovery:
             "unphysical": self.unphysical,
             "at_limit": self.at_limit,
             "cut_by_max_effects": list(self.cut),
-            "parameters": {k: v for k, v in self.final.effect_values.items() if k not in self.nuisance},
-            "uncertainties": {k: v for k, v in self.final.effect_uncertainties.items() if k not in self.nuisance},
+            "recommended": "named" if self.split is None else "prior_split",
+            "named": {"effects": list(self.effects), "epsilon": self.epsilon,
+                      "epsilon_uncertainty": self.epsilon_uncertainty,
+                      "parameters": {k: v for k, v in self.final.effect_values.items() if k not in self.nuisance},
+                      "uncertainties": {k: v for k, v in self.final.effect_uncertainties.items()
+                                        if k not in self.nuisance}},
+            "parameters": {k: v for k, v in self.recommended.effect_values.items() if k not in self.nuisance},
+            "uncertainties": {k: v for k, v in self.recommended.effect_uncertainties.items()
+                              if k not in self.nuisance},
             "floor_level_m": self.floor_level,
             "gap_before": self.gap_before,
             "gap_after": self.gap_after,
             "gap_unit": self.unit,
             "gap_per_bounce": {"before": [float(v) for v in before], "after": [float(v) for v in after]},
-            "epsilon": self.epsilon,
-            "epsilon_uncertainty": self.epsilon_uncertainty,
+            "epsilon": self.recommended.value("epsilon"),
+            "epsilon_uncertainty": self.recommended_epsilon_uncertainty,
             "epsilon_uncertainty_basis": self.epsilon_uncertainty_basis,
             "epsilon_uncertainty_fit": self.final.uncertainty("epsilon"),
             "epsilon_uncertainty_independent_errors": self.fit_epsilon_uncertainty,
@@ -943,6 +969,12 @@ class Discovery:
             "g_m_per_s2": self.g_m_per_s2,
             "notes": self.all_notes,
         }
+
+
+#: ``schema_version`` of discover's JSON: 2 from when the top-level ``epsilon``, ``epsilon_uncertainty``,
+#: ``effects``, ``parameters`` and ``uncertainties`` are the recommended model's (the prior split of rivals the
+#: data cannot tell apart, as the report advises), the named model's under ``named``; 1 had the named model's.
+DISCOVER_SCHEMA_VERSION = 2
 
 
 #: A trajectory holds a bounce of its model when the impact falls within the record, the flight into it rises

@@ -440,9 +440,7 @@ def _split_advice(d):
     shown = [e for e in f.effects if e not in d.nuisance]
     params = ", ".join(f"{PHRASES[e][1]} = {pm(f.effect_values[e][p.name], None, p.unit)}"
                        for e in shown for p in EFFECTS[e].parameters)
-    # its +- widened as the named model's is (the bounces' scatter, a misfit)
-    u_fit = d.final.uncertainty("epsilon")
-    u = f.uncertainty("epsilon") * max(d.epsilon_uncertainty / u_fit, 1.0) if u_fit > 0 else f.uncertainty("epsilon")
+    u = d.recommended_epsilon_uncertainty   # its +- widened as the named model's is (the bounces' scatter, a misfit)
     if "velocity_dependent_restitution" in f.effects:
         lo, hi = d.speed_range(f)     # the split's own speeds: its drag may differ from the named model's
         e_lo, e_hi = d.epsilon_at([lo, hi], fit=f)

@@ -1050,7 +1050,8 @@ class VerifyResult(RunsSummary):
     tolerance: float
     runs: DropRuns
     max_penetration_m: float
-    settings: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)       # what the engine was given: SI numbers, unit in the key
+    settings_text: dict = field(default_factory=dict)  # the same for people: {label: text}
     notes: tuple = ()
     g_m_per_s2: float = STANDARD_GRAVITY_M_PER_S2
     impact_speeds_m_per_s: tuple = ()

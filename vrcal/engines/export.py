@@ -578,7 +578,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         # the ball/ball2 contact, run (and if need be tuned) in MuJoCo by the two balls meeting head-on
         pair_cal = module.calibrate_pair(setup, second, pair, CONFIRM_PHASES) if second is not None else None
         text = module.export_mjcf(setup, cal, pair, second, coverage, cal2, pair_cal)
-        data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "solref": cal.contact.solref,
+        data = {"engine": "mujoco", "target_epsilon": setup.epsilon, "dt_s": setup.dt_s,
+                "integrator": module.integrator_name(setup), "g_m_per_s2": setup.g_m_per_s2,
+                "solref": cal.contact.solref,
                 "margin_m": cal.contact.margin_m, "worst_error": cal.worst_error, "median_error": cal.median_error,
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
         summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: "
@@ -610,7 +612,13 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             target["holds_down_to_m_per_s"] = coverage.holds_down_to_m_per_s
         text = module.export_sdf(setup, pair, second, checked if coverage is None else
                                  f"{checked}; {coverage.note(setup.tolerance)}", target=dict(target, ball=setup.ball))
-        data = {"engine": "gazebo", "target_epsilon": setup.epsilon}
+        surface = {"restitution_coefficient": "restitution_coefficient", "threshold": "threshold_m_per_s",
+                   "kp": "kp_n_per_m", "kd": "kd_n_s_per_m", "max_vel": "max_vel_m_per_s", "min_depth": "min_depth_m"}
+        data = {"engine": "gazebo", "target_epsilon": setup.epsilon, "dt_s": setup.dt_s, "solver": "world",
+                "g_m_per_s2": setup.g_m_per_s2, "target": dict(target),
+                "contact_max_correcting_vel_m_per_s": module.MAX_CORRECTING_VEL_M_PER_S,
+                "surfaces": {name: {surface[k]: v for k, v in module.exported_surface(r).items()}
+                             for name, r in (("ball", module.constant_epsilon(setup)), ("floor", 1.0))}}
     else:
         if setup.drop_height_m is not None:
             refuse_constant_for_law(setup, eng.label)

@@ -1153,13 +1153,12 @@ def ball_of(scene):
     return float(model.geom_size[gid][0]), float(model.body_subtreemass[int(model.geom_bodyid[gid])])
 
 
-def contact_settings(scene):
-    """The ball/floor ``<pair>``'s solref and margin of a :class:`Scene`, for people: ``{name: text}``
-    (a model whose ball and floor meet through their geoms' own contact, no pair, says so)."""
+def contact_values(scene):
+    """The ball/floor ``<pair>``'s ``solref`` (list) and ``margin_m`` [m] of a :class:`Scene`, full precision
+    (a model whose ball and floor meet through their geoms' own contact, no pair: ``{"contact": text}``)."""
     model = scene.model
     ids = {model.geom(scene.ball_geom).id, model.geom(scene.floor_geom).id}
     for i in range(model.npair):
         if {int(model.pair_geom1[i]), int(model.pair_geom2[i])} == ids:
-            return {"solref": " ".join(f"{float(x):.5g}" for x in model.pair_solref[i]),
-                    "margin": f"{1e3 * float(model.pair_margin[i]):.3g} mm"}
+            return {"solref": [float(x) for x in model.pair_solref[i]], "margin_m": float(model.pair_margin[i])}
     return {"contact": f"no <pair> of '{scene.ball_geom}' and '{scene.floor_geom}' (the geoms' own)"}

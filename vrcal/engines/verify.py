@@ -134,7 +134,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
     return VerifyResult(
         engine=eng.name, engine_version=version, ball=setup.ball, target=setup.epsilon, dt_s=setup.dt_s,
         tolerance=tolerance, runs=runs, max_penetration_m=setup.penetration_limit_m,
-        settings=_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
+        **_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
         impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
         holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
         others=others, unverified=unverified, pair=pair,
@@ -465,27 +465,51 @@ def _set_step_and_gravity(engine, runnable, dt_s, g_m_per_s2):
 
 
 def _settings(engine, loaded, runnable, setup):
-    """What the engine was given, for people: a short ``{name: text}``."""
-    if engine == "mujoco":
-        from vrcal.engines.mujoco import as_scene, contact_settings, integrator_name
+    """What the engine was given: ``{"settings": for machines, "settings_text": for people}``.
 
-        return {"integrator": integrator_name(setup), **contact_settings(as_scene(runnable))}
+    ``settings`` holds numbers in SI (the unit in the key, ``margin_m``) at full precision, lists for
+    vectors (``solref``), keys without spaces; ``settings_text`` the short ``{name: text}`` the report prints.
+    """
+    if engine == "mujoco":
+        from vrcal.engines.mujoco import as_scene, contact_values, integrator_name
+
+        values = {"integrator": integrator_name(setup), **contact_values(as_scene(runnable))}
+        text = {"integrator": values["integrator"]}
+        if "solref" in values:
+            text.update({"solref": " ".join(f"{x:.5g}" for x in values["solref"]),
+                         "margin": f"{1e3 * values['margin_m']:.3g} mm"})
+        else:
+            text["contact"] = values["contact"]
+        return {"settings": values, "settings_text": text}
     if engine == "gazebo":
         c, gz, w = runnable["contact"], runnable["gazebo"], runnable["world"]
-        return {"bounce min(ball, floor)": f"{c['bounce']:.6g}", "bounce_vel": f"{c['bounce_vel']:g}",
+        values = {"bounce": float(c["bounce"]), "bounce_vel_m_per_s": float(c["bounce_vel"]),
+                  "kp_n_per_m": float(gz["kp"]), "kd_n_s_per_m": float(gz["kd"]), "soft_erp": float(c["soft_erp"]),
+                  "soft_cfm": float(c["soft_cfm"]),
+                  "contact_max_correcting_vel_m_per_s": float(w["contact_max_correcting_vel"]), "solver": w["step"]}
+        text = {"bounce min(ball, floor)": f"{c['bounce']:.6g}", "bounce_vel": f"{c['bounce_vel']:g}",
                 "kp": f"{gz['kp']:.3g}", "kd": f"{gz['kd']:g}", "soft_erp": f"{c['soft_erp']:.6g}",
                 "soft_cfm": f"{c['soft_cfm']:.3g}", "max_vel": f"{w['contact_max_correcting_vel']:g}",
                 "solver": w["step"]}
+        return {"settings": values, "settings_text": text}
     if engine == "ode":
         c, w = loaded["contact"], loaded["world"]
-        out = {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"]}
-        out.update({k: f"{c[k]:g}" for k in ("soft_erp", "soft_cfm") if k in c})
-        out.update({f"world {k}": f"{w[k]:g}" for k in ("erp", "cfm") if k in w})
-        return out
+        values = {"mode": list(c["mode"]), "bounce": float(c["bounce"]), "bounce_vel_m_per_s": float(c["bounce_vel"])}
+        values.update({k: float(c[k]) for k in ("soft_erp", "soft_cfm") if k in c})
+        values.update({f"world_{k}": float(w[k]) for k in ("erp", "cfm") if k in w})
+        text = {"mode": "|".join(c["mode"]), "bounce": f"{c['bounce']:.6g}", "bounce_vel": c["bounce_vel"]}
+        text.update({k: f"{c[k]:g}" for k in ("soft_erp", "soft_cfm") if k in c})
+        text.update({f"world {k}": f"{w[k]:g}" for k in ("erp", "cfm") if k in w})
+        return {"settings": values, "settings_text": text}
+    dyn = loaded["changeDynamics"]
     slop = loaded["setPhysicsEngineParameter"].get("contactSlop")
-    return {"restitution ball": f"{loaded['changeDynamics']['ball']['restitution']:.6g}",
-            "floor": f"{loaded['changeDynamics']['floor']['restitution']:.6g}",
+    values = {"restitution_ball": float(dyn["ball"]["restitution"]),
+              "restitution_floor": float(dyn["floor"]["restitution"]),
+              "contact_slop_m": float(PYBULLET_CONTACT_SLOP_M if slop is None else slop),
+              "contact_slop_is_default": slop is None}
+    text = {"restitution ball": f"{dyn['ball']['restitution']:.6g}", "floor": f"{dyn['floor']['restitution']:.6g}",
             "contactSlop": f"{PYBULLET_CONTACT_SLOP_M:g} (PyBullet's default)" if slop is None else f"{slop:g}"}
+    return {"settings": values, "settings_text": text}
 
 
 def _range(values, digits=4):
@@ -498,7 +522,7 @@ def format_report(result):
     from vrcal.textout import table
 
     r, runs = result, result.runs
-    settings = ", ".join([*(f"{k} {v}" for k, v in r.settings.items()), f"g {r.g_m_per_s2:g} m/s^2"])
+    settings = ", ".join([*(f"{k} {v}" for k, v in r.settings_text.items()), f"g {r.g_m_per_s2:g} m/s^2"])
     lines = [f"{r.engine} {r.engine_version}: {r.ball}, dt {r.dt_s:g} s, {runs.apex_ratios.shape[0]} contact "
              f"phase(s) x {runs.apex_ratios.shape[1]} bounce(s)"]
     import textwrap

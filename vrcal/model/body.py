@@ -100,7 +100,7 @@ def ball_from_options(name, standards=None, mass_kg=None, diameter_m=None):
 
 #: ``schema_version`` values of a ``vrcal discover --json`` file that this version reads (None: the
 #: files written before discover added the key).
-DISCOVER_SCHEMA_VERSIONS = (None, 1)
+DISCOVER_SCHEMA_VERSIONS = (None, 1, 2)
 
 #: Largest discover JSON file read [bytes] (a result is a few kB; more is not a discover result).
 DISCOVER_JSON_MAX_BYTES = 16 * 1024 * 1024
@@ -351,7 +351,12 @@ def read_discover_json(path):
         _num(doc, "epsilon_reference_speed_m_per_s", f"{where}: epsilon_reference_speed_m_per_s", lo=0.0)
     _effects_and_parameters(doc, where)
     split = doc.get("prior_split")
-    if isinstance(split, dict):
+    if version == 2:   # the top level is the recommended model already (the prior split's, when there is one)
+        if isinstance(split, dict):
+            doc["named"] = _obj(doc, "named", where)
+        else:
+            doc.pop("named", None)   # "named" marks a recommended value that is not the named model's
+    elif isinstance(split, dict):
         # rivals the data cannot tell apart: the report's advice leads with their most probable sharing
         # ("Use this"), so an engine takes that, not the named model alone (a joint record: 0.973 with
         # C_d 0.74 exported where the report said 0.957 with C_d 0.59 and a speed law)

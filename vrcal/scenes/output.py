@@ -352,10 +352,12 @@ def heights_png(result, other=None, dpi=100, flags=()):
         ax.set_xlabel("")
         plot_difference(result, other, ax=ax_diff, flags=flags)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
-    plt.close(fig)
-    return buf.getvalue()
+    from vrcal.fileio import figure_bytes
+
+    try:
+        return figure_bytes(fig, "png", dpi=dpi)
+    finally:
+        plt.close(fig)
 
 
 @dataclass
