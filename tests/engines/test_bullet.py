@@ -284,3 +284,19 @@ def test_a_refusal_names_the_limits_that_keep_the_users_step(engine, dt):
     assert 0.01 < tolerance < 0.02 and 0.0159 < depth < lacrosse["diameter_m"] / 2
     ex = export(None, engine, tolerance=tolerance, max_penetration_m=depth, **lacrosse)
     assert f"step {dt:g} s checked in" in " ".join(ex.setup.notes)
+
+
+def test_a_clay_ball_that_does_not_rebound_at_bullets_step_is_refused_in_one_line():
+    """Clay (epsilon 0.1, 50 g, 40 mm) from 1 m at Bullet's 1/240 s turns back inside the floor in some
+    contact phases: once a traceback (NaN worst error into round_down), now a refusal saying so and
+    naming a step that was run and passes."""
+    require_engine("bullet")
+    result = CliRunner().invoke(main, ["export", "--mass", "0.05", "--diameter", "0.04", "--epsilon", "0.1",
+                                       "--drop-height", "1", "--engine", "bullet", "--bounces", "1"])
+    assert result.exit_code != 0 and result.exception is None or isinstance(result.exception, SystemExit)
+    line = result.output.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert re.search(r"does not rebound at this step .*contact phases\).*--dt ([0-9.e-]+) meets both", line), line
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", line).group(1))
+    ex = export(None, "bullet", epsilon=0.1, mass_kg=0.05, diameter_m=0.04, drop_height_m=1, n_bounces=1, dt_s=dt_ok)
+    assert "checked in bullet" in ex.setup.notes[-1]

@@ -175,3 +175,19 @@ def test_a_run_too_long_is_refused_up_front_naming_the_limit():
 def test_round_down_keeps_two_digits_and_never_rounds_up():
     assert round_down(0.0013871) == 0.0013
     assert round_down(2.0e-4) == 2.0e-4
+
+
+def test_a_rebound_that_turns_back_inside_the_floor_is_no_bounce():
+    """A contact that sends the ball up but lets it turn back still below the floor (Bullet's clay ball of
+    epsilon 0.1 at 1/240 s in some contact phases): no bounce, said in one line; the apex ratio of such a
+    'flight' was sqrt(negative) = NaN, which reached int() in the step search as a traceback."""
+    g, dt = 9.80665, 1e-3
+    z1, v1 = semi_implicit_flight(1.0, 0.0, g, dt, 460)          # falls to about -3 mm
+    z2, v2 = semi_implicit_flight(-0.007, 0.2, g, dt, 300)        # pushed up from 7 mm deep, turns back at -5 mm
+    z_in, v_in = np.r_[z1, z2], np.r_[v1, v2]
+    with pytest.raises(DataError, match=r"only 0 complete bounce.*does not rebound at this step \(it turned back "
+                                        r"[0-9.]+ mm inside the floor\)") as info:
+        measure_bounces(z_in, v_in, 1.0, dt, g, 1)
+    assert "nan" not in str(info.value).lower()
+    with pytest.raises(DataError, match="infinite or NaN"):
+        measure_bounces(np.r_[z1, np.full(10, np.nan)], np.r_[v1, np.full(10, np.nan)], 1.0, dt, g, 1)

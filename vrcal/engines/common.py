@@ -554,6 +554,9 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
     """
     z = np.asarray(z_m, dtype=float)
     v = np.asarray(v_m_per_s, dtype=float)
+    if not (np.all(np.isfinite(z)) and np.all(np.isfinite(v))):      # no ratio (and no worst error) is NaN
+        raise DataError("the ball's position or velocity became infinite or NaN in the run: the engine is "
+                        "unstable at this step")
     free = flight_mask(v, dt_s, g_m_per_s2, atol=flight_atol)
     steps = np.flatnonzero(~free)
     if steps.size == 0:
@@ -562,6 +565,7 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
     starts = np.r_[steps[0], steps[breaks + 1]]
     ends = np.r_[steps[breaks], steps[-1]]
     apex, ratios, vel, speeds, first, turn = [float(drop_height_m)], [], [], [], [], []
+    inside = ""
     for k in range(min(len(starts), n_bounces)):
         i_in, i_out = starts[k], ends[k] + 1          # last free sample before, first after
         if i_out >= len(v) or v[i_out] <= 0:
@@ -572,8 +576,11 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
         if nxt <= i_out + 1 or np.all(v[i_out:nxt + 1] > 0):
             break                                      # flight not finished: no apex
         h = float(np.max(z[i_out:nxt + 1]))
-        ratios.append(math.sqrt(h / apex[-1]) if apex[-1] > 0 and h > 0 else math.nan)
-        vel.append(v_out / v_in if v_in > 0 else math.nan)
+        if h <= 0 or v_in <= 0:                        # turned back inside the floor: no rebound
+            inside = f" (it turned back {-h * 1e3:.3g} mm inside the floor)" if h <= 0 else ""
+            break
+        ratios.append(math.sqrt(h / apex[-1]))
+        vel.append(v_out / v_in)
         speeds.append(v_in)
         first.append(int(i_in))
         turn.append(float(np.min(z[i_in:i_out + 1])))
@@ -591,7 +598,8 @@ def measure_bounces(z_m, v_m_per_s, drop_height_m, dt_s, g_m_per_s2, n_bounces, 
                 max(seen))
         raise DataError(
             f"the ball made only {len(ratios)} complete bounce(s) of the {n_bounces} asked for: "
-            "it stuck to the floor or the contact settings do not bounce"
+            + (f"it does not rebound at this step{inside}" if inside else
+               "it stuck to the floor or the contact settings do not bounce")
         )
     return Bounces(np.array(apex), np.array(ratios), np.array(vel), np.array(speeds), np.array(first),
                    np.array(turn))
@@ -766,9 +774,19 @@ def drop_runs(setup, shifts_m, trajectories, dt_s, g_m_per_s2, n_bounces, semi_i
 
     ``trajectories`` is a sequence of (z_m, v_m_per_s) arrays, one per shift.
     """
-    bounces = [measure_bounces(z, v, setup.drop_height_m + s, dt_s, g_m_per_s2, n_bounces, semi_implicit,
-                               flight_atol)
-               for s, (z, v) in zip(shifts_m, trajectories)]
+    bounces, missed = [], []
+    for s, (z, v) in zip(shifts_m, trajectories):
+        try:
+            bounces.append(measure_bounces(z, v, setup.drop_height_m + s, dt_s, g_m_per_s2, n_bounces, semi_implicit,
+                                           flight_atol))
+        except StillBouncing:
+            raise
+        except DataError as exc:
+            missed.append(str(exc))
+    if missed:      # one message for the phases that did not bounce as asked, saying how many they are
+        some = "every contact phase" if len(missed) == len(shifts_m) else \
+            f"{len(missed)} of {len(shifts_m)} contact phases"
+        raise DataError(f"{missed[0]} (in {some})")
     model = setup.model_at(setup.drop_height_m + np.asarray(shifts_m))
     apex = model.apex_heights_m[:, :n_bounces + 1]
     return DropRuns(
