@@ -300,3 +300,23 @@ def test_a_clay_ball_that_does_not_rebound_at_bullets_step_is_refused_in_one_lin
     dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", line).group(1))
     ex = export(None, "bullet", epsilon=0.1, mass_kg=0.05, diameter_m=0.04, drop_height_m=1, n_bounces=1, dt_s=dt_ok)
     assert "checked in bullet" in ex.setup.notes[-1]
+
+
+def test_a_step_at_which_bullet_adds_energy_fails_whatever_the_tolerance():
+    """A superball of epsilon 0.9995 (25 g, 35 mm) from 1 m at 1 ms: PyBullet reverses the speed after the
+    step's gravity (e (u + g dt)), v_out/v_in 1.0017: once within the tolerance 0.01 and PASSED while the
+    ball climbed every bounce; now export refuses it, naming a step that adds none, and verify fails it."""
+    require_engine("bullet")
+    ball = dict(epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0)
+    with pytest.raises(UsageError, match=r"adds energy: v_out/v_in reaches 1\.00[0-9]+ > 1.*whatever the "
+                                         r"tolerance.*--dt ([0-9.e-]+) meets both") as info:
+        export(None, "bullet", dt_s=1e-3, tolerance=0.05, **ball)
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
+    text = export(None, "bullet", dt_s=dt_ok, **ball).text
+    from vrcal.engines.verify import format_report, verify
+
+    at_own = verify(engine="bullet", exported_text=text, n_phases=4)
+    assert at_own.passed and at_own.runs.gain is None
+    coarse = verify(engine="bullet", exported_text=text, dt_s=1e-3, tolerance=0.05, n_phases=4)
+    assert coarse.error < 0.05 and not coarse.passed
+    assert coarse.failure().startswith("the engine adds energy") and "adds energy" in format_report(coarse)

@@ -576,7 +576,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"worst eps error "
                    f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
-        summary = _lines(summary, module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
+        summary = _lines(summary, cal.runs.height_ratio_text(), module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
                          _coverage_summary(setup, coverage))
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
@@ -692,6 +692,8 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     misses = []
     if not cal.meets_tolerance:
         misses.append(f"worst epsilon error {_above(cal.worst_error, setup.tolerance)} (tolerance {setup.tolerance:g})")
+    if cal.runs.gain is not None:
+        misses.append(f"{cal.runs.gain_text()}, whatever the tolerance")
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
@@ -893,7 +895,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                  if _phases(runs) < CONFIRM_PHASES else "")
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
-                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}")
+                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
+                + (f"; {runs.height_ratio_text()}" if runs.height_ratio_text() else ""))
     if runs is None:
         what = (f"time step {setup.dt_s:g} s is too large for {engine}: not run here ({label} is not installed); by "
                 f"the step bound its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor")
@@ -914,6 +917,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
                           f"(tolerance {setup.tolerance:g})")
+        if runs.gain is not None:
+            misses.append(f"{runs.gain_text()}, whatever the tolerance")
         if _depth(runs) > setup.penetration_limit_m:
             depth_mm = _above(_depth(runs) * 1e3, setup.penetration_limit_m * 1e3)
             misses.append(f"the ball turns {depth_mm} mm from the floor "
@@ -921,6 +926,9 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         what = f"{_phases(runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
                     setup.penetration_limit_m / max(_depth(runs), 1e-12))
+        if runs.gain is not None:        # the gain above the target grows with the step (g dt / v): below 1 again
+            top = float(np.max(runs.target_epsilons))
+            scale = min(scale, (1.0 - top) / max(runs.gain - top, 1e-12))
     else:                                        # no drop test: the ball did not bounce as asked, or too long a run
         what = f"no drop test): {runs}"
         scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
@@ -932,7 +940,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                f"{above}; {NOT_MONOTONIC})")
     else:
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
-               "--max-penetration")
+               "--max-penetration" + (", or give an epsilon further below 1" if isinstance(runs, DropRuns)
+                                      and runs.gain is not None else ""))
     raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
 
 
@@ -1017,7 +1026,7 @@ def _depth(runs):
 
 
 def _meets(setup, runs):
-    return runs.worst_error <= setup.tolerance and _depth(runs) <= setup.penetration_limit_m
+    return runs.worst_error <= setup.tolerance and _depth(runs) <= setup.penetration_limit_m and runs.gain is None
 
 
 def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):

@@ -697,7 +697,7 @@ class Calibration(RunsSummary):
 
     @property
     def ok(self):
-        return self.meets_tolerance and self.meets_depth
+        return self.meets_tolerance and self.meets_depth and self.runs.gain is None
 
     @property
     def excess(self):

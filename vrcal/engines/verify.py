@@ -471,6 +471,10 @@ def format_report(result):
     text += (f"worst error {r.error:.4f} (tolerance {r.tolerance:g}), median {r.median_error:.4f}\n"
              f"penetration {r.penetration_m * 1e3:.3g} mm, hover {r.hover_m * 1e3:.3g} mm "
              f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
+    if runs.height_ratio_text():
+        text += runs.height_ratio_text() + " (the epsilon error is absolute)\n"
+    if runs.gain is not None:
+        text += runs.gain_text() + "\n"
     if r.others or r.unverified:
         first = f"ball ({r.ball})" if r.engine == "mujoco" else r.ball
         tested = [f"{first}/floor"] + [f"{o.ball}/floor (target {o.target:.4f}: worst error {o.error:.4f}, "
