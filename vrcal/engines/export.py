@@ -19,6 +19,7 @@ against the penetration a step allows (:func:`check_step`), and ``vrcal verify``
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -697,10 +698,39 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
-    keep = keep_step(setup, cal.worst_error, cal.depth_m, margin=1.1)
+    keep = "" if cal.runs.gain is not None else _mujoco_keep(setup, cal, kind, w, n_phases)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
                      f"misses: {'; '.join(misses)}; {step_that_works()}" + (f"; {keep}" if keep else "")
                      + "; see --trade-off")
+
+
+def _mujoco_keep(setup, cal, kind, w, n_phases, tries=3):
+    """:func:`keep_step` for MuJoCo, checked: the limits it names are calibrated with in MuJoCo (a looser
+    limit picks another contact, which goes deeper or misses by more, and a pass over ``n_phases`` is
+    confirmed over :data:`CONFIRM_PHASES`), widened by what that calibration achieved (10 % margin) until
+    it meets them, at most ``tries`` times; '' when nothing keeps the step (a contact that adds energy)."""
+    from vrcal.engines import mujoco as M
+    from vrcal.engines.common import StillBouncing, check_max_penetration
+
+    worst, depth = cal.worst_error, cal.depth_m
+    for _ in range(tries):
+        keep = keep_step(setup, worst, depth, margin=1.1)
+        if not keep or keep.startswith("no --max-penetration"):
+            return keep
+        tol = float(_round_up(1.1 * worst)) if 1.1 * worst > setup.tolerance else setup.tolerance
+        pen = float(re.search(r"--max-penetration ([0-9.e-]+)", keep).group(1)) if "--max-penetration" in keep \
+            else setup.max_penetration_m
+        try:
+            loose = replace(setup, tolerance=tol, max_penetration_m=check_max_penetration(pen, setup.radius_m))
+            trial = M.calibrate(loose, n_phases, kind, w)
+        except (StillBouncing, DataError, UsageError):
+            return ""
+        if trial.ok:
+            return keep
+        if trial.runs.gain is not None:
+            return ""
+        worst, depth = max(worst, trial.worst_error), max(depth, trial.depth_m)
+    return ""
 
 
 def refuse_constant_for_law(setup, engine):
@@ -912,7 +942,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     if isinstance(runs, DropRuns):
         wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
         wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
-        keep = keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
+        keep = "" if runs.gain is not None or wide.gain is not None else keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
         misses = []
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
