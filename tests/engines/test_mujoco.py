@@ -458,3 +458,23 @@ def test_the_tolerance_named_to_keep_the_step_passes_when_given(ball):
     tol = float(re.search(r"accept what it achieves: --tolerance ([0-9.]+)", str(info.value)).group(1))
     ex = export(None, "mujoco", drop_height_m=1.0, tolerance=tol, **ball)
     assert ex.data["worst_error"] <= tol
+
+
+def test_a_refusal_and_the_trade_off_give_one_depth_and_one_step():
+    """A superball (25 g, 35 mm, epsilon 0.9995) from 1 m at 10 ms: the refusal said the ball 'turns 18.2 mm'
+    and then 'sinks 20 mm' (the depth with the 10 % margin, printed as a measurement), and named --dt 0.0019
+    where --trade-off named 0.002: one measured depth, and the step the table names."""
+    require_engine("mujoco")
+    from vrcal.engines.export import _next_step, trade_off
+
+    ball = dict(epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0, dt_s=0.01)
+    with pytest.raises(UsageError) as info:
+        export(None, "mujoco", **ball)
+    message = str(info.value)
+    depths = set(re.findall(r"turns ([0-9.]+) mm", message))
+    assert len(depths) == 1 and "sinks" not in message
+    setup, rows = trade_off(None, "mujoco", **ball)
+    own = next(r for r in rows if r["dt_s"] == 0.01 and r["contact"] == "damper")
+    assert f"{max(own['penetration_m'], own['hover_m']) * 1e3:.3g}" in depths
+    named = re.search(r"--dt ([0-9.e-]+) meets both", message).group(1)
+    assert f"--dt {named}\n" in _next_step(setup, rows)

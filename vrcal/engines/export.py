@@ -988,8 +988,12 @@ def keep_step(setup, worst_error, depth_m, margin=1.0):
         options.append(f"--tolerance {_round_up(worst_error)}")
     if depth_m > setup.penetration_limit_m:
         if depth_m >= setup.radius_m:
-            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball sinks {depth_m * 1e3:.3g} mm, "
-                    f"beyond its radius {setup.radius_m * 1e3:.3g} mm")
+            measured = depth_m / margin
+            why = (f"beyond its radius {setup.radius_m * 1e3:.3g} mm" if measured >= setup.radius_m else
+                   f"and {margin - 1:.0%} more, the margin a looser calibration needs, reaches its radius "
+                   f"{setup.radius_m * 1e3:.3g} mm")
+            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball turns {measured * 1e3:.3g} mm "
+                    f"from the floor, {why}")
         limit = float(_round_up(depth_m))
         options.append(f"--max-penetration {min(limit, round_down(setup.radius_m * (1 - 1e-9))):g}")
     if not options:

@@ -857,12 +857,13 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
     if kind == "damper":
         start = min(0.9 * setup.dt_s, 0.98 * 2.0 * setup.penetration_limit_m / V)
         candidates = [start * 0.8 ** j for j in range(12)]
+        # and the smaller steps --trade-off lists, so the refusal and the table name the same step
+        candidates = sorted({round_down(dt) for dt in candidates} | set(trade_off_steps(setup.dt_s)[1:]), reverse=True)
     else:
         w = omega_per_s or spring_omega(setup)
         candidates = [c / w for c in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625)]
-        candidates = [dt for dt in candidates if dt < setup.dt_s]
+        candidates = [round_down(dt) for dt in candidates if dt < setup.dt_s]
     for dt in candidates:
-        dt = round_down(dt)
         trial = replace(setup, dt_s=dt)
         try:
             check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
@@ -872,6 +873,11 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
         if cal.ok:
             return dt, cal
     return None, None
+
+
+def trade_off_steps(dt_s):
+    """The steps :func:`trade_off` calibrates at by default [s]: dt, dt/2 and dt/5 (three digits)."""
+    return [float(f"{dt:.3g}") for dt in (dt_s, dt_s / 2, dt_s / 5)]
 
 
 def trade_off(setup, n_phases=N_PHASES, steps=None):
@@ -887,7 +893,7 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
         the str says why there is no calibration: 'no bounce' (MuJoCo did not bounce the ball
         with that contact at that step) or 'too high' (it bounced higher at every damping)
     """
-    steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
+    steps = steps or trade_off_steps(setup.dt_s)
     rows = []
     for dt in steps:
         trial = replace(setup, dt_s=float(f"{dt:.3g}"))
