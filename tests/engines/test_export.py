@@ -594,3 +594,16 @@ def test_the_floor_rows_how_names_the_floors_own_restitution():
     assert "bounciness 0.9841 (Eq. 6: the floor's own factor), Multiply" in floors["Unity"]["how"]
     rigid = {r["engine"]: r for r in export("basketball", "tables").data["rows"] if r["body"] == "floor"}
     assert rigid["PhysX"]["restitution"] == 1 and "restitution 1 (rigid)" in rigid["PhysX"]["how"]
+
+
+def test_a_light_ball_given_by_mass_and_diameter_is_warned_of_as_fit_warns():
+    """A 100 g, 0.5 m beach ball: vrcal fit warns that buoyancy and drag matter (the air it displaces weighs
+    79 % of it); export said nothing. It carries fit's own warning now, on the terminal and in the file."""
+    from vrcal.inverse import buoyancy_notes
+
+    require_engine("mujoco")
+    ex = export(None, "mujoco", epsilon=0.877, mass_kg=0.1, diameter_m=0.5, drop_height_m=2)
+    warning = buoyancy_notes(0.1, 0.5)[0]
+    assert warning in ex.setup.notes and warning in ex.summary
+    assert "warning: buoyancy is large" in ex.text
+    assert not buoyancy_notes(0.0027, 0.04)          # a ping-pong ball: no warning

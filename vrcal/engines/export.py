@@ -227,7 +227,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         elif isinstance(doc.get("floor_level_m"), (int, float)):
             offset = float(doc["floor_level_m"])   # a record without a floor: its contact level, for a replay
         release = float(doc["model"]["release_time_s"])
-        left = [e for e in effects if e not in CARRIED_EFFECTS]
+        left = [e for e in effects if e not in CARRIED_EFFECTS and e != "buoyancy"]    # buoyancy: its own note
         notes.append(f"from {from_json}: {', '.join(effects) or 'no effect'} named by vrcal discover")
         if left:
             notes.append(f"not carried into the engine: {', '.join(left)} (no engine setting for it)")
@@ -301,7 +301,46 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         setup = record.cover(setup, n_bounces)
     if H is not None:
         _check_bounces_reachable(setup)
-    return setup
+    return replace(setup, notes=setup.notes + tuple(air_left_out(setup, doc)))
+
+
+#: How the notes start that say what of the ball's air no exported engine applies (:func:`air_left_out`):
+#: the terminal prints them with the export's summary, and every file's header carries them.
+AIR_LEFT_OUT = ("buoyancy left out", "warning: buoyancy")
+
+
+def air_left_out(setup, doc):
+    """The notes (a list, maybe empty) on the buoyancy an exported engine leaves out.
+
+    A discover result that names ``buoyancy``: the engines apply none (MuJoCo's ``density`` drives
+    its fluid model's drag and lift only: measured, a ball at rest in it falls with g), so the file's
+    ball falls faster than the record's; the note says by how much at the first impact (vrcal's model
+    of the drop with and without it) and how MuJoCo adds Archimedes' force (``gravcomp`` on the body,
+    a fraction of its weight). A ball given by mass and diameter: ``vrcal fit``'s warning when the air
+    it displaces is a large part of its mass (:func:`vrcal.inverse.buoyancy_notes`).
+    """
+    if not doc:
+        from vrcal.inverse import buoyancy_notes
+
+        return buoyancy_notes(setup.mass_kg, 2.0 * setup.radius_m)
+    if "buoyancy" not in doc.get("effects", ()) or setup.drop_height_m is None:
+        return []
+    from vrcal.drop.simulate import simulate_drops
+    from vrcal.model.body import BallProperties
+
+    rho = float(doc["parameters"].get("buoyancy", {}).get("air_density_kg_per_m3", eq.AIR_DENSITY_KG_PER_M3))
+    ball = BallProperties(setup.mass_kg, 2.0 * setup.radius_m, setup.ball)
+    H = setup.drop_height_m
+    with_it = simulate_drops(H, setup.epsilon, 1, ball, g_m_per_s2=setup.g_m_per_s2,
+                             effects={**setup.effects, "buoyancy": {"air_density_kg_per_m3": rho}})
+    without = setup.model_at(H)
+    share = rho * float(eq.sphere_volume_m3(2.0 * setup.radius_m)) / setup.mass_kg
+    return [f"buoyancy left out (the record's air, {rho:.3g} kg/m^3, weighs {share:.1%} of the ball): no engine "
+            f"applies it (MuJoCo's density drives its drag only), so from {H:.4g} m the ball hits at "
+            f"{float(without.impact_speeds_m_per_s[0, 0]):.3g} m/s after {float(without.impact_times_s[0, 0]):.3g} s, "
+            f"the record's ball at {float(with_it.impact_speeds_m_per_s[0, 0]):.3g} m/s after "
+            f"{float(with_it.impact_times_s[0, 0]):.3g} s; MuJoCo adds Archimedes' force with gravcomp=\"{share:.4g}\" "
+            "on the ball's body (then export for the slower impacts)"]
 
 
 #: Highest ``--drop-height`` [m] of an export or a verify: a 100 m drop hits at 44 m/s (no drag), beyond
@@ -604,6 +643,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             refuse_constant_for_law(setup, eng.label)
         data = {"engine": "tables", "rows": module.table(setup, pair)}
         text = module.format_table(setup, pair)
+    summary = _lines(summary, *(n for n in setup.notes if n.startswith(AIR_LEFT_OUT)))
     return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
 
 

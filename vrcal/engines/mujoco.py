@@ -986,10 +986,10 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None):
     """The MJCF text of a calibrated setup (with ``--against``: the second ball and its pairs, ``cal2`` the
     second ball's floor contact calibrated in MuJoCo; with a :class:`vrcal.engines.export.SpeedCoverage`,
     the impact speeds the calibration holds for)."""
-    from vrcal.engines.export import RECORD_NOTE
+    from vrcal.engines.export import AIR_LEFT_OUT, RECORD_NOTE
 
     header = header_lines(setup, cal)
-    record = [w for n in setup.notes if n.startswith(RECORD_NOTE) for w in textwrap.wrap(n, 88)]
+    record = [w for n in setup.notes if n.startswith((RECORD_NOTE, *AIR_LEFT_OUT)) for w in textwrap.wrap(n, 88)]
     header[3:3] = record + (textwrap.wrap(coverage.note(setup.tolerance), 88) if coverage is not None else [])
     pairs, bodies = [], []
     if pair and second is not None:
