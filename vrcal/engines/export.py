@@ -514,8 +514,16 @@ def _check_bounces_reachable(setup):
         rising = int(np.sum(np.asarray(apex[1:]) >= RISE_M))
         fewer = f"--bounces {rising} or fewer, or a larger --drop-height" if rising else \
             "a larger --drop-height or --epsilon"
-        raise UsageError(f"bounce {setup.n_bounces} of this drop rises only {apex[-1] * 1e3:.2g} mm "
-                         f"(a bounce must rise {RISE_M * 1e3:g} mm): ask for {fewer}")
+        cause = ""
+        if setup.floor_epsilon < 1 and setup.floor_epsilon < 0.5 * setup.ball_epsilon:
+            # the floor's epsilon is the cause (a virtual body's exp(-K T) at a large --K): name it
+            cause = (f"; the pair's epsilon is {setup.epsilon:.3g} = ball {setup.ball_epsilon:.4g} x floor "
+                     f"{setup.floor_epsilon:.3g}, Eq. 6")
+            if not rising:
+                fewer = "a floor of a larger epsilon (a smaller --K, or a virtual body of a shorter contact)"
+        rise = f"only {apex[-1] * 1e3:.2g} mm" if apex[-1] > 0 else "not at all"
+        raise UsageError(f"bounce {setup.n_bounces} of this drop rises {rise} (a bounce must rise "
+                         f"{RISE_M * 1e3:g} mm{cause}): ask for {fewer}")
 
 
 def second_setup(setup, name, mass_kg, radius_m, epsilon, ball_epsilon_rigid):
