@@ -320,3 +320,14 @@ def test_a_step_at_which_bullet_adds_energy_fails_whatever_the_tolerance():
     coarse = verify(engine="bullet", exported_text=text, dt_s=1e-3, tolerance=0.05, n_phases=4)
     assert coarse.error < 0.05 and not coarse.passed
     assert coarse.failure().startswith("the engine adds energy") and "adds energy" in format_report(coarse)
+
+
+def test_the_notes_carry_no_number_measured_for_another_target():
+    """The notes said 'Bullet's defaults give step-phase dependent epsilon (0.16..0.87 for a target of 0.85)'
+    whatever the target (a canned measurement, e.g. in a file for 0.775): that line holds no number now."""
+    from vrcal.engines.export import build_setup
+
+    setup = build_setup(None, "bullet", 0.775, 5e-4, mass_kg=0.6, diameter_m=0.24, drop_height_m=1.0)
+    notes = " ".join(E.export_params(setup)["notes"])
+    assert "target of 0.85" not in notes and "0.16..0.87" not in notes
+    assert "depends on where in its step the contact falls" in notes
