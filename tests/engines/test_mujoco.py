@@ -478,3 +478,16 @@ def test_a_refusal_and_the_trade_off_give_one_depth_and_one_step():
     assert f"{max(own['penetration_m'], own['hover_m']) * 1e3:.3g}" in depths
     named = re.search(r"--dt ([0-9.e-]+) meets both", message).group(1)
     assert f"--dt {named}\n" in _next_step(setup, rows)
+
+
+def test_a_tiny_worst_error_is_printed_with_significant_digits():
+    """A superball (epsilon 0.9995) at MuJoCo's 2 ms: the summary and the header said 'worst eps error 0.0000'."""
+    require_engine("mujoco")
+    from vrcal.engines.common import error_text
+
+    assert (error_text(3.36e-6), error_text(0.0234), error_text(0.0026), error_text(0.0)) == \
+        ("3.4e-06", "0.0234", "0.0026", "0")
+    ex = export(None, "mujoco", epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0)
+    shown = error_text(ex.data["worst_error"])
+    assert ex.data["worst_error"] < 1e-3 and shown != "0.0000"
+    assert f"worst eps error {shown}," in ex.summary and f"worst eps error {shown}, median" in ex.text

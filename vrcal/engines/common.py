@@ -419,6 +419,14 @@ def confirmed(first, passed, setup, n_phases, engine, max_steps, rerun):
     return rerun(CONFIRM_PHASES)
 
 
+def error_text(error):
+    """An epsilon error as text: four decimals from 0.001 on (0.0234), else two significant digits (3.4e-06,
+    not 0.0000)."""
+    from vrcal.textout import number
+
+    return f"{error:.4f}" if abs(error) >= 1e-3 else number(error, 2)
+
+
 def _round_up(x):
     """``x`` rounded up to two significant digits, as text."""
     mag = 10.0 ** (math.floor(math.log10(x)) - 1)

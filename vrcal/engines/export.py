@@ -42,6 +42,7 @@ from vrcal.engines.common import (
     check_positive,
     confirmed,
     engine_label,
+    error_text,
     metadata,
     round_down,
 )
@@ -622,10 +623,10 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
         summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: "
                    f"worst eps error "
-                   f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
+                   f"{error_text(cal.worst_error)}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
-        summary = _lines(summary, cal.runs.height_ratio_text(), module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
-                         _coverage_summary(setup, coverage))
+        summary = _lines(summary, cal.runs.height_ratio_text(),
+                         module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"), _coverage_summary(setup, coverage))
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
         data = module.export_params(setup, setup.n_bounces, pair)
@@ -990,7 +991,9 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     if isinstance(runs, DropRuns):
         wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
         wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
-        keep = "" if runs.gain is not None or wide.gain is not None else keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
+        gains = runs.gain is not None or wide.gain is not None        # no tolerance accepts a gain
+        keep = "" if gains else keep_step(setup, max(wide.worst_error, runs.worst_error),
+                                          max(_depth(wide), _depth(runs)))
         misses = []
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "

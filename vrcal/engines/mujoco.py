@@ -56,6 +56,7 @@ from vrcal.engines.common import (
     drop_runs,
     drop_window_s,
     epsilon_spread,
+    error_text,
     metadata,
     phase_shifts_m,
     round_down,
@@ -930,7 +931,7 @@ def header_lines(setup, cal):
         f"contact {how}",
         f"calibrated in MuJoCo ({cal.evaluations} runs); drop test {cal.runs.apex_ratios.shape[0]} phases x "
         f"{setup.n_bounces} bounces",
-        f"worst eps error {cal.worst_error:.4f}, median {cal.median_error:.4f} "
+        f"worst eps error {error_text(cal.worst_error)}, median {error_text(cal.median_error)} "
         f"(tolerance {setup.tolerance:g})",
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
         f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
@@ -1005,7 +1006,7 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None):
         if cal2 is not None:
             header += textwrap.wrap(f"ball2 ({second.ball}) on the floor: epsilon {second.epsilon:.4f}, calibrated "
                                     f"in MuJoCo like the ball's over the same drop (worst eps error "
-                                    f"{cal2.worst_error:.4f})", 88)
+                                    f"{error_text(cal2.worst_error)})", 88)
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")
     numbers = {"holds_down_to_m_per_s": coverage.holds_down_to_m_per_s} if coverage is not None else {}

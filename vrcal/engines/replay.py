@@ -474,7 +474,8 @@ def format_replay(r):
     text += "gap (RMS)  " + "   ".join(f"{label} {1e3 * r.gaps_m[key]:.3g} mm" for key, label in names) + "\n"
     k, err, diff, _allowed = r.worst_apex()
     text += (f"engine apexes within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} sigma: "
-             f"{'yes' if r.apexes_within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = {100 * err:+.1f} %)\n"
+             f"{'yes' if r.apexes_within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = "
+             f"{100 * err:+.1f} %)\n"
              f"engine gap within {100 * APEX_GOAL:g} % of the highest rise or {APEX_NOISE_SIGMAS:g} sigma: "
              f"{'yes' if r.gap_within_goal else 'no'} ({1e3 * r.gaps_m['engine']:.3g} mm, allowed "
              f"{1e3 * r.gap_allowed_m:.3g} mm)\n")
