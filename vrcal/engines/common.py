@@ -963,8 +963,11 @@ class VerifyResult(RunsSummary):
         the depth, and for an error at impacts slower than the export holds for, what to do."""
         failed = next((o for o in self.others if not o.passed), None)
         if self.runs.gain is not None:
-            return (f"{self.runs.gain_text()}, whatever the tolerance (worst epsilon error {self.error:.4g}); "
-                    "a smaller --dt, or an epsilon further below 1")
+            other = next((n for n in self.notes if n.startswith("run at --dt")), None)     # not the file's step
+            fix = (f"{other}: export again with --dt {self.dt_s:g}" if other else
+                   "a smaller --dt, or an epsilon further below 1")
+            return (f"{self.runs.gain_text()}, whatever the tolerance (worst epsilon error {error_text(self.error)}); "
+                    f"{fix}")
         if self.error <= self.tolerance and self.depth_ok and failed is not None:
             return f"{failed.ball} on the floor: {failed.failure()}"
         if self.error > self.tolerance:
