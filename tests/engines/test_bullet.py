@@ -284,3 +284,50 @@ def test_a_refusal_names_the_limits_that_keep_the_users_step(engine, dt):
     assert 0.01 < tolerance < 0.02 and 0.0159 < depth < lacrosse["diameter_m"] / 2
     ex = export(None, engine, tolerance=tolerance, max_penetration_m=depth, **lacrosse)
     assert f"step {dt:g} s checked in" in " ".join(ex.setup.notes)
+
+
+def test_a_clay_ball_that_does_not_rebound_at_bullets_step_is_refused_in_one_line():
+    """Clay (epsilon 0.1, 50 g, 40 mm) from 1 m at Bullet's 1/240 s turns back inside the floor in some
+    contact phases: once a traceback (NaN worst error into round_down), now a refusal saying so and
+    naming a step that was run and passes."""
+    require_engine("bullet")
+    result = CliRunner().invoke(main, ["export", "--mass", "0.05", "--diameter", "0.04", "--epsilon", "0.1",
+                                       "--drop-height", "1", "--engine", "bullet", "--bounces", "1"])
+    assert result.exit_code != 0 and result.exception is None or isinstance(result.exception, SystemExit)
+    line = result.output.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert re.search(r"does not rebound at this step .*contact phases\).*--dt ([0-9.e-]+) meets both", line), line
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", line).group(1))
+    ex = export(None, "bullet", epsilon=0.1, mass_kg=0.05, diameter_m=0.04, drop_height_m=1, n_bounces=1, dt_s=dt_ok)
+    assert "checked in bullet" in ex.setup.notes[-1]
+
+
+def test_a_step_at_which_bullet_adds_energy_fails_whatever_the_tolerance():
+    """A superball of epsilon 0.9995 (25 g, 35 mm) from 1 m at 1 ms: PyBullet reverses the speed after the
+    step's gravity (e (u + g dt)), v_out/v_in 1.0017: once within the tolerance 0.01 and PASSED while the
+    ball climbed every bounce; now export refuses it, naming a step that adds none, and verify fails it."""
+    require_engine("bullet")
+    ball = dict(epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0)
+    with pytest.raises(UsageError, match=r"adds energy: v_out/v_in reaches 1\.00[0-9]+ > 1.*whatever the "
+                                         r"tolerance.*--dt ([0-9.e-]+) meets both") as info:
+        export(None, "bullet", dt_s=1e-3, tolerance=0.05, **ball)
+    dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets both", str(info.value)).group(1))
+    text = export(None, "bullet", dt_s=dt_ok, **ball).text
+    from vrcal.engines.verify import format_report, verify
+
+    at_own = verify(engine="bullet", exported_text=text, n_phases=4)
+    assert at_own.passed and at_own.runs.gain is None
+    coarse = verify(engine="bullet", exported_text=text, dt_s=1e-3, tolerance=0.05, n_phases=4)
+    assert coarse.error < 0.05 and not coarse.passed
+    assert coarse.failure().startswith("the engine adds energy") and "adds energy" in format_report(coarse)
+
+
+def test_the_notes_carry_no_number_measured_for_another_target():
+    """The notes said 'Bullet's defaults give step-phase dependent epsilon (0.16..0.87 for a target of 0.85)'
+    whatever the target (a canned measurement, e.g. in a file for 0.775): that line holds no number now."""
+    from vrcal.engines.export import build_setup
+
+    setup = build_setup(None, "bullet", 0.775, 5e-4, mass_kg=0.6, diameter_m=0.24, drop_height_m=1.0)
+    notes = " ".join(E.export_params(setup)["notes"])
+    assert "target of 0.85" not in notes and "0.16..0.87" not in notes
+    assert "depends on where in its step the contact falls" in notes

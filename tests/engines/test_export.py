@@ -594,3 +594,25 @@ def test_the_floor_rows_how_names_the_floors_own_restitution():
     assert "bounciness 0.9841 (Eq. 6: the floor's own factor), Multiply" in floors["Unity"]["how"]
     rigid = {r["engine"]: r for r in export("basketball", "tables").data["rows"] if r["body"] == "floor"}
     assert rigid["PhysX"]["restitution"] == 1 and "restitution 1 (rigid)" in rigid["PhysX"]["how"]
+
+
+def test_a_light_ball_given_by_mass_and_diameter_is_warned_of_as_fit_warns():
+    """A 100 g, 0.5 m beach ball: vrcal fit warns that buoyancy and drag matter (the air it displaces weighs
+    79 % of it); export said nothing. It carries fit's own warning now, on the terminal and in the file."""
+    from vrcal.inverse import buoyancy_notes
+
+    require_engine("mujoco")
+    ex = export(None, "mujoco", epsilon=0.877, mass_kg=0.1, diameter_m=0.5, drop_height_m=2)
+    warning = buoyancy_notes(0.1, 0.5)[0]
+    assert warning in ex.setup.notes and warning in ex.summary
+    assert "warning: buoyancy is large" in ex.text
+    assert not buoyancy_notes(0.0027, 0.04)          # a ping-pong ball: no warning
+
+
+def test_a_floor_whose_epsilon_stops_the_bounce_is_named_as_the_cause():
+    """A virtual-body floor x = 1 mm, v = 0.1 mm/s at K = 100 1/s has epsilon exp(-500)-ish: the refusal said
+    'rises only 0 mm: ask for a larger --drop-height or --epsilon'; it names the floor's epsilon now."""
+    with pytest.raises(UsageError, match=r"rises not at all \(a bounce must rise 1 mm; the pair's epsilon is "
+                                         r"[0-9.]+e-[0-9]+ = ball 0\.7449 x floor [0-9.]+e-[0-9]+, Eq\. 6\): ask for "
+                                         r"a floor of a larger epsilon \(a smaller --K"):
+        build_setup("tennis", "mujoco", floor="x=0.001,v=0.0001", K_per_s=100)

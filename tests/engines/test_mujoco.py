@@ -447,3 +447,50 @@ def test_verify_file_fails_when_the_second_balls_floor_contact_misses(tmp_path):
     path.write_text(text.replace(f'solref="{tuned}"', f'solref="0 {damping / 2:.7f}"', 1))
     result = CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(path)])
     assert result.exit_code == 1 and "vrcal: error: ball2 (tennis) on the floor: the ball made only 0" in result.output
+
+
+@pytest.mark.parametrize("ball", [dict(mass_kg=1.2, diameter_m=0.65, epsilon=0.775, dt_s=0.02),
+                                  dict(mass_kg=0.05, diameter_m=0.04, epsilon=0.1, n_bounces=1)])
+def test_the_tolerance_named_to_keep_the_step_passes_when_given(ball):
+    """The limits a refusal names to keep the user's step are calibrated with before they are named: an
+    exercise ball at 20 ms was told --tolerance 0.019, which then missed (0.0202 over 16 phases, the
+    looser limit's contact) and named 0.023; clay from 1 m, one bounce: 0.019, then 0.0234 -> 0.026."""
+    require_engine("mujoco")
+    with pytest.raises(UsageError, match=r"accept what it achieves: --tolerance ([0-9.]+)") as info:
+        export(None, "mujoco", drop_height_m=1.0, **ball)
+    tol = float(re.search(r"accept what it achieves: --tolerance ([0-9.]+)", str(info.value)).group(1))
+    ex = export(None, "mujoco", drop_height_m=1.0, tolerance=tol, **ball)
+    assert ex.data["worst_error"] <= tol
+
+
+def test_a_refusal_and_the_trade_off_give_one_depth_and_one_step():
+    """A superball (25 g, 35 mm, epsilon 0.9995) from 1 m at 10 ms: the refusal said the ball 'turns 18.2 mm'
+    and then 'sinks 20 mm' (the depth with the 10 % margin, printed as a measurement), and named --dt 0.0019
+    where --trade-off named 0.002: one measured depth, and the step the table names."""
+    require_engine("mujoco")
+    from vrcal.engines.export import _next_step, trade_off
+
+    ball = dict(epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0, dt_s=0.01)
+    with pytest.raises(UsageError) as info:
+        export(None, "mujoco", **ball)
+    message = str(info.value)
+    depths = set(re.findall(r"turns ([0-9.]+) mm", message))
+    assert len(depths) == 1 and "sinks" not in message
+    setup, rows = trade_off(None, "mujoco", **ball)
+    own = next(r for r in rows if r["dt_s"] == 0.01 and r["contact"] == "damper")
+    assert f"{max(own['penetration_m'], own['hover_m']) * 1e3:.3g}" in depths
+    named = re.search(r"--dt ([0-9.e-]+) meets both", message).group(1)
+    assert f"--dt {named}\n" in _next_step(setup, rows)
+
+
+def test_a_tiny_worst_error_is_printed_with_significant_digits():
+    """A superball (epsilon 0.9995) at MuJoCo's 2 ms: the summary and the header said 'worst eps error 0.0000'."""
+    require_engine("mujoco")
+    from vrcal.engines.common import error_text
+
+    assert (error_text(3.36e-6), error_text(0.0234), error_text(0.0026), error_text(0.0)) == \
+        ("3.4e-06", "0.0234", "0.0026", "0")
+    ex = export(None, "mujoco", epsilon=0.9995, mass_kg=0.025, diameter_m=0.035, drop_height_m=1.0)
+    shown = error_text(ex.data["worst_error"])
+    assert ex.data["worst_error"] < 1e-3 and shown != "0.0000"
+    assert f"worst eps error {shown}," in ex.summary and f"worst eps error {shown}, median" in ex.text

@@ -186,3 +186,43 @@ def test_an_apex_file_against_is_told_what_verifies_it(tmp_path):
     assert result.exit_code == 2 and result.output.count("\n") == 1
     assert "holds apexes: leave out --against, and vrcal verify --from RESULT.json --engine ENGINE" in result.output
     assert runner.invoke(main, ["verify", "--from", str(doc), "--engine", "ode"]).exit_code == 0
+
+
+@pytest.fixture(scope="module")
+def exercise_ball(tmp_path_factory):
+    """The probe's 1.2 kg, 0.65 m exercise ball dropped 1 m with drag and buoyancy (simulated, 1 mm noise),
+    and its discover result: (record, discover json)."""
+    folder = tmp_path_factory.mktemp("ex")
+    record, doc = folder / "ex_rec.csv", folder / "ex_disc.json"
+    for args in (["simulate", "--mass", "1.2", "--diameter", "0.65", "--drop", "1", "--epsilon", "0.82", "--bounces",
+                  "5", "--effect", "air_drag:drag_coefficient=0.47", "--effect", "buoyancy", "--noise", "0.001",
+                  "-o", str(record)],
+                 ["discover", str(record), "--mass", "1.2", "--diameter", "0.65", "-q", "--json", str(doc)]):
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 0, result.output
+    assert "buoyancy" in json.loads(doc.read_text())["effects"]
+    return str(record), str(doc)
+
+
+def test_an_export_says_it_leaves_buoyancy_out_and_the_replay_verdict_follows_the_gap(exercise_ball):
+    """MuJoCo's density drives its fluid drag only (a ball at rest in it falls with g): the export of a
+    discover result naming buoyancy said nothing of it and hit at 4.26 m/s where the record's ball hits at
+    3.82; its replay printed an RMS gap of 132 mm (constant epsilon: 61 mm) beside 'engine apexes within
+    3 %: yes' and passed. Now the file and the terminal say what is left out and by how much, and the
+    replay's verdict takes the gap too."""
+    require_engine("mujoco")
+    record, doc = exercise_ball
+    from vrcal.engines.export import export
+
+    ex = export(None, "mujoco", from_json=doc)
+    line = next(n for n in ex.setup.notes if n.startswith("buoyancy left out"))
+    speeds = [float(v) for v in __import__("re").findall(r"at ([0-9.]+) m/s", line)]
+    assert speeds[0] == pytest.approx(4.26, abs=0.02) and speeds[1] == pytest.approx(3.82, abs=0.03)
+    assert "gravcomp=" in line and "buoyancy left out" in ex.text and "buoyancy left out" in ex.summary
+    r = replay(doc, record, "mujoco")
+    assert r.apexes_within_goal and r.gaps_m["engine"] > r.gaps_m["constant"]
+    assert not r.within_goal and "heights are" in r.failure()
+    from vrcal.engines.replay import format_replay
+
+    assert "engine gap below the constant epsilon's, or within 3 % of the highest rise or 3 sigma (18 mm): no" \
+        in format_replay(r)

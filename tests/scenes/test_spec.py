@@ -275,3 +275,24 @@ def test_k_defaults_like_pair_center_is_centre_and_anchors_copy_a_body(tmp_path)
     a, c = scene.bodies
     assert (c.mass_kg, c.radius_m, c.x_m, c.v_m_per_s) == (a.mass_kg, a.radius_m, a.x_m, a.v_m_per_s)
     assert a.position_m == (0.0, 0.0, 0.1) and c.position_m == (0.3, 0.0, 0.1)
+
+
+@pytest.mark.parametrize("bearing_z, shown", [(0.1, "bearing  apexes [m]: 0.100, 0.0903, 0.0815, 0.0735, ..."),
+                                               (0.01, "bearing  apexes [m]: 0.0100, 0.00903, 0.00815, 0.00735, ...")])
+def test_the_summary_prints_apexes_with_digits_that_resolve_them(tmp_path, bearing_z, shown):
+    """A clay ball (epsilon 0.1) from 1 m and a 5 mm bearing (0.95) from 10 cm or 1 cm: the summary printed
+    the clay's apexes '1.000, 0.010, 0.000' (the third is 0.1 mm) and the 1 cm drop's '0.010, 0.009, 0.008'."""
+    scene = {"name": "edge", "K_per_s": 4.0, "duration_s": 1.2, "sample_dt_s": 0.001, "friction_mu": 0.5,
+             "floor": {"material": "steel"},
+             "bodies": [{"name": "bearing", "mass_kg": 0.0005, "radius_m": 0.0025,
+                         "virtual_body": {"x_m": 0.00125, "v_m_per_s": 0.04875},
+                         "position_m": [0.0, 0.0, bearing_z], "position_of": "bottom"},
+                        {"name": "clay", "mass_kg": 0.05, "radius_m": 0.02,
+                         "virtual_body": {"x_m": 0.01, "v_m_per_s": 0.0086859},
+                         "position_m": [0.5, 0.0, 1.0], "position_of": "bottom"}]}
+    path = tmp_path / "edge.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    result = CliRunner().invoke(main, ["scene", str(path), "--no-animation", "-o", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    assert shown in result.output
+    assert "clay     apexes [m]: 1.000, 0.0100, 0.000100" in result.output

@@ -106,7 +106,7 @@ def export_params(setup, n_bounces=None, pair=None):
             "the ball's contactProcessingThreshold 0 (a pair takes the smaller of its two bodies'), "
             f"contactStiffness {CONTACT_STIFFNESS_N_PER_M:g} and contactDamping {CONTACT_DAMPING_N_S_PER_M:g} (Bullet "
             f"then gives the ball's contacts ERP 0 and CFM {1 / CONTACT_DAMPING_N_S_PER_M:g}) and zero damping: "
-            "Bullet's defaults give step-phase dependent epsilon (0.16..0.87 for a target of 0.85)",
+            "with Bullet's defaults the epsilon a contact gives depends on where in its step the contact falls",
             "the ball's contacts only: the world's contactERP, erp and frictionERP stay yours, so your other "
             "bodies rest on the floor as before (a world-wide contactERP 0, as an earlier vrcal set, left a 1 kg "
             "box dropped 0.3 m 7.78 mm in the floor for good)",

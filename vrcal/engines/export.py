@@ -19,6 +19,7 @@ against the penetration a step allows (:func:`check_step`), and ``vrcal verify``
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from dataclasses import dataclass, replace
 
@@ -42,6 +43,7 @@ from vrcal.engines.common import (
     check_positive,
     confirmed,
     engine_label,
+    error_text,
     metadata,
     round_down,
 )
@@ -227,7 +229,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         elif isinstance(doc.get("floor_level_m"), (int, float)):
             offset = float(doc["floor_level_m"])   # a record without a floor: its contact level, for a replay
         release = float(doc["model"]["release_time_s"])
-        left = [e for e in effects if e not in CARRIED_EFFECTS]
+        left = [e for e in effects if e not in CARRIED_EFFECTS and e != "buoyancy"]    # buoyancy: its own note
         notes.append(f"from {from_json}: {', '.join(effects) or 'no effect'} named by vrcal discover")
         if left:
             notes.append(f"not carried into the engine: {', '.join(left)} (no engine setting for it)")
@@ -301,7 +303,46 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         setup = record.cover(setup, n_bounces)
     if H is not None:
         _check_bounces_reachable(setup)
-    return setup
+    return replace(setup, notes=setup.notes + tuple(air_left_out(setup, doc)))
+
+
+#: How the notes start that say what of the ball's air no exported engine applies (:func:`air_left_out`):
+#: the terminal prints them with the export's summary, and every file's header carries them.
+AIR_LEFT_OUT = ("buoyancy left out", "warning: buoyancy")
+
+
+def air_left_out(setup, doc):
+    """The notes (a list, maybe empty) on the buoyancy an exported engine leaves out.
+
+    A discover result that names ``buoyancy``: the engines apply none (MuJoCo's ``density`` drives
+    its fluid model's drag and lift only: measured, a ball at rest in it falls with g), so the file's
+    ball falls faster than the record's; the note says by how much at the first impact (vrcal's model
+    of the drop with and without it) and how MuJoCo adds Archimedes' force (``gravcomp`` on the body,
+    a fraction of its weight). A ball given by mass and diameter: ``vrcal fit``'s warning when the air
+    it displaces is a large part of its mass (:func:`vrcal.inverse.buoyancy_notes`).
+    """
+    if not doc:
+        from vrcal.inverse import buoyancy_notes
+
+        return buoyancy_notes(setup.mass_kg, 2.0 * setup.radius_m)
+    if "buoyancy" not in doc.get("effects", ()) or setup.drop_height_m is None:
+        return []
+    from vrcal.drop.simulate import simulate_drops
+    from vrcal.model.body import BallProperties
+
+    rho = float(doc["parameters"].get("buoyancy", {}).get("air_density_kg_per_m3", eq.AIR_DENSITY_KG_PER_M3))
+    ball = BallProperties(setup.mass_kg, 2.0 * setup.radius_m, setup.ball)
+    H = setup.drop_height_m
+    with_it = simulate_drops(H, setup.epsilon, 1, ball, g_m_per_s2=setup.g_m_per_s2,
+                             effects={**setup.effects, "buoyancy": {"air_density_kg_per_m3": rho}})
+    without = setup.model_at(H)
+    share = rho * float(eq.sphere_volume_m3(2.0 * setup.radius_m)) / setup.mass_kg
+    return [f"buoyancy left out (the record's air, {rho:.3g} kg/m^3, weighs {share:.1%} of the ball): no engine "
+            f"applies it (MuJoCo's density drives its drag only), so from {H:.4g} m the ball hits at "
+            f"{float(without.impact_speeds_m_per_s[0, 0]):.3g} m/s after {float(without.impact_times_s[0, 0]):.3g} s, "
+            f"the record's ball at {float(with_it.impact_speeds_m_per_s[0, 0]):.3g} m/s after "
+            f"{float(with_it.impact_times_s[0, 0]):.3g} s; MuJoCo adds Archimedes' force with gravcomp=\"{share:.4g}\" "
+            "on the ball's body (then export for the slower impacts)"]
 
 
 #: Highest ``--drop-height`` [m] of an export or a verify: a 100 m drop hits at 44 m/s (no drag), beyond
@@ -475,8 +516,16 @@ def _check_bounces_reachable(setup):
         rising = int(np.sum(np.asarray(apex[1:]) >= RISE_M))
         fewer = f"--bounces {rising} or fewer, or a larger --drop-height" if rising else \
             "a larger --drop-height or --epsilon"
-        raise UsageError(f"bounce {setup.n_bounces} of this drop rises only {apex[-1] * 1e3:.2g} mm "
-                         f"(a bounce must rise {RISE_M * 1e3:g} mm): ask for {fewer}")
+        cause = ""
+        if setup.floor_epsilon < 1 and setup.floor_epsilon < 0.5 * setup.ball_epsilon:
+            # the floor's epsilon is the cause (a virtual body's exp(-K T) at a large --K): name it
+            cause = (f"; the pair's epsilon is {setup.epsilon:.3g} = ball {setup.ball_epsilon:.4g} x floor "
+                     f"{setup.floor_epsilon:.3g}, Eq. 6")
+            if not rising:
+                fewer = "a floor of a larger epsilon (a smaller --K, or a virtual body of a shorter contact)"
+        rise = f"only {apex[-1] * 1e3:.2g} mm" if apex[-1] > 0 else "not at all"
+        raise UsageError(f"bounce {setup.n_bounces} of this drop rises {rise} (a bounce must rise "
+                         f"{RISE_M * 1e3:g} mm{cause}): ask for {fewer}")
 
 
 def second_setup(setup, name, mass_kg, radius_m, epsilon, ball_epsilon_rigid):
@@ -585,11 +634,11 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                 "penetration_m": cal.penetration_m, "hover_m": cal.hover_m}
         summary = (f"mujoco, dt {setup.dt_s:g} s ({module.integrator_name(setup)}), {cal.contact.kind}: "
                    f"worst eps error "
-                   f"{cal.worst_error:.4f}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
+                   f"{error_text(cal.worst_error)}, penetration {cal.penetration_m * 1e3:.3g} mm, hover "
                    f"{cal.hover_m * 1e3:.3g} mm")
         missed = pair_cal is not None and not pair_cal.result.passed     # said, not refused: verify fails it
-        summary = _lines(summary, module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
-                         _coverage_summary(setup, coverage),
+        summary = _lines(summary, cal.runs.height_ratio_text(),
+                         module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"), _coverage_summary(setup, coverage),
                          "\n".join(textwrap.wrap(pair_cal.result.failure(), 100)) if missed else "")
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
@@ -624,6 +673,7 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
             refuse_constant_for_law(setup, eng.label)
         data = {"engine": "tables", "rows": module.table(setup, pair)}
         text = module.format_table(setup, pair)
+    summary = _lines(summary, *(n for n in setup.notes if n.startswith(AIR_LEFT_OUT)))
     return Export(eng.name, eng.fmt, text, data, setup, pair, summary)
 
 
@@ -711,13 +761,44 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
     misses = []
     if not cal.meets_tolerance:
         misses.append(f"worst epsilon error {_above(cal.worst_error, setup.tolerance)} (tolerance {setup.tolerance:g})")
+    if cal.runs.gain is not None:
+        misses.append(f"{cal.runs.gain_text()}, whatever the tolerance")
     if not cal.meets_depth:
         misses.append(f"the ball turns {_above(cal.depth_m * 1e3, setup.penetration_limit_m * 1e3)} mm from the floor "
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
-    keep = keep_step(setup, cal.worst_error, cal.depth_m, margin=1.1)
+    keep = "" if cal.runs.gain is not None else _mujoco_keep(setup, cal, kind, w, n_phases)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
                      f"misses: {'; '.join(misses)}; {step_that_works()}" + (f"; {keep}" if keep else "")
                      + "; see --trade-off")
+
+
+def _mujoco_keep(setup, cal, kind, w, n_phases, tries=3):
+    """:func:`keep_step` for MuJoCo, checked: the limits it names are calibrated with in MuJoCo (a looser
+    limit picks another contact, which goes deeper or misses by more, and a pass over ``n_phases`` is
+    confirmed over :data:`CONFIRM_PHASES`), widened by what that calibration achieved (10 % margin) until
+    it meets them, at most ``tries`` times; '' when nothing keeps the step (a contact that adds energy)."""
+    from vrcal.engines import mujoco as M
+    from vrcal.engines.common import StillBouncing, check_max_penetration
+
+    worst, depth = cal.worst_error, cal.depth_m
+    for _ in range(tries):
+        keep = keep_step(setup, worst, depth, margin=1.1)
+        if not keep or keep.startswith("no --max-penetration"):
+            return keep
+        tol = float(_round_up(1.1 * worst)) if 1.1 * worst > setup.tolerance else setup.tolerance
+        pen = float(re.search(r"--max-penetration ([0-9.e-]+)", keep).group(1)) if "--max-penetration" in keep \
+            else setup.max_penetration_m
+        try:
+            loose = replace(setup, tolerance=tol, max_penetration_m=check_max_penetration(pen, setup.radius_m))
+            trial = M.calibrate(loose, n_phases, kind, w)
+        except (StillBouncing, DataError, UsageError):
+            return ""
+        if trial.ok:
+            return keep
+        if trial.runs.gain is not None:
+            return ""
+        worst, depth = max(worst, trial.worst_error), max(depth, trial.depth_m)
+    return ""
 
 
 def refuse_constant_for_law(setup, engine):
@@ -912,7 +993,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                  if _phases(runs) < CONFIRM_PHASES else "")
         return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
-                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}")
+                f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
+                + (f"; {runs.height_ratio_text()}" if runs.height_ratio_text() else ""))
     if runs is None:
         what = (f"time step {setup.dt_s:g} s is too large for {engine}: not run here ({label} is not installed); by "
                 f"the step bound its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor")
@@ -928,11 +1010,15 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     if isinstance(runs, DropRuns):
         wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
         wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
-        keep = keep_step(setup, max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs)))
+        gains = runs.gain is not None or wide.gain is not None        # no tolerance accepts a gain
+        keep = "" if gains else keep_step(setup, max(wide.worst_error, runs.worst_error),
+                                          max(_depth(wide), _depth(runs)))
         misses = []
         if runs.worst_error > setup.tolerance:
             misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
                           f"(tolerance {setup.tolerance:g})")
+        if runs.gain is not None:
+            misses.append(f"{runs.gain_text()}, whatever the tolerance")
         if _depth(runs) > setup.penetration_limit_m:
             depth_mm = _above(_depth(runs) * 1e3, setup.penetration_limit_m * 1e3)
             misses.append(f"the ball turns {depth_mm} mm from the floor "
@@ -940,6 +1026,9 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         what = f"{_phases(runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
                     setup.penetration_limit_m / max(_depth(runs), 1e-12))
+        if runs.gain is not None:        # the gain above the target grows with the step (g dt / v): below 1 again
+            top = float(np.max(runs.target_epsilons))
+            scale = min(scale, (1.0 - top) / max(runs.gain - top, 1e-12))
     else:                                        # no drop test: the ball did not bounce as asked, or too long a run
         what = f"no drop test): {runs}"
         scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
@@ -951,7 +1040,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                f"{above}; {NOT_MONOTONIC})")
     else:
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
-               "--max-penetration")
+               "--max-penetration" + (", or give an epsilon further below 1" if isinstance(runs, DropRuns)
+                                      and runs.gain is not None else ""))
     raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
 
 
@@ -968,8 +1058,12 @@ def keep_step(setup, worst_error, depth_m, margin=1.0):
         options.append(f"--tolerance {_round_up(worst_error)}")
     if depth_m > setup.penetration_limit_m:
         if depth_m >= setup.radius_m:
-            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball sinks {depth_m * 1e3:.3g} mm, "
-                    f"beyond its radius {setup.radius_m * 1e3:.3g} mm")
+            measured = depth_m / margin
+            why = (f"beyond its radius {setup.radius_m * 1e3:.3g} mm" if measured >= setup.radius_m else
+                   f"and {margin - 1:.0%} more, the margin a looser calibration needs, reaches its radius "
+                   f"{setup.radius_m * 1e3:.3g} mm")
+            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball turns {measured * 1e3:.3g} mm "
+                    f"from the floor, {why}")
         limit = float(_round_up(depth_m))
         options.append(f"--max-penetration {min(limit, round_down(setup.radius_m * (1 - 1e-9))):g}")
     if not options:
@@ -1036,7 +1130,7 @@ def _depth(runs):
 
 
 def _meets(setup, runs):
-    return runs.worst_error <= setup.tolerance and _depth(runs) <= setup.penetration_limit_m
+    return runs.worst_error <= setup.tolerance and _depth(runs) <= setup.penetration_limit_m and runs.gain is None
 
 
 def _run_in_engine(setup, engine, dt_s, n_phases=N_PHASES):

@@ -57,6 +57,7 @@ from vrcal.engines.common import (
     drop_runs,
     drop_window_s,
     epsilon_spread,
+    error_text,
     metadata,
     phase_shifts_m,
     round_down,
@@ -765,7 +766,7 @@ class Calibration(RunsSummary):
 
     @property
     def ok(self):
-        return self.meets_tolerance and self.meets_depth
+        return self.meets_tolerance and self.meets_depth and self.runs.gain is None
 
     @property
     def excess(self):
@@ -925,12 +926,13 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
     if kind == "damper":
         start = min(0.9 * setup.dt_s, 0.98 * 2.0 * setup.penetration_limit_m / V)
         candidates = [start * 0.8 ** j for j in range(12)]
+        # and the smaller steps --trade-off lists, so the refusal and the table name the same step
+        candidates = sorted({round_down(dt) for dt in candidates} | set(trade_off_steps(setup.dt_s)[1:]), reverse=True)
     else:
         w = omega_per_s or spring_omega(setup)
         candidates = [c / w for c in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625)]
-        candidates = [dt for dt in candidates if dt < setup.dt_s]
+        candidates = [round_down(dt) for dt in candidates if dt < setup.dt_s]
     for dt in candidates:
-        dt = round_down(dt)
         trial = replace(setup, dt_s=dt)
         try:
             check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
@@ -940,6 +942,11 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
         if cal.ok:
             return dt, cal
     return None, None
+
+
+def trade_off_steps(dt_s):
+    """The steps :func:`trade_off` calibrates at by default [s]: dt, dt/2 and dt/5 (three digits)."""
+    return [float(f"{dt:.3g}") for dt in (dt_s, dt_s / 2, dt_s / 5)]
 
 
 def trade_off(setup, n_phases=N_PHASES, steps=None):
@@ -955,7 +962,7 @@ def trade_off(setup, n_phases=N_PHASES, steps=None):
         the str says why there is no calibration: 'no bounce' (MuJoCo did not bounce the ball
         with that contact at that step) or 'too high' (it bounced higher at every damping)
     """
-    steps = steps or [setup.dt_s, setup.dt_s / 2, setup.dt_s / 5]
+    steps = steps or trade_off_steps(setup.dt_s)
     rows = []
     for dt in steps:
         trial = replace(setup, dt_s=float(f"{dt:.3g}"))
@@ -992,7 +999,7 @@ def header_lines(setup, cal):
         f"contact {how}",
         f"calibrated in MuJoCo ({cal.evaluations} runs); drop test {cal.runs.apex_ratios.shape[0]} phases x "
         f"{setup.n_bounces} bounces",
-        f"worst eps error {cal.worst_error:.4f}, median {cal.median_error:.4f} "
+        f"worst eps error {error_text(cal.worst_error)}, median {error_text(cal.median_error)} "
         f"(tolerance {setup.tolerance:g})",
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
         f"(limit {setup.penetration_limit_m * 1e3:.3g} mm)",
@@ -1112,10 +1119,10 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None, pa
     second ball's floor contact calibrated in MuJoCo, ``pair_cal`` the ball/ball2 contact of
     :func:`calibrate_pair`; with a :class:`vrcal.engines.export.SpeedCoverage`, the impact speeds the
     calibration holds for)."""
-    from vrcal.engines.export import RECORD_NOTE
+    from vrcal.engines.export import AIR_LEFT_OUT, RECORD_NOTE
 
     header = header_lines(setup, cal)
-    record = [w for n in setup.notes if n.startswith(RECORD_NOTE) for w in textwrap.wrap(n, 88)]
+    record = [w for n in setup.notes if n.startswith((RECORD_NOTE, *AIR_LEFT_OUT)) for w in textwrap.wrap(n, 88)]
     header[3:3] = record + (textwrap.wrap(coverage.note(setup.tolerance), 88) if coverage is not None else [])
     pairs, bodies = [], []
     if pair and second is not None:
@@ -1126,7 +1133,7 @@ def export_mjcf(setup, cal, pair=None, second=None, coverage=None, cal2=None, pa
         if cal2 is not None:
             header += textwrap.wrap(f"ball2 ({second.ball}) on the floor: epsilon {second.epsilon:.4f}, calibrated "
                                     f"in MuJoCo like the ball's over the same drop (worst eps error "
-                                    f"{cal2.worst_error:.4f})", 88)
+                                    f"{error_text(cal2.worst_error)})", 88)
         header.append(f"pair {pair['name']}: Eq. 6 gives {pair['epsilon']:.4f}; MuJoCo would average two geoms'")
         if pair_cal is None:
             header.append("solref, so ball/ball2 has its own pair (one-step reversal, not calibrated in MuJoCo)")

@@ -117,9 +117,32 @@ class Replay:
         return self.apex_differences(name) / self.rise_m
 
     @property
-    def within_goal(self):
+    def apexes_within_goal(self):
         """Every engine rebound apex within :attr:`allowed_m` of the measured one."""
         return bool(np.all(np.abs(self.apex_differences("engine")) <= self.allowed_m))
+
+    @property
+    def gap_allowed_m(self):
+        """The engine's gap (RMS of engine - data after release) allowed in any case [m]: 3 % of the highest
+        measured rise, or 3 noise sigmas."""
+        rise = float(np.max(self.rise_m)) if np.size(self.rise_m) else 0.0
+        return max(APEX_GOAL * rise, APEX_NOISE_SIGMAS * self.noise_m)
+
+    @property
+    def gap_within_goal(self):
+        """The engine's gap within :attr:`gap_allowed_m`, or no larger than the constant-epsilon export's
+        (the paper's model, which the export is to improve on). Apexes can match while the flights are
+        timed otherwise: an exercise ball exported without the record's buoyancy had every apex within
+        2.4 % and a gap of 132 mm, the constant epsilon's 61 mm; a medicine ball's 25 ms contacts, left
+        out, put an export 8 mm off (3 sigma: 6.5 mm), the constant epsilon 81 mm."""
+        gap = self.gaps_m["engine"]
+        return bool(gap <= self.gap_allowed_m or gap <= self.gaps_m["constant"])
+
+    @property
+    def within_goal(self):
+        """Every engine rebound apex within :attr:`allowed_m` of the measured one, and its gap within
+        :attr:`gap_allowed_m`."""
+        return self.apexes_within_goal and self.gap_within_goal
 
     def worst_apex(self):
         """(rebound number, relative error, difference [m], allowed [m]) of the engine's apex
@@ -132,6 +155,12 @@ class Replay:
         """One line saying how the worst engine apex misses its goal ('' within the goal)."""
         if self.within_goal:
             return ""
+        if self.apexes_within_goal:
+            return (f"the engine's heights are {1e3 * self.gaps_m['engine']:.3g} mm (RMS) from the record's, "
+                    f"farther than the constant epsilon's {1e3 * self.gaps_m['constant']:.3g} mm and than "
+                    f"{100 * APEX_GOAL:g} % of the highest rise or {APEX_NOISE_SIGMAS:g} x the noise "
+                    f"({1e3 * self.gap_allowed_m:.3g} mm), though its apexes match: its flights are timed otherwise "
+                    "(see the notes: what the export leaves out)")
         k, err, diff, allowed = self.worst_apex()
         return (f"the engine's rebound {k} apex is {1e3 * diff:+.3g} mm ({100 * err:+.1f} % of the "
                 f"{1e3 * self.rise_m[list(self.rebounds).index(k)]:.3g} mm rise) from the measured one "
@@ -278,7 +307,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     Replay
     """
     from vrcal.drop.simulate import simulate_drops
-    from vrcal.engines.export import export, parse_exported
+    from vrcal.engines.export import AIR_LEFT_OUT, export, parse_exported
     from vrcal.engines.verify import _check_geom_options
     from vrcal.model.body import BallProperties, read_discover_json
 
@@ -321,6 +350,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     if exported_text is None:
         ex = export(None, eng.name, from_json=from_json, drop_height_m=float(model["drop_height_m"]), **common)
         engine_run = (ex.setup, parse_exported(eng.name, ex.text))
+        notes.extend(n for n in ex.setup.notes if n.startswith(AIR_LEFT_OUT))    # what the export leaves out
     else:
         engine_run = _file_run(eng.name, exported_text, file_name, from_json, props, model, common, notes, geoms)
     base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
@@ -449,7 +479,10 @@ def format_replay(r):
     text += "gap (RMS)  " + "   ".join(f"{label} {1e3 * r.gaps_m[key]:.3g} mm" for key, label in names) + "\n"
     k, err, diff, _allowed = r.worst_apex()
     text += (f"engine apexes within {100 * APEX_GOAL:g} % of the rise or {APEX_NOISE_SIGMAS:g} sigma: "
-             f"{'yes' if r.within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = {100 * err:+.1f} %)\n")
+             f"{'yes' if r.apexes_within_goal else 'no'} (worst rebound {k}: {1e3 * diff:+.3g} mm = "
+             f"{100 * err:+.1f} %)\n"
+             f"engine gap below the constant epsilon's, or within {100 * APEX_GOAL:g} % of the highest rise or "
+             f"{APEX_NOISE_SIGMAS:g} sigma ({1e3 * r.gap_allowed_m:.3g} mm): {'yes' if r.gap_within_goal else 'no'}\n")
     import textwrap
 
     for n in [*r.notes, f"noise sigma {1e3 * r.noise_m:.3g} mm: {r.noise_source}"]:

@@ -519,6 +519,7 @@ def _range(values, digits=4):
 
 def format_report(result):
     """A short aligned report of a :class:`VerifyResult` for people (<= 100 columns)."""
+    from vrcal.engines.common import error_text
     from vrcal.textout import table
 
     r, runs = result, result.runs
@@ -536,9 +537,13 @@ def format_report(result):
     text = "\n".join(lines) + "\n" + table(rows, ["bounce", "eps target", "v_out/v_in", "apex ratio target",
                                                   "apex ratio", "worst error"])
     verdict = "PASSED" if r.passed else "FAILED"
-    text += (f"worst error {r.error:.4f} (tolerance {r.tolerance:g}), median {r.median_error:.4f}\n"
+    text += (f"worst error {error_text(r.error)} (tolerance {r.tolerance:g}), median {error_text(r.median_error)}\n"
              f"penetration {r.penetration_m * 1e3:.3g} mm, hover {r.hover_m * 1e3:.3g} mm "
              f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
+    if runs.height_ratio_text():
+        text += runs.height_ratio_text() + " (the epsilon error is absolute)\n"
+    if runs.gain is not None:
+        text += runs.gain_text() + "\n"
     if r.others or r.unverified or r.pair is not None:
         first = f"ball ({r.ball})" if r.engine == "mujoco" else r.ball
         tested = [f"{first}/floor"] + [f"{o.ball}/floor (target {o.target:.4f}: worst error {o.error:.4f}, "

@@ -322,13 +322,19 @@ def _pairs_text(scene, eps):
     return head + table(rows, ["pair", "ε"], align="lr")
 
 
+def _height(h_m):
+    """A height [m] to millimetres from 0.1 m on (1.057), else to three significant digits (0.0100, 0.000100:
+    a clay ball's 0.1 mm third apex and a 1 cm drop's apexes were 0.000 and 0.010, 0.009, 0.008)."""
+    return f"{h_m:.3f}" if h_m >= 0.1 else number(h_m, 3)
+
+
 def _motion_text(result, n_apexes=4):
     """Each body's first apexes (bottom height [m]), or where a ball that stays on the floor ends."""
     rows = []
     for b, name in enumerate(result.scene.names):
         ap = [h for n, _t, h in result.apexes if n == name]
         if ap and max(ap) > ON_FLOOR_M:
-            shown = ", ".join(f"{h:.3f}" for h in ap[:n_apexes]) + (", ..." if len(ap) > n_apexes else "")
+            shown = ", ".join(_height(h) for h in ap[:n_apexes]) + (", ..." if len(ap) > n_apexes else "")
             rows.append([name, f"apexes [m]: {shown}"])
         else:
             x, v = result.position_m[-1, b, 0], result.velocity_m_per_s[-1, b]
