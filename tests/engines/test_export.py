@@ -616,3 +616,19 @@ def test_a_floor_whose_epsilon_stops_the_bounce_is_named_as_the_cause():
                                          r"[0-9.]+e-[0-9]+ = ball 0\.7449 x floor [0-9.]+e-[0-9]+, Eq\. 6\): ask for "
                                          r"a floor of a larger epsilon \(a smaller --K"):
         build_setup("tennis", "mujoco", floor="x=0.001,v=0.0001", K_per_s=100)
+
+
+def test_the_constant_offered_for_a_drag_free_engine_is_the_one_that_reproduces_the_heights(tmp_path):
+    """The export of a discover result with air drag offered the baseline's epsilon ('folds drag into
+    epsilon'): 0.8238 for an exercise ball whose heights ask for 0.774..0.802. It offers the result's
+    epsilon_effective_without_drag, fitted to the bounce heights."""
+    rec, doc = tmp_path / "pp.csv", tmp_path / "pp.json"
+    assert run("simulate", "table_tennis", "--effect", "air_drag", "--bounces", "8", "-o", rec).exit_code == 0
+    assert run("discover", rec, "--ball", "table_tennis", "-q", "--json", doc).exit_code == 0
+    d = json.loads(doc.read_text())
+    offered, baseline = d["epsilon_effective_without_drag"], d["baseline"]["epsilon"]
+    assert abs(offered - baseline) > 1e-3
+    out = run("export", "--from", doc, "--engine", "tables")
+    assert out.exit_code == 0, out.output
+    text = " ".join(out.output.split())
+    assert f"without drag (--epsilon {offered:.4f})" in text and f"{baseline:.4f})" not in text

@@ -135,7 +135,8 @@ class DropSetup:
     height_offset_m : float
         tracked point above the ball's bottom in a replayed record [m]
     baseline_epsilon : float or None
-        the constant epsilon of a discover result's baseline (drag and eps(v) folded in), if any
+        the constant epsilon a drag-free engine reproduces a discover result's bounce heights with
+        (``epsilon_effective_without_drag``; an older result's baseline epsilon), if any
     """
 
     ball: str
@@ -669,7 +670,7 @@ def constant_engine_notes(setup, engines, option=lambda name: f"--{name}"):
         what = (f"{engines} apply no air drag (the record's C_d {setup.drag_coefficient:.3g}): add the force "
                 f"F = -c|v|v, c = {drag_force_coefficient_kg_per_m(setup):.3g} kg/m, to the ball every step")
         if setup.baseline_epsilon is not None:
-            what += (f", or export the discover baseline's constant, which folds drag into epsilon "
+            what += (f", or export the constant that reproduces the record's bounce heights without drag "
                      f"({option('epsilon')} {setup.baseline_epsilon:.4f})")
         lines.append(what)
     return lines

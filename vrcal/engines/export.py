@@ -216,7 +216,10 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     baseline = None
     if doc:
         base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
-        baseline = base.get("epsilon", doc.get("epsilon_baseline"))
+        # the constant a drag-free engine reproduces the bounce heights with (None: no constant does); an
+        # older result has only its baseline's, which folds the flights' timing into epsilon too
+        baseline = doc["epsilon_effective_without_drag"] if "epsilon_effective_without_drag" in doc else \
+            base.get("epsilon", doc.get("epsilon_baseline"))
         baseline = float(baseline) if isinstance(baseline, (int, float)) and 0 < baseline <= 1 else None
         params = doc["parameters"]
         effects = list(doc["effects"])
