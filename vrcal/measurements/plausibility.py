@@ -92,7 +92,7 @@ class Checked(NamedTuple):
 #: The question a warning asks when the heights' unit is the likely cause of what looks wrong (:func:`unit_suspected`).
 UNIT_QUESTION = "are the heights in metres?"
 #: What to check instead of the ball's mass and diameter when the heights' unit is suspected.
-CHECK_UNIT_FIRST = "check the heights' unit first (see the verdict): a unit misread, not the ball, is the likely cause"
+CHECK_UNIT_FIRST = "check the heights' unit first: a unit misread, not the ball, is the likely cause (see the warning)"
 
 
 def unit_suspected(warnings):
