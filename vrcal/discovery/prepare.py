@@ -32,6 +32,7 @@ from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
 from vrcal.measurements.plausibility import FLIGHT_G_SPREAD, UNIT_QUESTION
 from vrcal.measurements.trajectory import release_with_noise
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -699,7 +700,7 @@ def fastest_fall(t_s, y_m):
     return float(speed[j]), int(at[j]), j
 
 
-def falls_faster_than_air_lets(runs, ball, g_m_per_s2=9.80665):
+def falls_faster_than_air_lets(runs, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Warnings for trajectories whose ball falls, on average over a fall, faster than its terminal speed
     in air ``sqrt(g / k)`` (a sphere's drag, :data:`SPHERE_DRAG_COEFFICIENT`; a ping-pong ball's 9 m/s): no
     ball dropped from rest does. Pixels or millimetres read as metres do (a ping-pong ball's 180 "m" fall in
