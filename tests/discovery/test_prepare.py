@@ -164,6 +164,35 @@ def test_rebounds_a_ball_cannot_reach_through_air_are_suspect_input():
     assert prep.rebounds_beyond_drag(real.runs, BallProperties.from_ball(get_ball("table_tennis"))) == []
 
 
+def test_a_ball_cannot_fall_faster_than_air_lets_it_and_the_unit_not_the_ball_is_blamed():
+    """Pixels read as metres: a ping-pong ball's track whose flights no parabola fits (a 10 fps phone record)
+    was fitted with a 100 m drop and 44 m/s impacts ("epsilon = 1 ± 71"). No ball falls, on average, faster
+    than its terminal speed (9 m/s for it): the record is suspect input, naming the unit as the likely cause;
+    and where the unit is suspected, the ball's mass and diameter are not blamed for what drag fails to fit."""
+    from vrcal.measurements import ApexHeights, Runs
+
+    ball = BallProperties.from_ball(get_ball("table_tennis"))
+    drops = simulate_drops(0.35, 0.88, 6, ball, release_time_s=0.3, effects={"air_drag": {"drag_coefficient": 0.47}})
+    cols = sample_measurement(drops, "trajectory", fs_hz=240.0, noise_m=3e-4, rng=1)
+    t, y = np.asarray(cols["t"], float), np.asarray(cols["y"], float)
+    assert prep.falls_faster_than_air_lets([Trajectory(t, y, "m.csv")], ball) == []
+    for factor in (500.0, 1000.0):    # pixels at 2 mm each; millimetres
+        warnings = prep.falls_faster_than_air_lets([Trajectory(t, y * factor, "px.csv")], ball)
+        assert len(warnings) == 1 and "1 of 1 runs fall faster than air lets this ball" in warnings[0]
+        assert "terminal speed of 8.6 m/s" in warnings[0] and "give --scale M_PER_PX" in warnings[0]
+    # a drop table's heights in a unit not written (bricks): the unit, not the ball, is what to check
+    from vrcal.discovery.report import fit_report
+
+    tennis = BallProperties.from_ball(get_ball("tennis"))
+    rows = [(H, 0.79 * H + dh) for H in (10.0, 12.0, 14.0, 16.0, 18.0, 20.0) for dh in (-0.25, 0.0, 0.25)]
+    runs = tuple(ApexHeights(np.array([0, 1]), np.array(r), "b.csv") for r in rows)
+    d = discover(Runs(runs, "b.csv", labels=tuple(str(i) for i in range(len(rows)))), tennis)
+    text = " ".join(fit_report(d).split())
+    assert d.verdict == "suspect input" and "are the heights in metres?" in text
+    assert "excluded by these apex heights" in text and "check the heights' unit first" in text
+    assert "mass and diameter" not in text
+
+
 def read_measurement_of(relpath):
     from helpers import ROOT
 

@@ -644,6 +644,71 @@ def test_a_drop_table_in_an_unknown_unit_names_the_unit(tmp_path):
         read_measurement(p)
 
 
+def test_a_drop_table_in_bricks_is_told_what_to_do_and_read_with_scale(tmp_path):
+    """Heights in 'number of bricks' (a real class's record) failed 'unknown length unit ... (known: ...)'
+    without saying what to do. epsilon = sqrt(h/H) needs no unit, air drag does: the error says so and names
+    the fixes (a length unit, or --scale metres per brick), and --scale reads the file."""
+    p = write(tmp_path, "b.csv", "drop (bricks),bounce (bricks)\n10,7.5\n5,3.5\n")
+    with pytest.raises(DataError, match=r"unknown length unit 'bricks' of column 'drop' \(known: .*\): write the "
+                                        r"heights in one of them \(e.g. 'drop \(cm\)'\), or give --scale M_PER_UNIT "
+                                        r"\(metres per 'bricks'\); epsilon = sqrt\(h/H\) needs no unit, but air drag"):
+        read_measurement(p)
+    data = read_measurement(p, scale_m_per_px=0.067)
+    assert [tuple(r.h_m) for r in data.runs] == [pytest.approx((0.67, 0.5025)), pytest.approx((0.335, 0.2345))]
+    h = write(tmp_path, "h.csv", "bounce,h (bricks)\n0,10\n1,7.5\n")
+    with pytest.raises(DataError, match=r"give --scale M_PER_UNIT .*needs no unit"):
+        read_measurement(h)
+    assert tuple(read_measurement(h, scale_m_per_px=0.067).h_m) == pytest.approx((0.67, 0.5025))
+
+
+@pytest.mark.parametrize("name,text,said", [
+    ("bounce.trk", '<?xml version="1.0" encoding="UTF-8"?>\n<object class="org.opensourcephysics.cabrillo.tracker.'
+                   'TrackerPanel">\n    <property name="width" type="double">640.0</property>\n</object>\n',
+     r"bounce.trk:1: a Tracker project \(.trk, XML\), not its data: in Tracker, File > Export > Data writes the "
+     r"track's table, which vrcal reads \(docs/measurements.md, 'Tracker'\)"),
+    ("bounce.cmbl", '<?xml version="1.0" encoding="UTF-8"?>\n<Document><DataSet><DataColumn><DataObjectName>Time'
+                    '</DataObjectName><ColumnCells>0\n0.05\n</ColumnCells></DataColumn></DataSet></Document>\n',
+     r"bounce.cmbl:1: a Logger Pro file \(.cmbl, XML\), not its data: in Logger Pro, File > Export As > Text"),
+])
+def test_a_tracker_or_logger_pro_file_is_named_with_its_export(tmp_path, name, text, said):
+    """A Tracker project and a Logger Pro file were 'an XML or HTML document (a MuJoCo or Gazebo export, a
+    web page?)': the program is named, and the menu that writes the table vrcal reads."""
+    with pytest.raises(DataError, match=said):
+        read_measurement(write(tmp_path, name, text))
+
+
+def test_a_timestamp_column_is_the_time_counted_from_its_first(tmp_path):
+    """'Timestamp,X,Y' (Unix-epoch seconds, steps of 0.08-0.13 s) was 'no time column: give the frame rate with
+    --fs HZ'. A time stamp is the time; a clock's is counted from the first sample (squared in a parabola's fit
+    its 1.7e9 s lose their digits)."""
+    t, y = fall(n=40, fs=30.0, H=3.0)
+    t = 1740924233.7096126 + t + np.random.default_rng(0).uniform(-0.01, 0.01, t.size)
+    rows = "".join(f"{a:.7f},489,{b:.6f}\n" for a, b in zip(t, y))
+    for header in ("Timestamp,X,Y", "time stamp,x,y"):
+        data = read_measurement(write(tmp_path, "ts.csv", f"{header}\n{rows}"))
+        assert data.t_s[0] == 0.0 and np.diff(data.t_s) == pytest.approx(np.diff(t), abs=1e-6)
+        assert any("counted from the first sample" in n for n in data.notes)
+    with pytest.raises(UsageError, match=r"no time column \(columns: when, x, y\): name it 't', 'time', "
+                                         r"'timestamp', .*or give the frame rate with --fs HZ"):
+        read_measurement(write(tmp_path, "no.csv", f"when,x,y\n{rows}"))
+
+
+def test_columns_a_trajectory_does_not_read_are_named_and_set_heights_are_no_track(tmp_path):
+    """'H,T0,T1,T2' (a drop height per trial and three hand-timed flight times) with --fs 30 was read as a
+    trajectory of H: 'gap of 113150 mm ... epsilon = 1.00', T0-T2 dropped without a word. Unread columns are
+    named; a height column that changes at a few rows only is no track, and is refused saying so."""
+    heights = [200] * 10 + [280] * 7 + [75] * 5 + [300] * 7 + [550]
+    rows = "".join(f"{h},1.06,0.95,0.86\n" for h in heights)
+    p = write(tmp_path, "bounce.csv", "H,T0,T1,T2\n" + rows)
+    with pytest.raises(DataError, match=r"bounce.csv:2: column 'H' changes at 4 of its 30 rows \(line\(s\) 12, 19, "
+                                        r"24, 31\): no ball's track .*column\(s\) 'T0', 'T1', 'T2' not read"):
+        read_measurement(p, fs_hz=30.0)
+    t, y = fall(n=60)
+    data = read_measurement(write(tmp_path, "v.csv", "t,y,vy,note\n" + "".join(
+        f"{a:.4f},{b:.6f},0,x\n" for a, b in zip(t, y))))
+    assert "column(s) 'vy', 'note' not read (a trajectory reads a time, a height and an x column)" in data.notes
+
+
 def test_an_apex_files_fractional_bounce_number_says_how_to_name_heights(tmp_path):
     p = write(tmp_path, "hb.csv", "Height,Bounce\n1.0,0.64\n0.5,0.33\n")
     with pytest.raises(DataError, match=r"bounce number 0.64 is not an integer \(if 'Bounce' holds rebound "

@@ -129,3 +129,11 @@ def test_a_marble_on_paper_tracked_by_mtrack2_end_to_end(tmp_path):
     assert result["effects"] == ["contact_duration"]
     assert result["epsilon"] == pytest.approx(0.66, abs=0.005)
     assert result["reader"]["format"] is None and "MTrack2" in result["notes"][0]
+
+
+def test_an_infinite_frame_number_is_a_one_line_error(tmp_path):
+    """'inf' as a frame number crashed with OverflowError (found by the fuzz test of every reader)."""
+    p = tmp_path / "f.csv"
+    p.write_text("0.0\ninf\n")
+    with pytest.raises(DataError, match=r"f.csv:2: expected a frame number .* found 'inf'"):
+        read_measurement(str(p), "mtrack2")

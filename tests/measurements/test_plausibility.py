@@ -392,3 +392,61 @@ def test_a_light_ball_tracked_on_video_is_fitted_not_refused(balloon, tmp_path):
     assert result.exit_code == 0, result.output
     doc = json.loads(out.read_text())
     assert doc["verdict"] != "suspect input" and doc["epsilon"] == pytest.approx(0.7, abs=0.01)
+
+
+def _tossed_track(flip, seed=0, fs_hz=240.0, noise_m=5e-4, epsilon=0.905):
+    """A table-tennis ball simulated by vrcal (air drag) from the top of a toss at 0.30 m, with the toss in
+    front: held 0.1 s at 0.18 m, thrown up by the hand (0.06 s at constant acceleration to 1.2 m/s) and rising
+    freely to its top, where the simulated drop starts from rest. ``flip``: written with y pointing down."""
+    from vrcal.drop.simulate import sample_measurement, simulate_drops
+
+    g, v0, hand_s, top_m = 9.80665, 1.2, 0.06, 0.30
+    rise_s, release_s = v0 / g, 0.1 + hand_s + v0 / g
+    level = top_m - v0 ** 2 / (2 * g) - 0.5 * v0 * hand_s
+    drops = simulate_drops(top_m, epsilon, 10, BallProperties.from_ball(get_ball("table_tennis")),
+                           release_time_s=release_s, effects={"air_drag": {"drag_coefficient": 0.47}})
+    cols = sample_measurement(drops, "trajectory", fs_hz=fs_hz, noise_m=0.0, rng=seed)
+    t, y = np.asarray(cols["t"], dtype=float), np.asarray(cols["y"], dtype=float)
+    s = t - 0.1                         # time since the throw began
+    hand = level + 0.5 * (v0 / hand_s) * s ** 2
+    free = top_m - 0.5 * g * (release_s - t) ** 2
+    y = np.where(t < release_s, np.where(s <= 0, level, np.where(s < hand_s, hand, free)), y)
+    assert release_s - hand_s - rise_s == pytest.approx(0.1) and np.max(y) == pytest.approx(top_m, abs=1e-3)
+    y = y + np.random.default_rng(seed).normal(0.0, noise_m, y.size)
+    return t, (-y if flip else y)
+
+
+@pytest.mark.parametrize("flip", [False, True])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_ball_tossed_up_before_it_falls_is_not_upside_down(tmp_path, flip, seed):
+    """A ball held, tossed up and let fall (the probe's simulated table-tennis record with a toss in front)
+    was 'upside down (the ball falls upward from its release)': thrown, it accelerates upward in the hand as a
+    record turned over falls. With --y-down it was fitted with epsilon 0.999 for 0.905 (unexplained). The toss
+    is a flight: its top is found (the record comes back past where the hand held it, which no bounce does),
+    the fit starts there (a drop from rest), and either orientation is read right."""
+    t, y = _tossed_track(flip, seed)
+    path = csv(tmp_path / "tossed.csv", "t,y", (t, y))
+    out = tmp_path / "r.json"
+    result = run("discover", path, "--ball", "table_tennis", "-q", "--json", out, *(["--y-down"] if flip else []))
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text())
+    assert "tossed up" in result.output and doc["verdict"] == "explained"
+    assert abs(doc["epsilon"] - 0.905) < 3 * doc["epsilon_uncertainty"]
+    # told the wrong orientation, it still says so
+    wrong = run("discover", path, "--ball", "table_tennis", "-q", *([] if flip else ["--y-down"]))
+    assert wrong.exit_code == 1 and "upside down" in wrong.output
+    assert ("use --y-down" if flip else "remove --y-down") in wrong.output
+
+
+def test_the_toss_tells_the_orientation_of_a_release_that_accelerates_upward():
+    """release_fall_sign of a tossed record: its first motion (up, accelerating in the hand) is what a
+    turned-over drop shows; that it comes back past its start makes it a toss, upward."""
+    from vrcal.measurements.cleanup import detect_release_index, toss_top_index
+    from vrcal.measurements.plausibility import release_fall_sign
+
+    t, y = _tossed_track(False)
+    r = detect_release_index(y)
+    assert r > 0 and y[toss_top_index(t, y, r)] == pytest.approx(0.30, abs=0.002)
+    assert release_fall_sign(t, y, r) == 1 and release_fall_sign(t, -y, r) == -1
+    data, _ = hidden_effect_case(3, "trajectory", ())     # a drop: no toss
+    assert toss_top_index(data.t_s, data.y_m, data.release_index) is None

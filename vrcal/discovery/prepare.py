@@ -30,8 +30,9 @@ import numpy as np
 from vrcal.drop.effects import flight_expectation
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
-from vrcal.measurements.plausibility import FLIGHT_G_SPREAD
+from vrcal.measurements.plausibility import FLIGHT_G_SPREAD, UNIT_QUESTION
 from vrcal.measurements.trajectory import release_with_noise
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -667,12 +668,86 @@ LEAST_DRAG_COEFFICIENT = 0.2
 HIGHEST_LAB_DROP_M = 5.0
 
 
+#: Drag coefficient of the terminal speed that no fall through air exceeds on average (a smooth sphere's):
+#: :func:`falls_faster_than_air_lets`.
+SPHERE_DRAG_COEFFICIENT = 0.47
+
+
+def fastest_fall(t_s, y_m):
+    """The fastest fall of a trajectory, as its mean speed: the height lost from the highest sample before
+    it over the time since (falls of at least a quarter of the record's span), with the two samples.
+
+    Parameters
+    ----------
+    t_s, y_m : ndarray
+        sample times [s] and heights [m]
+
+    Returns
+    -------
+    (speed [m/s], from sample, to sample), or None when no fall spans a quarter of the record
+    """
+    t, y = np.asarray(t_s, dtype=float), np.asarray(y_m, dtype=float)
+    if y.size < 2:
+        return None
+    top = np.maximum.accumulate(y)
+    at = np.maximum.accumulate(np.where(y >= top, np.arange(y.size), 0))
+    drop, dt = top - y, t - t[at]
+    ok = (drop >= 0.25 * float(np.ptp(y))) & (dt > 0) & (drop > 0)
+    if not np.any(ok):
+        return None
+    speed = np.where(ok, drop / np.where(ok, dt, 1.0), 0.0)
+    j = int(np.argmax(speed))
+    return float(speed[j]), int(at[j]), j
+
+
+def falls_faster_than_air_lets(runs, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
+    """Warnings for trajectories whose ball falls, on average over a fall, faster than its terminal speed
+    in air ``sqrt(g / k)`` (a sphere's drag, :data:`SPHERE_DRAG_COEFFICIENT`; a ping-pong ball's 9 m/s): no
+    ball dropped from rest does. Pixels or millimetres read as metres do (a ping-pong ball's 180 "m" fall in
+    0.5 s, and a drop fitted from 100 m with 44 m/s impacts).
+
+    Parameters
+    ----------
+    runs : sequence of Trajectory
+    ball : BallProperties
+    g_m_per_s2 : float
+        g [m/s^2]
+
+    Returns
+    -------
+    list of str
+        one warning naming the first such run, and how many there are; [] when none
+    """
+    from vrcal.drop.effects import drag_constant_per_m
+
+    k = float(drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, float(np.mean(ball.diameter_m)),
+                                  float(np.mean(ball.mass_kg))))
+    terminal = math.sqrt(g_m_per_s2 / k) if k > 0 else math.inf
+    bad = []
+    for run in runs:
+        fall = fastest_fall(run.t_s, run.y_m)
+        if fall is not None and fall[0] > terminal:
+            bad.append((run, *fall))
+    if not bad:
+        return []
+    run, v, i, j = bad[0]
+    lines = getattr(run, "lines", None)
+    where = (f"lines {int(lines[i])} to {int(lines[j])}" if lines is not None and len(lines) == len(run.t_s)
+             else f"samples {i} to {j}")
+    y = np.asarray(run.y_m, dtype=float)
+    return [f"{len(bad)} of {len(runs)} runs fall faster than air lets this ball ({float(y[i] - y[j]):.3g} m in "
+            f"{float(run.t_s[j] - run.t_s[i]):.3g} s, {where}: {v:.3g} m/s on average, beyond its terminal "
+            f"speed of {terminal:.2g} m/s with a sphere's drag): {UNIT_QUESTION} Pixels or millimetres "
+            f"read as metres fall that fast: write the unit in the header, e.g. 'y (mm)', or give --scale M_PER_PX"]
+
+
 def rebounds_beyond_drag(runs, ball):
     """Warnings for apex heights a ball cannot reach through air: from a drop above
     :data:`HIGHEST_LAB_DROP_M`, a first rebound above what epsilon 1 gives with the least drag a ball
     has (:data:`LEAST_DRAG_COEFFICIENT`). In metres, heights written in inches or centimetres
     without a unit are drops of tens of metres, from which air drag keeps any ball far lower (a
-    tennis ball's 40 "m" drop and 29 "m" rebound needs epsilon 1.09).
+    tennis ball's 40 "m" drop and 29 "m" rebound needs epsilon 1.09). A trajectory's twin is
+    :func:`falls_faster_than_air_lets`.
 
     Parameters
     ----------
@@ -699,7 +774,7 @@ def rebounds_beyond_drag(runs, ball):
         return []
     i, H, h = bad[0]
     return [f"{len(bad)} of {len(runs)} drops rebound higher than air lets a ball of epsilon 1 (from {H:.3g} m, "
-            f"{h:.3g} m; drag of a smooth sphere at least): are the heights in metres? Write the unit in the "
+            f"{h:.3g} m; drag of a smooth sphere at least): {UNIT_QUESTION} Write the unit in the "
             f"header, e.g. 'H (in)', 'H (cm)'"]
 
 
@@ -821,6 +896,8 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     labels = list(record.labels) if isinstance(record, Runs) else [""]
     if runs[0].kind == "apexes":
         warnings += rebounds_beyond_drag(runs, ball)
+    elif runs[0].kind == "trajectory":
+        warnings += falls_faster_than_air_lets(runs, ball, g_m_per_s2)
     out = []
     for run, label in zip(runs, labels):
         if run.kind == "impacts":

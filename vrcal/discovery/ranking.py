@@ -677,8 +677,6 @@ class Discovery:
         return out
 
     def _unphysical(self):
-        from vrcal.drop.effects import EFFECTS, surface_of
-
         out, seen = [], set()
         for c in sorted(self.candidates, key=lambda c: c.fit.gap):
             if c.material or not c.outside or c.delta_bic < self.thresholds.delta_bic or not c.gap_ok:
@@ -693,7 +691,7 @@ class Discovery:
                 seen.add((effect, param))
                 out.append((c, {"effect": effect, "parameter": param, "value": value, "limits": list(limits),
                                 "gap": c.fit.judged_gap,
-                                "check": EFFECTS[effect].check_for(self.kind, surface_of(self.ball))}))
+                                "check": effect_check(effect, self.kind, self.ball, self.warnings)}))
         return out
 
     def gap_per_bounce(self):
@@ -1738,8 +1736,18 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      f"beyond the limits has {e['unconstrained']:.4g} and a chi2 lower by {e['chi2']:.2g}"
                      + (" (within the noise: the data cannot reject the limit)" if within else "")
                      + "; a value at the edge of what is physical: "
-                     + EFFECTS[e['effect']].check_for(found.kind, surface_of(ball)))
+                     + effect_check(e['effect'], found.kind, ball, found.warnings))
     return found
+
+
+def effect_check(effect, kind, ball, warnings):
+    """What to check when ``effect`` would fit only with an unphysical value (:meth:`Effect.check_for`), or
+    the heights' unit first when a warning already suspects it (the ball's mass and diameter are then not to
+    blame: :func:`vrcal.measurements.plausibility.unit_suspected`)."""
+    from vrcal.drop.effects import EFFECTS, surface_of
+    from vrcal.measurements.plausibility import CHECK_UNIT_FIRST, unit_suspected
+
+    return CHECK_UNIT_FIRST if unit_suspected(warnings) else EFFECTS[effect].check_for(kind, surface_of(ball))
 
 
 def _at_misfit(sigma2, fit):

@@ -428,8 +428,11 @@ def _excluded_drag_lines(d):
     increase = ((d.systematic or {}).get("excluded") or {}).get("air_drag.drag_coefficient")
     if increase is None:
         return []
+    from vrcal.measurements.plausibility import CHECK_UNIT_FIRST, unit_suspected
+
+    check = CHECK_UNIT_FIRST if unit_suspected(d.warnings) else "check the ball's mass and diameter"
     return [f"(a sphere's air drag (C_d {SPHERE_DRAG_COEFFICIENT:g}), which every ball has, is excluded by "
-            f"{RECORD_OF_KIND[d.kind]}: chi2 +{increase:,.0f} with it; check the ball's mass and diameter)"]
+            f"{RECORD_OF_KIND[d.kind]}: chi2 +{increase:,.0f} with it; {check})"]
 
 
 def _split_advice(d):

@@ -66,7 +66,8 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if np.any(bounce < 0):
         fail(path, int(line_numbers[0]), f"bounce number {bounce[0]:g} is negative (bounce 0 = drop height)")
     h = column_values(path, table, h_col, what="apex height")
-    factor = unit_factor(path, table, h_col, LENGTH_UNITS, "length")
+    factor = scale_m_per_px if scale_m_per_px is not None and h_col.unit not in LENGTH_UNITS else \
+        unit_factor(path, table, h_col, LENGTH_UNITS, "length", heights=True)
     notes = ["format: apexes (bounce, h; bounce 0 = drop height)" if b_col is not None else
              "format: apexes (one column of heights: the drop height, then one apex per bounce)"]
     if factor is None:

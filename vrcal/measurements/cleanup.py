@@ -120,6 +120,63 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400, s
     return release if held else 0
 
 
+def toss_top_index(t, y, start=0, level=None):
+    """Index of the top of a toss, or None: a ball held, then thrown, rises, turns at the top of a free
+    flight and falls past where it left the hand, to the floor below it.
+
+    From ``start`` the ball moves one way; at the first turn of that motion (the first sample after which
+    it comes back by more than 5 noise sigmas, 5 % of the record's span and 10 % of the excursion) it is a
+    toss's top when the record later comes back past the starting level by more than that: a ball let go
+    falls into a bounce instead, and no bounce brings it back to its drop height (epsilon < 1). Which way is
+    up need not be known: in either orientation of the file a toss's first motion is up (away from the
+    floor). At the top the ball is at rest in free flight: the model's drop from rest, so the release is
+    taken there (the samples held, thrown and rising are no drop from rest).
+
+    Parameters
+    ----------
+    t : ndarray
+        sample times [s]
+    y : ndarray
+        heights [m] (any length unit; either orientation)
+    start : int
+        first sample of the motion (the release after a still segment, :func:`detect_release_index`); 0: the
+        first three samples must hold still (within 5 noise sigmas and 2 % of the span), or a record that
+        starts in flight, falling into a bounce, would rise past its first sample
+    level : float or None
+        where the motion starts (the still level) [unit of ``y``]; None: the median of the ten samples
+        before ``start``, or ``y[start]``
+
+    Returns
+    -------
+    int or None
+        the sample at the top (the farthest of the first excursion)
+    """
+    r = int(start)
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if y.size - r < 6:
+        return None
+    if level is None:
+        level = float(np.median(y[max(0, r - 10):r])) if r > 0 else float(y[r])
+    span = float(np.ptp(y[r:]))
+    if span <= 0:
+        return None
+    noise = third_difference_sigma(t, y) or 0.0
+    if r == 0 and np.any(np.abs(y[:3] - level) > max(5.0 * noise, 0.02 * span)):
+        return None     # no still start: a record that starts in flight may rise past its first sample
+    moved = np.abs(y[r:] - level) >= 0.25 * span
+    if not np.any(moved):
+        return None
+    e = np.sign(y[r + int(np.argmax(moved))] - level) * (y[r:] - level)
+    tol = np.maximum(max(5.0 * noise, 0.05 * span), 0.1 * np.maximum.accumulate(e))
+    back = np.flatnonzero(e < np.maximum.accumulate(e) - tol)
+    if back.size == 0:
+        return None
+    top = int(np.argmax(e[:back[0]]))
+    past = e[top:] < -tol[top]
+    return r + top if e[top] > 0 and np.any(past) else None
+
+
 def _held_still(before, level, threshold, window, min_still):
     """Whether the samples before a release hold still: at least ``min_still`` of the last ``window``
     and most of them lie within ``threshold`` of the still level (a record that starts in flight has a

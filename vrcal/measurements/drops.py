@@ -63,12 +63,12 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
-    known_units,
     parse_table,
     row_lines,
     sniff,
     split_cells,
     to_float,
+    unit_factor,
 )
 from vrcal.measurements.types import ApexHeights, Runs
 
@@ -429,15 +429,15 @@ def _unit_factors(path, table, columns, scale_m_per_px, notes):
         if not unit and len(units) == 1:
             unit = next(iter(units))
             notes.append(f"column '{c.raw}' has no unit: taken as {unit} like the other heights")
-        if unit not in LENGTH_UNITS:
-            fail(path, table.header_line, f"unknown length unit '{unit}' of column '{c.raw}' "
-                                          f"(known: {known_units(LENGTH_UNITS)})")
-        if LENGTH_UNITS[unit] is None and scale_m_per_px is None:
+        if scale_m_per_px is not None:   # metres per file unit, whatever the unit (a brick's height)
+            factors[c.index] = float(scale_m_per_px)
+            continue
+        if unit_factor(path, table, c, LENGTH_UNITS, "length", unit=unit, heights=True) is None:
             raise UsageError(f"{path}: column '{c.raw}' is in pixels: give --scale M_PER_PX")
         factors[c.index] = LENGTH_UNITS[unit]
     if scale_m_per_px is not None:
         notes.append(f"heights scaled by --scale {scale_m_per_px:g} m per file unit")
-        return {i: float(scale_m_per_px) for i in factors}
+        return factors
     if units - {"m"}:
         notes.append(f"heights converted from {', '.join(sorted(units - {'m'}))} to m")
     return factors

@@ -71,7 +71,7 @@ def read_tracks(text):
         cells = split_cells(line, sep)
         try:
             frame = int(float(cells[0]))
-        except ValueError:
+        except (ValueError, OverflowError):   # not a number, or inf/nan (no frame)
             fail(path, no, f"expected a frame number and {per_block} track(s) of X, Y, Flag, found "
                            f"{line.strip()[:60]!r}")
         for k in range(per_block):

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError
-from vrcal.measurements.cleanup import bounce_height_m, prominent_minima, third_difference_sigma
+from vrcal.measurements.cleanup import bounce_height_m, prominent_minima, third_difference_sigma, toss_top_index
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.textout import number
 
@@ -87,6 +87,18 @@ class Checked(NamedTuple):
     @property
     def notes(self):
         return tuple(f.text for f in self.findings if f.level == "note")
+
+
+#: The question a warning asks when the heights' unit is the likely cause of what looks wrong (:func:`unit_suspected`).
+UNIT_QUESTION = "are the heights in metres?"
+#: What to check instead of the ball's mass and diameter when the heights' unit is suspected.
+CHECK_UNIT_FIRST = "check the heights' unit first: a unit misread, not the ball, is the likely cause (see the warning)"
+
+
+def unit_suspected(warnings):
+    """Whether a warning (of a record's, :data:`UNIT_QUESTION`) names the heights' unit as the likely cause:
+    then the ball's mass and diameter are not to be blamed for what the unit explains."""
+    return any(UNIT_QUESTION in str(w) for w in warnings or ())
 
 
 def _fail(source, text):
@@ -249,7 +261,9 @@ def release_fall_sign(t_s, y_m, release_index=0):
 
     A ball let go moves away from where it was held and accelerates the same way: downward. From the
     release to where the record has moved a quarter of its span, the direction of the motion and the
-    sign of a quadratic's curvature must agree.
+    sign of a quadratic's curvature must agree. A tossed ball accelerates upward in the hand, as a record
+    turned over falls; its first motion turns and comes back past where it started, which a fall into a
+    bounce never does (:func:`~vrcal.measurements.cleanup.toss_top_index`): then that motion was upward.
 
     Parameters
     ----------
@@ -265,6 +279,13 @@ def release_fall_sign(t_s, y_m, release_index=0):
         samples, or a record that starts moving one way and accelerating the other: thrown, or mid-flight; or
         one that first moves the other way: it starts at a bounce)
     """
+    top = toss_top_index(t_s, y_m, release_index)
+    if top is not None:
+        # tossed (or rising at the first sample): the first motion turned and came back past its start,
+        # which no bounce does; it went up
+        r = int(release_index)
+        level = float(np.median(y_m[max(0, r - 10):r])) if r > 0 else float(y_m[0])
+        return 1 if y_m[top] > level else -1
     start = max(int(release_index) - 1, 0)
     t = np.asarray(t_s, dtype=float)[start:]
     y = np.asarray(y_m, dtype=float)[start:]
@@ -515,7 +536,7 @@ def _drop_scale(h_m, diameter_m, source, label=""):
                       f"'H ({best[1]})' in the header, or give --scale {best[2]:g})")
     if diameter_m and H < 0.5 * diameter_m:
         return (f"{where}the drop ({H * 100:.3g} cm) is less than half the ball's diameter ({diameter_m * 100:.3g} "
-                f"cm): are the heights in m, not cm or mm?")
+                f"cm): {UNIT_QUESTION} (not cm or mm)")
     return None
 
 

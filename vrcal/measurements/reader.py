@@ -200,6 +200,31 @@ _DOCUMENTS = {"{": "a JSON document (a 'vrcal discover --json' result, an export
               "[": "a JSON document", "<": "an XML or HTML document (a MuJoCo or Gazebo export, a web page?)"}
 
 
+#: XML files of the programs whose text export vrcal reads: (what the document holds, file name ending, the
+#: program's step to that export and the section of docs/measurements.md on it). A Tracker project's root
+#: object is of class org.opensourcephysics.cabrillo.tracker.TrackerPanel; a Logger Pro file's columns are
+#: <DataColumn> elements.
+_PROGRAM_DOCUMENTS = (
+    (("org.opensourcephysics.cabrillo.tracker",), ".trk", "a Tracker project",
+     "in Tracker, File > Export > Data writes the track's table, which vrcal reads (docs/measurements.md, "
+     "'Tracker')"),
+    (("<datacolumn", "<dataobjectname"), ".cmbl", "a Logger Pro file",
+     "in Logger Pro, File > Export As > Text writes its table, which vrcal reads (docs/measurements.md, "
+     "'Vernier')"),
+)
+
+
+def _program_document(text):
+    """What to do with the XML file of a program whose text export vrcal reads (:data:`_PROGRAM_DOCUMENTS`),
+    by its content or its name: one line, or None."""
+    head = " ".join(s for _, s in text.lines[:40]).lower()
+    name = str(text.path).lower()
+    for marks, ending, what, fix in _PROGRAM_DOCUMENTS:
+        if name.endswith(ending) or any(m in head for m in marks):
+            return f"{what} ({ending}, XML), not its data: {fix}"
+    return None
+
+
 #: Most title lines above a table's header (a class's sheet: the experiment, the group, the date).
 MAX_TITLE_LINES = 5
 
@@ -212,6 +237,10 @@ def _detect(text, below=None):
     what = _DOCUMENTS.get(line.lstrip()[:1])
     if what is None and any(s.startswith("schema_version:") for _, s in text.lines):
         what = "a YAML document of vrcal (a 'vrcal fit' or 'vrcal discover' result, an export?)"
+    if what is not None and line.lstrip().startswith("<"):
+        program = _program_document(text)
+        if program is not None:
+            fail(text.path, no, program)
     if what is not None:
         fail(text.path, no, f"{what}, not a measurement: give the measured file (a table of times, "
                             f"heights or positions, a sound or a video; docs/measurements.md)")

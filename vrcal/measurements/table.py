@@ -26,7 +26,7 @@ _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
 
 #: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo).
-TIME_NAMES = ("t", "time", "event time", "impact time", "time of impact", "collision time",
+TIME_NAMES = ("t", "time", "timestamp", "time stamp", "event time", "impact time", "time of impact", "collision time",
               "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo")
 #: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance", a video tracker's
 #: "height" and a 3D tracker's "z" too; a class's own language: Höhe, hauteur, altura, altezza; the first of them
@@ -35,7 +35,7 @@ Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "d
            "höhe", "hoehe", "hauteur", "altura", "altezza")
 #: How a failing look-up tells the columns may be named (``--format trajectory`` on a file without them).
 Y_NAMING = "'y', 'height', 'position', 'z', 'Höhe', 'hauteur', 'altura' or 'altezza'"
-TIME_NAMING = "'t', 'time', 'Zeit', 'temps', 'tiempo' or 'tempo'"
+TIME_NAMING = "'t', 'time', 'timestamp', 'Zeit', 'temps', 'tiempo' or 'tempo'"
 #: Names of a frame-number column (times = frame / --fs when the file has no time column).
 FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
@@ -500,11 +500,21 @@ def column_cells(table, col):
     return [cells[i] for _, cells in table.rows if i < len(cells) and cells[i] != ""]
 
 
-def unit_factor(path, table, col, units, kind):
-    if col.unit not in units:
-        fail(path, table.header_line, f"unknown {kind} unit '{col.unit}' of column '{col.raw}' "
-              f"(known: {known_units(units)})")
-    return units[col.unit]
+def unit_factor(path, table, col, units, kind, unit=None, heights=False):
+    """Factor to SI of column ``col``'s unit (``unit`` when given: a unit the column takes from the others)
+    in ``units``, or a DataError naming the known ones. An unknown length unit ('bricks') is told what to do:
+    write the numbers in a known one, or give --scale (metres per unit); ``heights``: drop and rebound heights,
+    whose epsilon = sqrt(h/H) needs no unit, though air drag does."""
+    unit = col.unit if unit is None else unit
+    if unit not in units:
+        fix = ""
+        if kind == "length":
+            why = ("; epsilon = sqrt(h/H) needs no unit, but air drag does" if heights else "")
+            fix = (f": write the heights in one of them (e.g. '{col.raw} (cm)'), or give --scale M_PER_UNIT (metres "
+                   f"per '{unit}'){why}")
+        fail(path, table.header_line, f"unknown {kind} unit '{unit}' of column '{col.raw}' "
+              f"(known: {known_units(units)}){fix}")
+    return units[unit]
 
 
 def check_increasing(path, values, line_numbers, label):

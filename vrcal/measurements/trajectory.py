@@ -20,11 +20,17 @@ import dataclasses
 import numpy as np
 
 from vrcal.errors import UsageError
-from vrcal.measurements.cleanup import detect_release_index, find_duplicated_frames, regular_frame_times
+from vrcal.measurements.cleanup import (
+    detect_release_index,
+    find_duplicated_frames,
+    regular_frame_times,
+    toss_top_index,
+)
 from vrcal.measurements.table import (
     FRAME_NAMES,
     LENGTH_UNITS,
     TIME_NAMES,
+    TIME_NAMING,
     TIME_UNITS,
     X_NAMES,
     Y_NAMES,
@@ -47,8 +53,34 @@ from vrcal.measurements.table import (
 )
 from vrcal.measurements.types import Runs, Trajectory
 
+#: Times [s] from which on a time column is read as a clock's (a time stamp: Unix epoch seconds) and counted
+#: from its first sample (a day: no record is that long).
+CLOCK_TIME_S = 86400.0
+
 #: Fewest samples a trajectory must have (whether bounces are present is the fitter's business).
 MIN_TRAJECTORY_SAMPLES = 20
+#: Fewest samples at a new height (not the previous sample's) a trajectory must have: a tracked ball in flight
+#: is at a new height nearly every frame; a column of set drop heights (200, 200, ..., 280, 280, ...) is not.
+MIN_MOVING_SAMPLES = 10
+
+
+def _check_moving(path, y, line_numbers, y_col, unread):
+    """DataError for a height column that changes at fewer than :data:`MIN_MOVING_SAMPLES` samples: no track,
+    whatever its number of rows (a drop height per trial beside hand-timed flight times)."""
+    y = np.asarray(y, dtype=float)
+    if y.size < MIN_TRAJECTORY_SAMPLES:
+        return
+    changes = np.flatnonzero(np.diff(y) != 0) + 1
+    if changes.size >= MIN_MOVING_SAMPLES:
+        return
+    lines = ", ".join(str(int(line_numbers[i])) for i in changes[:6]) + (", ..." if changes.size > 6 else "")
+    where = f" (line(s) {lines})" if changes.size else ""
+    others = f"; column(s) {', '.join(repr(n) for n in unread)} not read" if unread else ""
+    fail(path, int(line_numbers[0]) if line_numbers.size else 0,
+         f"column '{y_col.raw}' changes at {changes.size} of its {y.size} rows{where}: no ball's track (a tracked "
+         f"ball is at a new height nearly every frame in flight){others}; if it holds set drop heights, this is "
+         f"no trajectory: see docs/measurements.md for the layouts vrcal reads (drop and rebound heights, impact "
+         f"times, a track of t, y)")
 
 def detect(text):
     cols = header_columns(text)
@@ -82,6 +114,14 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
         t_s, y_m, line_numbers, pos = t_s[keep], y_m[keep], line_numbers[keep], pos[keep]
     check_increasing(path, t_s, line_numbers, "time")
     release = detect_release_index(y_m)
+    top = toss_top_index(t_s, y_m, release) if release > 0 else None
+    if top is not None:
+        # tossed: held, thrown and rising are no drop from rest; the top of the toss is (at rest, in flight)
+        notes.append(f"the ball was tossed up: samples 0-{top - 1} (line {int(line_numbers[0])} to line "
+                     f"{int(line_numbers[top - 1])}: held, thrown and rising) left out; the fit starts at the top "
+                     f"of the toss (line {int(line_numbers[top])}), a drop from rest there")
+        t_s, y_m, line_numbers, pos = t_s[top:], y_m[top:], line_numbers[top:], pos[top:]
+        release = 0
     dup = find_duplicated_frames(pos, release)
     if dup.size:
         lines = ", ".join(str(int(x)) for x in line_numbers[dup][:10])
@@ -127,11 +167,15 @@ def release_with_noise(run, sigma_m):
 
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
-                           force_scale=None, empty_rows="frames not marked", y_column=None, x_column=None):
+                           force_scale=None, empty_rows="frames not marked", y_column=None, x_column=None,
+                           name_unread=False):
     """A :class:`Trajectory` of a parsed table: its time (or frame) column and height column (the first of
-    :data:`Y_NAMES` unless ``y_column``, with ``x_column``, names the track's own)."""
+    :data:`Y_NAMES` unless ``y_column``, with ``x_column``, names the track's own). ``name_unread``: a note
+    names the columns not read (a tracker's export has velocity columns by design; a table of other things
+    -- a drop height beside hand-timed flights -- is read as a track only in part)."""
     cols = table.cols
     t_col = find_column(cols, TIME_NAMES)
+    frame_col = find_column(cols, FRAME_NAMES)
     y_col = y_column or find_column(cols, Y_NAMES)
     x_col = x_column if y_column is not None else find_column(cols, X_NAMES)
     if y_col is None:
@@ -162,13 +206,20 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
                          f"{grid.step * factor * 1e3:.4g} ms: put back on the regular grid t0 + k x period "
                          f"(largest change {grid.largest_change * factor * 1e3:.2g} ms)")
         t = t * factor
+        first = t[np.isfinite(t)][:1]
+        if first.size and first[0] >= CLOCK_TIME_S:
+            # a clock's time of day (Unix epoch seconds): squared in a parabola's fit it loses its digits
+            t = t - first[0]
+            notes.append(f"times are a clock's ({first[0]:.10g} s at the first sample, Unix epoch seconds?): "
+                         "counted from the first sample")
         if fs_hz is not None:
             notes.append(f"--fs {fs_hz:g} Hz ignored: the file has a time column")
     else:
-        frame_col = find_column(cols, FRAME_NAMES)
         if fs_hz is None:
             what = f" (times = column '{frame_col.raw}' / frame rate)" if frame_col is not None else ""
-            raise UsageError(f"{path}: no time column: give the frame rate with --fs HZ{what}")
+            named = [c.raw for c in cols if c.raw]
+            naming = f" (columns: {', '.join(named)}): name it {TIME_NAMING}, or" if named else ":"
+            raise UsageError(f"{path}: no time column{naming} give the frame rate with --fs HZ{what}")
         if not (np.isfinite(fs_hz) and fs_hz > 0):
             raise UsageError(f"--fs must be a positive frame rate in Hz, got {fs_hz:g}")
         if frame_col is not None:   # frames not tracked leave gaps that the frame numbers keep
@@ -182,6 +233,14 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         empty |= np.isnan(t)
     keep = ~empty
     t, y, line_numbers = t[keep], y[keep], line_numbers[keep]
+    read = {c.index for c in (t_col, y_col, x_col) if c is not None}
+    if t_col is None and frame_col is not None:
+        read.add(frame_col.index)
+    unread = [c.raw or f"column {c.index + 1}" for c in cols if c.index not in read]
+    if unread and name_unread:
+        notes.append(f"column(s) {', '.join(repr(n) for n in unread)} not read (a trajectory reads a time, a "
+                     f"height and an x column)")
+    _check_moving(path, y, line_numbers, y_col, unread)
     x = x[keep] if x is not None else None
     # length scale
     if force_scale is not None and scale_m_per_px is None:
@@ -272,7 +331,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
         return Runs(runs=tuple(runs), source=text.path, labels=tuple(labels),
                     notes=(f"{len(runs)} runs side by side ({', '.join(labels)}): fitted jointly",))
     traj = trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,
-                                 notes=tuple(notes))
+                                 notes=tuple(notes), name_unread=True)
     # what the tool that made the file knows of its errors ('vrcal track' writes them as comments)
     known = {key: meta_length(text, key) for key in ("systematic_m", "floor_sd_m")}
     if any(known.values()):
