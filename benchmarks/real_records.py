@@ -161,7 +161,7 @@ def finite_difference_epsilon(data, window_s=0.03):
 def recommended(d):
     """The model whose epsilon discover's report recommends: the named effects and their ambiguous
     rivals shared by the priors (``d.split``) when the data cannot tell them apart, else the final one."""
-    return d.split if d.split is not None else d.final
+    return d.recommended
 
 
 def bounce_epsilon(d, bounces=(1, 2)):
@@ -255,7 +255,7 @@ def main(argv=None):
             second = log_interval_epsilon(read_measurement(os.path.join(root, "realval", "giiulia", name)).t_s)
             print(f"  {name}: the authors' Method 2 on this run (log10 of the first 8 intervals against n, "
                   f"drag-free) gives {second:.3f}, {eps - second:+.3f} from discover")
-            u = recommended(d).uncertainty("epsilon")
+            u = d.recommended_epsilon_uncertainty   # the report's: the rivals' spread and the bounces' scatter in it
             print(f"  {name}: discover's +- {u:.3f}, the estimate's +- {ses[name]:.3f}: the difference is "
                   f"{abs(eps - indep) / math.hypot(u, ses[name]):.2f} combined standard uncertainties")
     physical = all(not c.outside for r in rows for c in r[5].candidates if c.verdict.startswith("named"))

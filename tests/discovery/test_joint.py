@@ -600,3 +600,29 @@ def test_a_table_of_close_heights_says_it_cannot_tell_drag_from_a_speed_law(tmp_
     assert d.speeds_too_narrow and d.as_dict()["speeds_too_narrow"]
     text = " ".join(run("discover", p, "--ball", "tennis", "-q").output.split())
     assert re.search(r"a factor 1\.\d\) are too narrow to tell them apart \(chi2 [0-9.]+ apart\)", text), text
+
+
+@pytest.mark.parametrize("seed", [0, 2, 3])
+def test_the_recommended_epsilon_holds_the_rivals_spread_in_its_uncertainty(seed, tmp_path):
+    """Drag alone planted on a basketball's drop table (0.2-2.5 m, read to 1 %): drag and a speed law both
+    fit, and the prior split puts epsilon at 0.788-0.791, 0.009-0.012 below the planted 0.8, with a ± of
+    0.005 from its prior densities alone (2.1 sigma off). The named model and the rival alone, weighted by
+    their odds, lie 0.010-0.016 from it: that spread is part of the ± the report and the JSON give."""
+    ball = BallProperties.from_ball(get_ball("basketball"))
+    path = tmp_path / "table.csv"
+    path.write_text(_classroom_table(np.random.default_rng(seed), {"air_drag": {"drag_coefficient": 0.47}},
+                                     eps=0.8, rel_noise=0.01, ball=ball, heights=(0.2, 0.5, 1.0, 1.5, 2.0, 2.5)))
+    d = discover(read_measurement(path), ball)
+    assert d.split is not None and d.ambiguous == {"air_drag": ["velocity_dependent_restitution"]}
+    u, spread = d.recommended_epsilon_uncertainty, d.rivals_epsilon_spread
+    eps = d.recommended.value("epsilon")
+    own = math.sqrt(u * u - spread * spread)
+    assert abs(eps - 0.8) > 1.5 * own          # the split's own ± misses the planted value ...
+    assert abs(eps - 0.8) < 1.5 * u            # ... the rivals' spread covers it
+    assert min(abs(d.epsilon - eps), abs(d.ambiguous_epsilon["air_drag"]["velocity_dependent_restitution"]
+                                         ["epsilon"][0] - eps)) <= spread
+    doc = d.as_dict()
+    assert doc["epsilon_uncertainty"] == u and doc["epsilon_uncertainty_rivals"] == spread
+    res = run("discover", str(path), "--ball", "basketball", "-q")
+    text = " ".join(res.output.split())
+    assert f"the ± holds the rivals' spread about it, {spread:.2g}" in text, text

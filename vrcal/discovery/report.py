@@ -450,6 +450,10 @@ def _split_advice(d):
         eps = f"epsilon depends on the impact speed: {pm(e_hi, u)} at {hi:.2f} m/s, {pm(e_lo, u)} at {lo:.2f} m/s"
     else:
         eps = f"epsilon = {pm(f.value('epsilon'), u)}"
+    spread = d.rivals_epsilon_spread
+    if spread and u > 0 and spread > 0.05 * u:
+        alone = math.sqrt(max(u * u - spread * spread, 0.0))
+        params += f"; the ± holds the rivals' spread about it, {number(spread, 2)}: {number(alone, 2)} without"
     return (f"{eps}: the most probable value, with {_effects_phrase(shown)} together, shared as their prior "
             f"densities say (the data fix only what they do together; {params}). Use this.")
 
