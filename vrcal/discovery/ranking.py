@@ -96,6 +96,10 @@ from vrcal.textout import number
 #: standard deviation replaces it when the residuals are larger; ``noise=`` overrides it.
 ASSUMED_NOISE = {"impacts": TIMING_SIGMA_S, "apexes": 2e-3, "trajectory": 1e-3}
 
+#: The two effects that apex heights and impact times over a narrow range of speeds cannot tell apart
+#: (:attr:`Discovery.speeds_too_narrow`): both take more from the faster bounces.
+DRAG_OR_SPEED_LAW = ("air_drag", "velocity_dependent_restitution")
+
 #: ``Discovery.noise_source`` when the noise of a drop table is the scatter of its repeated trials
 #: (:func:`vrcal.discovery.residuals.replicate_sigma`).
 REPLICATE_SOURCE = "scatter of the rebounds of trials repeated at one drop height"
@@ -727,7 +731,7 @@ class Discovery:
         them in place of the other, the larger less the smaller; None where the question does not arise: a
         trajectory (which resolves both), both named (each was material on top of the other), an untested
         record, or neither named nor both held as the systematic (:attr:`systematic`: apex heights)."""
-        pair = ("air_drag", "velocity_dependent_restitution")
+        pair = DRAG_OR_SPEED_LAW
         if self.kind == "trajectory" or self.verdict == "untested":
             return None
         named = [e for e in pair if e in self.effects]
@@ -754,6 +758,26 @@ class Discovery:
         1.0-1.2 m never does."""
         apart = self.drag_or_speed_law_chi2
         return apart is not None and apart <= self.thresholds.indistinguishable_chi2
+
+    @functools.cached_property
+    def pair_rival(self):
+        """With one of air drag and a speed-dependent ε named (:data:`DRAG_OR_SPEED_LAW`), the other alone as
+        the round that named it tried it: ``{"named", "rival", "parameters", "odds" (posterior odds for the
+        named one), "decisive" (odds beyond the selection's ``decisive_two_ln_odds``)}``; else None."""
+        named = [e for e in DRAG_OR_SPEED_LAW if e in self.effects]
+        if len(named) != 1:
+            return None
+        win = named[0]
+        rival = next(e for e in DRAG_OR_SPEED_LAW if e != win)
+        for rnd in self.rounds:
+            by_name = {c.name: c for c in rnd}
+            won = [c for c in rnd if c.verdict.startswith("named") and win in c.members]
+            if won and rival in by_name:
+                two_ln = by_name[rival].score - won[0].score
+                return {"named": win, "rival": rival, "parameters": by_name[rival].fit.effect_values.get(rival, {}),
+                        "odds": math.exp(min(two_ln, 1400.0) / 2.0),
+                        "decisive": two_ln >= self.thresholds.decisive_two_ln_odds}
+        return None
 
     def epsilon_at(self, speeds_m_per_s, fit=None):
         """ε of the final model (or of ``fit``, e.g. ``split``) at these impact speeds [m/s] (the
@@ -1751,6 +1775,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                       noise_source, ambiguous, list(prepared.warnings), prepared.labels, scatter, scatter_gap,
                       dict(reader or {}, floor_shift_m=list(shifts), floor_m=floor_m),
                       prepared.decimation, n_read, split, nuisance, judged, scatter_limit, list(cut), max_effects)
+    _speeds_make_rivals(found, problem)
     if kind == "trajectory":
         notes.extend(_contact_drifts(found))
     if not found.within_noise:
@@ -1764,6 +1789,33 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                      + "; a value at the edge of what is physical: "
                      + effect_check(e['effect'], found.kind, ball, found.warnings))
     return found
+
+
+def _speeds_make_rivals(found, problem):
+    """One rule for air drag and a speed-dependent ε: when the report says the speeds cannot tell them
+    apart (:attr:`Discovery.speeds_too_narrow`) and one of them is named, the other is its ambiguous rival,
+    and the prior split (:func:`split_by_priors`) shares the two, as for any rival. The selection's own
+    test of rivals asks more (the rival material, the drops' spread narrow): drag and a speed law planted
+    together on a ping-pong ball's apexes named the speed law alone, epsilon 0.8034 ± 0.0019 for 0.9008,
+    while the report said both fit and listed no rival."""
+    pair = found.pair_rival
+    # as the selection judges a rival: not one the priors make decisively less probable (a speed law that
+    # fits drag's golf impact times only with p near 0, where its prior has no mass)
+    if not found.speeds_too_narrow or pair is None or pair["decisive"]:
+        return
+    win, rival = pair["named"], pair["rival"]
+    if rival in found.ambiguous.get(win, ()):
+        return
+    found.ambiguous = {**found.ambiguous, win: [*found.ambiguous.get(win, ()), rival]}
+    for rnd in found.rounds:
+        for c in rnd:
+            if c.verdict.startswith("named") and win in c.members:
+                c.verdict = f"named (ambiguous with {', '.join(found.ambiguous[win])})"
+    found.notes.append(f"{win} is named, but {rival} alone fits these {found.kind} data within chi2 "
+                       f"{number(found.drag_or_speed_law_chi2, 2)} of it: the speeds cannot tell them apart, so "
+                       f"{rival} is listed as its rival and the two are shared by their priors")
+    found.split = split_by_priors(problem, found.final, [*found.nuisance, *found.effects], found.ambiguous,
+                                  found.final.noise_sigma(found.noise_floor))
 
 
 def effect_check(effect, kind, ball, warnings):
@@ -2049,8 +2101,9 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
 
 def _odds(delta_score):
     """Posterior odds exp(delta / 2) of two models whose -2 ln Z differ by ``delta``, as text."""
-    odds = math.exp(min(delta_score, 1400.0) / 2.0)
-    return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
+    from vrcal.discovery.report import _odds_of
+
+    return _odds_of(math.exp(min(delta_score, 1400.0) / 2.0))
 
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,

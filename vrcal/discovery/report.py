@@ -18,6 +18,7 @@ import textwrap
 
 import numpy as np
 
+from vrcal.discovery.ranking import DRAG_OR_SPEED_LAW
 from vrcal.model.restitution import SPHERE_DRAG_COEFFICIENT
 from vrcal.textout import MAX_COLUMNS, mass, ms, number, table
 
@@ -484,7 +485,12 @@ def _runs_table(d):
 
 
 #: The two effects whose rivalry :attr:`vrcal.discovery.ranking.Discovery.speeds_too_narrow` is about.
-PAIR = frozenset({"air_drag", "velocity_dependent_restitution"})
+PAIR = frozenset(DRAG_OR_SPEED_LAW)
+
+
+def _odds_of(odds):
+    """Posterior odds as text, as the round notes write them (:func:`vrcal.discovery.ranking._odds`)."""
+    return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
 
 
 def _speed_lines(d):
@@ -498,9 +504,18 @@ def _speed_lines(d):
                 else "drops from other heights (several files, or a drop table)")
         lead = ("Air drag and a speed-dependent epsilon both fit:" if set(d.effects) & PAIR else
                 "Neither air drag nor a speed-dependent epsilon is named, and")
-        lines.append(_wrap(f"{lead} the speeds covered ({lo:.2f}-{hi:.2f} m/s, a factor {hi / lo:.2g}) are too "
-                           f"narrow to tell them apart (chi2 {number(d.drag_or_speed_law_chi2, 2)} apart); add {more}.",
-                           "  "))
+        text = (f"{lead} the speeds covered ({lo:.2f}-{hi:.2f} m/s, a factor {hi / lo:.2g}) are too "
+                f"narrow to tell them apart (chi2 {number(d.drag_or_speed_law_chi2, 2)} apart); add {more}.")
+        pair = d.pair_rival
+        if pair is not None and pair["decisive"]:
+            from vrcal.drop.effects import EFFECTS
+
+            values = ", ".join(f"{PHRASES[pair['rival']][1]} = {number(pair['parameters'][p.name], 2)}"
+                               for p in EFFECTS[pair["rival"]].parameters if p.name in pair["parameters"])
+            text += (f" Alone, {PHRASES[pair['rival']][0]} would need {values}, which its prior density makes "
+                     f"decisively less probable (odds {_odds_of(pair['odds'])} for {PHRASES[pair['named']][0]}): "
+                     f"it is not listed as a rival, and the ± leaves it out.")
+        lines.append(_wrap(text, "  "))
     return lines
 
 
