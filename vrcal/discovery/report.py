@@ -117,6 +117,10 @@ def _noise_text(d):
                                                        if d.noise_source != REPLICATE_SOURCE else ""))
         if d.noise_source.startswith(REPLICATE_SOURCE) else
         "the grid the times were read on" if d.noise_source == GRID_SOURCE else "assumed")
+    grows = d.height_dependent_noise
+    if grows is not None:
+        src += (f"; it grows with the height, about {number(100 * grows['relative'], 2)} % of it, and the ± of "
+                f"epsilon takes each rebound at its own")
     if d.decimation > 1 and d.noise_source.startswith("third"):
         src = f"measured on all {d.n_read:,} samples"
     if "systematic error" in d.noise_source:
@@ -205,7 +209,7 @@ def answer(discovery):
     else:
         if v == "explained" or (v == "suspect input" and d.reproduces):
             parts.append(f"The paper's constant-epsilon model explains this record: epsilon = "
-                         f"{pm(d.epsilon, d.final.uncertainty('epsilon'))}. Its gap, {after}, is within what the "
+                         f"{pm(d.epsilon, d.epsilon_uncertainty)}. Its gap, {after}, is within what the "
                          f"record allows: {_noise_text(d)}. No effect of the registry is needed.")
         else:
             parts.append(f"The paper's constant-epsilon model leaves a gap of {after} ({_noise_text(d)}), and "
