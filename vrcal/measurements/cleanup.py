@@ -731,9 +731,10 @@ def bounce_height_m(flight_s, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     Returns
     -------
     float or ndarray
-        height [m]
+        height [m] (inf for a flight too long for a float's square: an absurd time read from a file)
     """
-    return g_m_per_s2 * np.asarray(flight_s, dtype=float) ** 2 / 8.0
+    with np.errstate(over="ignore"):
+        return g_m_per_s2 * np.asarray(flight_s, dtype=float) ** 2 / 8.0
 
 
 def pulse_period(dt_s, *, periods_s=PULSE_PERIODS_S, max_multiple=12, tolerance=0.3):
