@@ -2119,11 +2119,14 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
     return out
 
 
+def odds_text(odds):
+    """Posterior odds as text: '18.8:1', or '>1e4:1' beyond ten thousand."""
+    return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
+
+
 def _odds(delta_score):
     """Posterior odds exp(delta / 2) of two models whose -2 ln Z differ by ``delta``, as text."""
-    from vrcal.discovery.report import _odds_of
-
-    return _odds_of(math.exp(min(delta_score, 1400.0) / 2.0))
+    return odds_text(math.exp(min(delta_score, 1400.0) / 2.0))
 
 
 def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2,

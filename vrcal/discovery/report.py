@@ -18,7 +18,7 @@ import textwrap
 
 import numpy as np
 
-from vrcal.discovery.ranking import DRAG_OR_SPEED_LAW
+from vrcal.discovery.ranking import DRAG_OR_SPEED_LAW, odds_text
 from vrcal.model.restitution import SPHERE_DRAG_COEFFICIENT
 from vrcal.textout import MAX_COLUMNS, mass, ms, number, table
 
@@ -492,11 +492,6 @@ def _runs_table(d):
 PAIR = frozenset(DRAG_OR_SPEED_LAW)
 
 
-def _odds_of(odds):
-    """Posterior odds as text, as the round notes write them (:func:`vrcal.discovery.ranking._odds`)."""
-    return f"{odds:.3g}:1" if odds < 1e4 else ">1e4:1"
-
-
 def _speed_lines(d):
     lo, hi = d.speed_range()
     lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
@@ -517,7 +512,7 @@ def _speed_lines(d):
             values = ", ".join(f"{PHRASES[pair['rival']][1]} = {number(pair['parameters'][p.name], 2)}"
                                for p in EFFECTS[pair["rival"]].parameters if p.name in pair["parameters"])
             text += (f" Alone, {PHRASES[pair['rival']][0]} would need {values}, which its prior density makes "
-                     f"decisively less probable (odds {_odds_of(pair['odds'])} for {PHRASES[pair['named']][0]}): "
+                     f"decisively less probable (odds {odds_text(pair['odds'])} for {PHRASES[pair['named']][0]}): "
                      f"it is not listed as a rival, and the ± leaves it out.")
         lines.append(_wrap(text, "  "))
     return lines

@@ -274,7 +274,7 @@ def replicate_noise_model(runs):
     d = np.array([i.size - 1 for i in groups.values()], dtype=float)
     if d.sum() < MIN_REPLICATE_DOF or not np.sum(d * s2) > 0:
         return None
-    floor = (1e-3 * float(np.median(m))) ** 2 * 1e-4      # a variance no reading reaches: keeps ln v finite
+    floor = (1e-5 * float(np.median(m))) ** 2      # 0.001 % of the heights, which no reading reaches: ln v finite
 
     def nll(v):
         v = np.maximum(v, floor)
