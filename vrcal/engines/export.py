@@ -19,7 +19,6 @@ against the penetration a step allows (:func:`check_step`), and ``vrcal verify``
 from __future__ import annotations
 
 import math
-import re
 import textwrap
 from dataclasses import dataclass, replace
 
@@ -786,13 +785,13 @@ def _mujoco_keep(setup, cal, kind, w, n_phases, tries=3):
     worst, depth = cal.worst_error, cal.depth_m
     for _ in range(tries):
         keep = keep_step(setup, worst, depth, margin=1.1)
-        if not keep or keep.startswith("no --max-penetration"):
+        tol, pen, refusal = keep_limits(setup, worst, depth, margin=1.1)
+        if not keep or refusal:
             return keep
-        tol = float(_round_up(1.1 * worst)) if 1.1 * worst > setup.tolerance else setup.tolerance
-        pen = float(re.search(r"--max-penetration ([0-9.e-]+)", keep).group(1)) if "--max-penetration" in keep \
-            else setup.max_penetration_m
         try:
-            loose = replace(setup, tolerance=tol, max_penetration_m=check_max_penetration(pen, setup.radius_m))
+            loose = replace(setup, tolerance=setup.tolerance if tol is None else tol,
+                            max_penetration_m=setup.max_penetration_m if pen is None else
+                            check_max_penetration(pen, setup.radius_m))
             trial = M.calibrate(loose, n_phases, kind, w)
         except (StillBouncing, DataError, UsageError):
             return ""
@@ -1048,27 +1047,37 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
 
 
-def keep_step(setup, worst_error, depth_m, margin=1.0):
-    """What accepts the user's own step: the ``--tolerance`` and ``--max-penetration`` that the drop test
-    at ``setup.dt_s`` met (its worst epsilon error and how far the ball turned from the floor [m], each
-    rounded up), only those it missed; '' when neither is needed. A depth at or above the ball's radius
-    is no limit to give (:func:`vrcal.engines.common.check_max_penetration`): it says so instead.
-    ``margin`` (>= 1) widens both first: MuJoCo's calibration at a looser limit picks another contact,
-    which goes deeper (a tennis ball at 4 ms: 13.3 mm at the 8.37 mm limit, 14.002 mm at a 14 mm one)."""
+def keep_limits(setup, worst_error, depth_m, margin=1.0):
+    """The limits that accept the user's own step: ``(tolerance or None, max_penetration [m] or None, refusal)``,
+    the ``--tolerance`` and ``--max-penetration`` that the drop test at ``setup.dt_s`` met (its worst epsilon
+    error and how far the ball turned from the floor [m], each rounded up), None for one it did not miss;
+    ``refusal`` is '' or why no limit keeps the step: a depth at or above the ball's radius is no limit to give
+    (:func:`vrcal.engines.common.check_max_penetration`). ``margin`` (>= 1) widens both first: MuJoCo's
+    calibration at a looser limit picks another contact, which goes deeper (a tennis ball at 4 ms: 13.3 mm at
+    the 8.37 mm limit, 14.002 mm at a 14 mm one)."""
     worst_error, depth_m = worst_error * margin, depth_m * margin
-    options = []
-    if worst_error > setup.tolerance:
-        options.append(f"--tolerance {_round_up(worst_error)}")
-    if depth_m > setup.penetration_limit_m:
-        if depth_m >= setup.radius_m:
-            measured = depth_m / margin
-            why = (f"beyond its radius {setup.radius_m * 1e3:.3g} mm" if measured >= setup.radius_m else
-                   f"and {margin - 1:.0%} more, the margin a looser calibration needs, reaches its radius "
-                   f"{setup.radius_m * 1e3:.3g} mm")
-            return (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball turns {measured * 1e3:.3g} mm "
-                    f"from the floor, {why}")
-        limit = float(_round_up(depth_m))
-        options.append(f"--max-penetration {min(limit, round_down(setup.radius_m * (1 - 1e-9))):g}")
+    tolerance = float(_round_up(worst_error)) if worst_error > setup.tolerance else None
+    if depth_m <= setup.penetration_limit_m:
+        return tolerance, None, ""
+    if depth_m >= setup.radius_m:
+        measured = depth_m / margin
+        why = (f"beyond its radius {setup.radius_m * 1e3:.3g} mm" if measured >= setup.radius_m else
+               f"and {margin - 1:.0%} more, the margin a looser calibration needs, reaches its radius "
+               f"{setup.radius_m * 1e3:.3g} mm")
+        return tolerance, None, (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball turns "
+                                 f"{measured * 1e3:.3g} mm from the floor, {why}")
+    return tolerance, min(float(_round_up(depth_m)), round_down(setup.radius_m * (1 - 1e-9))), ""
+
+
+def keep_step(setup, worst_error, depth_m, margin=1.0):
+    """What accepts the user's own step, as text (:func:`keep_limits`): 'to keep --dt ... s, accept what it
+    achieves: --tolerance T --max-penetration P' with only the limits it missed, the refusal when no limit
+    keeps it, '' when neither is needed."""
+    tolerance, penetration, refusal = keep_limits(setup, worst_error, depth_m, margin)
+    if refusal:
+        return refusal
+    options = ([f"--tolerance {tolerance:g}"] if tolerance is not None else []) + \
+        ([f"--max-penetration {penetration:g}"] if penetration is not None else [])
     if not options:
         return ""
     return f"to keep --dt {setup.dt_s:g} s, accept what it achieves: {' '.join(options)}"
