@@ -27,12 +27,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vrcal.drop.effects import flight_expectation
+from vrcal.drop.effects import drag_constant_per_m, flight_expectation
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
 from vrcal.measurements.plausibility import FLIGHT_G_SPREAD, UNIT_QUESTION
 from vrcal.measurements.trajectory import release_with_noise
-from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
+from vrcal.model.restitution import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_PER_S2
 
 #: A trajectory whose lowest sample after release lies outside this band [m] is not
 #: referenced to the floor (no tracked point is that far below or above the floor).
@@ -668,9 +668,10 @@ LEAST_DRAG_COEFFICIENT = 0.2
 HIGHEST_LAB_DROP_M = 5.0
 
 
-#: Drag coefficient of the terminal speed that no fall through air exceeds on average (a smooth sphere's):
-#: :func:`falls_faster_than_air_lets`.
-SPHERE_DRAG_COEFFICIENT = 0.47
+def _drag_constant_per_m(ball, drag_coefficient):
+    """The drag constant k [1/m] of a ball (its mean mass and diameter) at ``drag_coefficient``
+    (:func:`vrcal.drop.effects.drag_constant_per_m`): what the unit checks of falls and rebounds hold it to."""
+    return float(drag_constant_per_m(drag_coefficient, float(np.mean(ball.diameter_m)), float(np.mean(ball.mass_kg))))
 
 
 def fastest_fall(t_s, y_m):
@@ -702,9 +703,9 @@ def fastest_fall(t_s, y_m):
 
 def falls_faster_than_air_lets(runs, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
     """Warnings for trajectories whose ball falls, on average over a fall, faster than its terminal speed
-    in air ``sqrt(g / k)`` (a sphere's drag, :data:`SPHERE_DRAG_COEFFICIENT`; a ping-pong ball's 9 m/s): no
-    ball dropped from rest does. Pixels or millimetres read as metres do (a ping-pong ball's 180 "m" fall in
-    0.5 s, and a drop fitted from 100 m with 44 m/s impacts).
+    in air ``sqrt(g / k)`` (a sphere's drag, :data:`vrcal.model.restitution.SPHERE_DRAG_COEFFICIENT`; a
+    ping-pong ball's 9 m/s): no ball dropped from rest does. Pixels or millimetres read as metres do (a
+    ping-pong ball's 180 "m" fall in 0.5 s, and a drop fitted from 100 m with 44 m/s impacts).
 
     Parameters
     ----------
@@ -718,10 +719,7 @@ def falls_faster_than_air_lets(runs, ball, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2)
     list of str
         one warning naming the first such run, and how many there are; [] when none
     """
-    from vrcal.drop.effects import drag_constant_per_m
-
-    k = float(drag_constant_per_m(SPHERE_DRAG_COEFFICIENT, float(np.mean(ball.diameter_m)),
-                                  float(np.mean(ball.mass_kg))))
+    k = _drag_constant_per_m(ball, SPHERE_DRAG_COEFFICIENT)
     terminal = math.sqrt(g_m_per_s2 / k) if k > 0 else math.inf
     bad = []
     for run in runs:
@@ -760,10 +758,9 @@ def rebounds_beyond_drag(runs, ball):
     list of str
         one warning naming the first such run, and how many there are; [] when none
     """
-    from vrcal.drop.effects import drag_constant_per_m, epsilon_from_heights_with_drag
+    from vrcal.drop.effects import epsilon_from_heights_with_drag
 
-    k = float(drag_constant_per_m(LEAST_DRAG_COEFFICIENT, float(np.mean(ball.diameter_m)),
-                                  float(np.mean(ball.mass_kg))))
+    k = _drag_constant_per_m(ball, LEAST_DRAG_COEFFICIENT)
     bad = []
     for i, run in enumerate(runs):
         h = np.asarray(run.h_m, dtype=float)
