@@ -120,6 +120,14 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400, s
     return release if held else 0
 
 
+def still_level(y, start):
+    """Where a motion starting at sample ``start`` starts from [unit of ``y``]: the median of the ten
+    samples before it (the still segment), or ``y[start]`` at the record's first sample."""
+    r = int(start)
+    y = np.asarray(y, dtype=float)
+    return float(np.median(y[max(0, r - 10):r])) if r > 0 else float(y[r])
+
+
 def toss_top_index(t, y, start=0, level=None):
     """Index of the top of a toss, or None: a ball held, then thrown, rises, turns at the top of a free
     flight and falls past where it left the hand, to the floor below it.
@@ -143,8 +151,7 @@ def toss_top_index(t, y, start=0, level=None):
         first three samples must hold still (within 5 noise sigmas and 2 % of the span), or a record that
         starts in flight, falling into a bounce, would rise past its first sample
     level : float or None
-        where the motion starts (the still level) [unit of ``y``]; None: the median of the ten samples
-        before ``start``, or ``y[start]``
+        where the motion starts (the still level) [unit of ``y``]; None: :func:`still_level`
 
     Returns
     -------
@@ -157,7 +164,7 @@ def toss_top_index(t, y, start=0, level=None):
     if y.size - r < 6:
         return None
     if level is None:
-        level = float(np.median(y[max(0, r - 10):r])) if r > 0 else float(y[r])
+        level = still_level(y, r)
     span = float(np.ptp(y[r:]))
     if span <= 0:
         return None

@@ -38,7 +38,13 @@ from typing import NamedTuple
 import numpy as np
 
 from vrcal.errors import DataError
-from vrcal.measurements.cleanup import bounce_height_m, prominent_minima, third_difference_sigma, toss_top_index
+from vrcal.measurements.cleanup import (
+    bounce_height_m,
+    prominent_minima,
+    still_level,
+    third_difference_sigma,
+    toss_top_index,
+)
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 from vrcal.textout import number
 
@@ -279,12 +285,11 @@ def release_fall_sign(t_s, y_m, release_index=0):
         samples, or a record that starts moving one way and accelerating the other: thrown, or mid-flight; or
         one that first moves the other way: it starts at a bounce)
     """
-    top = toss_top_index(t_s, y_m, release_index)
+    level = still_level(y_m, release_index) if np.size(y_m) > int(release_index) else None
+    top = toss_top_index(t_s, y_m, release_index, level)
     if top is not None:
         # tossed (or rising at the first sample): the first motion turned and came back past its start,
         # which no bounce does; it went up
-        r = int(release_index)
-        level = float(np.median(y_m[max(0, r - 10):r])) if r > 0 else float(y_m[0])
         return 1 if y_m[top] > level else -1
     start = max(int(release_index) - 1, 0)
     t = np.asarray(t_s, dtype=float)[start:]
