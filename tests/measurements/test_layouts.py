@@ -3,6 +3,7 @@ tables of drop and rebound heights, runs side by side, spreadsheets (phyphox's .
 several files at once -- and no reader crashes on arbitrary text (hypothesis)."""
 
 import builtins
+import warnings
 
 import numpy as np
 import pytest
@@ -82,6 +83,16 @@ def test_headerless_three_columns_ask_for_a_header(tmp_path):
     p = write(tmp_path, "three.txt", "\n".join(f"{a},{b},7" for a, b in zip(t, y)) + "\n")
     with pytest.raises(DataError, match=r"three\.txt:1: no header row"):
         read_measurement(p)
+
+
+def test_infinite_first_cells_are_no_headerless_times(tmp_path):
+    """Two rows 'inf, -1e6' asked for as impacts: looking for a t, y reading took np.diff of inf - inf
+    (RuntimeWarning 'invalid value in subtract', found by the fuzz test); the error names the header."""
+    p = write(tmp_path, "inf.csv", "inf\t-1000000\ninf\t-1000000\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(DataError, match=r"inf\.csv:1: no header row"):
+            read_measurement(p, "impacts")
 
 
 @pytest.mark.parametrize("unit,factor", [("m", 1.0), ("cm", 1e-2), ("mm", 1e-3)])

@@ -134,6 +134,24 @@ def test_a_marble_on_paper_tracked_by_mtrack2_end_to_end(tmp_path):
 def test_an_infinite_frame_number_is_a_one_line_error(tmp_path):
     """'inf' as a frame number crashed with OverflowError (found by the fuzz test of every reader)."""
     p = tmp_path / "f.csv"
-    p.write_text("0.0\ninf\n")
-    with pytest.raises(DataError, match=r"f.csv:2: expected a frame number .* found 'inf'"):
+    p.write_text("Frame\tX1\tY1\tFlag1\ninf\t1\t2\t\n")
+    with pytest.raises(DataError, match=r"f.csv:2: expected a frame number .* found 'inf\\t1\\t2'"):
+        read_measurement(str(p), "mtrack2")
+
+
+def test_a_line_without_cells_is_a_one_line_error(tmp_path):
+    """A line of one quote has no cell at all: IndexError before (found by the fuzz test)."""
+    p = tmp_path / "f.csv"
+    p.write_text('Frame,X1,Y1,Flag1\n1,2,3,\n"\n')
+    with pytest.raises(DataError, match=r"f.csv:3: expected a frame number and 1 track\(s\) of X, Y, Flag"):
+        read_measurement(str(p), "mtrack2")
+
+
+def test_mtrack2_asked_for_another_file_names_the_header_it_expects(tmp_path):
+    """--format mtrack2 on a t, y file read its first line as a header of 0 tracks and crashed on a later
+    line (found by the fuzz test)."""
+    p = tmp_path / "f.csv"
+    p.write_text("0.0,0.0\n0.1,0.2\n")
+    with pytest.raises(DataError, match=r"f.csv:1: expected MTrack2's header 'Frame, X1, Y1, Flag1, \.\.\.', "
+                                        r"found '0.0,0.0'"):
         read_measurement(str(p), "mtrack2")

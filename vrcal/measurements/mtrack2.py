@@ -56,6 +56,8 @@ def read_tracks(text):
     header_no, header = text.lines[0]
     sep = sniff(header, [])[0]
     per_block = _n_tracks(header)
+    if not per_block:      # --format mtrack2 on another file
+        fail(path, header_no, f"expected MTrack2's header 'Frame, X1, Y1, Flag1, ...', found {header.strip()[:60]!r}")
     first = 1                     # the track in the first triple of the current block
     rows = {}
     summary = None
@@ -71,7 +73,7 @@ def read_tracks(text):
         cells = split_cells(line, sep)
         try:
             frame = int(float(cells[0]))
-        except (ValueError, OverflowError):   # not a number, or inf/nan (no frame)
+        except (ValueError, OverflowError, IndexError):   # not a number, inf/nan, or no cell (no frame)
             fail(path, no, f"expected a frame number and {per_block} track(s) of X, Y, Flag, found "
                            f"{line.strip()[:60]!r}")
         for k in range(per_block):

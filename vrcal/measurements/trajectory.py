@@ -96,7 +96,7 @@ def _headerless_t_y(text):
     head = [s for _, s in text.lines[:50]]
     sep, dc = sniff(head[0], head[1:])
     first = np.array([to_float(split_cells(s, sep)[0], dc) for s in head])
-    return bool(np.all(np.diff(first) > 0))
+    return bool(np.all(np.isfinite(first)) and np.all(np.diff(first) > 0))   # inf or nan: no times
 
 
 
