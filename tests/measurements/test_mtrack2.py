@@ -71,6 +71,29 @@ def test_an_mtrack2_export_is_read_as_the_balls_trajectory(tmp_path, sep):
     assert "y axis points down" in said and "/ 200 Hz" in said
 
 
+def test_an_export_whose_tabs_became_single_blanks_is_read(tmp_path):
+    """An editor turned each tab into one blank (a real export of the XS06 marble project): empty cells are
+    blanks in a row. 'Tracks 1 to 2' is not a number (column 'Frame X1 Y1 Flag1 X2 Y2 Flag2') before."""
+    frames, rows, heights = marble_rows()
+    lines = ["Frame X1 Y1 Flag1 X2 Y2 Flag2", "Tracks 1 to 2     "]
+    for f, r in zip(frames, rows):
+        flag = "*" if f in (5, 6) else ""
+        mark = f"33.2 {40.0 + 0.3 * np.sin(f):.5f} " if f >= 3 else "   "
+        lines.append(f"{f} {100.0 + 0.01 * f:.5f} {r:.6f} {flag} {mark}")
+    lines += [f"{frames[-1] + 1}    33.2 40.1 ", "", "Track Length Distance traveled Nr of Frames",
+              "1 1002.3 575.4 90   "]
+    path = tmp_path / "Results.csv"
+    path.write_text("\r\n".join(lines) + "\r\n")
+    assert detect_format(path) == "mtrack2"
+    data = read_measurement(path, fs_hz=FS, scale_m_per_px=SCALE)
+    np.testing.assert_allclose(data.t_s, frames / FS)
+    np.testing.assert_allclose(data.y_m, heights - FLOOR_ROW * SCALE, atol=1e-9)
+    said = " ".join(data.notes)
+    assert "track 1 of 2" in said and "2 frame(s) of track 1 flagged '*'" in said
+    mark = read_measurement(path, fs_hz=FS, scale_m_per_px=SCALE, sheet="2")
+    assert mark.t_s.size == frames.size - 1   # frames 3.. and the one after the ball's last
+
+
 def test_the_track_is_the_one_that_moves_or_the_one_asked_for(tmp_path):
     """The ball is read whichever number MTrack2 gave it (here 2, the mark 1); --sheet N reads track N."""
     frames, rows, _ = marble_rows()

@@ -1,7 +1,8 @@
 """ImageJ MTrack2 exports (Nico Stuurman's MTrack2 plugin for ImageJ/Fiji, imagej.net/MTrack2; its results
 saved to a file, or its Results window saved as text or CSV).
 
-Layout: a header ``Frame, X1, Y1, Flag1, X2, Y2, Flag2, ...`` (tab- or comma-separated); a line
+Layout: a header ``Frame, X1, Y1, Flag1, X2, Y2, Flag2, ...`` (tab- or comma-separated, or one blank
+between cells where an editor turned each tab into a blank: an empty cell is then two blanks in a row); a line
 ``Tracks 1 to N`` before each block of tracks (a block holds as many tracks as the header names; a
 further block repeats the frames for the next tracks in the same columns); one row per frame of the
 image stack (frames counted from 1), a track's cells blank where it was not found, its flag ``*`` where
@@ -21,19 +22,41 @@ import re
 import numpy as np
 
 from vrcal.errors import UsageError
-from vrcal.measurements.table import Column, Table, fail, sniff, split_cells
+from vrcal.measurements.table import Column, Table, fail, sniff, split_cells, strip_cell
 from vrcal.measurements.trajectory import trajectory_from_table
 
 #: One track's columns in the header: X<k>, Y<k>, Flag<k>.
 _TRIPLE = ("x{}", "y{}", "flag{}")
 _BLOCK = re.compile(r"^\s*tracks\s+(\d+)\s+to\s+(\d+)\s*$", re.IGNORECASE)
 _SUMMARY = re.compile(r"^\s*track\s+length\b", re.IGNORECASE)
+#: The separator of an export whose tabs an editor turned into single blanks (each blank one cell boundary).
+_ONE_BLANK = "one blank"
+
+
+def _separator(header):
+    """The export's separator: MTrack2's tab, a CSV save's comma or semicolon, or :data:`_ONE_BLANK` when an
+    editor turned each tab into one blank (the header's words one blank apart); None for no MTrack2 layout."""
+    sep = sniff(header, [])[0]
+    if sep is None and "  " not in header.strip() and len(header.split()) > 1:
+        sep = _ONE_BLANK
+    return sep
+
+
+def _cells(line, sep):
+    """The line's cells; one blank apart, an empty cell stays empty ('8 151.8 32.3 * 140.2 ...' and
+    '9 151.4 35.6    ' with track 2 not found)."""
+    if sep != _ONE_BLANK:
+        return split_cells(line, sep)
+    cells = [strip_cell(c) for c in line.strip("\r\n").split(" ")]
+    while cells and cells[-1] == "":
+        cells.pop()
+    return cells
 
 
 def _n_tracks(header):
     """Tracks the header names (its X<k>, Y<k>, Flag<k> triples after ``Frame``), or 0 when it is no MTrack2
     header."""
-    cells = [c.lower() for c in split_cells(header, sniff(header, [])[0])]
+    cells = [c.lower() for c in _cells(header, _separator(header))]
     if len(cells) < 4 or cells[0] != "frame" or (len(cells) - 1) % 3:
         return 0
     n = (len(cells) - 1) // 3
@@ -47,14 +70,14 @@ def detect(text):
 
 def _words(line, sep):
     """The line's cells joined by single blanks (a CSV save splits 'Tracks 1 to 2' into cells)."""
-    return " ".join(c for c in split_cells(line, sep) if c)
+    return " ".join(c for c in _cells(line, sep) if c)
 
 
 def read_tracks(text):
     """``({track: (frames, x, y, flags, line numbers)}, summary line or None)`` of an MTrack2 export."""
     path = text.path
     header_no, header = text.lines[0]
-    sep = sniff(header, [])[0]
+    sep = _separator(header)
     per_block = _n_tracks(header)
     if not per_block:      # --format mtrack2 on another file
         fail(path, header_no, f"expected MTrack2's header 'Frame, X1, Y1, Flag1, ...', found {header.strip()[:60]!r}")
@@ -70,7 +93,7 @@ def read_tracks(text):
         if _SUMMARY.match(words):
             summary = no
             break
-        cells = split_cells(line, sep)
+        cells = _cells(line, sep)
         try:
             frame = int(float(cells[0]))
         except (ValueError, OverflowError, IndexError):   # not a number, inf/nan, or no cell (no frame)
