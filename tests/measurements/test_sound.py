@@ -11,7 +11,15 @@ from vrcal.drop.render import SoundScene, impact_sound, write_wav
 from vrcal.drop.simulate import simulate_drops
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements import ImpactTimes, read_measurement
-from vrcal.measurements.sound import SNR, aic_onset, bounce_sequence, impact_onsets, track_sound, window_threshold
+from vrcal.measurements.sound import (
+    LOSSLESS_TIMING_SD_S,
+    SNR,
+    aic_onset,
+    bounce_sequence,
+    impact_onsets,
+    track_sound,
+    window_threshold,
+)
 from vrcal.model.body import BallProperties
 
 BALL = BallProperties(0.0577, 0.067, "tennis")
@@ -49,6 +57,24 @@ def test_every_audible_impact_within_a_quarter_millisecond(tmp_path, name, scene
     n_loud = int(np.argmin(audible(t, v, scene))) if not audible(t, v, scene).all() else t.size
     assert got.t_s.size >= min(n_loud, t.size) - 1
     assert got.rejected == ()
+
+
+def test_discover_judges_a_wav_at_the_timing_of_its_onsets_not_a_phone_apps(tmp_path):
+    """A WAV's onsets are timed to a few 0.01 ms; judged at a phone stopwatch's assumed 0.2 ms, a table-tennis
+    drop whose speed-dependent epsilon and drag were planted said 'explained' with one constant epsilon
+    (0.893 for 0.872-0.893) and C_d 0.91, 40 times its real timing noise above the gap (a probe's WAV)."""
+    from vrcal.discovery.ranking import INSTRUMENT_SOURCE, discover_file
+
+    t, v = drop(H=0.3, eps=0.9, n=12)
+    path = tmp_path / "drop.wav"
+    write_wav(path, impact_sound(t, v, fs_hz=44100, scene=SoundScene(noise_rms=0.002), seed=2), 44100)
+    assert read_measurement(path).instrument_sd_s == LOSSLESS_TIMING_SD_S
+    d = discover_file(str(path), "tennis")
+    assert d.noise_floor == LOSSLESS_TIMING_SD_S and d.noise_source.startswith(INSTRUMENT_SOURCE)
+    # the times as a phone app would write them are judged at its 0.2 ms
+    table = tmp_path / "drop.csv"
+    table.write_text("t (s)\n" + "\n".join(f"{x:.6f}" for x in read_measurement(path).t_s) + "\n")
+    assert discover_file(str(table), "tennis").noise_floor == pytest.approx(2e-4)
 
 
 def test_clap_and_voice_between_bounces_are_rejected_by_the_physics(tmp_path):
@@ -242,12 +268,14 @@ def test_other_containers_need_pyav_or_read_with_it(tmp_path):
     _encode(av, flac, x, "flac", "s16")
     got = read_measurement(flac)
     assert got.t_s.size == 6 and np.max(np.abs(got.t_s - t)) < 2.5e-4  # lossless: as exact as WAV
+    assert got.instrument_sd_s == LOSSLESS_TIMING_SD_S
     aac = tmp_path / "drop.m4a"
     _encode(av, aac, x, "aac", "fltp")
     got = read_measurement(aac)
     assert got.t_s.size == 6
     # a lossy codec smears each onset (pre-echo), which the onsets look past: intervals within 0.5 ms
     assert np.max(np.abs(np.diff(got.t_s) - np.diff(t))) < 5e-4
+    assert got.instrument_sd_s == 0.0     # the phone apps' assumed 0.2 ms
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

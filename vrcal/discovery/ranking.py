@@ -103,6 +103,9 @@ DRAG_OR_SPEED_LAW = ("air_drag", "velocity_dependent_restitution")
 #: ``Discovery.noise_source`` when the noise of a drop table is the scatter of its repeated trials
 #: (:func:`vrcal.discovery.residuals.replicate_sigma`).
 REPLICATE_SOURCE = "scatter of the rebounds of trials repeated at one drop height"
+#: ... when it is what the reader knows of the way the times were taken (vrcal's onsets in a lossless recording:
+#: ``ImpactTimes.instrument_sd_s``), still an assumption.
+INSTRUMENT_SOURCE = "assumed for onsets timed in a lossless recording"
 #: ... when it is the grid that impact times were read on (a video's frames, times printed to 0.01 s:
 #: ``ImpactTimes.timing_sd_s``).
 GRID_SOURCE = "grid of the impact times (step/sqrt(12))"
@@ -1988,6 +1991,9 @@ def chosen_noise(data, prepared, noise=None):
                 sigma = None
         if sigma is None:
             sigma, source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
+            instrument = max(float(getattr(r, "instrument_sd_s", 0.0) or 0.0) for r in res._runs_of(data))
+            if kind == "impacts" and instrument > 0:
+                sigma, source = instrument, f"{INSTRUMENT_SOURCE}; give --noise to change it"
             if kind == "trajectory":
                 source = "no noise measurable in the samples; assumed, give --noise to change it"
             elif kind == "apexes":

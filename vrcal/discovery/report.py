@@ -108,7 +108,7 @@ def _param_values(d, name):
 
 def _noise_text(d):
     """What the gap is compared with, as a phrase: 'noise is 0.513 mm (measured from the samples)'."""
-    from vrcal.discovery.ranking import GRID_SOURCE, REPLICATE_SOURCE
+    from vrcal.discovery.ranking import GRID_SOURCE, INSTRUMENT_SOURCE, REPLICATE_SOURCE
 
     unit = d.unit
     src = "measured from the samples" if d.noise_source.startswith("third") else (
@@ -116,7 +116,8 @@ def _noise_text(d):
         ("measured: the scatter of repeated trials" + (", at least the heights' written step / sqrt(12)"
                                                        if d.noise_source != REPLICATE_SOURCE else ""))
         if d.noise_source.startswith(REPLICATE_SOURCE) else
-        "the grid the times were read on" if d.noise_source == GRID_SOURCE else "assumed")
+        "the grid the times were read on" if d.noise_source == GRID_SOURCE else
+        INSTRUMENT_SOURCE if d.noise_source.startswith(INSTRUMENT_SOURCE) else "assumed")
     grows = d.height_dependent_noise
     if grows is not None:
         src += (f"; it grows with the height, about {number(100 * grows['relative'], 2)} % of it, and the ± of "

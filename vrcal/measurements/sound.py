@@ -90,6 +90,11 @@ MAX_LISTED = 6           #: rejected events listed one by one in the notes
 WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
 PRE_ECHO_S = 6e-3        #: longest span a lossy codec smears an impact's noise before it (a 256-sample block) [s]
 PRE_ECHO_JUMP_DB = 6.0   #: the impact itself is this much louder than a lossy codec's pre-echo before it [dB]
+#: Timing noise of an onset found in a lossless recording (WAV, FLAC) [s]: synthetic drops with room noise, hum
+#: and a reflection are timed to 0.005-0.02 ms, so 0.05 ms holds a real microphone's spread too (the ball's
+#: distance to it changes by a few cm between bounces: 0.03 ms per cm). A lossy codec's onsets are worse
+#: (0.2-2 ms, by its bit rate) and keep the phone apps' assumed 0.2 ms.
+LOSSLESS_TIMING_SD_S = 5e-5
 #: Decoders of lossless audio (PyAV's codec names); every other codec PyAV decodes is taken as lossy.
 LOSSLESS_CODECS = ("pcm_", "flac", "alac", "wavpack", "tta", "ape", "mlp", "truehd", "shorten")
 AUDIO_BAND_HZ = 20000.0  #: highest frequency a microphone records (the noise band's top) [Hz]
@@ -887,7 +892,8 @@ def track_sound(path, *, progress=None):
     else:
         notes.insert(impacts_note, f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce "
                                    f"sequence {how}")
-    impacts = ImpactTimes(t_s=t_all, source=path, notes=tuple(notes), rejected=rejected, chains=chains)
+    impacts = ImpactTimes(t_s=t_all, source=path, notes=tuple(notes), rejected=rejected, chains=chains,
+                          instrument_sd_s=0.0 if lossy else LOSSLESS_TIMING_SD_S)
     if progress:
         progress(1.0, "done")
     return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what,

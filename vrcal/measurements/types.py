@@ -83,6 +83,11 @@ class ImpactTimes:
         standard deviation of each time that the file's own grid sets [s] (times read off a
         video's frames, or printed to 0.01 s: step / sqrt(12),
         :func:`vrcal.measurements.cleanup.time_grid`); 0 when the times have no coarse grid
+    instrument_sd_s : float
+        standard deviation of each time that the way it was taken sets [s], when the reader knows it and
+        the times alone cannot tell it: vrcal's own onsets in a lossless recording
+        (:data:`vrcal.measurements.sound.LOSSLESS_TIMING_SD_S`); 0 when unknown (a phone app's times:
+        ``vrcal.discovery.ranking.ASSUMED_NOISE``)
     """
 
     t_s: np.ndarray
@@ -94,6 +99,7 @@ class ImpactTimes:
     events: np.ndarray = None
     lines: np.ndarray = None
     timing_sd_s: float = 0.0
+    instrument_sd_s: float = 0.0
 
 
 @dataclass(frozen=True)
