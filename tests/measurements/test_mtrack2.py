@@ -154,6 +154,32 @@ def test_a_marble_on_paper_tracked_by_mtrack2_end_to_end(tmp_path):
     assert result["reader"]["format"] is None and "MTrack2" in result["notes"][0]
 
 
+def test_a_trackers_glitches_are_left_out_with_their_lines(tmp_path):
+    """MTrack2 jumps to another object for a frame or three (a real XS06 track at 30 mbar: 8-10 px while the
+    marble is held, one just after the release): a jump down after the release was taken for a first bounce
+    19 cm above the floor, and the fall was cut from the fit. The jumps are left out, with their lines, and
+    the record reads as the clean one."""
+    frames, rows, _ = marble_rows()
+    glitched = rows.copy()
+    glitched[7] += 10.0               # frame 8, held: down in the picture
+    glitched[11:14] += 9.0            # frames 12-14
+    glitched[23] += 8.0               # frame 24, just after the release at 0.1 s
+    results = []
+    for name, r in (("clean.csv", rows), ("glitched.csv", glitched)):
+        path = tmp_path / name
+        path.write_text(mtrack2_text(frames, r, ","))
+        out = CliRunner().invoke(main, ["discover", str(path), "--mass", "0.0054", "--diameter", "0.016", "--fs",
+                                        "200", "--scale", str(SCALE), "--surface", "soft", "-q", "--json", "-"])
+        assert out.exit_code == 0, out.output
+        results.append(json.loads(out.output))
+    clean, got = results
+    said = [n for n in got["notes"] if n.startswith("left out 5 sample(s) that jump off the smooth path")]
+    assert said and said[0].endswith("line 10, lines 14-16, line 26"), got["notes"]
+    assert got["effects"] == clean["effects"] == ["contact_duration"]
+    assert got["verdict"] == clean["verdict"] == "explained"     # 'unexplained' before
+    assert got["epsilon"] == pytest.approx(clean["epsilon"], abs=0.002)
+
+
 def test_an_infinite_frame_number_is_a_one_line_error(tmp_path):
     """'inf' as a frame number crashed with OverflowError (found by the fuzz test of every reader)."""
     p = tmp_path / "f.csv"

@@ -43,7 +43,8 @@ Conversions and clean-up
   ``pixels-ref``). No offset is added: the heights are relative to whatever origin
   the file uses (for an image, its top edge); the fitter's free offset absorbs it.
 * The still segment before release is detected (:func:`cleanup.detect_release_index`) and
-  kept; duplicated video frames are dropped (:func:`cleanup.find_duplicated_frames`).
+  kept; a tracker's glitches (:func:`cleanup.tracker_glitches`) and duplicated video frames
+  (:func:`cleanup.find_duplicated_frames`) are dropped.
 * Impact times are screened for missed impacts and echoes
   (:func:`cleanup.detect_impact_anomalies`); only the clean prefix is kept for fitting.
 

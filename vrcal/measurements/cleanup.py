@@ -438,6 +438,125 @@ def find_duplicated_frames(positions, release_index=0):
     return i[dup]
 
 
+#: A tracker's glitch: a run of at most this many samples off the smooth path of its neighbours
+#: (:func:`tracker_glitches`).
+GLITCH_MAX_RUN = 3
+#: ... the neighbours fitted on each side of the run.
+GLITCH_NEIGHBOURS = 4
+#: ... each sample of the run this many noise sigmas off the neighbours' quadratic, and this many times
+#: their own scatter about it (while that scatter stays within :data:`GLITCH_SMOOTH_SIGMAS` sigmas).
+GLITCH_SIGMAS = 10.0
+GLITCH_SMOOTH_SIGMAS = 3.0
+#: Passes over the record: each mends the glitches found, so that one among another's neighbours is found next.
+GLITCH_PASSES = 4
+
+
+def tracker_glitches(t, y, sigma=None):
+    """Samples a tracker put off the ball: runs of one to :data:`GLITCH_MAX_RUN` samples that leave the
+    smooth path of their neighbours and come back.
+
+    The :data:`GLITCH_NEIGHBOURS` samples on each side of a run are fitted with one quadratic in t
+    (a free flight, or the ball at rest); the run is a glitch when those neighbours lie on it within
+    :data:`GLITCH_SMOOTH_SIGMAS` noise sigmas and every sample of the run lies off it, on one side, by
+    :data:`GLITCH_SIGMAS` sigmas, as many times the neighbours' own scatter and two resolution steps.
+    A ball in flight or at rest cannot do that (it needs an acceleration far beyond g for a sample or
+    three); a contact can, below the path, and only there, at the floor: a run below the path is no
+    glitch unless its lowest sample lies above the floor (the record's lowest percentile of heights) by
+    twice its depth. Heights point up (as the readers give them).
+    Only runs whose neighbours are equally spaced in time are judged. The neighbours may hold one sample
+    off the quadratic (the one that fits worst is left out when that helps: two glitches close together
+    hide each other otherwise); each pass mends the glitches found with the quadratic, and the next looks
+    again (:data:`GLITCH_PASSES`). Longer runs are tried first (all their samples must be off).
+
+    Parameters
+    ----------
+    t : array_like
+        sample times [s], increasing
+    y : array_like
+        heights (any length unit; pixels work)
+    sigma : float or None
+        noise of one sample [unit of ``y``]; None: :func:`third_difference_sigma` (floored at the
+        resolution step / sqrt(12))
+
+    Returns
+    -------
+    list of (int, int, float)
+        ``(start, stop, offset)``: index ranges of the glitches (stop exclusive), in order, and the
+        largest distance of a sample of each from its neighbours' path [unit of ``y``]
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    k = GLITCH_NEIGHBOURS
+    n = y.size
+    if n < 2 * k + 1:
+        return []
+    steps = np.abs(np.diff(y))
+    steps = steps[steps > 0]
+    quantum = float(steps.min()) if steps.size else 0.0
+    if sigma is None:
+        sigma = third_difference_sigma(t, y) or 0.0
+    sigma = max(float(sigma), quantum / math.sqrt(12.0))
+    if not sigma > 0:
+        return []
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    even = np.abs(dt - step) <= 0.01 * step
+    taken = np.zeros(n, dtype=bool)
+    found = []
+    work = y.copy()
+    floor = float(np.percentile(y, 1.0))   # the contacts' level (heights up)
+    for _ in range(GLITCH_PASSES):      # a glitch among another's neighbours is found once that one is mended
+        new = 0
+        for run in range(GLITCH_MAX_RUN, 0, -1):    # all of a longer run must be off: it goes first
+            width = 2 * k + run
+            if n < width:
+                break
+            offsets = np.r_[np.arange(-k, 0), np.arange(run, run + k)].astype(float)
+            windows = np.lib.stride_tricks.sliding_window_view(work, width)  # windows[i] = work[i:i + width]
+            around = np.concatenate([windows[:, :k], windows[:, k + run:]], axis=1)
+            # the quadratic through all neighbours, or through all but the one that fits worst (a glitch
+            # among them, found in the next pass once this one is mended)
+            scatter, predicted = None, None
+            for drop in range(-1, 2 * k):
+                use = np.arange(2 * k) != drop
+                design = np.vander(offsets[use], 3)
+                fit = np.linalg.pinv(design)            # quadratic coefficients from the neighbours used
+                resid = around[:, use] - around[:, use] @ (design @ fit).T
+                s_j = np.sqrt(np.sum(resid ** 2, axis=1) / (int(use.sum()) - 3))
+                p_j = around[:, use] @ (np.vander(np.arange(run, dtype=float), 3) @ fit).T   # the run predicted
+                if scatter is None:
+                    scatter, predicted = s_j, p_j
+                else:
+                    better = s_j < scatter
+                    scatter, predicted = np.where(better, s_j, scatter), np.where(better[:, None], p_j, predicted)
+            off = windows[:, k:k + run] - predicted
+            size = np.min(np.abs(off), axis=1)
+            one_side = np.all(np.sign(off) == np.sign(off[:, :1]), axis=1)
+            regular = np.all(np.lib.stride_tricks.sliding_window_view(even, width - 1), axis=1)
+            # below the path is where a contact takes the ball: there only a run clear of the floor by more
+            # than its depth is no contact
+            lowest = np.min(windows[:, k:k + run], axis=1)
+            contact = (off[:, 0] < 0) & (lowest - floor < 2.0 * size)
+            hit = (regular & one_side & ~contact & (scatter <= GLITCH_SMOOTH_SIGMAS * sigma)
+                   & (size >= GLITCH_SIGMAS * sigma) & (size >= GLITCH_SIGMAS * scatter) & (size >= 2.0 * quantum))
+            for i in np.flatnonzero(hit):
+                a, b = int(i) + k, int(i) + k + run
+                if not taken[a:b].any():
+                    taken[a:b] = True
+                    work[a:b] = predicted[i]      # mended, for the runs near it in the next pass
+                    found.append((a, b, float(np.max(np.abs(off[i])))))
+                    new += 1
+        if not new:
+            break
+    runs = []
+    for a, b, size in sorted(found):      # a glitch found in two pieces is one
+        if runs and a <= runs[-1][1]:
+            runs[-1] = (runs[-1][0], max(b, runs[-1][1]), max(size, runs[-1][2]))
+        else:
+            runs.append((a, b, size))
+    return runs
+
+
 def third_difference_sigma(t, y):
     """Robust noise σ of one sample of a near-parabolic series (a trajectory's heights [m], a
     video's image rows [px]; the unit of ``y``), from its third differences, which vanish on a

@@ -25,6 +25,7 @@ from vrcal.measurements.cleanup import (
     find_duplicated_frames,
     regular_frame_times,
     toss_top_index,
+    tracker_glitches,
 )
 from vrcal.measurements.table import (
     FRAME_NAMES,
@@ -113,6 +114,14 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
         keep = ~same_row
         t_s, y_m, line_numbers, pos = t_s[keep], y_m[keep], line_numbers[keep], pos[keep]
     check_increasing(path, t_s, line_numbers, "time")
+    # a frame that repeats the one before is a duplicated frame (below), not a tracker's glitch
+    glitches = [g for g in tracker_glitches(t_s, y_m) if not np.all(pos[g[0]:g[1]] == pos[g[0] - 1])]
+    if glitches:
+        keep = np.ones(t_s.size, dtype=bool)
+        for a, b, _ in glitches:
+            keep[a:b] = False
+        notes.append(glitch_note(line_numbers, glitches))
+        t_s, y_m, line_numbers, pos = t_s[keep], y_m[keep], line_numbers[keep], pos[keep]
     release = detect_release_index(y_m)
     top = toss_top_index(t_s, y_m, release) if release > 0 else None
     if top is not None:
@@ -138,6 +147,19 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
     notes.append(release_note(t_s, line_numbers, release))
     return Trajectory(t_s=t_s, y_m=y_m, source=path, notes=tuple(notes), release_index=int(release),
                       lines=np.asarray(line_numbers, dtype=int))
+
+
+def glitch_note(line_numbers, glitches):
+    """The note on the samples :func:`~vrcal.measurements.cleanup.tracker_glitches` found, naming the file's
+    lines and how far the largest lay off its neighbours' path."""
+    where = [f"line {int(line_numbers[a])}" if b - a == 1 else
+             f"lines {int(line_numbers[a])}-{int(line_numbers[b - 1])}" for a, b, _ in glitches]
+    shown = ", ".join(where[:8]) + (f" and {len(where) - 8} more" if len(where) > 8 else "")
+    n = sum(b - a for a, b, _ in glitches)
+    jump = max(size for _, _, size in glitches)
+    return (f"left out {n} sample(s) that jump off the smooth path of their neighbours and back, up to "
+            f"{jump * 1e3:.3g} mm, as no ball in flight or at rest can (a tracker's glitch: another object, a "
+            f"reflection, a blurred frame): {shown}")
 
 
 def release_note(t_s, line_numbers, release):
