@@ -71,6 +71,15 @@ def test_discover_judges_a_wav_at_the_timing_of_its_onsets_not_a_phone_apps(tmp_
     assert read_measurement(path).instrument_sd_s == LOSSLESS_TIMING_SD_S
     d = discover_file(str(path), "tennis")
     assert d.noise_floor == LOSSLESS_TIMING_SD_S and d.noise_source.startswith(INSTRUMENT_SOURCE)
+    # vrcal track's file of it says so, and discover reads it from there alike
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+
+    tracked = tmp_path / "impacts.csv"
+    assert CliRunner().invoke(main, ["track", str(path), "-o", str(tracked)]).exit_code == 0
+    assert "# vrcal instrument_sd_s = 5e-05\n" in tracked.read_text()
+    assert read_measurement(tracked).instrument_sd_s == LOSSLESS_TIMING_SD_S
     # the times as a phone app would write them are judged at its 0.2 ms
     table = tmp_path / "drop.csv"
     table.write_text("t (s)\n" + "\n".join(f"{x:.6f}" for x in read_measurement(path).t_s) + "\n")

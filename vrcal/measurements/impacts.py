@@ -14,6 +14,7 @@ of raw sound can call too).
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -35,6 +36,7 @@ from vrcal.measurements.table import (
     fail,
     find_column,
     header_columns,
+    meta_number,
     numeric_width,
     parse_table,
     repeated_columns,
@@ -134,7 +136,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     t, line_numbers, printed_s = _times(path, table, col)
     if col.unit not in ("", "s", "sec"):
         notes.append(f"impact times converted from {col.unit} to s")
-    return impact_times_from_events(path, t, line_numbers, notes, printed_s=printed_s)
+    found = impact_times_from_events(path, t, line_numbers, notes, printed_s=printed_s)
+    # vrcal track's file of a lossless recording says how well its onsets are timed
+    instrument = meta_number(text, "instrument_sd_s", 0.1, "a time in s")
+    return dataclasses.replace(found, instrument_sd_s=instrument) if instrument else found
 
 
 def _times(path, table, col, allow_empty=False):

@@ -109,6 +109,8 @@ def impacts_text(st):
     m = st.impacts
     rows = [f"{t:.6f},{lv:.1f}" for t, lv in zip(m.t_s, st.snr_db)]
     head = _comments(f"vrcal track: impact times from {m.source} (level = peak over the noise)", m.notes)
+    if m.instrument_sd_s:   # how well the onsets are timed, for the reader of this file (table.meta_number)
+        head += f"# vrcal instrument_sd_s = {m.instrument_sd_s:.4g}\n"
     return head + "t (s),level (dB)\n" + "\n".join(rows) + "\n"
 
 

@@ -208,12 +208,19 @@ def empty_rows_notes(numbers, lines):
 def meta_length(text, key, limit_m=1.0):
     """A length [m] from a ``# vrcal KEY = VALUE`` comment of ``text`` (0 when absent); a value that is
     not a number in [0, ``limit_m``] is an error naming its line."""
+    return meta_number(text, key, limit_m, "a length in m")
+
+
+def meta_number(text, key, limit, what):
+    """A number from a ``# vrcal KEY = VALUE`` comment of ``text`` (vrcal's own writers put the uncertainties
+    of what they tracked there), 0 when absent; one that is not in [0, ``limit``] is an error naming its line
+    and ``what`` it should be ('a time in s')."""
     if key not in text.meta:
         return 0.0
     line, raw = text.meta[key]
     value = to_float(raw, False)
-    if value is None or not (0.0 <= value <= limit_m):
-        fail(text.path, line, f"'{key} = {raw}': give a length in m between 0 and {limit_m:g}")
+    if value is None or not (0.0 <= value <= limit):
+        fail(text.path, line, f"'{key} = {raw}': give {what} between 0 and {limit:g}")
     return float(value)
 
 
