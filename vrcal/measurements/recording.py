@@ -118,7 +118,7 @@ def trajectory_text(vt):
     """The ``trajectory`` layout of a video track: ``t (s),y (m),x (m),quality``, notes as comments."""
     m = vt.trajectory
     frames = np.flatnonzero(vt.kept)
-    # the trajectory keeps the kept frames in order (finish_trajectory removes no frame of a video track)
+    # the trajectory holds the kept frames in order (the track's `kept` follows what finish_trajectory left out)
     q = vt.quality[frames] if frames.size == m.t_s.size else np.full(m.t_s.size, np.nan)
     x = (vt.col_px[frames] - vt.col_px[frames][0]) * vt.scale_m_per_px if frames.size == m.t_s.size else \
         np.zeros(m.t_s.size)

@@ -1061,6 +1061,9 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
+    if traj.t_s.size < sel.size:        # frames it left out (a glitch of the tracker): no longer kept
+        kept[:] = False
+        kept[np.asarray(traj.lines) - 1] = True
     # what the tracker knows of its own errors: the centres' systematic error, and the floor (the contact
     # row of the bounce fit) uncertain by its standard error and that systematic error
     floor_sd_px = (math.hypot(fit.contact_row_sd_px, CENTRE_SYSTEMATIC_PX) if fit is not None and fit.n_flights >= 2
