@@ -238,3 +238,39 @@ def test_what_more_data_to_take_fits_the_data_kind(tmp_path, rows, advice):
     """A drop table was told 'a third apex, or drops from several heights (a drop table) would'."""
     said = answer(discover(_table(tmp_path, rows), TENNIS))
     assert advice in said and "third apex" not in said
+
+
+#: A student's drop table of a table-tennis ball (a probe's file: 5 heights x 3 trials, semicolons, decimal
+#: commas, rebounds read by eye to 0.5 cm), rebuilt here.
+STUDENT_TABLE = ("Versuch;Drop height (cm);Rebound height (cm)\n"
+                 + "".join(f"{trial};{H},0;{h}\n".replace(".", ",") for H, rebounds in
+                           [(20, (14.5, 15.0, 15.0)), (40, (27.5, 28.0, 27.5)), (60, (39.5, 40.0, 38.5)),
+                            (80, (49.0, 49.0, 48.0)), (100, (58.5, 57.5, 57.5))]
+                           for trial, h in enumerate(rebounds, 1)))
+
+
+def test_a_drop_tables_speeds_are_the_recommended_models_and_its_rows_are_named_rows(tmp_path):
+    """The student's table named drag, with a speed law ambiguous: the advice quoted the split's epsilon 'at
+    4.08 m/s', its fastest impact (C_d 0.61), while 'impact speeds covered: 1.93 to 4.01 m/s' and the JSON's
+    range were drag alone's (C_d 0.745); and the drag-free line said 'the nearest misses the first two' of
+    rows that hold one rebound each. One model's speeds now, the split's, whose epsilon is the one to use."""
+    from vrcal.measurements import read_measurement
+
+    path = tmp_path / "rebounds_student.csv"
+    path.write_text(STUDENT_TABLE, encoding="utf-8")
+    d = discover(read_measurement(path), BallProperties.from_ball(get_ball("table_tennis")))
+    assert d.split is not None and list(d.effects) == ["air_drag"]
+    lo, hi = d.speed_range(d.split)
+    assert d.speed_range() == (lo, hi) and d.speed_range(d.final)[1] < hi - 0.03   # drag alone: slower
+    text = " ".join(fit_report(d).split())
+    assert f"at {hi:.2f} m/s, " in text and f"at {lo:.2f} m/s: the most probable value" in text
+    assert f"impact speeds covered: {lo:.2f} to {hi:.2f} m/s (in the most probable model" in text
+    assert f"speeds covered ({lo:.2f}-{hi:.2f} m/s" in text
+    found = {float(v) for v in re.findall(r"(\d\.\d\d)(?:-\d\.\d\d)? m/s", text)} | \
+        {float(v) for v in re.findall(r"\((\d\.\d\d)-", text)}
+    assert found == {round(lo, 2), round(hi, 2)}, found      # no other model's speed in the report
+    assert d.as_dict()["impact_speed_range_m_per_s"] == [lo, hi]
+    eff = d.effective_without_drag
+    assert eff["epsilon"] is None and eff["of"] == 1
+    assert (f"the nearest misses the rebound heights of the 15 rows by up to {100 * eff['misfit']:.1f} %"
+            in text) and "the first two" not in text

@@ -45,7 +45,7 @@ def test_gazebo_refuses_a_time_step_too_large_for_odes_bounce():
     """Measured in libode (the engine behind Gazebo): football, epsilon 0.5, at 2 ms misses
     (error 0.0103 measured); at 1 ms it meets (0.0067), which the step bound alone refused."""
     require_engine("ode")
-    with pytest.raises(UsageError, match=r"^ODE at --dt 0\.002 s misses \(4 phases.*error 0\.01"):
+    with pytest.raises(UsageError, match=r"^ODE at --dt 0\.002 s misses \(16 phases.*error 0\.01"):
         export("football", "gazebo", epsilon=0.5, dt_s=2e-3)
     assert "checked in ODE" in export("football", "gazebo", epsilon=0.5, dt_s=1e-3).text
 

@@ -108,8 +108,8 @@ def test_a_step_too_large_is_refused_naming_a_step_that_works():
     """Table tennis dropped 2.6 m at 2 ms: the ball would turn 6 mm from the floor (limit R/4 = 5 mm)."""
     require_engine("mujoco")
     options = dict(mass_kg=0.0027, diameter_m=0.04, epsilon=0.86, drop_height_m=2.6)
-    with pytest.raises(UsageError, match=r"misses: the ball turns .* mm from the floor .* --dt ([0-9.e-]+) meets") \
-            as info:
+    refusal = r"misses \(16 phases x 3 bounces\): .*the ball turns .* mm from the floor .* --dt ([0-9.e-]+) meets"
+    with pytest.raises(UsageError, match=refusal) as info:
         export(None, "mujoco", **options)
     dt_ok = float(re.search(r"--dt ([0-9.e-]+) meets", str(info.value)).group(1))
     assert 1e-4 <= dt_ok < 0.002
@@ -466,7 +466,9 @@ def test_the_tolerance_named_to_keep_the_step_passes_when_given(ball):
 def test_a_refusal_and_the_trade_off_give_one_depth_and_one_step():
     """A superball (25 g, 35 mm, epsilon 0.9995) from 1 m at 10 ms: the refusal said the ball 'turns 18.2 mm'
     and then 'sinks 20 mm' (the depth with the 10 % margin, printed as a measurement), and named --dt 0.0019
-    where --trade-off named 0.002: one measured depth, and the step the table names."""
+    where --trade-off named 0.002: one measured depth, and the step the table names. The depth is the table's
+    contact at that step run over the 16 phases an export confirms with (the table's row has 4: 18.2 mm, the
+    refusal 21.7 mm), the phases the limits a refusal offers are confirmed over."""
     require_engine("mujoco")
     from vrcal.engines.export import _next_step, trade_off
 
@@ -478,7 +480,10 @@ def test_a_refusal_and_the_trade_off_give_one_depth_and_one_step():
     assert len(depths) == 1 and "sinks" not in message
     setup, rows = trade_off(None, "mujoco", **ball)
     own = next(r for r in rows if r["dt_s"] == 0.01 and r["contact"] == "damper")
-    assert f"{max(own['penetration_m'], own['hover_m']) * 1e3:.3g}" in depths
+    assert "misses (16 phases x 3 bounces)" in message
+    wide = M.widened(M.calibrate(setup, kind="damper"), 4)
+    assert wide.contact.damping == own["damping_per_s"] and wide.runs.apex_ratios.shape[0] == 16
+    assert f"{wide.depth_m * 1e3:.3g}" in depths and wide.depth_m >= max(own["penetration_m"], own["hover_m"])
     named = re.search(r"--dt ([0-9.e-]+) meets both", message).group(1)
     assert f"--dt {named}\n" in _next_step(setup, rows)
 
@@ -494,3 +499,46 @@ def test_a_tiny_worst_error_is_printed_with_significant_digits():
     shown = error_text(ex.data["worst_error"])
     assert ex.data["worst_error"] < 1e-3 and shown != "0.0000"
     assert f"worst eps error {shown}," in ex.summary and f"worst eps error {shown}, median" in ex.text
+
+
+#: A probe's discover result (vac.json) of a marble on a paper stack in a vacuum chamber, rebuilt here: the
+#: fit of its MTrack2 track restarts at the apex of line 109 after a bounce left out, 28 mm up, where the
+#: record's own release was about 19 cm up.
+MARBLE = {"schema_version": 2, "ball": {"name": "ball", "mass_kg": 0.0054, "diameter_m": 0.016, "surface": "soft"},
+          "g_m_per_s2": 9.80665, "epsilon": 0.47083129807197777, "effects": ["contact_duration"],
+          "parameters": {"contact_duration": {"contact_time_s": 0.00804637783894217}},
+          "model": {"drop_height_m": 0.027846255749622222, "epsilon": 0.47083129807197777,
+                    "release_time_s": 0.5337272148753403},
+          "floor_level_m": 0.0009879517194200961, "epsilon_effective_without_drag": 0.4708312980719778,
+          "runs": [{"kind": "trajectory", "label": "line 109 to line 149", "n": 41, "source": "22-7.csv",
+                    "release": {"drop_height_m": 0.027846255749622222, "release_time_s": 0.5337272148753403}}],
+          "impact_speed_range_m_per_s": [0.16382847486937732, 0.739024335116284]}
+
+
+def test_a_refusals_worst_error_is_the_one_its_tolerance_covers(tmp_path):
+    """The marble at 2 ms, two bounces: the refusal said 'worst epsilon error 0.0332 (tolerance 0.01)', over the
+    search's 4 phases, and offered '--tolerance 0.059', which the same contact needs over the 16 phases a pass
+    is confirmed over (0.0532). The miss is reported over those phases now; and the drop the first attempt
+    (three bounces) refused is said to come from the fit's release."""
+    import json
+
+    require_engine("mujoco")
+    path = tmp_path / "vac.json"
+    path.write_text(json.dumps(MARBLE))
+    result = CliRunner().invoke(main, ["export", "--from", str(path), "--engine", "mujoco", "-o",
+                                       str(tmp_path / "a.xml")])
+    assert result.exit_code == 2
+    assert (f"bounce 3 of this drop from 0.02785 m (the release of the fit in {path}, line 109 to line 149) "
+            f"rises only 0.3 mm") in " ".join(result.output.split())
+    result = CliRunner().invoke(main, ["export", "--from", str(path), "--engine", "mujoco", "--bounces", "2",
+                                       "-o", str(tmp_path / "b.xml")])
+    assert result.exit_code == 2
+    message = " ".join(result.output.split())
+    worst = float(re.search(r"worst epsilon error ([0-9.]+) \(tolerance 0\.01\)", message).group(1))
+    tol = float(re.search(r"accept what it achieves: --tolerance ([0-9.]+)", message).group(1))
+    assert worst > 0.05      # 0.0332 over 4 phases
+    # the tolerance offered is the miss reported with the 10 % margin a looser calibration needs, rounded up
+    # to two digits, or the message says why it asks more
+    assert worst < tol <= math.ceil(1.1 * worst * 1e3) / 1e3 or "picks another contact" in message
+    ex = export(None, "mujoco", from_json=str(path), n_bounces=2, tolerance=tol)
+    assert ex.data["worst_error"] <= tol

@@ -69,7 +69,7 @@ def test_a_refusal_gives_the_measured_miss_and_a_step_that_passes(engine, dt):
         export(None, engine, dt_s=dt, **OWN)
     message = str(info.value)
     label = "ODE" if engine == "ode" else "bullet"
-    assert message.startswith(f"{label} at --dt {dt:g} s misses (4 phases") and len(message.splitlines()) == 1
+    assert message.startswith(f"{label} at --dt {dt:g} s misses (16 phases") and len(message.splitlines()) == 1
     numbers = [float(x) for x in re.findall(r"turns ([0-9.]+) mm from the floor \(limit", message)] + \
         [float(x) for x in re.findall(r"worst epsilon error ([0-9.e-]+) \(tolerance", message)]
     assert numbers                                                     # a measured miss is named

@@ -70,11 +70,15 @@ def pm(value, unc, unit=""):
     return f"{v:.{digits}f} ± {u:.{digits}f}{tail}"
 
 
-def _law_values(d, speeds):
+def _law_values(d, speeds, fit=None):
     """A speed law's ε at these speeds [m/s] as the report lists them: each with its ± (:meth:`Discovery.
     epsilon_at_uncertainty`, :func:`pm`). Four bare decimals for a trajectory the law does not reproduce put
-    "0.8504 at 0.99 m/s" beside a ± of 0.02 (the truth 0.820)."""
-    eps, unc = d.epsilon_at(speeds), d.epsilon_at_uncertainty(speeds)
+    "0.8504 at 0.99 m/s" beside a ± of 0.02 (the truth 0.820). ``fit``: another model's law than the final
+    model's (the prior split: its ε at each speed with its ±, as :func:`_split_advice` gives them)."""
+    if fit is None or fit is d.final:
+        eps, unc = d.epsilon_at(speeds), d.epsilon_at_uncertainty(speeds)
+    else:
+        eps, unc = d.epsilon_at(speeds, fit=fit), np.full(len(speeds), d.recommended_epsilon_uncertainty)
     return [f"{pm(e, u)} at {v:.2f} m/s" for v, e, u in zip(speeds, eps, unc)]
 
 
@@ -296,7 +300,7 @@ def engine_advice(discovery):
     named = ", ".join(p for n in d.effects for p in _param_values(d, n))
     alone = f"with {_effects_phrase(d.effects)} alone ({named}): "
     if "velocity_dependent_restitution" in d.effects:
-        lo, hi = d.speed_range()
+        lo, hi = d.speed_range(f)     # the named model's own speeds, beside its own law
         fast, slow = _law_values(d, [hi, lo])
         out.append(f"{lead}{alone if split else ''}epsilon depends on the impact speed: {fast}, {slow} (the speeds "
                    f"of this record){'.' if split else ';'}")
@@ -345,14 +349,29 @@ def _without_drag_line(d):
     n, of = eff["bounces"], eff["of"]
     if eff["epsilon"] is None:
         return (f"no constant epsilon reproduces the bounce heights in an engine without drag: the nearest misses "
-                f"the first two by {100 * eff['misfit']:.1f} % (more than {goal}); use one that applies the drag.")
-    which = (f"all {of} bounce heights" if n == of and n > 1 else "the bounce height" if of == 1
-             else f"the first {n} bounce heights")
-    text = (f"an engine without drag reproduces {which} within {100 * eff['misfit']:.1f} % with the effective "
-            f"epsilon = {eff['epsilon']:.4f} (the constant nearest the model's apexes)")
+                f"{_heights_of(d, min(2, of), of)} by up to {100 * eff['misfit']:.1f} % (more than {goal}); use one "
+                f"that applies the drag.")
+    text = (f"an engine without drag reproduces {_heights_of(d, n, of)} within {100 * eff['misfit']:.1f} % with the "
+            f"effective epsilon = {eff['epsilon']:.4f} (the constant nearest the model's apexes)")
     if n < of:
         text += f"; no constant reproduces all {of} within {goal}"
     return text + "."
+
+
+def _heights_of(d, n, of):
+    """The first ``n`` of the ``of`` bounce heights per run, as the report names them: 'the first 2 bounce
+    heights', 'all 5 bounce heights', 'both bounce heights', 'the bounce height', with 'of the 3 drops' after
+    them for several runs; the rows of a drop table, one rebound each, are 'the rebound heights of the 15
+    rows' (a table whose every row held one rebound was told 'the nearest misses the first two')."""
+    runs = len(d.runs)
+    if of == 1:
+        if runs == 1:
+            return "the bounce height"
+        rows = bool(d.labels) and all(str(label).startswith("row ") for label in d.labels)
+        return f"the rebound heights of the {runs} {'rows' if rows else 'drops'}"
+    which = ("both bounce heights" if n == of == 2 else f"all {of} bounce heights" if n == of
+             else f"the first {n} bounce heights")
+    return which + (f" of the {runs} drops" if runs > 1 else "")
 
 
 def _systematic_lines(d, sigma):
@@ -494,11 +513,12 @@ PAIR = frozenset(DRAG_OR_SPEED_LAW)
 
 
 def _speed_lines(d):
-    lo, hi = d.speed_range()
-    lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s"]
+    lo, hi = d.speed_range()      # the recommended model's, whose epsilon the advice quotes at them
+    whose = " (in the most probable model, whose epsilon to use)" if d.split is not None else ""
+    lines = [f"  impact speeds covered: {lo:.2f} to {hi:.2f} m/s{whose}"]
     if "velocity_dependent_restitution" in d.effects:
         speeds = np.linspace(lo, hi, 4)
-        lines.append(_wrap("epsilon(v): " + ", ".join(_law_values(d, speeds)), "  "))
+        lines.append(_wrap("epsilon(v): " + ", ".join(_law_values(d, speeds, d.recommended)), "  "))
     if d.speeds_too_narrow:
         more = ("drops from a wider range of heights (the highest separate them best)" if len(d.runs) > 1
                 else "drops from other heights (several files, or a drop table)")

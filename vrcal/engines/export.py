@@ -212,6 +212,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     notes = []
     g = body.gravity_m_per_s2(g_m_per_s2)
     drag = exponent = release = offset = 0.0
+    whence = None      # where a drop height no option gave comes from (a refusal names it)
     baseline = None
     if doc:
         base = doc.get("baseline") if isinstance(doc.get("baseline"), dict) else {}
@@ -269,8 +270,10 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     elif record is not None:
         H = record.highest_m                        # the fastest impacts; bounces reach down to the slowest
         release = record.release_time_s
+        whence = f"the highest drop of {from_json}"
     elif body.drop_height_m is not None:
         H = body.drop_height_m
+        whence = _fitted_release(doc, from_json) if doc else "the standard's drop test"
     elif eng.name == "tables":
         H = None                                   # a material value needs no speeds
     else:
@@ -304,8 +307,17 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     elif record is not None:
         setup = record.cover(setup, n_bounces)
     if H is not None:
-        _check_bounces_reachable(setup)
+        _check_bounces_reachable(setup, whence)
     return replace(setup, notes=setup.notes + tuple(air_left_out(setup, doc)))
+
+
+def _fitted_release(doc, from_json):
+    """Where a discover result's drop height comes from, for a refusal: the release its fit starts from, with
+    the lines of the record the fit holds (a trajectory's fit restarts at an apex after a bounce left out: a
+    marble's 31 mm there, where the record's own release was 19 cm up)."""
+    runs = doc.get("runs") if isinstance(doc.get("runs"), list) else []
+    label = runs[0].get("label") if len(runs) == 1 and isinstance(runs[0], dict) else None
+    return f"the release of the fit in {from_json}" + (f", {label}" if isinstance(label, str) and label else "")
 
 
 #: How the notes start that say what of the ball's air no exported engine applies (:func:`air_left_out`):
@@ -507,9 +519,10 @@ def _positive(value, most):
         and 0 < value <= most
 
 
-def _check_bounces_reachable(setup):
+def _check_bounces_reachable(setup, whence=None):
     """Refuse a drop whose last bounce is too slow to measure (below 1 mm of rebound), naming
-    ``--bounces`` with the most bounces that do rise that far."""
+    ``--bounces`` with the most bounces that do rise that far; ``whence``: where a drop height no option
+    gave came from (a discover result's fit, a standard), which the refusal names beside it."""
     try:
         apex = setup.model.apex_heights_m[0]
     except UsageError as exc:
@@ -526,7 +539,8 @@ def _check_bounces_reachable(setup):
             if not rising:
                 fewer = "a floor of a larger epsilon (a smaller --K, or a virtual body of a shorter contact)"
         rise = f"only {apex[-1] * 1e3:.2g} mm" if apex[-1] > 0 else "not at all"
-        raise UsageError(f"bounce {setup.n_bounces} of this drop rises {rise} (a bounce must rise "
+        drop = f" from {setup.drop_height_m:.4g} m ({whence})" if whence else ""
+        raise UsageError(f"bounce {setup.n_bounces} of this drop{drop} rises {rise} (a bounce must rise "
                          f"{RISE_M * 1e3:g} mm{cause}): ask for {fewer}")
 
 
@@ -760,6 +774,10 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
                          f"{exc}; {step_that_works()}; see --trade-off") from None
     if cal.ok:
         return cal
+    try:                                 # reported over the phases the limits offered below are confirmed over
+        cal = M.widened(cal, n_phases)
+    except StillBouncing:
+        pass
     misses = []
     if not cal.meets_tolerance:
         misses.append(f"worst epsilon error {_above(cal.worst_error, setup.tolerance)} (tolerance {setup.tolerance:g})")
@@ -770,7 +788,8 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
     keep = "" if cal.runs.gain is not None else _mujoco_keep(setup, cal, kind, w, n_phases)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
-                     f"misses: {'; '.join(misses)}; {step_that_works()}" + (f"; {keep}" if keep else "")
+                     f"misses ({_phases(cal.runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}; "
+                     f"{step_that_works()}" + (f"; {keep}" if keep else "")
                      + "; see --trade-off")
 
 
@@ -796,6 +815,9 @@ def _mujoco_keep(setup, cal, kind, w, n_phases, tries=3):
         except (StillBouncing, DataError, UsageError):
             return ""
         if trial.ok:
+            if worst > cal.worst_error or depth > cal.depth_m:   # widened: say why it asks more than it missed by
+                keep += (f" (at limits that loose MuJoCo's calibration picks another contact: worst epsilon error "
+                         f"{trial.worst_error:.3g}, {trial.depth_m * 1e3:.3g} mm)")
             return keep
         if trial.runs.gain is not None:
             return ""
@@ -1012,20 +1034,21 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     if isinstance(runs, DropRuns):
         wide = runs if _phases(runs) >= CONFIRM_PHASES else _run_in_engine(setup, engine, setup.dt_s, CONFIRM_PHASES)
         wide = wide if isinstance(wide, DropRuns) else runs      # over as many phases as an export confirms with
-        gains = runs.gain is not None or wide.gain is not None        # no tolerance accepts a gain
-        keep = "" if gains else keep_step(setup, max(wide.worst_error, runs.worst_error),
-                                          max(_depth(wide), _depth(runs)))
+        # the misses are reported over those phases (they hold the search's), the ones the limits offered cover:
+        # '4 phases: 17.9 mm' offered '--max-penetration 0.021', which the ball needs over 16
+        worst, depth = max(wide.worst_error, runs.worst_error), max(_depth(wide), _depth(runs))
+        gained = runs if runs.gain is not None else wide if wide.gain is not None else None
+        keep = "" if gained else keep_step(setup, worst, depth)       # no tolerance accepts a gain
         misses = []
-        if runs.worst_error > setup.tolerance:
-            misses.append(f"worst epsilon error {_above(runs.worst_error, setup.tolerance)} "
-                          f"(tolerance {setup.tolerance:g})")
-        if runs.gain is not None:
-            misses.append(f"{runs.gain_text()}, whatever the tolerance")
-        if _depth(runs) > setup.penetration_limit_m:
-            depth_mm = _above(_depth(runs) * 1e3, setup.penetration_limit_m * 1e3)
+        if worst > setup.tolerance:
+            misses.append(f"worst epsilon error {_above(worst, setup.tolerance)} (tolerance {setup.tolerance:g})")
+        if gained is not None:
+            misses.append(f"{gained.gain_text()}, whatever the tolerance")
+        if depth > setup.penetration_limit_m:
+            depth_mm = _above(depth * 1e3, setup.penetration_limit_m * 1e3)
             misses.append(f"the ball turns {depth_mm} mm from the floor "
                           f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
-        what = f"{_phases(runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
+        what = f"{_phases(wide)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
                     setup.penetration_limit_m / max(_depth(runs), 1e-12))
         if runs.gain is not None:        # the gain above the target grows with the step (g dt / v): below 1 again

@@ -829,11 +829,11 @@ def calibrate(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
     return _confirmed(best, n_phases)
 
 
-def _confirmed(cal, n_phases):
-    """A calibration that meets both limits at ``n_phases``, run again with :data:`CONFIRM_PHASES`
-    contact phases (when more, and within the run limit): those runs are the ones it reports and
-    is judged by (4 phases under-sample a slow last bounce: a 200 g, 70 mm ball of epsilon 0.45
-    from 0.5 m at 0.7 ms, 0.0047 with 4 phases, 0.0119 with 16 and with 64)."""
+def _confirmed(cal, n_phases, passed=None):
+    """A calibration that meets both limits at ``n_phases`` (or ``passed`` says it is run regardless),
+    run again with :data:`CONFIRM_PHASES` contact phases (when more, and within the run limit): those
+    runs are the ones it reports and is judged by (4 phases under-sample a slow last bounce: a 200 g,
+    70 mm ball of epsilon 0.45 from 0.5 m at 0.7 ms, 0.0047 with 4 phases, 0.0119 with 16 and with 64)."""
     setup = cal.setup
 
     def rerun(phases):
@@ -843,7 +843,16 @@ def _confirmed(cal, n_phases):
         runs = drop_test(model, setup, setup.n_bounces, phases, at_least=at_least)
         return replace(cal, runs=runs, evaluations=cal.evaluations + 1)
 
-    return confirmed(cal, cal.ok, setup, n_phases, "MuJoCo", MAX_STEPS, rerun)
+    return confirmed(cal, cal.ok if passed is None else passed, setup, n_phases, "MuJoCo", MAX_STEPS, rerun)
+
+
+def widened(cal, n_phases):
+    """A calibration that missed, its contact run over :data:`CONFIRM_PHASES` contact phases as a pass
+    would be confirmed (within the run limit; else as it is): what a refusal reports, the misses the
+    limits it offers instead are confirmed against. A probe's marble at 2 ms was told 'worst epsilon
+    error 0.0332' (4 phases) and offered '--tolerance 0.059', which the same contact needs over 16
+    phases (0.0532)."""
+    return _confirmed(cal, n_phases, passed=True)
 
 
 def _calibrate_at(setup, n_phases, kind, w, margin):
