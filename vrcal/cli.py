@@ -18,6 +18,7 @@ import click
 
 from vrcal import __version__
 from vrcal import options as opt
+from vrcal.engines import default_steps_text
 from vrcal.errors import VrcalError
 
 # --------------------------------------------------------------------------- the group
@@ -827,7 +828,7 @@ def _engine_options(f):
                           "height that gives HI and bounces down to LO; one value: the first impact's speed."),
         g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
-                     help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
+                     help=f"Engine time step [s] (default: the engine's: {default_steps_text()})."),
         click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
                                                        case_sensitive=False), default=None,
                      help="MuJoCo's integrator [default: euler, MuJoCo's own]."),

@@ -989,8 +989,11 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     bound, depth = step_bound(setup, engine)
     within = bound <= setup.tolerance and depth <= setup.penetration_limit_m
     run_in = runtime(engine)
-    # refusals name ODE by its label, PyBullet by its registry name (as docs/engines/bullet.md shows)
+    # refusals name ODE by its label, PyBullet by its registry name (as docs/engines/bullet.md shows); a
+    # refusal's subject is the engine asked for, and the one its file runs in: Gazebo (ODE)
     label = run_in.label if run_in.name == "ode" else run_in.name
+    asked = get_engine(engine)
+    subject = label if asked.name == run_in.name else f"{asked.label} ({label})"
     runs = _run_confirmed(setup, engine, setup.dt_s, n_phases)
     if within and runs is None:
         name = engine_label(engine)
@@ -1008,7 +1011,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                 f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
                 + (f"; {runs.height_ratio_text()}" if runs.height_ratio_text() else ""))
     if runs is None:
-        what = (f"time step {setup.dt_s:g} s is too large for {engine}: not run here ({label} is not installed); by "
+        what = (f"time step {setup.dt_s:g} s is too large for {subject}: not run here ({label} is not installed); by "
                 f"the step bound its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor")
         if depth > setup.penetration_limit_m:
             what += f" (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)"
@@ -1054,7 +1057,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
                "--max-penetration" + (", or give an epsilon further below 1" if isinstance(runs, DropRuns)
                                       and runs.gain is not None else ""))
-    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+    raise UsageError(f"{subject} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
 
 
 def keep_limits(setup, worst_error, depth_m, margin=1.0):
