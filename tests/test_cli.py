@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -244,3 +245,20 @@ def test_a_long_refusal_is_printed_whole_and_a_huge_value_is_cut():
     cut = _one_line(huge)
     assert len(cut) < 1100 and cut.startswith("bad value '999") and cut.endswith("' in column y")
     assert "[5,024 characters]" in cut
+
+
+def test_the_dt_help_names_every_engines_default_step_from_the_registry():
+    """export --help's --dt listed mujoco, bullet and ode but not gazebo (1 ms); the list is made from the
+    engine registry, so every engine with a step is named with the step the export uses."""
+    from vrcal.engines import ENGINES
+
+    for command in ("export", "verify"):
+        shown = " ".join(run(command, "--help").output.split())
+        listed = re.search(r"--dt NUMBER Engine time step \[s\] \(default: the engine's: ([^)]*)\)", shown)
+        assert listed, shown
+        steps = dict(item.split(" ") for item in listed.group(1).split(", "))
+        assert set(steps) == {name for name in ENGINES if name != "tables"}
+        for name, text in steps.items():
+            value = 1.0 / float(text[2:]) if text.startswith("1/") else float(text)
+            assert value == pytest.approx(ENGINES[name].default_dt_s, rel=1e-12), (name, text)
+    assert "gazebo 0.001" in shown and "bullet 1/240" in shown

@@ -18,6 +18,7 @@ import click
 
 from vrcal import __version__
 from vrcal import options as opt
+from vrcal.engines import default_steps_text
 from vrcal.errors import VrcalError
 
 # --------------------------------------------------------------------------- the group
@@ -203,7 +204,8 @@ def _terminate_as_interrupt():
 @click.group(cls=VrcalGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, "--version", prog_name="vrcal")
 @click.option("--standards", "standards_file", type=click.Path(dir_okay=False), default=None,
-              help="Use this standards YAML instead of the shipped one (same schema).")
+              help="Use this standards YAML instead of the shipped one (same schema; 'vrcal standards' prints "
+                   "the shipped one).")
 @click.pass_context
 def main(ctx, standards_file):
     """Calibrate the coefficient of restitution with the virtual-body method.
@@ -827,7 +829,7 @@ def _engine_options(f):
                           "height that gives HI and bounces down to LO; one value: the first impact's speed."),
         g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
-                     help="Engine time step [s] (default: the engine's: mujoco 0.002, bullet 1/240, ode 0.001)."),
+                     help=f"Engine time step [s] (default: the engine's: {default_steps_text()})."),
         click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
                                                        case_sensitive=False), default=None,
                      help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
@@ -1056,6 +1058,32 @@ def _refuse_in_replay(ctx, file):
                    "and --plot")
         raise UsageError(f"{names} {'does' if len(given) == 1 else 'do'} not apply to a replay (--against): it "
                          f"takes the ball, release and epsilon from --from; only {applies} apply")
+
+
+@main.command("standards", short_help="Print the standards YAML (the balls of Table 1), or where it is.")
+@click.option("--path", "show_path", is_flag=True, help="Print the file's path instead of its text.")
+@click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None,
+              help="Write a copy here (to edit and give to --standards) instead of stdout.")
+@STANDARDS_OPTION
+@click.pass_context
+def standards_cmd(ctx, show_path, output):
+    """Print the standards file vrcal uses: the shipped one (in the installed package), or --standards FILE's.
+
+    Copy it, edit it (a ball of your own, another rebound window) and give the copy to --standards;
+    docs/standards.md describes its schema.
+
+    \b
+    Examples:
+      vrcal standards -o mine.yaml
+      vrcal standards --path
+    """
+    from vrcal.errors import UsageError
+    from vrcal.model.standards import standards_file
+
+    if show_path and output is not None:
+        raise UsageError("give --path (print where the file is) or -o FILE (write a copy), not both")
+    path, text = standards_file((ctx.find_root().obj or {}).get("standards_file"))
+    emit(path + "\n" if show_path else text, output)
 
 
 @main.command("engines")

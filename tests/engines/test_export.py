@@ -522,7 +522,7 @@ def test_export_bounces_is_an_option_and_verify_bounces_is_not_ignored():
     assert result.exit_code == 0 and "1 bounce(s)" in result.output, result.output
     result = run("export", "tennis", "--engine", "ode", "--epsilon", "0.3", "--drop-height", "0.05",
                  "--dt", "1e-4", "--bounces", "1")
-    assert result.exit_code == 0 and json.loads(result.output)["target"]["n_bounces"] == 1
+    assert result.exit_code == 0 and json.loads(result.stdout)["target"]["n_bounces"] == 1
 
 
 def test_export_refuses_an_unwritable_output_before_the_work(tmp_path, monkeypatch):

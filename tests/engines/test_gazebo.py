@@ -43,9 +43,12 @@ def test_pair_explains_the_min_rule():
 
 def test_gazebo_refuses_a_time_step_too_large_for_odes_bounce():
     """Measured in libode (the engine behind Gazebo): football, epsilon 0.5, at 2 ms misses
-    (error 0.0103 measured); at 1 ms it meets (0.0067), which the step bound alone refused."""
+    (error 0.0103 measured); at 1 ms it meets (0.0067), which the step bound alone refused. The refusal
+    names the engine asked for and the one it ran in: 'Gazebo (ODE) at --dt' ('ODE at --dt' before, an
+    answer to a question the user did not ask)."""
     require_engine("ode")
-    with pytest.raises(UsageError, match=r"^ODE at --dt 0\.002 s misses \(16 phases.*error 0\.01"):
+    with pytest.raises(UsageError, match=r"^Gazebo \(ODE\) at --dt 0\.002 s misses \(16 phases.*error 0\.01.*"
+                                         r"\(run in ODE: error"):
         export("football", "gazebo", epsilon=0.5, dt_s=2e-3)
     assert "checked in ODE" in export("football", "gazebo", epsilon=0.5, dt_s=1e-3).text
 

@@ -372,6 +372,38 @@ def test_the_header_names_the_slowest_impact_the_calibration_holds_for():
     assert error_at(holds * 1.001) <= 0.01 < error_at(miss)
 
 
+def test_the_terminal_says_the_slowest_impact_the_export_holds_for_and_what_a_lower_drop_needs(tmp_path):
+    """The probe's tennis ball at 5 ms (--max-penetration 0.018): the terminal said only 'worst eps error
+    0.0049', the 'holds down to 3.02 m/s' was in the file's header alone, and a drop from 0.5 m bounced up to
+    0.05 off. The terminal now carries the header's line (the same numbers, measured once), the fall that
+    gives that speed, and what to do for a lower drop; verify --drop-height at that fall passes, below it the
+    drop the probe made fails and names the export that holds."""
+    require_engine("mujoco")
+    from vrcal.engines.export import drop_height_for_speed_m
+
+    out = tmp_path / "tennis_mj5.xml"
+    result = CliRunner().invoke(main, ["export", "tennis", "--engine", "mujoco", "--dt", "0.005",
+                                       "--max-penetration", "0.018", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.stderr.split())
+    header = " ".join(" ".join(line.strip(" <!->") for line in out.read_text().splitlines()[:12]).split())
+    m = re.search(r"checked over impact speeds [0-9.]+\.\.[0-9.]+ m/s; holds down to ([0-9.]+) m/s \(single "
+                  r"bounces, 4 phases\) \(at [0-9.]+ m/s off by [0-9.]+ > 0\.01\)", header)
+    assert m, header
+    assert m.group(0) in said, said                        # the header's line, word for word
+    holds = float(m.group(1))
+    fall = re.search(r"> 0\.01\) slower impacts \(falls from below ([0-9.]+) m: a lower drop or "
+                     r"apex\) may miss: export with --drop-height H, or check: vrcal verify --engine mujoco --file "
+                     r"FILE --drop-height H", said)
+    assert fall, said
+    fall_m = float(fall.group(1))
+    assert fall_m == pytest.approx(drop_height_for_speed_m(holds, 9.80665), rel=2e-3)
+    assert 0.3 < fall_m < 0.5                              # the probe's 0.5 m drop reaches below it by bounce 2
+    low = CliRunner().invoke(main, ["verify", "--engine", "mujoco", "--file", str(out), "--drop-height", "0.5",
+                                    "--bounces", "4", "--phases", "4"])
+    assert low.exit_code == 1 and f"go below the {holds:.3g} m/s the export was measured to hold down" in low.stderr
+
+
 def test_a_step_where_no_damping_holds_the_ball_down_names_one_that_works():
     """RK4 at 5 ms: the tennis ball's spring adds energy at every damping; the refusal used to stop
     there, naming no step (others do). It names one, and that step exports."""

@@ -778,3 +778,30 @@ def test_ty_csv_round_trip(tmp_path_factory, steps, y, t0):
     data = read_measurement(p)
     np.testing.assert_array_equal(data.t_s, t)
     np.testing.assert_array_equal(data.y_m, y)
+
+
+PHYPHOX_STOPWATCH = ('"Event time (s)","Interval (s)"\n1.687055,0.415781\n2.102836,0.354776\n2.457611,0.306593\n'
+                     '2.764204,0.266511\n3.030716,0.233731\n3.264447,0.204336\n3.468783,0.181336\n'
+                     '3.650118,0.159813\n3.809931,0.142174\n3.952106,0.000000\n')
+
+
+def test_an_interval_column_beside_the_times_is_named_and_checked_against_them(tmp_path):
+    """The probe's phyphox Acoustic Stopwatch export (each row's interval the time to the next event, the
+    last 0): the times were read and the Interval column left out without a word. The note names it and says
+    the intervals follow from the times; one that does not is named by its line (the times are read all the
+    same); the other conventions (since the last event, all 0) agree; another column is named as unread."""
+    ok = read_measurement(write(tmp_path, "stopwatch.csv", PHYPHOX_STOPWATCH))
+    assert "column 'Interval (s)' not read: the intervals follow from the times" in ok.notes
+    assert ok.t_s.size == 10
+    bad = read_measurement(write(tmp_path, "bad.csv", PHYPHOX_STOPWATCH.replace("2.764204,0.266511",
+                                                                                "2.764204,0.276511")))
+    np.testing.assert_array_equal(bad.t_s, ok.t_s)
+    assert ("column 'Interval (s)' not read: the intervals follow from the times; they disagree with them (line 5: "
+            "0.276511 s, the time to the next event 0.266512 s): the times are read") in bad.notes
+    t = impact_times()
+    since = read_measurement(write(tmp_path, "since.csv", phyphox_csv(t, extra=True)))
+    assert "column 'Interval (s)' not read: the intervals follow from the times" in since.notes
+    assert "column(s) 'Event' not read (impact times are read from one column)" in since.notes
+    zeros = '"Event time (s)","Interval (s)"\n' + "".join(f"{v:.9E},0\n" for v in t)
+    assert "column 'Interval (s)' not read: the intervals follow from the times" in read_measurement(
+        write(tmp_path, "zeros.csv", zeros)).notes

@@ -280,3 +280,36 @@ def test_measured_to_stated_must_be_a_boolean(tmp_path):
     path.write_text(yaml.safe_dump(doc))
     with pytest.raises(DataError, match=r"balls\.tennis\.measured_to_stated: must be true or false"):
         load_standards(path)
+
+
+def test_the_shipped_file_is_printed_copied_and_found_by_the_cli(tmp_path):
+    """docs/standards.md ran ``sed ... vrcal/standards.yaml``, a path of the source checkout: after ``pip
+    install`` it is 'No such file'. ``vrcal standards`` prints the shipped file, ``-o FILE`` writes a copy,
+    ``--path`` says where it is (with ``--standards FILE``: that file, validated); the docs' commands use it
+    and read no file of the package's folder."""
+    import re
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+
+    runner = CliRunner()
+    shipped = Path(runner.invoke(main, ["standards", "--path"]).stdout.strip())
+    assert shipped.is_file() and shipped.name == "standards.yaml"
+    printed = runner.invoke(main, ["standards"])
+    assert printed.exit_code == 0 and printed.stdout == shipped.read_text(encoding="utf-8")
+    copy = tmp_path / "mine.yaml"
+    result = runner.invoke(main, ["standards", "-o", str(copy)])
+    assert result.exit_code == 0 and copy.read_text(encoding="utf-8") == printed.stdout
+    assert list(load_standards(copy)) == BALLS
+    assert runner.invoke(main, ["--standards", str(copy), "standards", "--path"]).stdout.strip() == str(copy)
+    copy.write_text(printed.stdout.replace("drop_height_m: 1.8\n", "drop_hieght_m: 1.8\n"), encoding="utf-8")
+    broken = runner.invoke(main, ["--standards", str(copy), "standards"])
+    assert broken.exit_code == 1 and "did you mean 'drop_height_m'" in broken.stderr
+    both = runner.invoke(main, ["standards", "--path", "-o", str(tmp_path / "x.yaml")])
+    assert both.exit_code == 2 and "not both" in both.stderr
+    docs = Path(__file__).resolve().parents[2] / "docs" / "standards.md"
+    commands = [line for line in docs.read_text(encoding="utf-8").splitlines() if line.startswith("$ ")]
+    assert commands and not any(re.search(r"(^|[\s'=])vrcal/", line[2:]) for line in commands)
+    assert sum("vrcal standards | sed" in line for line in commands) == 4

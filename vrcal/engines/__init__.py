@@ -59,6 +59,17 @@ ENGINES = {
 }
 
 
+def default_steps_text():
+    """The engines' default time steps as ``--dt``'s help names them: ``mujoco 0.002, ode 0.001, bullet
+    1/240, gazebo 0.001`` (a step that is a whole fraction of a second with more digits, such as PyBullet's
+    240 Hz, as that fraction); from :data:`ENGINES`, for every engine with a step (not tables)."""
+    def text(dt_s):
+        plain, hz = f"{dt_s:g}", round(1.0 / dt_s)
+        return f"1/{hz}" if len(plain) > 6 and abs(hz * dt_s - 1.0) < 1e-9 else plain
+
+    return ", ".join(f"{name} {text(e.default_dt_s)}" for name, e in ENGINES.items() if name != "tables")
+
+
 def get_engine(name):
     """The registry entry of ``name``; :class:`UsageError` naming the known engines otherwise."""
     key = str(name).strip().lower()

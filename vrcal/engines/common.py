@@ -435,6 +435,15 @@ def _round_up(x):
     return f"{math.ceil(x / mag - 1e-9) * mag:.2g}"
 
 
+def export_for_speeds(fastest_m_per_s, slowest_m_per_s, drop_height_m=None):
+    """What to do about impacts slower than an export holds for (a verify failure, an export's
+    terminal): an export for these speeds [m/s] (``drop_height_m`` [m]: the drop that gives them),
+    or a smaller step."""
+    height = f"--drop-height {drop_height_m:.4g} or " if drop_height_m else ""
+    return (f"export again for these speeds ({height}--impact-speed {round_down(slowest_m_per_s):g}:"
+            f"{_round_up(fastest_m_per_s)}), or at a smaller --dt")
+
+
 def round_down(x):
     """``x`` rounded down to two significant digits (a time step to name in a message)."""
     mag = 10.0 ** (math.floor(math.log10(x)) - 1)
@@ -1207,9 +1216,7 @@ class VerifyResult(RunsSummary):
                     f"{v.size} at {v[-1]:.3g} m/s by {err[-1]:.3g})")
         else:
             return ""
-        height = f"--drop-height {self.drop_height_m:.4g} or " if self.drop_height_m else ""
-        return (f"; {what}: export again for these speeds ({height}--impact-speed {round_down(v[-1]):g}:"
-                f"{_round_up(v[0])}), or at a smaller --dt")
+        return f"; {what}: {export_for_speeds(float(v[0]), float(v[-1]), self.drop_height_m)}"
 
     def as_dict(self):
         r = self.runs

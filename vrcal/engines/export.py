@@ -43,6 +43,7 @@ from vrcal.engines.common import (
     confirmed,
     engine_label,
     error_text,
+    export_for_speeds,
     metadata,
     round_down,
 )
@@ -654,7 +655,8 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
                    f"{cal.hover_m * 1e3:.3g} mm")
         missed = pair_cal is not None and not pair_cal.result.passed     # said, not refused: verify fails it
         summary = _lines(summary, cal.runs.height_ratio_text(),
-                         module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"), _coverage_summary(setup, coverage),
+                         module.resting_note(cal.contact, setup.g_m_per_s2, "--dt"),
+                         _coverage_summary(setup, coverage, "mujoco"),
                          "\n".join(textwrap.wrap(pair_cal.result.failure(), 100)) if missed else "")
     elif eng.name in ("ode", "bullet"):
         setup, checked, coverage, summary = _checked_export(setup, eng.name, n_phases, asked_lo)
@@ -710,9 +712,17 @@ def _checked_coverage(setup, engine, checked, asked_lo):
     return speed_coverage(setup, engine, _run_params(setup, engine), asked_lo)
 
 
-def _coverage_summary(setup, coverage):
-    """The terminal's line when ``--impact-speed``'s slowest speed was not reached (else '')."""
-    return "\n".join(textwrap.wrap(coverage.shortfall(setup.tolerance), 100)) if coverage else ""
+def _coverage_summary(setup, coverage, engine):
+    """The terminal's lines on the impact speeds the export holds for ('' without a coverage): where
+    ``--impact-speed``'s slowest speed was not reached, what the contact does there
+    (:meth:`SpeedCoverage.shortfall`); else the file header's line (:meth:`SpeedCoverage.note`, the
+    same numbers) and, where a slower impact missed, what that means for a lower drop
+    (:meth:`SpeedCoverage.slower`)."""
+    if not coverage:
+        return ""
+    lines = [coverage.shortfall(setup.tolerance)] if coverage.asked_m_per_s is not None else \
+        [coverage.note(setup.tolerance), coverage.slower(setup, engine)]
+    return "\n".join("\n".join(textwrap.wrap(line, 100)) for line in lines if line)
 
 
 #: How :func:`check_step`'s note says that the step was checked over fewer phases than it confirms with.
@@ -746,7 +756,7 @@ def _checked_export(setup, engine, n_phases, asked_lo):
     setup = replace(setup, notes=setup.notes + (checked,))
     coverage = _checked_coverage(setup, engine, checked, asked_lo)
     return setup, checked, coverage, _lines(_not_run(checked), _phases_summary(checked),
-                                            _coverage_summary(setup, coverage))
+                                            _coverage_summary(setup, coverage, engine))
 
 
 def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
@@ -1001,8 +1011,11 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     bound, depth = step_bound(setup, engine)
     within = bound <= setup.tolerance and depth <= setup.penetration_limit_m
     run_in = runtime(engine)
-    # refusals name ODE by its label, PyBullet by its registry name (as docs/engines/bullet.md shows)
+    # refusals name ODE by its label, PyBullet by its registry name (as docs/engines/bullet.md shows); a
+    # refusal's subject is the engine asked for, and the one its file runs in: Gazebo (ODE)
     label = run_in.label if run_in.name == "ode" else run_in.name
+    asked = get_engine(engine)
+    subject = label if asked.name == run_in.name else f"{asked.label} ({label})"
     runs = _run_confirmed(setup, engine, setup.dt_s, n_phases)
     if within and runs is None:
         name = engine_label(engine)
@@ -1020,7 +1033,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                 f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
                 + (f"; {runs.height_ratio_text()}" if runs.height_ratio_text() else ""))
     if runs is None:
-        what = (f"time step {setup.dt_s:g} s is too large for {engine}: not run here ({label} is not installed); by "
+        what = (f"time step {setup.dt_s:g} s is too large for {subject}: not run here ({label} is not installed); by "
                 f"the step bound its contact acts only once the ball is up to {depth * 1e3:.3g} mm in the floor")
         if depth > setup.penetration_limit_m:
             what += f" (limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)"
@@ -1067,7 +1080,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
                "--max-penetration" + (", or give an epsilon further below 1" if isinstance(runs, DropRuns)
                                       and runs.gain is not None else ""))
-    raise UsageError(f"{label} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+    raise UsageError(f"{subject} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
 
 
 def keep_limits(setup, worst_error, depth_m, margin=1.0):
@@ -1246,7 +1259,8 @@ class SpeedCoverage:
         return line
 
     def shortfall(self, tolerance):
-        """What the terminal says when ``--impact-speed LO:HI``'s LO was not reached, else ''."""
+        """What the terminal says when ``--impact-speed LO:HI``'s LO was not reached, else '': what the
+        contact does at LO, and where it misses there, what to do."""
         if self.asked_m_per_s is None:
             return ""
         what = (f"--impact-speed: the drop test covers {self.fastest_m_per_s:.3g}..{self.slowest_m_per_s:.3g} m/s, "
@@ -1255,8 +1269,22 @@ class SpeedCoverage:
         if isinstance(self.at_asked, str):
             return what + f"; at {self.asked_m_per_s:g} m/s {self.at_asked}"
         verdict = "within" if self.at_asked <= tolerance else "MISSES"
+        fix = "" if self.at_asked <= tolerance else \
+            f": for impacts that slow, {export_for_speeds(self.slowest_m_per_s, self.asked_m_per_s)}"
         return what + (f"; at {self.asked_m_per_s:g} m/s one bounce is off by {self.at_asked:.3g} ({verdict} "
-                       f"--tolerance {tolerance:g})")
+                       f"--tolerance {tolerance:g}){fix}")
+
+    def slower(self, setup, engine):
+        """What the terminal says below :meth:`note` when a slower impact was measured to miss (else
+        ''): the fall that gives the speed held down to (a lower drop, or a bounce from a lower apex,
+        hits slower) and how to get a file for such a drop, or check this one there (``engine``: the
+        export's, for the verify command)."""
+        if self.miss is None:
+            return ""
+        fall_m = drop_height_for_speed_m(self.holds_down_to_m_per_s, setup.g_m_per_s2, setup.drag_k_per_m)
+        return (f"slower impacts (falls from below {fall_m:.3g} m: a lower drop or apex) may miss: export with "
+                f"--drop-height H, or check: vrcal verify --engine {get_engine(engine).name} --file FILE "
+                f"--drop-height H")
 
 
 def speed_coverage(setup, engine, runnable, asked_lo=None):

@@ -19,6 +19,7 @@ import re
 
 import numpy as np
 
+from vrcal.errors import DataError
 from vrcal.measurements.cleanup import TIMING_SIGMA_S, impact_chains, printed_resolution, time_grid
 from vrcal.measurements.plausibility import check_impact_times
 from vrcal.measurements.table import (
@@ -130,9 +131,11 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
             runs.append(run)
             labels.append(f"column {c.index + 1}")
         return Runs(runs=tuple(runs), source=path, labels=tuple(labels),
-                    notes=(f"{len(same)} columns '{col.raw}': one run each, fitted jointly",))
+                    notes=(f"{len(same)} columns '{col.raw}': one run each, fitted jointly",
+                           *_unread_notes(path, table, same)))
     if len(table.cols) > 1:
         notes.append(f"impact times from column '{col.raw or col.name}'" + (f" ({col.unit})" if col.unit else ""))
+        notes.extend(_unread_notes(path, table, [col]))
     t, line_numbers, printed_s = _times(path, table, col)
     if col.unit not in ("", "s", "sec"):
         notes.append(f"impact times converted from {col.unit} to s")
@@ -140,6 +143,63 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     # vrcal track's file of a lossless recording says how well its onsets are timed
     instrument = meta_number(text, "instrument_sd_s", 0.1, "a time in s")
     return dataclasses.replace(found, instrument_sd_s=instrument) if instrument else found
+
+
+#: Column names of the intervals between events (phyphox's Acoustic Stopwatch writes ``Interval (s)`` beside
+#: ``Event time (s)``; ``Intervall``, ``intervalo`` in a class's own language): they follow from the times.
+INTERVAL_NAMES = ("interval", "dt", "delta t", "δt")
+
+
+def _unread_notes(path, table, time_cols):
+    """The notes naming the columns of ``table`` besides the time columns ``time_cols``, which are not read: an
+    interval column (:data:`INTERVAL_NAMES`) with whether its intervals agree with the times
+    (:func:`_interval_check`), the others by name."""
+    read = {c.index for c in time_cols}
+    intervals = [c for c in table.cols if c.index not in read
+                 and (c.name in INTERVAL_NAMES or INTERVAL_NAMES[0] in c.name)]
+    others = [c.raw or f"column {c.index + 1}" for c in table.cols if c.index not in read and c not in intervals]
+    notes = []
+    for c in intervals:
+        # the time column it belongs to: the nearest before it (runs side by side repeat both)
+        t_col = max((t for t in time_cols if t.index < c.index), key=lambda t: t.index, default=time_cols[0])
+        named = (c.raw or c.name) + (f" ({c.unit})" if c.unit else "")
+        notes.append(f"column '{named}' not read: the intervals follow from the times"
+                     + _interval_check(path, table, c, t_col))
+    if others:
+        notes.append(f"column(s) {', '.join(repr(n) for n in others)} not read (impact times are read from one "
+                     f"column)")
+    return notes
+
+
+def _interval_check(path, table, col, t_col):
+    """'' when the interval column ``col`` agrees with the times of ``t_col`` (each interval the time to the next
+    event, or since the last, to the digits both are written to; a 0 is no interval, as phyphox ends its
+    column), or when that cannot be told (a unit that is no time, a cell that is no number: the times are read
+    all the same); else a clause naming the first line that disagrees."""
+    if col.unit not in TIME_UNITS or t_col.unit not in TIME_UNITS:
+        return ""
+    try:
+        iv = column_values(path, table, col, what="interval", allow_empty=True) * TIME_UNITS[col.unit]
+        t = column_values(path, table, t_col, what="impact time", allow_empty=True) * TIME_UNITS[t_col.unit]
+    except DataError:
+        return ""
+    steps = [printed_resolution(v[np.isfinite(v)], 9, written=column_cells(table, c)) for v, c in ((iv, col),
+                                                                                                 (t, t_col))]
+    tol = 2.0 * sum(step * TIME_UNITS[c.unit] for step, c in zip(steps, (col, t_col)) if step) + 1e-9
+    d = np.diff(t)
+    lines = row_lines(table)
+    found = []
+    for which, given, first_row in (("to the next", iv[:-1], 0), ("since the last", iv[1:], 1)):
+        used = np.isfinite(given) & np.isfinite(d) & (given != 0)
+        off = np.flatnonzero(used & (np.abs(given - d) > tol))
+        if not np.any(used):
+            return ""
+        if off.size == 0:
+            return ""
+        found.append((off.size, which, given, first_row, int(off[0])))
+    _, which, given, first_row, k = min(found, key=lambda f: f[0])
+    return (f"; they disagree with them (line {int(lines[k + first_row])}: {given[k]:.6g} s, the time {which} event "
+            f"{d[k]:.6g} s): the times are read")
 
 
 def _times(path, table, col, allow_empty=False):

@@ -143,6 +143,26 @@ def load_standards(path=None):
     return _load_file(Path(path))
 
 
+def standards_file(path=None):
+    """Where the standards file is and its text: the shipped ``standards.yaml`` when ``path`` is None (the
+    file to copy and edit for ``--standards FILE``: in an installed vrcal it lies in the package, not in
+    the working directory), else ``path``'s, validated first (:func:`load_standards`).
+
+    Returns
+    -------
+    (str, str)
+        the file's path and its text
+
+    Raises
+    ------
+    DataError
+        ``path`` that cannot be read or breaks the schema (as :func:`load_standards`)
+    """
+    load_standards(path)
+    src = _default_path() if path is None else Path(path)
+    return str(src), src.read_text(encoding="utf-8")
+
+
 @lru_cache(maxsize=1)
 def _load_default():
     src = _default_path()
@@ -393,7 +413,8 @@ def get_ball(key, standards=None):
     hint = f"; did you mean '{find_ball(close, standards).key}'?" if close else ""
     if path is None:
         raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)})")
-    copy = f"; to use the shipped '{key}', copy its entry from vrcal/standards.yaml into {path}" if shipped else ""
+    copy = (f"; to use the shipped '{key}', copy its entry from vrcal/standards.yaml ('vrcal standards' prints it) "
+            f"into {path}" if shipped else "")
     raise UsageError(f"unknown ball '{key}'{hint} (known: {', '.join(standards)}, the balls of {path}: --standards "
                      f"replaces the shipped ones){copy}")
 
