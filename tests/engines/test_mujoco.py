@@ -574,3 +574,7 @@ def test_a_refusals_worst_error_is_the_one_its_tolerance_covers(tmp_path):
     assert worst < tol <= math.ceil(1.1 * worst * 1e3) / 1e3 or "picks another contact" in message
     ex = export(None, "mujoco", from_json=str(path), n_bounces=2, tolerance=tol)
     assert ex.data["worst_error"] <= tol
+    # the header's release is the fit's (the apex it restarts at), not where the hand let go ("the record's
+    # release was at t = 0.5337 s" before)
+    assert "release state: bottom at 0.0278 m, at rest, at t = 0.5337 s of the record (where its fit starts)" \
+        in " ".join(ex.text.replace("<!--", " ").replace("-->", " ").split())
