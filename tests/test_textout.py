@@ -55,3 +55,10 @@ def test_table_aligns_numbers_right_and_text_left():
 def test_section_aligns_keys():
     expected = "[ball]\n  epsilon  0.766\n  T        66.6 ms\n"
     assert section("[ball]", [("epsilon", "0.766"), ("T", "66.6 ms")]) == expected
+
+
+def test_counted_says_one_bounce_and_three_bounces():
+    """A refusal of one bounce said 'misses (16 phases x 1 bounces)'."""
+    from vrcal.textout import counted
+
+    assert [counted(n, "bounce") for n in (0, 1, 3)] == ["0 bounces", "1 bounce", "3 bounces"]

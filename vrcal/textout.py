@@ -233,6 +233,11 @@ def mass(kg, digits=3):
     return f"{number(kg, digits)} kg" if kg >= 1.0 else f"{number(kg * 1e3, digits)} g"
 
 
+def counted(n, noun):
+    """'1 bounce', '3 bounces': ``n`` and the noun, plural unless n is 1 (nouns with a plain -s plural)."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def table(rows, headers, align=None, indent=""):
     """An aligned text table.
 

@@ -578,3 +578,12 @@ def test_a_refusals_worst_error_is_the_one_its_tolerance_covers(tmp_path):
     # release was at t = 0.5337 s" before)
     assert "release state: bottom at 0.0278 m, at rest, at t = 0.5337 s of the record (where its fit starts)" \
         in " ".join(ex.text.replace("<!--", " ").replace("-->", " ").split())
+
+
+def test_a_refusal_of_one_bounce_says_one_bounce():
+    """Clay (epsilon 0.1, one bounce) at MuJoCo's 2 ms: 'misses (16 phases x 1 bounces)' before."""
+    require_engine("mujoco")
+    result = CliRunner().invoke(main, ["export", "--mass", "0.05", "--diameter", "0.04", "--epsilon", "0.1",
+                                       "--drop-height", "1", "--bounces", "1", "--engine", "mujoco"])
+    assert result.exit_code == 2
+    assert "misses (16 phases x 1 bounce): worst epsilon error" in " ".join(result.output.split())

@@ -54,6 +54,7 @@ from vrcal.model import restitution as eq
 from vrcal.model.body import describe_body
 from vrcal.model.restitution import check_K
 from vrcal.model.standards import ball_epsilon, get_ball
+from vrcal.textout import counted
 
 #: Effects of a discover result that an engine file carries; the others are named in the notes.
 CARRIED_EFFECTS = ("air_drag", "velocity_dependent_restitution", "height_offset")
@@ -798,7 +799,8 @@ def calibrate_or_refuse(setup, stiffness=None, n_phases=N_PHASES):
                       f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
     keep = "" if cal.runs.gain is not None else _mujoco_keep(setup, cal, kind, w, n_phases)
     raise UsageError(f"MuJoCo at --dt {setup.dt_s:g} s ({M.integrator_name(setup)}, {cal.contact.kind} contact) "
-                     f"misses ({_phases(cal.runs)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}; "
+                     f"misses ({_phases(cal.runs)} phases x {counted(setup.n_bounces, 'bounce')}): "
+                     f"{'; '.join(misses)}; "
                      f"{step_that_works()}" + (f"; {keep}" if keep else "")
                      + "; see --trade-off")
 
@@ -918,7 +920,7 @@ def format_trade_off(setup, rows):
     from vrcal.textout import number, table
 
     head = (f"MuJoCo trade-off: {setup.ball}, target epsilon {setup.epsilon:.4f}, {setup.integrator}, "
-            f"{N_PHASES} phases x {setup.n_bounces} bounces\n"
+            f"{N_PHASES} phases x {counted(setup.n_bounces, 'bounce')}\n"
             f"limits: tolerance {setup.tolerance:g}, penetration {setup.penetration_limit_m * 1e3:.3g} mm "
             f"(a row that meets both: rerun over {CONFIRM_PHASES} phases)\n")
     def num(value, fmt):
@@ -1028,7 +1030,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         fewer = (f" ({FEWER_PHASES} {CONFIRM_PHASES} phases: that many would pass the run limit of "
                  f"{run_in.max_steps:d} steps)"
                  if _phases(runs) < CONFIRM_PHASES else "")
-        return (f"step {setup.dt_s:g} s checked in {label} ({_phases(runs)} phases x {setup.n_bounces} bounces): "
+        return (f"step {setup.dt_s:g} s checked in {label} "
+                f"({_phases(runs)} phases x {counted(setup.n_bounces, 'bounce')}): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
                 f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
                 + (f"; {runs.height_ratio_text()}" if runs.height_ratio_text() else ""))
@@ -1061,7 +1064,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
             depth_mm = _above(depth * 1e3, setup.penetration_limit_m * 1e3)
             misses.append(f"the ball turns {depth_mm} mm from the floor "
                           f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
-        what = f"{_phases(wide)} phases x {setup.n_bounces} bounces): {'; '.join(misses)}"
+        what = f"{_phases(wide)} phases x {counted(setup.n_bounces, 'bounce')}): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
                     setup.penetration_limit_m / max(_depth(runs), 1e-12))
         if runs.gain is not None:        # the gain above the target grows with the step (g dt / v): below 1 again

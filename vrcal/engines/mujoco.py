@@ -66,6 +66,7 @@ from vrcal.engines.common import (
     stepped_pair_test,
 )
 from vrcal.errors import DataError, EngineUnavailable, UsageError, install_hint
+from vrcal.textout import counted
 
 #: Impedance d written to solimp (dmin = dmax): close to MuJoCo's maximum 0.9999.
 IMPEDANCE = 0.9999
@@ -1007,7 +1008,7 @@ def header_lines(setup, cal):
         step_note(setup, "mujoco"),
         f"contact {how}",
         f"calibrated in MuJoCo ({cal.evaluations} runs); drop test {cal.runs.apex_ratios.shape[0]} phases x "
-        f"{setup.n_bounces} bounces",
+        f"{counted(setup.n_bounces, 'bounce')}",
         f"worst eps error {error_text(cal.worst_error)}, median {error_text(cal.median_error)} "
         f"(tolerance {setup.tolerance:g})",
         f"penetration {cal.penetration_m * 1e3:.3g} mm, hover {cal.hover_m * 1e3:.3g} mm "
