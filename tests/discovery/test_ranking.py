@@ -891,6 +891,29 @@ def test_a_light_large_ball_with_buoyancy_and_drag_is_explained(tmp_path):
     assert "no constant epsilon reproduces the bounce heights in an engine without drag" in text
 
 
+@pytest.mark.parametrize("c_d", [0.47, 0.95])
+def test_a_physical_but_unusual_drag_coefficient_is_said_to_be(tmp_path, c_d):
+    """A table-tennis ball's phyphox drop (a probe's, with a speed law of another shape planted beside C_d 0.5)
+    named C_d 0.867 ± 0.020: inside the hard limits 0.2-1.0, and nothing said that a smooth sphere has
+    0.26-0.85. Planted at 0.95 the report says so, and the JSON's `unusual` holds it; at 0.47 nothing."""
+    rec = tmp_path / "tt.csv"
+    made = run("simulate", "table_tennis", "--format", "impacts", "--drop", "1", "--bounces", "12", "--effect",
+               f"air_drag:drag_coefficient={c_d}", "--jitter", "0.0002", "--seed", "1", "-o", str(rec))
+    assert made.exit_code == 0, made.output
+    result = run("discover", str(rec), "--ball", "table_tennis", "-q", "--json", str(tmp_path / "d.json"))
+    assert result.exit_code == 0, result.output
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["effects"] == ["air_drag"] and d["verdict"] == "explained"
+    text = " ".join(result.output.split())
+    if c_d < 0.85:
+        assert d["unusual"] == [] and "is physical but unusual" not in text
+    else:
+        (u,) = d["unusual"]
+        assert u["parameter"] == "drag_coefficient" and u["value"] == pytest.approx(0.95, abs=0.05)
+        assert u["typical"] == pytest.approx([0.261, 0.846], abs=1e-3)
+        assert "is physical but unusual, outside the 0.26 to 0.85 (95 %) of a sphere below the drag crisis" in text
+
+
 def _basketball_table(exponent, seed, noise_m=0.002):
     """A basketball's drop table (4 heights x 2 trials, rebounds read to ``noise_m``) whose epsilon (0.88
     at the highest drop's impact) follows the registry's speed law with ``exponent``."""

@@ -386,3 +386,16 @@ def test_a_soft_floor_widens_the_contact_time_to_tens_of_ms():
         "trajectory", "soft")
     with pytest.raises(UsageError, match="valid: rigid, soft"):
         contact_time_limit_s(*marble, "mud")
+
+
+@pytest.mark.parametrize("name", sorted(EFFECTS))
+def test_only_a_typical_parameter_has_a_typical_range(name):
+    """The range a report calls usual is the prior's 95 % where the prior says what balls measure (a sphere's
+    C_d: 0.47 x/÷ exp(1.96 x 0.3)), and none where it is one model's (a speed exponent near 0 is common)."""
+    for p in EFFECTS[name].parameters:
+        got = p.typical_range(BallProperties(0.0577, 0.067, "tennis"))
+        if p.typical:
+            assert got == pytest.approx((0.47 / math.exp(0.588), 0.47 * math.exp(0.588)), rel=1e-3)
+        else:
+            assert got is None
+    assert [p.name for e in EFFECTS.values() for p in e.parameters if p.typical] == ["drag_coefficient"]

@@ -664,6 +664,25 @@ class Discovery:
         return out
 
     @property
+    def unusual(self):
+        """The named effects' parameters that lie inside their hard limits but outside the range such balls
+        measure (:meth:`vrcal.drop.effects.Parameter.typical_range`: a table-tennis ball's C_d 0.87, where a
+        sphere below the drag crisis has 0.26-0.85): [{"effect", "parameter", "value", "typical"}]. Physical,
+        so not refused; but another effect of the same sign that the registry cannot express (a speed
+        law of another form), or a wrong mass or diameter, may be inside it, and the report says so."""
+        from vrcal.drop.effects import EFFECTS
+
+        out = []
+        for effect in self.effects:
+            for p in EFFECTS[effect].parameters:
+                typical = p.typical_range(self.ball)
+                value = self.final.effect_values[effect].get(p.name)
+                if typical is not None and value is not None and not typical[0] <= value <= typical[1]:
+                    out.append({"effect": effect, "parameter": p.name, "value": float(value),
+                                "typical": [float(typical[0]), float(typical[1])]})
+        return out
+
+    @property
     def floor_level(self):
         """Where the contact is [m] above the lowest sample of a record without a floor (fitted with
         every model, :attr:`nuisance`), or None when the record gives the floor."""
@@ -976,6 +995,7 @@ class Discovery:
             "prior_split": self.prior_split,
             "unphysical": self.unphysical,
             "at_limit": self.at_limit,
+            "unusual": self.unusual,
             "cut_by_max_effects": list(self.cut),
             "recommended": "named" if self.split is None else "prior_split",
             "named": {"effects": list(self.effects), "epsilon": self.epsilon,

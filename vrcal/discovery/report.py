@@ -499,6 +499,25 @@ def _named_table(d):
                  indent="  ")
 
 
+def _unusual_lines(d):
+    """A line per named parameter that is physical but outside what such balls measure
+    (:attr:`Discovery.unusual`): what is typical, where that comes from, and what may hide in it."""
+    from vrcal.drop.effects import EFFECTS
+
+    out = []
+    for u in d.unusual:
+        effect = EFFECTS[u["effect"]]
+        p = effect.parameter(u["parameter"])
+        lo, hi = u["typical"]
+        check = effect.check_by_kind.get(d.kind, effect.check)
+        unit = "" if p.unit in ("", "1") else f" {p.unit}"
+        out.append(_wrap(f"{PHRASES[u['effect']][1]} {number(u['value'], 3)}{unit} is physical but unusual, "
+                         f"outside the {number(lo, 2)} to {number(hi, 2)}{unit} (95 %) of a {p.density.basis}: "
+                         f"another effect of the same sign that the registry does not hold in this form (a "
+                         f"speed-dependent epsilon of another shape) may be inside it; or {check}.", "  "))
+    return out
+
+
 def _runs_table(d):
     rows = []
     for r, (run, label) in enumerate(zip(d.runs, d.labels or [""] * len(d.runs))):
@@ -567,7 +586,7 @@ def fit_report(discovery, details=False):
     lines += ["", "epsilon for an engine"] + [_wrap(s, "    ", "  ") if s.startswith("- ") else _wrap(s, "  ")
                                               for s in engine_advice(d)]
     if d.effects:
-        lines += ["", "Named effects", _named_table(d).rstrip("\n")]
+        lines += ["", "Named effects", _named_table(d).rstrip("\n"), *_unusual_lines(d)]
     if runs > 1 or "velocity_dependent_restitution" in d.effects or d.ambiguous:
         lines += ["", "Speeds"] + _speed_lines(d)
     if runs > 1:

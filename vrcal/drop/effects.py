@@ -210,7 +210,10 @@ class Parameter:
     candidates (see the module docstring, "Prior densities"); ``defined``: None, or a function of
     (mass [kg], diameter [m]) giving the range ``(lo, hi)`` over which the model of this ball exists
     (buoyancy: below the air density at which the ball would float), which caps ``bounds`` and
-    ``limits`` for that ball (:meth:`fit_bounds`, :meth:`physical_limits`).
+    ``limits`` for that ball (:meth:`fit_bounds`, :meth:`physical_limits`); ``typical``: the prior density
+    says what such balls measure (a sphere's C_d below the drag crisis), so that a value outside its 95 %
+    range (:meth:`typical_range`), inside the hard limits, is physical but unusual, and said to be (False
+    where the prior is one model's: a speed exponent near 0, an inflated ball's, is common).
     """
 
     name: str
@@ -222,6 +225,7 @@ class Parameter:
     density: object = None
     limits: object = None
     defined: object = None
+    typical: bool = False
 
     def physical_limits(self, ball=None):
         """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
@@ -246,6 +250,14 @@ class Parameter:
             a, b = self.defined(float(np.min(ball.mass_kg)), float(np.max(ball.diameter_m)))
             lo, hi = max(lo, a), min(hi, b)
         return lo, hi
+
+    def typical_range(self, ball=None):
+        """``(lo, hi)`` [unit]: the central 95 % of the log-normal prior density, for a ``typical`` parameter;
+        None otherwise."""
+        if not self.typical or not isinstance(self.density, LogNormalPrior):
+            return None
+        med, spread = self.density.center(ball), math.exp(1.959964 * float(self.density.sigma_ln))
+        return med / spread, med * spread
 
     def prior_pdf(self, x, ball=None):
         """Prior density at ``x`` [1/unit]; ``ball`` (mass_kg, diameter_m) for ball-dependent priors."""
@@ -722,7 +734,7 @@ EFFECTS = {
                       "drag coefficient C_d of the ball (smooth sphere 0.47; 0.1-0.3 past the drag crisis)",
                       LogNormalPrior(SPHERE_DRAG_COEFFICIENT, 0.3,
                                      "sphere below the drag crisis (Achenbach 1972; Mehta 1985)"),
-                      limits=(0.2, 1.0)),
+                      limits=(0.2, 1.0), typical=True),
         ),
         equation="a = -g - k v|v|,  k = rho C_d pi D^2 / (8 m),  rho = 1.204 kg/m^3",
         description="quadratic air drag during the flights; lowers each apex below eps^2 times the previous "
