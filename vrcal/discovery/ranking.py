@@ -1996,6 +1996,7 @@ def chosen_noise(data, prepared, noise=None):
         return float(noise), "given"
     fitted = prepared.data
     kind = res._runs_of(fitted)[0].kind
+    read_runs = res._runs_of(data)
     if prepared.noise_m is not None:   # a decimated record: the noise of every sample as read
         sigma = prepared.noise_m
         source = f"third differences of all samples (every {prepared.decimation}th fitted)"
@@ -2015,14 +2016,14 @@ def chosen_noise(data, prepared, noise=None):
                 sigma = None
         if sigma is None:
             sigma, source = ASSUMED_NOISE[kind], "assumed; give --noise to change it"
-            instrument = max(float(getattr(r, "instrument_sd_s", 0.0) or 0.0) for r in res._runs_of(data))
-            if kind == "impacts" and instrument > 0:
-                sigma, source = instrument, f"{INSTRUMENT_SOURCE}; give --noise to change it"
-            if kind == "trajectory":
+            if kind == "impacts":
+                instrument = max(float(getattr(r, "instrument_sd_s", 0.0) or 0.0) for r in read_runs)
+                if instrument > 0:
+                    sigma, source = instrument, f"{INSTRUMENT_SOURCE}; give --noise to change it"
+            elif kind == "trajectory":
                 source = "no noise measurable in the samples; assumed, give --noise to change it"
             elif kind == "apexes":
                 sigma, source = reading_noise(fitted)
-    read_runs = res._runs_of(data)
     timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
     systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
     if kind == "impacts" and timing > sigma:

@@ -256,7 +256,10 @@ class Parameter:
         None otherwise."""
         if not self.typical or not isinstance(self.density, LogNormalPrior):
             return None
-        med, spread = self.density.center(ball), math.exp(1.959964 * float(self.density.sigma_ln))
+        from statistics import NormalDist  # here: the module is not worth importing for every command
+
+        z = NormalDist().inv_cdf(0.975)         # the central 95 % of the normal ln x
+        med, spread = self.density.center(ball), math.exp(z * float(self.density.sigma_ln))
         return med / spread, med * spread
 
     def prior_pdf(self, x, ball=None):

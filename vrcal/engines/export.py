@@ -815,8 +815,8 @@ def _mujoco_keep(setup, cal, kind, w, n_phases, tries=3):
 
     worst, depth = cal.worst_error, cal.depth_m
     for _ in range(tries):
-        keep = keep_step(setup, worst, depth, margin=1.1)
         tol, pen, refusal = keep_limits(setup, worst, depth, margin=1.1)
+        keep = keep_text(setup, tol, pen, refusal)
         if not keep or refusal:
             return keep
         try:
@@ -1112,7 +1112,11 @@ def keep_step(setup, worst_error, depth_m, margin=1.0):
     """What accepts the user's own step, as text (:func:`keep_limits`): 'to keep --dt ... s, accept what it
     achieves: --tolerance T --max-penetration P' with only the limits it missed, the refusal when no limit
     keeps it, '' when neither is needed."""
-    tolerance, penetration, refusal = keep_limits(setup, worst_error, depth_m, margin)
+    return keep_text(setup, *keep_limits(setup, worst_error, depth_m, margin))
+
+
+def keep_text(setup, tolerance, penetration, refusal):
+    """:func:`keep_step`'s text of the limits :func:`keep_limits` gives."""
     if refusal:
         return refusal
     options = ([f"--tolerance {tolerance:g}"] if tolerance is not None else []) + \

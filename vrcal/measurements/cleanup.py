@@ -16,6 +16,14 @@ import numpy as np
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
 
+def resolution_step(y):
+    """The smallest non-zero step between successive samples of ``y`` [unit of ``y``]: the resolution the
+    series was written or tracked to (1 px for pixel data); 0 for a constant series."""
+    steps = np.abs(np.diff(np.asarray(y, dtype=float)))
+    steps = steps[steps > 0]
+    return float(steps.min()) if steps.size else 0.0
+
+
 def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400, sigma=None):
     """Index of the first sample after the still segment that precedes a release.
 
@@ -69,9 +77,7 @@ def detect_release_index(y, *, window=10, n_sigma=5.0, min_still=3, n_fit=400, s
     n = y.size
     if n < min_still + 3:
         return 0
-    step = np.abs(np.diff(y))
-    step = step[step > 0]
-    quantum = float(step.min()) if step.size else 0.0
+    quantum = resolution_step(y)
     if sigma is None:
         d2 = np.diff(y, 2)
         sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0) if d2.size else 0.0
@@ -430,9 +436,7 @@ def find_duplicated_frames(positions, release_index=0):
     repeat = ~moved[i - 1]
     dup = repeat & moved[i - 2] & moved[i] & (i - 1 >= release_index)
     if p.shape[1] == 1:
-        steps = np.abs(d[:, 0])
-        nonzero = steps[steps > 0]
-        quantum = nonzero.min() if nonzero.size else 0.0
+        quantum = resolution_step(p[:, 0])
         before, after = d[i - 2, 0], d[i, 0]
         dup &= (np.sign(before) == np.sign(after)) & (np.abs(before) > quantum) & (np.abs(after) > quantum)
     return i[dup]
@@ -490,9 +494,7 @@ def tracker_glitches(t, y, sigma=None):
     n = y.size
     if n < 2 * k + 1:
         return []
-    steps = np.abs(np.diff(y))
-    steps = steps[steps > 0]
-    quantum = float(steps.min()) if steps.size else 0.0
+    quantum = resolution_step(y)
     if sigma is None:
         sigma = third_difference_sigma(t, y) or 0.0
     sigma = max(float(sigma), quantum / math.sqrt(12.0))

@@ -22,7 +22,7 @@ import re
 import numpy as np
 
 from vrcal.errors import UsageError
-from vrcal.measurements.table import Column, Table, fail, sniff, split_cells, strip_cell
+from vrcal.measurements.table import Column, Table, fail, sniff, split_cells
 from vrcal.measurements.trajectory import trajectory_from_table
 
 #: One track's columns in the header: X<k>, Y<k>, Flag<k>.
@@ -43,14 +43,9 @@ def _separator(header):
 
 
 def _cells(line, sep):
-    """The line's cells; one blank apart, an empty cell stays empty ('8 151.8 32.3 * 140.2 ...' and
-    '9 151.4 35.6    ' with track 2 not found)."""
-    if sep != _ONE_BLANK:
-        return split_cells(line, sep)
-    cells = [strip_cell(c) for c in line.strip("\r\n").split(" ")]
-    while cells and cells[-1] == "":
-        cells.pop()
-    return cells
+    """The line's cells; one blank apart, each blank is the tab it replaced, so an empty cell stays empty
+    ('8 151.8 32.3 * 140.2 ...' and '9 151.4 35.6    ' with track 2 not found)."""
+    return split_cells(line.replace(" ", "\t"), "\t") if sep == _ONE_BLANK else split_cells(line, sep)
 
 
 def _n_tracks(header):
