@@ -624,8 +624,9 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("--rotate", type=opt.ROTATION, default=None,
               help="A video: turn the picture this many degrees clockwise first (filmed sideways, no rotation tag).")
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
-              help="Height of the floor in the data's frame [m] (default: the data's 0, or the lowest sample "
-                   "when the heights are clearly not floor-referenced).")
+              help="Height of the floor along the file's y axis [m]: with --y-down its distance below the "
+                   "file's origin (a motion detector above the ball: its distance to the floor) (default: the "
+                   "data's 0, or the lowest sample when the heights are clearly not floor-referenced).")
 @click.option("--surface", type=opt.SURFACE, default="rigid", show_default=True,
               help="What the floor is: rigid (concrete, stone, a plate: the ball sets the contact time) or soft "
                    "(a stack of paper, a foam or gym mat, carpet, turf, sand: contacts of up to 50 ms are "

@@ -8,6 +8,7 @@ benchmarks/bench_discover.py; here 8-12 seeds per case keep the file fast.
 
 import json
 import math
+import re
 import shutil
 
 import numpy as np
@@ -489,6 +490,122 @@ def test_an_origin_below_the_floor_is_not_taken_for_the_floor():
     d = discover(data, tennis)
     assert d.effects == [] and d.nuisance == ("height_offset",)
     assert d.epsilon == pytest.approx(0.75, abs=0.002)
+
+
+def _motion_detector_file(tmp_path, sensor_height_m=1.90, top=False):
+    """A basketball under a motion detector (probe 31's Logger Pro CSV): the distance from the sensor
+    1.90 m above the floor to the ball's bottom (``top``: to its top, as a detector sees it), 50 Hz, 1 mm
+    noise; epsilon 0.80."""
+    ball = BallProperties.from_ball(get_ball("basketball"))
+    drops = simulate_drops(1.2, 0.80, 5, ball, release_time_s=0.3)
+    cols = sample_measurement(drops, "trajectory", fs_hz=50.0, noise_m=0.001, rng=4)
+    lift = float(ball.diameter_m) if top else 0.0
+    rows = "\n".join(f"{t:.2f},{sensor_height_m - y - lift:.3f}" for t, y in zip(cols["t"], cols["y"]))
+    path = tmp_path / "detector.csv"
+    path.write_text('"Latest: Time (s)","Latest: Position (m)"\n' + rows + "\n")
+    return path
+
+
+def test_a_floor_given_along_a_downward_axis_is_its_distance_below_the_origin(tmp_path):
+    """--floor is along the file's y axis: with --y-down, a motion detector's distance to the floor (1.90).
+    Given so, every sample lay 1.9 m below the floor it was read as (-1.90 was needed, which no help
+    said) and discover printed 'epsilon = 1 ± 1519' with exit 0. A floor above most of the samples is
+    refused, saying which frame it is in."""
+    from vrcal.discovery.ranking import discover_file
+
+    path = _motion_detector_file(tmp_path)
+    d = discover_file(str(path), "basketball", y_down=True, floor_m=1.90)
+    assert d.effects == [] and d.epsilon == pytest.approx(0.80, abs=0.003)
+    assert any("--floor 1.9 m, the file's y pointing down: the floor at height -1.9000 m" in n for n in d.notes)
+    with pytest.raises(UsageError, match=r"--floor -1.9 m lies above 100 % of the samples after the release .*"
+                                         r"the file's y points down \(--y-down or its format\)"):
+        discover_file(str(path), "basketball", y_down=True, floor_m=-1.90)
+    with pytest.raises(UsageError, match=r"--floor 1.9 m lies above \d+ % .* add --y-down"):
+        discover_file(str(path), "basketball", floor_m=1.90)
+
+
+def test_a_sample_deeper_than_any_contact_is_left_out(tmp_path):
+    """A motion detector that loses the ball at a bounce reads the floor: 0.24 m (the basketball's height)
+    below where its top touches. Kept, three such samples made a clean record 'unexplained' at 55 times
+    the noise; a contact of this ball reaches at most (v_in + v_out) tau_max / (2 pi) below its flights'
+    meeting point, so each is left out with a note naming its line, and the record is explained."""
+    from vrcal.discovery.ranking import discover_file
+
+    path = _motion_detector_file(tmp_path, top=True)
+    lines = path.read_text().splitlines()
+    clean = discover_file(str(path), "basketball", y_down=True)
+    from vrcal.discovery.residuals import impacts_in_trajectory
+
+    run = clean.runs[0]
+    minima = impacts_in_trajectory(run.t_s, run.y_m, run.release_index, 0.001)[:3]
+    for m in minima:                      # the file's line of each bounce's lowest sample (line 1: header)
+        k = int(run.lines[m]) - 1
+        t_text = lines[k].split(",")[0]
+        lines[k] = f"{t_text},1.900"
+    echoed = tmp_path / "echoed.csv"
+    echoed.write_text("\n".join(lines) + "\n")
+    d = discover_file(str(echoed), "basketball", y_down=True)
+    said = [n for n in d.notes if "below where the flights on both sides meet" in n]
+    assert len(said) == 3
+    assert all(f"line {int(run.lines[m])} " in n for m, n in zip(minima, said))
+    assert d.verdict == "explained" and d.epsilon == pytest.approx(clean.epsilon, abs=0.002)
+    assert not [n for n in clean.notes if "below where the flights on both sides meet" in n]
+
+
+def test_verify_against_reads_the_record_as_discover_did(tmp_path):
+    """verify --against takes the reader's options and the floor from the discover result's 'reader' (it
+    looked for a 'data.read_options' no result carries, so a y-down record needed --y-down again)."""
+    from vrcal.engines.replay import read_record
+
+    path = _motion_detector_file(tmp_path)
+    doc = json.loads(json.dumps(discover_file_doc(path)))
+    data, notes = read_record(str(path), doc=doc)
+    assert float(np.min(data.y_m)) == pytest.approx(0.0, abs=0.01)
+    assert notes == ["heights shifted by +1.9000 m, as discover shifted them (its result's reader.floor_shift_m)"]
+    assert float(np.max(data.y_m)) == pytest.approx(1.2, abs=0.01)
+
+
+def discover_file_doc(path):
+    from vrcal.discovery.ranking import discover_file
+
+    return discover_file(str(path), "basketball", y_down=True, floor_m=1.90).as_dict()
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.03, 0.95])
+def test_a_length_scale_off_is_fitted_at_the_g_the_flights_show(tmp_path, scale):
+    """A metre stick in another plane than the ball scales every height by s: the flights fall at s g, and
+    epsilon (ratios of heights) does not change. At the nominal g a probe's table-tennis track 3 % off
+    named a speed law and a height offset (epsilon 0.817 for 0.90, 'unexplained'); fitted at the flights'
+    g it is the planted drag and epsilon, with a warning that names the scale (verdict 'suspect input').
+    A record at the right scale is left as it is."""
+    from vrcal.discovery.ranking import discover_file
+    from vrcal.drop.effects import flight_expectation
+
+    ball = BallProperties.from_ball(get_ball("table_tennis"))
+    drops = simulate_drops(1.0, 0.90, 5, ball, effects={"air_drag": {"drag_coefficient": 0.5}}, release_time_s=0.2)
+    cols = sample_measurement(drops, "trajectory", fs_hz=120.0, noise_m=0.001, rng=7)
+    path = tmp_path / "scaled.csv"
+    path.write_text("t,y\n" + "\n".join(f"{t:.5f},{scale * y:.5f}" for t, y in zip(cols["t"], cols["y"])) + "\n")
+    d = discover_file(str(path), "table_tennis")
+    assert d.epsilon == pytest.approx(0.90, abs=0.002)
+    assert "air_drag" in d.effects and "velocity_dependent_restitution" not in d.effects
+    said = [w for w in d.warnings if w.startswith("the flights fall at")]
+    if scale == 1.0:
+        assert not said and d.verdict == "explained" and d.g_m_per_s2 == pytest.approx(9.80665)
+    else:
+        assert len(said) == 1 and d.verdict == "suspect input"
+        # the simulation has no buoyancy: its flights fall at s g, where this ball's fall at g_exp (with
+        # buoyancy) to g (without); g moves to the nearer
+        g_exp, _ = flight_expectation(ball.mass_kg, ball.diameter_m, 9.80665)
+        ratio = scale if scale > 1 else scale * 9.80665 / g_exp
+        seen = re.match(r"the flights fall at ([0-9.]+) ± [0-9.]+ m/s\^2, ([0-9.]+) times this ball's "
+                        r"\([0-9.]+ with buoyancy, 9.807 without\): a length scale ([0-9.]+) % too (small|large) "
+                        r"\(--scale", said[0])
+        assert float(seen[1]) == pytest.approx(9.80665 * scale, rel=0.003)
+        assert float(seen[2]) == pytest.approx(ratio, abs=0.003)
+        assert float(seen[3]) == pytest.approx(100 * abs(ratio - 1), abs=0.3)
+        assert seen[4] == ("large" if scale > 1 else "small")
+        assert d.g_m_per_s2 == pytest.approx(9.80665 * scale, rel=0.003)
 
 
 def test_a_wrong_mass_is_suspect_input_not_explained():

@@ -5,6 +5,7 @@ with nonsense."""
 
 import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -117,14 +118,20 @@ def test_heights_in_pixels_get_the_scale_that_makes_the_flights_fall_with_g(trac
 
 
 def test_a_wrong_frame_rate_is_suspect_input_with_a_warning(track, tmp_path):
-    """A frame rate 10 % off gives g 20 % off: the fit runs, but the verdict says the input looks off."""
+    """A frame rate 10 % off gives g 20 % off: the fit runs, but the verdict says the input looks off; fitted
+    at the g the flights show, epsilon (from ratios of heights) is the one planted."""
     data, truth = track
     path = csv(tmp_path / "fs.csv", "t,y", (data.t_s * 1.1, data.y_m))
     out = tmp_path / "r.json"
     result = run("discover", path, "--ball", truth["ball"], "-q", "--json", out)
     assert result.exit_code == 0, result.output
-    assert "vrcal: warning: g from the parabolas" in result.output and "Suspect input" in result.output
-    assert json.loads(out.read_text())["verdict"] == "suspect input"
+    assert "vrcal: warning: the flights fall at" in result.output and "Suspect input" in result.output
+    # 9.1 % (1 / 1.1); the simulation has no buoyancy, which the ball's g it is judged against has (1.1 %)
+    rate = re.search(r"a frame rate ([0-9.]+) % too low \(--fs, the time column\)", result.output)
+    assert float(rate[1]) == pytest.approx(9.1, abs=1.2)
+    doc = json.loads(out.read_text())
+    assert doc["verdict"] == "suspect input"
+    assert doc["epsilon"] == pytest.approx(truth["epsilon"], abs=0.002)
 
 
 # --------------------------------------------------------------------------- impacts

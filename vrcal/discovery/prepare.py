@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vrcal.drop.effects import drag_constant_per_m, flight_expectation
+from vrcal.drop.effects import drag_constant_per_m, flight_expectation, surface_of
 from vrcal.errors import DataError, UsageError
 from vrcal.measurements.cleanup import third_difference_sigma
 from vrcal.measurements.plausibility import FLIGHT_G_SPREAD, UNIT_QUESTION
@@ -110,7 +110,7 @@ def floor_band(ball=None):
     return param.physical_limits(ball)
 
 
-def floor_referenced(data, floor_m=None, ball=None):
+def floor_referenced(data, floor_m=None, ball=None, y_down=False):
     """A trajectory with heights above the floor, and a note saying what was done (or None).
 
     Parameters
@@ -118,17 +118,28 @@ def floor_referenced(data, floor_m=None, ball=None):
     data : Trajectory or ImpactTimes or ApexHeights
         only trajectories are changed
     floor_m : float or None
-        height of the floor in the data's frame [m]; subtracted from every height. None:
+        height of the floor in the file's frame [m]: along its y axis, so with ``y_down`` the floor's
+        distance below the file's origin (a motion detector above the ball: the floor's distance from the
+        sensor, 1.9 for 1.9 m); subtracted from every height. None:
         keep the heights when the lowest sample after release lies in
         :func:`floor_band` (of ``ball``), otherwise subtract the lowest sample (the data's origin is
         then the lowest tracked position; :func:`vrcal.discovery.ranking.discover` fits the
         contact's level from there with the baseline).
     ball : BallProperties or None
         the ball, whose size bounds where a tracked point can be (:func:`floor_band`)
+    y_down : bool
+        the reader turned the file's y axis over (height = -y), so the floor's height is ``-floor_m``
 
     Returns
     -------
     (data, note) ; the shift is ``data.y_m_before - data.y_m_after``
+
+    Raises
+    ------
+    UsageError
+        when the floor given lies above most of the samples after release, beyond where any tracked point of
+        the ball can be (:func:`floor_band`): a floor in the wrong frame or unit (1.9 for a motion
+        detector's -1.9 before the file's axis was read as pointing down printed epsilon = 1 ± 1519)
     """
     if data.kind != "trajectory":
         if floor_m is not None:
@@ -138,8 +149,10 @@ def floor_referenced(data, floor_m=None, ball=None):
     if floor_m is not None:
         if not math.isfinite(floor_m):
             raise UsageError(f"--floor must be a finite height in m, got {floor_m!r}")
-        shift = float(floor_m)
-        note = f"heights shifted by {-shift:+.4f} m (--floor {shift:g} m)"
+        shift = -float(floor_m) if y_down else float(floor_m)
+        frame = f", the file's y pointing down: the floor at height {shift:+.4f} m" if y_down else ""
+        note = f"heights shifted by {-shift:+.4f} m (--floor {float(floor_m):g} m{frame})"
+        _check_floor_below(data, shift, floor_m, ball, y_down)
     else:
         low = _lowest_after_release(data)
         lo, hi = floor_band(ball)
@@ -149,6 +162,25 @@ def floor_referenced(data, floor_m=None, ball=None):
         note = (f"heights are not referenced to the floor (lowest sample after release at {low:+.4f} m): "
                 f"shifted by {-shift:+.4f} m so that the lowest sample is at 0 (give --floor to set the floor)")
     return dataclasses.replace(data, y_m=y - shift), note
+
+
+def _check_floor_below(data, floor_height_m, floor_m, ball, y_down):
+    """Raise when most samples after release lie below the floor at ``floor_height_m`` [m] beyond where a
+    tracked point of the ball can be (:func:`floor_referenced`): a bouncing ball spends most of its time
+    above the floor."""
+    y = np.asarray(data.y_m, dtype=float)[int(getattr(data, "release_index", 0) or 0):] - floor_height_m
+    y = y[np.isfinite(y)]
+    lo = floor_band(ball)[0]
+    if not y.size or float(np.median(y)) >= lo:
+        return
+    below = float(np.mean(y < lo))
+    axis = ("the file's y points down (--y-down or its format), so the floor is its distance below the file's "
+            "origin, as a motion detector above the ball gives it" if y_down else
+            "the file's y points up; with a y axis pointing down (a motion detector above the ball, image rows) "
+            "add --y-down and give the floor's distance below the origin")
+    raise UsageError(f"--floor {float(floor_m):g} m lies above {100 * below:.0f} % of the samples after the release "
+                     f"(their median {float(np.median(y)):+.3f} m from it, their highest {float(np.max(y)):+.3f} m): "
+                     f"give the floor's height in the file's frame, in m; {axis}")
 
 
 def _lowest_after_release(run):
@@ -252,7 +284,7 @@ def _contact_windows(edges, k, m):
     return max(edges[k], m - 6), m, m + 1, min(edges[k + 2], m + 7)
 
 
-def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
+def contact_points(t_s, y_m, minima, release_index, g_m_per_s2, speeds=False):
     """Time and height of each contact: where the flight before a bounce meets the flight after it.
 
     Each flight is a parabola of curvature -g through its samples (leaving out the sample
@@ -263,26 +295,73 @@ def contact_points(t_s, y_m, minima, release_index, g_m_per_s2):
 
     Returns
     -------
-    (t_c, y_c) : ndarrays, one entry per minimum
+    (t_c, y_c) : ndarrays, one entry per minimum; with ``speeds`` also (v_in, v_out): the two flights'
+    speeds there [m/s] (NaN where a flight is not known)
     """
     t = np.asarray(t_s, dtype=float)
     y = np.asarray(y_m, dtype=float)
     g = float(g_m_per_s2)
     edges = [int(release_index)] + [int(m) for m in minima] + [t.size]
-    tc, yc = [], []
+    tc, yc, v_in, v_out = [], [], [], []
     for k, m in enumerate(minima):
         lo_in, hi_in, lo_out, hi_out = _contact_windows(edges, k, m)
         before, after = _flight_line(t, y, lo_in, hi_in, g), _flight_line(t, y, lo_out, hi_out, g)
         if before is None or after is None or before[1] == after[1]:
             tc.append(float(t[m]))
             yc.append(float(y[m]) if before is not None and after is not None else math.nan)
+            v_in.append(math.nan)
+            v_out.append(math.nan)
             continue
         tm = (after[0] - before[0]) / (before[1] - after[1])
         if not (t[max(m - 1, 0)] - 0.5 * (t[m] - t[max(m - 1, 0)]) <= tm <= t[min(m + 1, t.size - 1)] + 1e-12):
             tm = float(t[m])
         tc.append(float(tm))
         yc.append(float(before[0] + before[1] * tm - 0.5 * g * tm * tm))
+        v_in.append(abs(before[1] - g * tm))
+        v_out.append(abs(after[1] - g * tm))
+    if speeds:
+        return np.asarray(tc), np.asarray(yc), np.asarray(v_in), np.asarray(v_out)
     return np.asarray(tc), np.asarray(yc)
+
+
+#: A sample at a bounce this many noise sigmas deeper than the deepest contact of the ball can take its tracked
+#: point is off the ball (:func:`samples_below_contacts`).
+BELOW_CONTACT_SIGMAS = 5.0
+
+
+def samples_below_contacts(data, ball, g_m_per_s2, sigma_m=0.0, surface="rigid"):
+    """Samples at a bounce that lie deeper below its contact than the ball can go: [(sample index, reason)].
+
+    A contact of duration tau at speeds v_in, v_out takes the ball at most (v_in + v_out) tau / (2 pi) below the
+    level where its flights meet (the registry's ``contact_duration`` dip); with tau its physical limit
+    (:func:`vrcal.drop.effects.contact_time_limit_s`, for the ``surface``), a bounce's lowest sample deeper
+    than that by :data:`BELOW_CONTACT_SIGMAS` noise sigmas (``sigma_m`` [m]) is no position of the ball: a
+    motion detector's echo off the floor (a basketball's top read 0.24 m low, the floor's distance), or a
+    tracker on something else. The flights on both sides are fitted without it (:func:`contact_points`), so
+    they say where the contact was.
+    """
+    from vrcal.discovery.residuals import impacts_in_trajectory
+    from vrcal.drop.effects import contact_time_limit_s
+
+    r = int(getattr(data, "release_index", 0) or 0)
+    y = np.asarray(data.y_m, dtype=float)
+    minima = impacts_in_trajectory(data.t_s, y, r, sigma_m or None)
+    if minima.size == 0:
+        return []
+    tc, yc, v_in, v_out = contact_points(data.t_s, y, minima, r, g_m_per_s2, speeds=True)
+    tau = contact_time_limit_s(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)), surface)
+    out = []
+    for m, t_c, y_c, a, b in zip(minima, tc, yc, v_in, v_out):
+        if not (math.isfinite(y_c) and math.isfinite(a) and math.isfinite(b)):
+            continue
+        dip = (a + b) * tau / (2.0 * math.pi)
+        depth = y_c - float(y[m])
+        if depth > dip + BELOW_CONTACT_SIGMAS * float(sigma_m or 0.0) and depth > 0.0:
+            out.append((int(m), f"{_line(data, int(m))} (t = {float(data.t_s[m]):.4g} s) lies {depth:.3g} m below "
+                                f"where the flights on both sides meet, deeper than a contact of this ball can "
+                                f"take it ({dip * 1e3:.3g} mm at {a:.3g} m/s): no position of the ball (a motion "
+                                f"detector's echo off the floor, a tracker on something else)"))
+    return out
 
 
 def _line_sd_at(t, lo, hi, tm, sigma):
@@ -641,6 +720,17 @@ def split_trajectory(data, odd, minima):
     return pieces, notes
 
 
+def without_samples(data, indices):
+    """A trajectory without the samples at ``indices``; its release index and file lines follow."""
+    keep = np.ones(len(data.t_s), dtype=bool)
+    keep[np.asarray(indices, dtype=int)] = False
+    release = int(getattr(data, "release_index", 0) or 0)
+    lines = getattr(data, "lines", None)
+    return dataclasses.replace(data, t_s=np.asarray(data.t_s)[keep], y_m=np.asarray(data.y_m)[keep],
+                               release_index=int(np.count_nonzero(keep[:release])),
+                               lines=None if lines is None else np.asarray(lines)[keep])
+
+
 def _impact_runs(data, label):
     chains = getattr(data, "chains", ()) or ()
     if len(chains) <= 1:
@@ -835,7 +925,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
     floor_m : float or None
         see :func:`floor_referenced`
     y_down : bool
-        the reader turned the y axis over (for the hint of an upside-down record)
+        the reader turned the y axis over: the frame of ``floor_m``, and the hint of an upside-down record
     sigma_m : float or None
         noise of one height [m] when known
     progress : callable or None
@@ -865,7 +955,7 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
             new, note = dataclasses.replace(run, y_m=np.asarray(run.y_m, dtype=float) - common[0]), None
             shifts.append(common[0])
         else:
-            new, note = floor_referenced(run, floor_m, ball)
+            new, note = floor_referenced(run, floor_m, ball, y_down=y_down)
             shifts.append(float(np.asarray(run.y_m)[0] - np.asarray(new.y_m)[0]) if note else 0.0)
         if note:
             notes.append(_of_run(label, note))
@@ -900,6 +990,10 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         if run.kind == "impacts":
             out += _impact_runs(run, label)
         elif run.kind == "trajectory":
+            below = samples_below_contacts(run, ball, g_m_per_s2, sigma or 0.0, surface_of(ball))
+            if below:
+                notes += [_of_run(label, why + "; left out") for _, why in below]
+                run = without_samples(run, [i for i, _ in below])
             odd, minima = odd_bounces(run, ball, g_m_per_s2, sigma or 0.0)
             if not odd:
                 out.append((run, label))

@@ -1682,12 +1682,13 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         out while they are material are said in a note and kept in ``Discovery.cut``: never silently (a
         cap of 3 dropped a tennis ball's drag and bent epsilon 0.011 low, 84 of its +-)
     floor_m : float or None
-        trajectories: height of the floor in the data's frame [m] (see :func:`floor_referenced`)
+        trajectories: height of the floor in the file's frame [m], along its y axis (see :func:`floor_referenced`)
     noise : float or None
         noise of one datum in the data's unit (m or s); default: estimated from a
         trajectory (:func:`vrcal.discovery.residuals.noise_floor`), else :data:`ASSUMED_NOISE`
     y_down : bool
-        the reader turned the file's y axis over (for the hint when the record looks upside down)
+        the reader turned the file's y axis over: ``floor_m`` is along the file's axis, and the hint when the
+        record looks upside down
     reader : dict or None
         how the file was read (format and options), kept in the result for a replay
     stages : callable, optional
@@ -2225,5 +2226,102 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
               **({"rotate": recording["rotate"]} if recording.get("rotate") else {})}
     stated = drop_measured_to is not None or rebound_measured_to is not None
     candidates = [e for e in res.applicable_effects("apexes") if e != "height_offset"] if stated else None
-    return discover(data, props, g_m_per_s2=g_m_per_s2, progress=progress, floor_m=floor_m, noise=noise,
-                    y_down=turned, reader=reader, stages=stages, candidates=candidates, surface=surface)
+    def run(g):
+        return discover(data, props, g_m_per_s2=g, progress=progress, floor_m=floor_m, noise=noise,
+                        y_down=turned, reader=reader, stages=stages, candidates=candidates, surface=surface)
+
+    return at_apparent_g(run(g_m_per_s2), run, g_m_per_s2)
+
+
+#: Relative margin about the g this ball's flights can show -- between its g less buoyancy (a real ball in air)
+#: and bare g (in a vacuum chamber, or a simulation without buoyancy) -- inside which a trajectory's flights fall
+#: as they should (:func:`at_apparent_g`): air drag bends a parabola fitted to a table-tennis ball's flight by
+#: about 0.2 % of g.
+APPARENT_G_TOLERANCE = 0.005
+
+#: ... and beyond which they must lie by this many standard errors of their g.
+APPARENT_G_SIGMAS = 5.0
+
+#: The fit at the flights' g is taken when its -2 ln evidence is lower by this much, plus ln n for the one
+#: parameter the record gave it (g): odds beyond e^5, 150 to 1.
+APPARENT_G_EVIDENCE = 10.0
+
+
+def flights_g(found):
+    """The g a trajectory's flights show [m/s^2] and its standard error: the mean of the parabolas through
+    the flights between two bounces of every run (:func:`vrcal.measurements.plausibility.flight_curvatures`),
+    weighted by their errors, which the flights' scatter about it widens (Birge's ratio, when above 1); None
+    for other data or fewer than two such flights. The first fall and a flight the record ends in are left
+    out: rising and falling, air drag bends a parabola one way and then the other, but a fall alone only one
+    way (a table-tennis ball's first fall from 1 m shows 0.94 g)."""
+    from vrcal.measurements.plausibility import flight_curvatures
+
+    if found.kind != "trajectory":
+        return None
+    fits = [f for run in found.runs
+            for f in flight_curvatures(run.t_s, run.y_m, int(getattr(run, "release_index", 0) or 0),
+                                       found.noise_floor or 0.0, between_bounces=True)]
+    if len(fits) < 2:
+        return None
+    g = -np.array([f[0] for f in fits])
+    w = 1.0 / np.array([f[3] for f in fits]) ** 2
+    mean = float(np.sum(w * g) / np.sum(w))
+    birge = math.sqrt(max(float(np.sum(w * (g - mean) ** 2)) / (g.size - 1), 1.0))
+    return mean, birge / math.sqrt(float(np.sum(w)))
+
+
+def at_apparent_g(found, rerun, g_m_per_s2):
+    """The discovery of a trajectory at the g its flights show, when they show another and that explains it far
+    better.
+
+    A length scale off by a factor s (a metre stick in another plane than the ball) or a clock off by a (a
+    29 fps video read at 30) makes the flights fall with s g or g / a^2, and nothing else: ratios of heights,
+    and so epsilon, do not change. At the nominal g the fit named a speed law and a height offset for a
+    table-tennis track whose scale was 3 % off (epsilon 0.817 for 0.90). The flights' curvature does not
+    depend on what happens at the bounces, so it tells a scale from a misfit of the bounce model. When the
+    flights' g (:func:`flights_g`) lies outside what this ball's flights can show (its g less buoyancy to
+    bare g, :data:`APPARENT_G_TOLERANCE` either side) by :data:`APPARENT_G_SIGMAS` standard errors,
+    ``rerun(g)`` fits the record at the g its flights show; its result is taken when its -2 ln evidence (with the
+    same noise) is lower by :data:`APPARENT_G_EVIDENCE` + ln n, with a warning (the verdict is "suspect
+    input") that says what to check and the epsilon the nominal g gave.
+
+    Parameters
+    ----------
+    found : Discovery
+        the result at ``g_m_per_s2``
+    rerun : callable
+        ``rerun(g)``: the same discovery at gravity g [m/s^2]
+    g_m_per_s2 : float
+        the nominal gravity [m/s^2]
+
+    Returns
+    -------
+    Discovery
+    """
+    from vrcal.drop.effects import flight_expectation
+
+    seen = flights_g(found)
+    if seen is None or not found.noise_floor:
+        return found
+    g_seen, se = seen
+    g = float(g_m_per_s2)
+    g_exp, _ = flight_expectation(float(np.mean(found.ball.mass_kg)), float(np.mean(found.ball.diameter_m)), g)
+    lo, hi = min(g, g_exp) * (1.0 - APPARENT_G_TOLERANCE), max(g, g_exp) * (1.0 + APPARENT_G_TOLERANCE)
+    if lo - APPARENT_G_SIGMAS * se <= g_seen <= hi + APPARENT_G_SIGMAS * se:
+        return found
+    ref = max(g, g_exp) if g_seen > hi else min(g, g_exp)     # the nearest g this ball's flights can show
+    ratio = g_seen / ref
+    other = rerun(g_seen)     # the flights as they are; buoyancy, a candidate, would only lower them
+    sigma = found.noise_floor
+    nominal, refit = res.minus_two_ln_evidence(found.final, sigma), res.minus_two_ln_evidence(other.final, sigma)
+    if not nominal - refit > APPARENT_G_EVIDENCE + math.log(other.final.n):
+        return found
+    side = ("large", "high") if ratio > 1 else ("small", "low")
+    other.warnings.append(
+        f"the flights fall at {number(g_seen, 4)} ± {se:.2g} m/s^2, {ratio:.4f} times this ball's ({number(g_exp, 4)} "
+        f"with buoyancy, {number(g, 4)} without): a length scale {100 * abs(ratio - 1):.1f} % too {side[0]} "
+        f"(--scale; a metre stick in the ball's plane) or a frame rate {100 * abs(math.sqrt(ratio) - 1):.1f} % too "
+        f"{side[1]} (--fs, the time column); fitted at g = {number(g_seen, 4)} m/s^2 (as --g "
+        f"{number(g_seen, 4)}), which fits far better than g = {number(g, 4)} (epsilon {found.epsilon:.4f} there): "
+        f"epsilon from heights does not depend on the scale; the speeds and C_d do")
+    return other

@@ -206,22 +206,23 @@ def record_noise(doc, residual_m):
 def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None, floor_m=None, doc=None):
     """The record as ``vrcal discover`` read it: (Trajectory, notes).
 
-    Reader options not given are taken from the discover result's ``data.read_options`` when it
-    has one (a key that newer discover results may carry), and so is ``floor_m``
-    (``data.floor_shift_m``); otherwise the floor is referenced by the same rule as discover's.
+    Reader options not given are taken from the discover result's ``reader`` (its format, scale, y axis and
+    frame rate), and so is ``floor_m``: the shift discover subtracted from this file's heights
+    (``reader.floor_shift_m``, of the run read from it); otherwise the floor is referenced by the same rule as
+    discover's. A ``floor_m`` given is along the file's y axis, as discover's ``--floor``.
     """
     from vrcal.discovery.ranking import floor_referenced
     from vrcal.measurements import read_measurement
     from vrcal.model.body import BallProperties
 
-    saved = ((doc or {}).get("data") or {}) if isinstance((doc or {}).get("data"), dict) else {}
-    opts = saved.get("read_options") if isinstance(saved.get("read_options"), dict) else {}
-    fmt = fmt if fmt is not None else opts.get("format")
-    scale_m_per_px = scale_m_per_px if scale_m_per_px is not None else opts.get("scale_m_per_px")
-    y_down = y_down or bool(opts.get("y_down", False))
-    fs_hz = fs_hz if fs_hz is not None else opts.get("fs_hz")
-    if floor_m is None and isinstance(saved.get("floor_shift_m"), (int, float)):
-        floor_m = float(saved["floor_shift_m"])
+    saved = (doc or {}).get("reader") if isinstance((doc or {}).get("reader"), dict) else {}
+    fmt = fmt if fmt is not None else saved.get("format")
+    scale_m_per_px = scale_m_per_px if scale_m_per_px is not None else saved.get("scale_m_per_px")
+    y_down = y_down or bool(saved.get("y_down", False))
+    fs_hz = fs_hz if fs_hz is not None else saved.get("fs_hz")
+    given_in_file = floor_m is not None   # the user's, along the file's y axis; a saved shift is in heights
+    if floor_m is None:
+        floor_m = _saved_shift(saved, path)
     data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
     if data.kind != "trajectory":
         raise UsageError(f"--against replays a trajectory (heights against time); {path} holds {data.kind}: "
@@ -231,8 +232,26 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
     ball = (doc or {}).get("ball")
     props = BallProperties(float(ball["mass_kg"]), float(ball["diameter_m"]), str(ball.get("name", "ball"))) \
         if isinstance(ball, dict) else None
-    data, note = floor_referenced(data, floor_m, props)
+    data, note = floor_referenced(data, floor_m, props, y_down=y_down and given_in_file)
+    if note and floor_m is not None and not given_in_file:
+        note = f"heights shifted by {-floor_m:+.4f} m, as discover shifted them (its result's reader.floor_shift_m)"
     return data, [note] if note else []
+
+
+def _saved_shift(reader, path):
+    """The floor shift [m] discover subtracted from the heights of the file ``path`` (its result's ``reader``:
+    ``floor_shift_m``, a shift per run, and ``files``), or None when the result does not say (a file of
+    several runs, another file)."""
+    import os
+
+    shifts, files = reader.get("floor_shift_m"), reader.get("files")
+    if not isinstance(shifts, list) or not isinstance(files, list) or len(shifts) != len(files):
+        return None
+    names = [os.path.basename(str(f)) for f in files]
+    name = os.path.basename(str(path))
+    if names.count(name) != 1 or not isinstance(shifts[names.index(name)], (int, float)):
+        return None
+    return float(shifts[names.index(name)])
 
 
 def release_state(doc, against):

@@ -163,12 +163,15 @@ def _flight_edges(z, sigma):
     return [0] + [int(m) for m in minima] + [z.size - 1]
 
 
-def _flight_segments(t, y, sign, release, sigma):
+def _flight_segments(t, y, sign, release, sigma, between_bounces=False):
     """The flights of ``sign * y`` between its prominent minima, the samples next to a contact left out:
-    [(times from the segment's start [s], heights [unit])] of those with :data:`FLIGHT_MIN_SAMPLES`."""
+    [(times from the segment's start [s], heights [unit])] of those with :data:`FLIGHT_MIN_SAMPLES`;
+    ``between_bounces``: only those with a minimum at both ends."""
     z = sign * y[release:]
     tt = t[release:]
     edges = _flight_edges(z, sigma)
+    if between_bounces:
+        edges = edges[1:-1]
     out = []
     for a, b in zip(edges[:-1], edges[1:]):
         lo, hi = a + 2, b - 1      # leave out the samples next to a contact
@@ -182,12 +185,13 @@ def _clean(rms, z, sigma):
     return rms <= max(4.0 * sigma, 0.01 * float(np.ptp(z)))
 
 
-def _flight_fits(t, y, sign, release, sigma):
+def _flight_fits(t, y, sign, release, sigma, between_bounces=False):
     """Parabolas through the flights of ``sign * y`` between its prominent minima:
     [(curvature y'' [unit/s^2], rms residual [unit], samples, standard error of the curvature [unit/s^2])]
-    (the error from the larger of the parabola's scatter and ``sigma``)."""
+    (the error from the larger of the parabola's scatter and ``sigma``); ``between_bounces``: see
+    :func:`_flight_segments`."""
     out = []
-    for ts, z in _flight_segments(t, y, sign, release, sigma):
+    for ts, z in _flight_segments(t, y, sign, release, sigma, between_bounces):
         coef, res, *_ = np.polyfit(ts, z, 2, full=True)
         rms = math.sqrt(float(res[0]) / z.size) if res.size else 0.0
         if _clean(rms, z, sigma):
@@ -197,6 +201,25 @@ def _flight_fits(t, y, sign, release, sigma):
                 / max(float(np.ptp(ts)), 1e-12) ** 2
             out.append((2.0 * float(coef[0]), rms, z.size, se))
     return out
+
+
+def flight_curvatures(t_s, y_m, release_index=0, sigma_m=0.0, between_bounces=False):
+    """The parabolas through the flights of an upright trajectory (between its bounces, the samples next to a
+    contact left out) that fit to the noise: [(curvature y'' [m/s^2], rms residual [m], samples, standard
+    error of the curvature [m/s^2])]; ``between_bounces``: only the flights with a bounce at both ends (not
+    the first fall, nor a flight the record ends in).
+
+    Parameters
+    ----------
+    t_s, y_m : array_like
+        sample times [s] and heights [m]
+    release_index : int
+        first sample after the still segment
+    sigma_m : float
+        noise of one height [m]
+    """
+    return _flight_fits(np.asarray(t_s, dtype=float), np.asarray(y_m, dtype=float), 1.0, int(release_index),
+                        float(sigma_m), between_bounces)
 
 
 def _weighted_median_g(fits):
