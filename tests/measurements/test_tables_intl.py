@@ -120,10 +120,10 @@ def test_height_columns_in_a_class_language_are_trajectories(tmp_path, header, u
 
 
 def test_a_failing_column_look_up_names_what_the_column_may_be_called(tmp_path):
-    path = write(tmp_path, "w.csv", "Zeit (s);Weg (m)\n0;1\n0,1;0,9\n")
+    path = write(tmp_path, "w.csv", "Zeit (s);Wert (m)\n0;1\n0,1;0,9\n")
     with pytest.raises(DataError) as err:
         read_measurement(path, "trajectory")
-    assert "columns: Zeit, Weg" in str(err.value) and "'Höhe'" in str(err.value) and "'y (m)'" in str(err.value)
+    assert "columns: Zeit, Wert" in str(err.value) and "'Höhe'" in str(err.value) and "'y (m)'" in str(err.value)
     with pytest.raises(DataError) as err:
         read_measurement(write(tmp_path, "i.csv", "Nr;Dauer\n1;0,5\n2;0,9\n"), "impacts")
     assert "columns: Nr, Dauer" in str(err.value) and "'Zeit'" in str(err.value)

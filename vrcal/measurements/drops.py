@@ -323,8 +323,28 @@ def _beside_a_drop(cols, bounce):
     return len(other) == 1 and _drop_column(other) is not None
 
 
+def _trial_columns(cols):
+    """``cols`` with the data set's name put back after the names of columns that differ by it alone (``Rebound
+    (cm) Run 1``, ``Rebound (cm) Run 2``, read by :func:`vrcal.measurements.table.columns` as ``Rebound (cm)`` of
+    the data sets ``Run 1`` and ``Run 2``): in a drop table, runs side by side are trials, their data set's name
+    tells which (``Rebound Run 1 (cm)``)."""
+    if cols is None:
+        return None
+    count = {}
+    for c in cols:
+        count[(c.name, c.unit)] = count.get((c.name, c.unit), 0) + 1
+    return [c._replace(name=f"{c.name} {c.data_set.lower()}", raw=f"{c.raw} {c.data_set}")
+            if c.data_set and count[(c.name, c.unit)] > 1 else c for c in cols]
+
+
+def _header_columns(text):
+    """:func:`vrcal.measurements.table.header_columns` with trials told apart by their data set
+    (:func:`_trial_columns`)."""
+    return _trial_columns(header_columns(text))
+
+
 def detect(text):
-    cols = header_columns(text)
+    cols = _header_columns(text)
     if not cols or find_column(cols, TIME_NAMES) is not None:
         return False
     number = find_column(cols, BOUNCE_NAMES)
@@ -338,7 +358,7 @@ def looks_like_heights(text):
     """True when the header names two or more columns of heights (a length unit, or a word of a height,
     a drop or a rebound in a language above) and no time, over a row of numbers there: a drop table
     whose names are not recognised (the error then says how to name them, :data:`NAMING`)."""
-    cols = header_columns(text)
+    cols = _header_columns(text)
     if not cols or len(text.lines) < 2 or find_column(cols, TIME_NAMES) is not None:
         return False
     heights = [c for c in cols if (c.unit and _length_unit(c))
@@ -398,7 +418,7 @@ def transposed(text):
     1,Trial 2,...`` over ``Bounce_1,18.125,17.875,...``), the layout vrcal does not read (one trial per row),
     else None: the header's cells after the first name trials (:data:`_TRIAL`) and every row starts with a
     bounce or a drop (``Bounce_1``, ``2nd bounce``, ``Drop``) before numbers."""
-    cols = header_columns(text)
+    cols = _header_columns(text)
     if not cols or len(cols) < 3 or not all(_TRIAL.match(c.name) for c in cols[1:]):
         return None
     sep, decimal_comma = sniff(text.lines[0][1], [s for _, s in text.lines[1:21]])
@@ -550,6 +570,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if header is not None:
         fail(path, text.lines[0][0], no_header_message(header))
     table = parse_table(text)
+    table = table._replace(cols=_trial_columns(table.cols))
     cols, renamed = _inch_columns(table.cols)
     found = _height_columns(cols)
     if found is None:

@@ -21,7 +21,7 @@ import numpy as np
 
 from vrcal.errors import DataError
 from vrcal.measurements.cleanup import TIMING_SIGMA_S, impact_chains, printed_resolution, time_grid
-from vrcal.measurements.plausibility import check_impact_times
+from vrcal.measurements.plausibility import TRAJECTORY_HINT, check_impact_times
 from vrcal.measurements.table import (
     BOUNCE_NAMES,
     H_NAMES,
@@ -42,9 +42,11 @@ from vrcal.measurements.table import (
     parse_table,
     repeated_columns,
     row_lines,
+    said_lines,
     unit_factor,
 )
 from vrcal.measurements.types import ImpactTimes, Runs
+from vrcal.textout import counted
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
 
@@ -124,9 +126,9 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if len(same) > 1:   # runs side by side (a spreadsheet with one column per trial)
         runs, labels = [], []
         for k, c in enumerate(same, start=1):
-            t, lines, printed_s = _times(path, table, c, allow_empty=True)
+            t, lines, printed_s, left_out = _times(path, table, c)
             run = impact_times_from_events(f"{path} (column {c.index + 1})", t, lines,
-                                           [*notes, f"impact times from column {c.index + 1} '{c.raw}'"],
+                                           [*notes, f"impact times from column {c.index + 1} '{c.raw}'", *left_out],
                                            printed_s=printed_s)
             runs.append(run)
             labels.append(f"column {c.index + 1}")
@@ -136,10 +138,12 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
     if len(table.cols) > 1:
         notes.append(f"impact times from column '{col.raw or col.name}'" + (f" ({col.unit})" if col.unit else ""))
         notes.extend(_unread_notes(path, table, [col]))
-    t, line_numbers, printed_s = _times(path, table, col)
+    t, line_numbers, printed_s, left_out = _times(path, table, col)
+    notes.extend(left_out)
     if col.unit not in ("", "s", "sec"):
         notes.append(f"impact times converted from {col.unit} to s")
-    found = impact_times_from_events(path, t, line_numbers, notes, printed_s=printed_s)
+    found = impact_times_from_events(path, t, line_numbers, notes, printed_s=printed_s,
+                                     trajectory_hint=_trajectory_hint(table.cols))
     # vrcal track's file of a lossless recording says how well its onsets are timed
     instrument = meta_number(text, "instrument_sd_s", 0.1, "a time in s")
     return dataclasses.replace(found, instrument_sd_s=instrument) if instrument else found
@@ -202,21 +206,36 @@ def _interval_check(path, table, col, t_col):
             f"{d[k]:.6g} s): the times are read")
 
 
-def _times(path, table, col, allow_empty=False):
-    """(times [s], their lines, the step [s] they were written to or None) of one column; empty cells skipped
-    when allowed (a shorter run)."""
-    t = column_values(path, table, col, what="impact time", allow_empty=allow_empty)
+def _times(path, table, col):
+    """(times [s], their lines, the step [s] they were written to or None, notes) of one column: empty cells after
+    its last time end it (a shorter run beside a longer one), those before are left out, named by their lines in
+    ``notes``."""
+    t = column_values(path, table, col, what="impact time", allow_empty=True)
     factor = unit_factor(path, table, col, TIME_UNITS, "time")
     step = printed_resolution(t[np.isfinite(t)], 6, written=column_cells(table, col))
     t = t * factor
     line_numbers = row_lines(table)
     ok = np.isfinite(t)
+    inside = ~ok & (np.arange(t.size) < (np.flatnonzero(ok)[-1] if np.any(ok) else 0))
+    notes = [f"{counted(int(inside.sum()), 'row')} with no impact time left out: {said_lines(line_numbers[inside])}"
+             ] if np.any(inside) else []
     t, line_numbers = t[ok], line_numbers[ok]
     check_increasing(path, t, line_numbers, "impact time")
-    return t, line_numbers, None if step is None else step * factor
+    return t, line_numbers, None if step is None else step * factor, notes
 
 
-def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None, printed_s=None):
+def _trajectory_hint(cols):
+    """How to read a table of equally spaced times as a trajectory: by ``--format trajectory`` when a column is
+    named as heights (``Position (m)``, read as impact times with ``--format impacts``), else by naming one so
+    (:data:`vrcal.measurements.plausibility.TRAJECTORY_HINT`)."""
+    height = find_column(cols, Y_NAMES)
+    if height is None:
+        return TRAJECTORY_HINT
+    return f"column '{height.raw}' holds the heights of a trajectory: give --format trajectory"
+
+
+def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None, printed_s=None,
+                             trajectory_hint=TRAJECTORY_HINT):
     """ImpactTimes from a file's events: chains of consecutive bounces, the rest named and left out.
 
     Parameters
@@ -234,6 +253,8 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None, print
     printed_s : float or None
         the step [s] the file wrote the times to, from their text (trailing zeros count); None: read
         from the times themselves (:func:`vrcal.measurements.cleanup.time_grid`)
+    trajectory_hint : str
+        how to read the file as a trajectory, told when the times are equally spaced
 
     Raises
     ------
@@ -252,7 +273,8 @@ def impact_times_from_events(path, t_s, lines=None, notes=(), labels=None, print
     where = int(lines[-1]) if lines is not None and lines.size else 0
     if t.size < MIN_IMPACTS:
         fail(path, where, f"only {t.size} impact(s); at least {MIN_IMPACTS} are needed")
-    check_impact_times(t, path)   # units and shrinking intervals first: a list in ms or backwards stops here
+    # units and shrinking intervals first: a list in ms or backwards stops here
+    check_impact_times(t, path, trajectory_hint)
     if t.size > MAX_IMPACT_EVENTS:
         fail(path, where, f"{t.size:,} impact times, more than the {MAX_IMPACT_EVENTS:,} a file of drops can hold "
                           f"(a drop gives tens of impacts): are these a sensor's samples? Split the file into "

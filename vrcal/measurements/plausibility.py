@@ -520,10 +520,16 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
 # --------------------------------------------------------------------------- impacts and apexes
 
 
-def check_impact_times(t_s, source="data"):
+#: What a list of equally spaced "impact times" is told about reading a trajectory instead.
+TRAJECTORY_HINT = ("a trajectory's height column is named 'y', 'height', 'position' or 'Höhe'; or give --format "
+                   "trajectory")
+
+
+def check_impact_times(t_s, source="data", trajectory_hint=TRAJECTORY_HINT):
     """Impact times of one drop must be those of a bouncing ball: intervals that shrink (not equally
     spaced: :data:`EQUAL_INTERVALS_RATIO`; not growing), the longest of the first three flights between
-    10 ms and 6 s. Raises DataError otherwise (naming the likely unit mix-up)."""
+    10 ms and 6 s. Raises DataError otherwise (naming the likely unit mix-up; equally spaced times end with
+    ``trajectory_hint``, how to read the file as a trajectory)."""
     t = np.asarray(t_s, dtype=float)
     if t.size < 2:
         return
@@ -534,8 +540,7 @@ def check_impact_times(t_s, source="data"):
             _fail(source, f"the intervals between impacts do not shrink ({dt.size:,} intervals of about "
                           f"{float(np.median(dt)):.4g} s, median ratio {ratio:.4f}): epsilon would be 1, and no "
                           f"ball bounces like that; these look like a clock's ticks or a sensor's samples, not "
-                          f"impact times (a trajectory's height column is named 'y', 'height', 'position' or 'Höhe'; "
-                          f"or give --format trajectory)")
+                          f"impact times ({trajectory_hint})")
     first = float(np.max(dt[:3]))   # the longest of the first flights (an echo may shorten one)
     lo, hi = FLIGHT_S
     height = float(bounce_height_m(first))

@@ -349,20 +349,15 @@ def read_measurement(path, fmt=None, **options):
         excel.check_workbook_name(path, _text_layout)   # a CSV named .xlsx: say so, not 'header but no data rows'
     container = excel.container_kind(path) in ("xlsx", "xls", "zip")
     text = _load(path, sheet if container else None)
-    title = None
-    text, units_note = _units_into_header(text, name)
-    if name is None:
-        text, name, title = _detect_below_title(text)
-    elif not FORMATS[name].recording:
-        text, title = _below_title_for(FORMATS[name], text)
     parsed = {k: v for k, v in options.items() if v is not None}
     parsed.setdefault("y_down", False)
-    if sheet is not None and not container:
-        if name != "mtrack2":
-            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks, zip archives and MTrack2 exports "
-                             f"(a track's number) only")
-        parsed["track"] = sheet
-    data = _parse(FORMATS, name, text, parsed, given=fmt is not None)
+    try:
+        data, text, title, units_note = _read_text(path, text, name, fmt, parsed, sheet, container)
+    except (DataError, UsageError):
+        found = None if sheet is not None else _below_preamble(text, fmt, parsed)
+        if found is None:
+            raise
+        data, text, title, units_note = found
     kind = data.runs[0].kind if isinstance(data, Runs) else data.kind
     unused = [flag for flag, key in (("--fs", "fs_hz"), ("--scale", "scale_m_per_px"), ("--y-down", "y_down"))
               if options.get(key) and kind != "trajectory"]
@@ -376,6 +371,60 @@ def read_measurement(path, fmt=None, **options):
     if any(said):
         data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))
     return data
+
+
+def _read_text(path, text, name, fmt, parsed, sheet, container):
+    """``(data, text, title, units_note)`` of a loaded text: its units row or two-row header merged, its
+    format ``name`` (``fmt``, or detected below its title lines) and its parser's result."""
+    title = None
+    text, units_note = _units_into_header(text, name)
+    if name is None:
+        text, name, title = _detect_below_title(text)
+    elif not FORMATS[name].recording:
+        text, title = _below_title_for(FORMATS[name], text)
+    if sheet is not None and not container:
+        if name != "mtrack2":
+            raise UsageError(f"{path}: --sheet applies to .xlsx/.xls workbooks, zip archives and MTrack2 exports "
+                             f"(a track's number) only")
+        parsed = {**parsed, "track": sheet}
+    return _parse(FORMATS, name, text, parsed, given=fmt is not None), text, title, units_note
+
+
+#: Most lines of a header above the first rows of numbers under a preamble (a Vernier text export's five).
+MAX_HEADER_LINES = 6
+
+
+def _below_preamble(text, fmt, options):
+    """``(data, text, title, note)`` of a table under a preamble that no reader takes for a title (an Arduino
+    sketch's banner of asterisks and prose copied from the Serial Monitor above its 'Vernier Format 2' header):
+    its header found as the line(s) just above the first rows of numbers -- the nearest start above them that
+    a reader reads (format ``fmt``, or detected) at a header of two cells or more or naming a time column, as
+    for a title (:func:`_title_lines`), ``note`` naming the lines skipped; None when there is no such preamble
+    or no start reads."""
+    lines = text.lines
+    numeric = [is_numeric_row(loose_cells(s)) or is_numeric_row(s.split()) for _, s in lines]
+    first = next((i for i in range(1, len(lines) - 1) if numeric[i] and numeric[i + 1]), None)
+    if first is None or first < 2 or any(numeric[:first]):
+        return None
+    for k in range(first - 1, max(0, first - MAX_HEADER_LINES - 1), -1):
+        if len(loose_cells(lines[k][1])) < 2 and not _names_time(lines[k][1]):
+            continue   # a one-column file's header above is its own, unless it names a time (_title_lines)
+        below = dataclasses.replace(text, lines=lines[k:], notes=())
+        try:
+            below, units_note = _units_into_header(below, fmt)
+            name, title = fmt, None
+            if fmt is None:
+                below, name, title = _detect_below_title(below)
+            data = FORMATS[name].parser(below, **options)
+        except (DataError, UsageError):
+            continue
+        shown = lines[0][1].strip()
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
+        where = f"line {lines[0][0]}" if k == 1 else f"lines {lines[0][0]}-{lines[k - 1][0]}"
+        note = f"{where} above the header (line {lines[k][0]}) skipped: a preamble ('{shown}'{' ...' if k > 1 else ''})"
+        return data, dataclasses.replace(below, notes=text.notes), title, "; ".join(
+            n for n in (note, units_note) if n)
+    return None
 
 
 def _parse(formats, name, text, options, given):

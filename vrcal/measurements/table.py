@@ -25,17 +25,20 @@ from vrcal.fileio import MAX_TEXT_BYTES, read_bytes_bounded
 _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
 
-#: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo).
+#: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo, tijd: Coach's
+#: ``Tijd (s)``).
 TIME_NAMES = ("t", "time", "timestamp", "time stamp", "event time", "impact time", "time of impact", "collision time",
-              "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo")
+              "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo", "tijd")
 #: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance", a video tracker's
-#: "height" and a 3D tracker's "z" too; a class's own language: Höhe, hauteur, altura, altezza; the first of them
-#: in the file's column order is taken).
+#: "height" and a 3D tracker's "z" too; a class's own language: Höhe, Abstand, Weg, hauteur, altura, altezza,
+#: hoogte, afstand, positie; CASSY Lab's distance channels ``s_A1``, ``s_B1``, of its inputs A1 and B1; the first
+#: of them in the file's column order is taken).
 Y_NAMES = ("y", "height", "h", "position", "y position", "vertical position", "distance", "z",
-           "höhe", "hoehe", "hauteur", "altura", "altezza")
+           "höhe", "hoehe", "abstand", "weg", "hauteur", "altura", "altezza", "hoogte", "afstand", "positie",
+           "s a1", "s b1")
 #: How a failing look-up tells the columns may be named (``--format trajectory`` on a file without them).
-Y_NAMING = "'y', 'height', 'position', 'z', 'Höhe', 'hauteur', 'altura' or 'altezza'"
-TIME_NAMING = "'t', 'time', 'timestamp', 'Zeit', 'temps', 'tiempo' or 'tempo'"
+Y_NAMING = "'y', 'height', 'position', 'z', 'Höhe', 'hauteur', 'altura', 'altezza' or 'hoogte'"
+TIME_NAMING = "'t', 'time', 'timestamp', 'Zeit', 'temps', 'tiempo', 'tempo' or 'tijd'"
 #: Names of a frame-number column (times = frame / --fs when the file has no time column).
 FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
@@ -99,6 +102,9 @@ _SUFFIX_UNITS = ({u for u in (*TIME_UNITS, *LENGTH_UNITS) if u} | set(UNIT_SPELL
 #: The data set's name before a column's in a Vernier (Logger Pro, Graphical Analysis) export:
 #: ``Run 1: Time (s)``, ``Latest: Position (m)``.
 _DATA_SET = re.compile(r"^(?P<set>[^:()\[\]]{1,40}):\s+(?=\S)")
+#: ... or after it, in a PASCO (Capstone, SPARKvue) export: ``Time (s) Run #1``, ``Position (m) Run 2`` (a run's
+#: number after the unit; ``Run #N`` after a name without one too).
+_RUN_AFTER = re.compile(r"(?:(?<=[)\]])\s*|\s+(?=run\s*#))(?P<set>run\s*#?\s*\d+)$", re.IGNORECASE)
 
 
 class Column(NamedTuple):
@@ -200,9 +206,16 @@ def empty_rows_notes(numbers, lines):
     rows = [n for n in numbers if lines and lines[0][0] < n < lines[-1][0]]
     if not rows:
         return ()
-    said = ", ".join(str(n) for n in rows[:8]) + (", ..." if len(rows) > 8 else "")
-    return (f"line {said}: a row of empty cells, skipped" if len(rows) == 1
-            else f"lines {said}: {len(rows)} rows of empty cells, skipped",)
+    return (f"{said_lines(rows)}: a row of empty cells, skipped" if len(rows) == 1
+            else f"{said_lines(rows)}: {len(rows)} rows of empty cells, skipped",)
+
+
+def said_lines(numbers, most=8):
+    """``'line 51'``, ``'lines 51, 77, 102'``: the file's line ``numbers`` for a note, the first ``most`` of
+    them (``, ...`` after)."""
+    numbers = [int(n) for n in numbers]
+    said = ", ".join(str(n) for n in numbers[:most]) + (", ..." if len(numbers) > most else "")
+    return f"line {said}" if len(numbers) == 1 else f"lines {said}"
 
 
 def meta_length(text, key, limit_m=1.0):
@@ -301,11 +314,16 @@ def is_numeric_row(cells, decimal_comma=True):
 def columns(cells):
     """The :class:`Column` of each header cell: its name and its unit, from brackets (``t (s)``,
     ``y [cm]``) or written after the name (``t_s``, ``t/s``, ``height in mm``, see ``_SUFFIX_UNIT``);
-    a data set's name before it (``Run 1: Time (s)``) is not part of the name."""
+    a data set's name before it (``Run 1: Time (s)``) or a run's after it (``Time (s) Run #1``) is not part of
+    the name."""
     cols = []
     for i, cell in enumerate(cells):
-        data_set = _DATA_SET.match(cell.strip())
-        m = _NAME_UNIT.match(cell.strip()[data_set.end() if data_set else 0:])
+        cell = cell.strip()
+        data_set = _DATA_SET.match(cell)
+        run_after = None if data_set else _RUN_AFTER.search(cell)
+        if run_after:
+            cell, data_set = cell[:run_after.start()].rstrip(), run_after
+        m = _NAME_UNIT.match(cell[data_set.end() if data_set and not run_after else 0:])
         name = (m.group("name") or "").strip()
         unit = unit_symbol(m.group("unit") or "")
         suffix = _SUFFIX_UNIT.match(name) if not unit else None

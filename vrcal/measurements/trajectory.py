@@ -47,12 +47,14 @@ from vrcal.measurements.table import (
     parse_table,
     repeated_columns,
     row_lines,
+    said_lines,
     sniff,
     split_cells,
     to_float,
     unit_factor,
 )
 from vrcal.measurements.types import Runs, Trajectory
+from vrcal.textout import counted
 
 #: Times [s] from which on a time column is read as a clock's (a time stamp: Unix epoch seconds) and counted
 #: from its first sample (a day: no record is that long).
@@ -190,11 +192,16 @@ def release_with_noise(run, sigma_m):
 
 def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, skip_empty_y=False,
                            force_scale=None, empty_rows="frames not marked", y_column=None, x_column=None,
-                           name_unread=False):
+                           name_unread=False, empty_after_end=False):
     """A :class:`Trajectory` of a parsed table: its time (or frame) column and height column (the first of
     :data:`Y_NAMES` unless ``y_column``, with ``x_column``, names the track's own). ``name_unread``: a note
     names the columns not read (a tracker's export has velocity columns by design; a table of other things
-    -- a drop height beside hand-timed flights -- is read as a track only in part)."""
+    -- a drop height beside hand-timed flights -- is read as a track only in part).
+
+    A row with an empty height or time cell is left out, named by its line in a note (a motion detector's lost
+    echo); ``skip_empty_y``: such rows are the file's way (a tracker's frames not marked, ``empty_rows`` says
+    why) and are counted only -- after the column's last height alone with ``empty_after_end`` (a shorter run
+    beside a longer one). A column with no number at all is an error."""
     cols = table.cols
     t_col = find_column(cols, TIME_NAMES)
     frame_col = find_column(cols, FRAME_NAMES)
@@ -206,17 +213,14 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
     if not table.rows:
         fail(path, table.header_line, "header but no data rows")
     notes = list(notes)
-    y = column_values(path, table, y_col, what="height", allow_empty=skip_empty_y)
+    y = column_values(path, table, y_col, what="height", allow_empty=True)
     line_numbers = row_lines(table)
-    if skip_empty_y:
-        empty = np.isnan(y)
-        if np.any(empty):
-            notes.append(f"skipped {int(empty.sum())} row(s) without a position ({empty_rows})")
-    else:
-        empty = np.zeros(y.size, dtype=bool)
+    empty = np.isnan(y)
+    if np.all(empty):
+        fail(path, table.header_line, f"column '{y_col.raw}' (height) holds no number: every cell is empty")
     # time
     if t_col is not None:
-        t = column_values(path, table, t_col, what="time", allow_empty=skip_empty_y)
+        t = column_values(path, table, t_col, what="time", allow_empty=True)
         factor = unit_factor(path, table, t_col, TIME_UNITS, "time")
         ok = np.isfinite(t) & ~empty
         grid = regular_frame_times(t[ok], written=column_cells(table, t_col))
@@ -245,14 +249,14 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
         if not (np.isfinite(fs_hz) and fs_hz > 0):
             raise UsageError(f"--fs must be a positive frame rate in Hz, got {fs_hz:g}")
         if frame_col is not None:   # frames not tracked leave gaps that the frame numbers keep
-            t = column_values(path, table, frame_col, what="frame number", allow_empty=skip_empty_y) / float(fs_hz)
+            t = column_values(path, table, frame_col, what="frame number", allow_empty=True) / float(fs_hz)
             notes.append(f"times = column '{frame_col.raw}' / {fs_hz:g} Hz (no time column)")
         else:
             t = np.arange(y.size) / float(fs_hz)
             notes.append(f"times from the frame rate {fs_hz:g} Hz (no time column)")
     x = column_values(path, table, x_col, what="x", allow_empty=True) if x_col is not None else None
-    if skip_empty_y and t_col is not None:
-        empty |= np.isnan(t)
+    notes += _empty_notes(line_numbers, empty, np.isnan(t) & ~empty, skip_empty_y, empty_after_end, empty_rows)
+    empty |= np.isnan(t)
     keep = ~empty
     t, y, line_numbers = t[keep], y[keep], line_numbers[keep]
     read = {c.index for c in (t_col, y_col, x_col) if c is not None}
@@ -287,6 +291,25 @@ def trajectory_from_table(path, table, *, scale_m_per_px, y_down, fs_hz, notes, 
                      "heights are relative to the file's origin)")
     positions = np.column_stack([y_m, x * factor]) if x is not None and not np.any(np.isnan(x)) else y_m[:, None]
     return finish_trajectory(path, t, y_m, line_numbers, notes, positions)
+
+
+def _empty_notes(line_numbers, no_height, no_time, skip_empty_y, after_end, why):
+    """The notes on the rows left out for an empty height (``no_height``) or time (``no_time``) cell: those the
+    file leaves empty by its way (``skip_empty_y``; with ``after_end`` only those after the last height) counted
+    with ``why``, the others named by their lines."""
+    expected = np.zeros(no_height.size, dtype=bool)
+    if skip_empty_y:
+        expected[:] = True
+        if after_end:
+            expected[:int(np.flatnonzero(~no_height)[-1]) + 1] = False
+    notes = []
+    if np.any(no_height & expected):
+        notes.append(f"skipped {int(np.sum(no_height & expected))} row(s) without a position ({why})")
+    for missing, what in ((no_height & ~expected, "height"), (no_time & ~expected, "time")):
+        if np.any(missing):
+            n = int(missing.sum())
+            notes.append(f"{counted(n, 'row')} with no {what} left out: {said_lines(line_numbers[missing])}")
+    return notes
 
 
 def side_by_side_runs(path, table):
@@ -349,7 +372,7 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
             sub = table._replace(cols=[c for c in pair if c is not None])
             runs.append(trajectory_from_table(f"{text.path} ({label})", sub, scale_m_per_px=scale_m_per_px,
                                               y_down=y_down, fs_hz=fs_hz, notes=tuple(notes), skip_empty_y=True,
-                                              empty_rows=f"after the end of {label}"))
+                                              empty_rows=f"after the end of {label}", empty_after_end=True))
         return Runs(runs=tuple(runs), source=text.path, labels=tuple(labels),
                     notes=(f"{len(runs)} runs side by side ({', '.join(labels)}): fitted jointly",))
     traj = trajectory_from_table(text.path, table, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz,

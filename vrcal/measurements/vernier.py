@@ -60,5 +60,6 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
                        for n, u, s in zip(names, units, sets))
     body = dataclasses.replace(text, lines=[(lines[3][0], header)] + list(lines[first_data:]))
     got = trajectory.parse(body, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
-    note = f"format: Vernier text export ('{lines[1][1].strip()}', data set '{lines[2][1].strip()}')"
+    description, data_set = (" ".join(lines[i][1].split()) for i in (1, 2))   # a tab shown as one blank
+    note = f"format: Vernier text export ('{description}', data set '{data_set}')"
     return dataclasses.replace(got, notes=(note,) + tuple(n for n in got.notes if not n.startswith("format:")))
