@@ -209,3 +209,16 @@ def test_cassy_and_coach_headers_are_trajectories(tmp_path, header):
     data = read_measurement(p, y_down=True)
     np.testing.assert_allclose(data.y_m, -d)
     np.testing.assert_allclose(data.t_s, t)
+
+
+@pytest.mark.parametrize("clock,per_s", [("millis", 1e3), ("micros", 1e6)])
+def test_an_arduino_clock_column_is_a_time_in_its_unit(tmp_path, clock, per_s):
+    """An HC-SR04 sketch prints ``millis,distance_cm`` (Arduino's millis() since power-up): the column is
+    read as a time in ms (micros() in us), not refused for having no time column."""
+    t = np.round(np.arange(0, 4.0, 0.04), 2)
+    d = distance(t)
+    rows = [f"{round((2.346 + a) * per_s)},{b * 100:.1f}" for a, b in zip(t, d)]
+    p = write(tmp_path, "hcsr04.csv", f"{clock},distance_cm\n" + "\n".join(rows) + "\n")
+    data = read_measurement(p, y_down=True)
+    np.testing.assert_allclose(data.t_s, 2.346 + t, atol=1e-9)
+    assert discover_epsilon(p) == pytest.approx(EPS, abs=0.003)

@@ -457,3 +457,35 @@ def test_the_toss_tells_the_orientation_of_a_release_that_accelerates_upward():
     assert release_fall_sign(t, y, r) == 1 and release_fall_sign(t, -y, r) == -1
     data, _ = hidden_effect_case(3, "trajectory", ())     # a drop: no toss
     assert toss_top_index(data.t_s, data.y_m, data.release_index) is None
+
+
+@pytest.mark.parametrize("k", [2.0, 8.0, 4.8])
+def test_a_slow_motion_clock_is_named_with_its_rates_and_what_fits_it(track, tmp_path, k):
+    """A slow-motion clip's track written at its playback rate: every time recorded/written times too long,
+    g (recorded/written)^2 times too small. The error said only 'not in the units read (check --fs, ...)',
+    which a file with a time column cannot take; it names the factor, both rates, and the --g that fits the
+    record as it is (with which epsilon is the one planted)."""
+    data, truth = track
+    path = csv(tmp_path / "slow.csv", "t,y", (data.t_s * k, data.y_m))
+    result = run("discover", path, "--ball", truth["ball"], "-q")
+    assert result.exit_code == 1
+    said = re.search(r"if the lengths are right, the times are ([0-9.]+) times too long \(recorded at (\d+) fps, "
+                     r"written at (\d+): a slow-motion clip at its playback rate\?\): divide the time column by "
+                     r"[0-9.]+, or give --g ([0-9.]+) to fit the record as it is", result.output)
+    assert said, result.output
+    assert float(said[1]) == pytest.approx(k, rel=0.02)
+    fs = 1.0 / float(np.median(np.diff(data.t_s)))        # the fixture's own rate, written k times slower
+    assert (int(said[2]), int(said[3])) == (round(fs), round(fs / k))
+    fitted = run("discover", path, "--ball", truth["ball"], "-q", "--g", said[4], "--json", tmp_path / "r.json")
+    assert fitted.exit_code == 0
+    assert json.loads((tmp_path / "r.json").read_text())["epsilon"] == pytest.approx(truth["epsilon"], abs=0.002)
+
+
+def test_standard_frame_rates_are_the_nearest_within_four_per_cent():
+    from vrcal.measurements.plausibility import standard_frame_rate
+
+    assert standard_frame_rate(246.0) == 240.0
+    assert standard_frame_rate(29.97) == 30.0
+    assert standard_frame_rate(59.94) == 60.0
+    assert standard_frame_rate(75.0) is None
+    assert standard_frame_rate(float("nan")) is None

@@ -296,7 +296,7 @@ def test_a_slow_motion_video_read_by_discover_names_the_capture_rate(hard):
     'the heights or the times are not in the units read (check --fs, --scale ...)')."""
     path, truth = hard
     with pytest.raises(DataError, match=r"slow-motion video\?\); the motion fits a capture rate of about 30 fps: "
-                                        r"give --fps 30, or check --diameter") as err:
+                                        r"give --fps 30 \(the nearest standard rate\), or check --diameter") as err:
         read_measurement(path, diameter_m=D, fs_hz=7.5)
     assert "\n" not in str(err.value)
 

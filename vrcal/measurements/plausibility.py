@@ -73,6 +73,38 @@ LENGTH_MIXUPS = ((1e3, "mm", 1e-3), (1e2, "cm", 1e-2), (1e-2, "m under a header 
                  (1e-3, "m under a header in mm", 1e3))
 
 
+#: Frame rates cameras record at [Hz]: film and TV (24-60), phones' and action cameras' slow motion (120-960).
+STANDARD_FRAME_RATES_HZ = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0, 90.0, 100.0, 120.0, 180.0, 200.0, 240.0, 300.0,
+                           480.0, 960.0, 1000.0)
+
+
+def standard_frame_rate(rate_hz, tolerance=0.04):
+    """The standard frame rate (:data:`STANDARD_FRAME_RATES_HZ`) within ``tolerance`` (a fraction) of ``rate_hz``
+    [Hz], the nearest; None when there is none (a motion that fits 246 fps was most likely filmed at 240)."""
+    rate = float(rate_hz)
+    if not (math.isfinite(rate) and rate > 0):
+        return None
+    best = min(STANDARD_FRAME_RATES_HZ, key=lambda r: abs(math.log(r / rate)))
+    return best if abs(best / rate - 1.0) <= tolerance else None
+
+
+def _slow_clock(ratio, t_s, g_fit):
+    """What a record whose flights fall at ``g_fit`` [m/s^2], ``ratio`` times this ball's (well below 1), says of
+    its clock when the lengths are right: times k = 1/sqrt(ratio) too long, a slow-motion clip read at its
+    playback rate when k is near a ratio of standard frame rates (240 fps shown at 30: 8); --g at the flights'
+    g fits it as it is."""
+    k = 1.0 / math.sqrt(ratio)
+    dt = float(np.median(np.diff(t_s))) if np.size(t_s) > 1 else float("nan")
+    shown = 1.0 / dt if dt > 0 else float("nan")
+    recorded = standard_frame_rate(shown * k) if math.isfinite(shown) else None
+    played = standard_frame_rate(shown) if math.isfinite(shown) else None
+    rates = (f" (recorded at {recorded:g} fps, written at {played:g}: a slow-motion clip at its playback rate?)"
+             if recorded and played and recorded > played else "")
+    return (f"; if the lengths are right, the times are {k:.3g} times too long{rates}: divide the time column by "
+            f"{k:.3g}, or give --g {g_fit:.4g} to fit the record as it is (epsilon does "
+            f"not depend on the time scale)")
+
+
 class Finding(NamedTuple):
     """One result of a check: level "note" or "warning", and what was found."""
 
@@ -513,8 +545,9 @@ def check_trajectory(data, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, *, y_down=False
                                f"({g_fit / g_m_per_s2:.3g} x g)")
     pixels = (f"; if the heights are pixels, --scale {1.0 / ratio:.3g} (m per pixel) makes the flights fall "
               f"with g at this frame rate") if ratio > 20.0 else ""
+    clock = _slow_clock(ratio, t, g_fit) if 1e-3 < ratio < G_WARN[0] else ""
     _fail(data.source, f"{text}: the heights or the times are not in the units read (check --fs, --scale and the "
-                       f"units in the header){pixels}")
+                       f"units in the header){pixels}{clock}")
 
 
 # --------------------------------------------------------------------------- impacts and apexes

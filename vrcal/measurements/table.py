@@ -25,10 +25,13 @@ from vrcal.fileio import MAX_TEXT_BYTES, read_bytes_bounded
 _NUMBER_WITH_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:[\(\[](?P<unit>[^\)\]]*)[\)\]])?$")
 
+#: Time columns named after the clock that wrote them, and their unit: an Arduino sketch's ``millis()`` and
+#: ``micros()`` (``millis,distance_cm``).
+CLOCK_UNITS = {"millis": "ms", "micros": "us"}
 #: Names of a time column; a class writes its own language's word too (Zeit, temps, tiempo, tempo, tijd: Coach's
 #: ``Tijd (s)``).
 TIME_NAMES = ("t", "time", "timestamp", "time stamp", "event time", "impact time", "time of impact", "collision time",
-              "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo", "tijd")
+              "zeit", "aufprallzeit", "ereigniszeit", "temps", "tiempo", "tempo", "tijd", *CLOCK_UNITS)
 #: Names of a trajectory's height column (a motion sensor's "Position (m)" or "Distance", a video tracker's
 #: "height" and a 3D tracker's "z" too; a class's own language: Höhe, Abstand, Weg, hauteur, altura, altezza,
 #: hoogte, afstand, positie; CASSY Lab's distance channels ``s_A1``, ``s_B1``, of its inputs A1 and B1; the first
@@ -44,7 +47,7 @@ FRAME_NAMES = ("frame", "frames", "frame number", "frame no", "frame index")
 X_NAMES = ("x",)
 BOUNCE_NAMES = ("bounce", "n", "bounce number")
 H_NAMES = ("h", "height", "apex", "apex height")
-TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3}
+TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6}
 #: Length units [m per unit], the one table every reader takes them from: metric, and the inches and feet
 #: a US class measures in; pixels (None) need ``--scale``.
 LENGTH_UNITS = {"": 1.0, "m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "inch": 0.0254, "inches": 0.0254,
@@ -330,6 +333,7 @@ def columns(cells):
         if suffix and suffix.group("unit").lower() in _SUFFIX_UNITS:
             name, unit = suffix.group("name"), unit_symbol(suffix.group("unit"))
         raw = re.sub(r"[\s_]+", " ", name).strip()
+        unit = unit or CLOCK_UNITS.get(raw.lower(), "")
         cols.append(Column(i, raw.lower(), unit, raw, data_set.group("set").strip() if data_set else ""))
     return cols
 

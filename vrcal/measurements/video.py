@@ -91,6 +91,7 @@ import numpy as np
 
 from vrcal.errors import DataError, UsageError, install_hint
 from vrcal.measurements.cleanup import detect_release_index, prominent_minima, third_difference_sigma
+from vrcal.measurements.plausibility import standard_frame_rate
 from vrcal.measurements.trajectory import MIN_TRAJECTORY_SAMPLES, finish_trajectory
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2
 
@@ -1292,10 +1293,13 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
     if math.isfinite(ratio) and abs(ratio - 1) > FRAME_RATE_SUSPECT:
         k = 1.0 / math.sqrt(ratio) if ratio > 0 else float("nan")
         notes.append(f"scale: {scale_d * 1e3:.4g} mm/px from {seen}")
+        standard = standard_frame_rate(fps * k)
+        give = (f"give --fps {standard:g} (the nearest standard rate), or check --diameter" if standard else
+                f"give --fps {fps * k:.0f}, or check --diameter")
         suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and {clock}, "
                    f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
                    f"rate is suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} "
-                   f"fps: give --fps {fps * k:.0f}, or check --diameter")
+                   f"fps: {give}")
         notes.append(f"WARNING: {suspect}")
         return scale_d, g_meas, suspect
     if not (math.isfinite(g_meas) and g_rel < G_TELLS):
