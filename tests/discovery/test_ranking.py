@@ -1312,3 +1312,22 @@ def test_the_speeds_covered_are_those_of_bounces_the_record_shows():
     d = discover(rest, ball)
     lo, hi = d.speed_range()
     assert hi == pytest.approx(v_imp[0], rel=0.02) and lo >= 0.9 * v_imp[3]
+
+
+def test_an_export_of_a_record_fitted_at_its_own_g_drops_the_ball_in_the_worlds(tmp_path):
+    """A record whose flights showed a scale 3 % off is fitted at their g (g_m_per_s2 10.1); an engine drops
+    the ball at the world's g, which the result keeps as g_nominal_m_per_s2 (export used the record's)."""
+    from vrcal.discovery.ranking import discover_file
+    from vrcal.model.body import describe_body
+
+    ball = BallProperties.from_ball(get_ball("tennis"))
+    drops = simulate_drops(1.5, 0.75, 5, ball, effects={"air_drag": {"drag_coefficient": 0.55}}, release_time_s=0.2)
+    cols = sample_measurement(drops, "trajectory", fs_hz=120.0, noise_m=0.001, rng=3)
+    path = tmp_path / "scaled.csv"
+    path.write_text("t,y\n" + "\n".join(f"{t:.5f},{1.03 * y:.5f}" for t, y in zip(cols["t"], cols["y"])) + "\n")
+    doc = json.loads(json.dumps(discover_file(str(path), "tennis").as_dict()))
+    assert doc["g_m_per_s2"] == pytest.approx(1.03 * 9.80665, rel=0.003)
+    assert doc["g_nominal_m_per_s2"] == pytest.approx(9.80665)
+    out = tmp_path / "r.json"
+    out.write_text(json.dumps(doc))
+    assert describe_body(from_json=str(out)).gravity_m_per_s2() == pytest.approx(9.80665)

@@ -252,6 +252,9 @@ class Discovery:
     scatter_limit: float | None = None   # impact times with no scatter found: the largest they allow (95 %)
     cut: list = field(default_factory=list)  # effects material in the last round but not named: ``max_effects``
     max_effects: int | None = None       # the cap on the effects named (None: none)
+    # the g [m/s^2] of the world when the fit took the record's own (:func:`at_apparent_g`: a length scale or a
+    # frame rate off); None when the fit's g is the world's
+    g_nominal_m_per_s2: float | None = None
 
     @property
     def unit(self):
@@ -1062,6 +1065,7 @@ class Discovery:
                      "diameter_m": float(self.ball.diameter_m),
                      **({"surface": "soft"} if getattr(self.ball, "surface", "rigid") == "soft" else {})},
             "g_m_per_s2": self.g_m_per_s2,
+            "g_nominal_m_per_s2": self.g_nominal_m_per_s2,
             "notes": self.all_notes,
         }
 
@@ -2316,6 +2320,7 @@ def at_apparent_g(found, rerun, g_m_per_s2):
     nominal, refit = res.minus_two_ln_evidence(found.final, sigma), res.minus_two_ln_evidence(other.final, sigma)
     if not nominal - refit > APPARENT_G_EVIDENCE + math.log(other.final.n):
         return found
+    other.g_nominal_m_per_s2 = g
     side = ("large", "high") if ratio > 1 else ("small", "low")
     other.warnings.append(
         f"the flights fall at {number(g_seen, 4)} ± {se:.2g} m/s^2, {ratio:.4f} times this ball's ({number(g_exp, 4)} "

@@ -204,14 +204,16 @@ class Body:
         return self.discovered.get("epsilon_reference_speed_m_per_s")
 
     def gravity_m_per_s2(self, g_m_per_s2=None):
-        """g [m/s^2] of a command: the user's ``--g``, else the discover result's, else standard gravity.
+        """g [m/s^2] of a command: the user's ``--g``, else the discover result's world's (its
+        ``g_nominal_m_per_s2`` when it fitted a record at the g the record's own flights show, a scale or frame
+        rate off: an engine drops the ball in the world's), else standard gravity.
 
         Raises UsageError for a ``g_m_per_s2`` that is not a number > 0.
         """
         if g_m_per_s2 is not None:
             return _check_size("--g", g_m_per_s2, "[m/s^2]")
         if self.discovered is not None:
-            return float(self.discovered["g_m_per_s2"])
+            return float(self.discovered.get("g_nominal_m_per_s2") or self.discovered["g_m_per_s2"])
         return STANDARD_GRAVITY_M_PER_S2
 
 
