@@ -10,7 +10,11 @@ With ``VRCAL_REQUIRE_ENGINES=1`` (set in CI) a missing engine FAILS its test ins
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
+from vrcal.model.restitution import impact_speed_m_per_s
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -54,3 +58,29 @@ def require_extra(module, extra):
         if "1" in (os.environ.get("VRCAL_REQUIRE_EXTRAS"), os.environ.get("VRCAL_REQUIRE_ENGINES")):
             pytest.fail(f"the '{extra}' extra is required here but {module} is not installed")
         pytest.skip(f"{module} is not installed (pip install '.[{extra}]')")
+
+
+# --------------------------------------------------------------------------- physics that builds test files
+
+
+def impact_times(H=1.0, eps=0.85, n=12, release=0.0):
+    """Drag-free impact times of a drop from rest from H with constant restitution eps."""
+    v0 = impact_speed_m_per_s(H)
+    flights = 2.0 * eps ** np.arange(1, n) * v0 / G
+    return release + np.sqrt(2.0 * H / G) + np.concatenate([[0.0], np.cumsum(flights)])
+
+
+def bottom_height(t, H=1.0, eps=0.85, n=8, release=0.0):
+    """Drag-free height of the ball's bottom, held at H until ``release``, at rest on the floor after the n-th
+    impact."""
+    v0 = impact_speed_m_per_s(H)
+    hits = impact_times(H, eps, n, release)
+    y = np.full(t.shape, H)
+    fall = (t >= release) & (t < hits[0])
+    y[fall] = H - 0.5 * G * (t[fall] - release) ** 2
+    for i in range(n - 1):
+        inside = (t >= hits[i]) & (t < hits[i + 1])
+        tau = t[inside] - hits[i]
+        y[inside] = eps ** (i + 1) * v0 * tau - 0.5 * G * tau ** 2
+    y[t >= hits[-1]] = 0.0      # at rest after the last bounce
+    return y

@@ -9,11 +9,11 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from helpers import bottom_height
 
 from vrcal.cli import main
 from vrcal.errors import DataError
 from vrcal.measurements import Runs, Trajectory, detect_format, read_measurement
-from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
 
 EPS, H, SENSOR, D = 0.80, 1.20, 1.90, 0.24
 
@@ -21,17 +21,7 @@ EPS, H, SENSOR, D = 0.80, 1.20, 1.90, 0.24
 def distance(t, release=0.5, n=10):
     """Distance [m] from the sensor to the top of a ball dropped from rest at ``release`` (bottom at H),
     bouncing with EPS, drag-free, to 1 mm."""
-    v = np.sqrt(2 * G * H)
-    hits = release + np.sqrt(2 * H / G) + np.concatenate([[0], np.cumsum(2 * EPS ** np.arange(1, n) * v / G)])
-    y = np.full(t.shape, H)
-    fall = (t >= release) & (t < hits[0])
-    y[fall] = H - 0.5 * G * (t[fall] - release) ** 2
-    for i in range(n - 1):
-        inside = (t >= hits[i]) & (t < hits[i + 1])
-        tau = t[inside] - hits[i]
-        y[inside] = EPS ** (i + 1) * v * tau - 0.5 * G * tau ** 2
-    y[t >= hits[-1]] = 0.0
-    return np.round(SENSOR - D - y, 3)
+    return np.round(SENSOR - D - bottom_height(t, H, EPS, n, release), 3)
 
 
 def write(tmp_path, name, text):

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 from helpers import EXAMPLES as EXAMPLES_ROOT
-from helpers import shared_file
+from helpers import bottom_height, impact_times, shared_file
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -26,7 +26,6 @@ from vrcal.measurements import (
     read_measurement,
 )
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
-from vrcal.model.restitution import impact_speed_m_per_s
 
 EXAMPLES = EXAMPLES_ROOT / "data"
 
@@ -34,25 +33,6 @@ EXAMPLES = EXAMPLES_ROOT / "data"
 # --------------------------------------------------------------------------- physics used to build the files
 
 
-def impact_times(H=1.0, eps=0.85, n=12, release=0.0):
-    """Drag-free impact times of a drop from rest from H with constant restitution eps."""
-    v0 = impact_speed_m_per_s(H)
-    flights = 2.0 * eps ** np.arange(1, n) * v0 / G
-    return release + np.sqrt(2.0 * H / G) + np.concatenate([[0.0], np.cumsum(flights)])
-
-
-def bottom_height(t, H=1.0, eps=0.85, n=8, release=0.0):
-    """Drag-free height of the ball's bottom, held at H until ``release``."""
-    v0 = impact_speed_m_per_s(H)
-    hits = impact_times(H, eps, n, release)
-    y = np.full(t.shape, H)
-    fall = (t >= release) & (t < hits[0])
-    y[fall] = H - 0.5 * G * (t[fall] - release) ** 2
-    for i in range(n - 1):
-        inside = (t >= hits[i]) & (t < hits[i + 1])
-        tau = t[inside] - hits[i]
-        y[inside] = eps ** (i + 1) * v0 * tau - 0.5 * G * tau ** 2
-    return y
 
 
 def write(tmp_path, name, text, mode="w"):
