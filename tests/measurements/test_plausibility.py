@@ -471,12 +471,14 @@ def test_a_slow_motion_clock_is_named_with_its_rates_and_what_fits_it(track, tmp
     assert result.exit_code == 1
     said = re.search(r"if the lengths are right, the times are ([0-9.]+) times too long \(recorded at (\d+) fps, "
                      r"written at (\d+): a slow-motion clip at its playback rate\?\): divide the time column by "
-                     r"[0-9.]+, or give --g ([0-9.]+) to fit the record as it is", result.output)
+                     r"[0-9.]+ \(--fs (\d+) where the times come from --fs\), or give --g ([0-9.]+) to fit the record "
+                     r"as it is", result.output)
     assert said, result.output
     assert float(said[1]) == pytest.approx(k, rel=0.02)
     fs = 1.0 / float(np.median(np.diff(data.t_s)))        # the fixture's own rate, written k times slower
     assert (int(said[2]), int(said[3])) == (round(fs), round(fs / k))
-    fitted = run("discover", path, "--ball", truth["ball"], "-q", "--g", said[4], "--json", tmp_path / "r.json")
+    assert int(said[4]) == int(said[2])
+    fitted = run("discover", path, "--ball", truth["ball"], "-q", "--g", said[5], "--json", tmp_path / "r.json")
     assert fitted.exit_code == 0
     assert json.loads((tmp_path / "r.json").read_text())["epsilon"] == pytest.approx(truth["epsilon"], abs=0.002)
 

@@ -338,7 +338,8 @@ def samples_below_contacts(data, ball, g_m_per_s2, sigma_m=0.0, surface="rigid")
     than that by :data:`BELOW_CONTACT_SIGMAS` noise sigmas (``sigma_m`` [m]) is no position of the ball: a
     motion detector's echo off the floor (a basketball's top read 0.24 m low, the floor's distance), or a
     tracker on something else. The flights on both sides are fitted without it (:func:`contact_points`), so
-    they say where the contact was.
+    they say where the contact was. None are when more than half the bounces have one: such a record is not
+    what it seems (a pixel track read as metres), and the checks of its units say so.
     """
     from vrcal.discovery.residuals import impacts_in_trajectory
     from vrcal.drop.effects import contact_time_limit_s
@@ -361,7 +362,8 @@ def samples_below_contacts(data, ball, g_m_per_s2, sigma_m=0.0, surface="rigid")
                                 f"where the flights on both sides meet, deeper than a contact of this ball can "
                                 f"take it ({dip * 1e3:.3g} mm at {a:.3g} m/s): no position of the ball (a motion "
                                 f"detector's echo off the floor, a tracker on something else)"))
-    return out
+    # a sample off the ball at most bounces is no glitch: the record itself is not what it seems
+    return out if len(out) <= max(1, (minima.size + 1) // 2) else []
 
 
 def _line_sd_at(t, lo, hi, tm, sigma):
@@ -990,7 +992,9 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         if run.kind == "impacts":
             out += _impact_runs(run, label)
         elif run.kind == "trajectory":
-            below = samples_below_contacts(run, ball, g_m_per_s2, sigma or 0.0, surface_of(ball))
+            # a record in the wrong unit has no contact to be below (a pixel track read as metres)
+            below = [] if warnings else samples_below_contacts(run, ball, g_m_per_s2, sigma or 0.0,
+                                                               surface_of(ball))
             if below:
                 notes += [_of_run(label, why + "; left out") for _, why in below]
                 run = without_samples(run, [i for i, _ in below])

@@ -234,7 +234,8 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
         if isinstance(ball, dict) else None
     data, note = floor_referenced(data, floor_m, props, y_down=y_down and given_in_file)
     if note and floor_m is not None and not given_in_file:
-        note = f"heights shifted by {-floor_m:+.4f} m, as discover shifted them (its result's reader.floor_shift_m)"
+        note = (f"heights shifted by {-floor_m:+.4f} m, as discover shifted them (its result's reader.floor_shift_m)"
+                if floor_m else None)
     return data, [note] if note else []
 
 

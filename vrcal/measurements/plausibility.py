@@ -100,9 +100,10 @@ def _slow_clock(ratio, t_s, g_fit):
     played = standard_frame_rate(shown) if math.isfinite(shown) else None
     rates = (f" (recorded at {recorded:g} fps, written at {played:g}: a slow-motion clip at its playback rate?)"
              if recorded and played and recorded > played else "")
+    fix = f"--fs {recorded:g}" if recorded else f"--fs {shown * k:.3g}"
     return (f"; if the lengths are right, the times are {k:.3g} times too long{rates}: divide the time column by "
-            f"{k:.3g}, or give --g {g_fit:.4g} to fit the record as it is (epsilon does "
-            f"not depend on the time scale)")
+            f"{k:.3g} ({fix} where the times come from --fs), or give --g {g_fit:.4g} to fit the record as it is "
+            f"(epsilon does not depend on the time scale)")
 
 
 class Finding(NamedTuple):
