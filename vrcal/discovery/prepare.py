@@ -992,24 +992,26 @@ def prepare(data, ball, g_m_per_s2, *, floor_m=None, y_down=False, sigma_m=None,
         if run.kind == "impacts":
             out += _impact_runs(run, label)
         elif run.kind == "trajectory":
-            # a record in the wrong unit has no contact to be below (a pixel track read as metres)
-            below = [] if warnings else samples_below_contacts(run, ball, g_m_per_s2, sigma or 0.0,
-                                                               surface_of(ball))
-            if below:
-                notes += [_of_run(label, why + "; left out") for _, why in below]
-                run = without_samples(run, [i for i, _ in below])
             odd, minima = odd_bounces(run, ball, g_m_per_s2, sigma or 0.0)
-            if not odd:
-                out.append((run, label))
-                continue
-            for _, why in odd:
-                notes.append(_of_run(label, why + "; left out"))
-            pieces, cut_notes = split_trajectory(run, odd, minima)
-            notes += [_of_run(label, n) for n in cut_notes]
-            if not pieces:
-                warnings.append(f"{run.source}: every bounce is odd; fitting the record as it is")
-                out.append((run, label))
-            out += [(p, f"{label} {lab}".strip()) for p, lab in pieces]
+            pieces = [(run, label)]
+            if odd:
+                for _, why in odd:
+                    notes.append(_of_run(label, why + "; left out"))
+                split, cut_notes = split_trajectory(run, odd, minima)
+                notes += [_of_run(label, n) for n in cut_notes]
+                pieces = [(p, f"{label} {lab}".strip()) for p, lab in split]
+                if not pieces:
+                    warnings.append(f"{run.source}: every bounce is odd; fitting the record as it is")
+                    pieces = [(run, label)]
+            for piece, name in pieces:
+                # within what is fitted (a hold's junk is cut above); a record in the wrong unit has no contact
+                # to be below (a pixel track read as metres)
+                below = [] if warnings else samples_below_contacts(piece, ball, g_m_per_s2, sigma or 0.0,
+                                                                   surface_of(ball))
+                if below:
+                    notes += [_of_run(name, why + "; left out") for _, why in below]
+                    piece = without_samples(piece, [i for i, _ in below])
+                out.append((piece, name))
         else:
             out.append((run, label))
     if len(out) > MAX_RUNS:
