@@ -26,6 +26,9 @@ References
 [7] K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in
     vibroimpact", J. Appl. Mech. 42, 440 (1975) (a Hertz contact whose damping force is
     proportional to the indentation to the same power: 1 - eps = (2/3) alpha v to first order).
+[8] C.-K. Liang, L.-W. Chang, H. H. Chen, "Analysis and compensation of rolling shutter effect",
+    IEEE Trans. Image Process. 17(8), 1323-1330 (2008) (a CMOS camera exposes its rows one after
+    another: each row is sampled at its own time).
 
 Prior densities
 ---------------
@@ -54,7 +57,13 @@ physics and the literature, not from the synthetic generator:
 * ``height_offset.offset_m``: the tracked point is the bottom (ITTF), the centre
   (video trackers) or the top (FIBA) of the ball: an equal mixture of normals at 0
   (sd 10 mm, a mis-set floor line), D/2 and D (sd max(0.1 D, 5 mm));
-* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range.
+* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range;
+* ``rolling_shutter.readout_s_per_m``: normal, mean 0, sd 0.02 s/m (:class:`NormalPrior`). A phone's
+  CMOS sensor reads its frame in R = 5-35 ms [8] and a drop test's frame spans 1-2 m of height, so
+  kappa = R / H_frame is 0.003-0.035 s/m for a phone held upright (minus that upside down; 0 for a
+  global shutter or rows read across the fall): 95 % of the density lies within +-0.04 s/m (a 30 ms
+  readout over a 0.75 m frame), centred on 0 because the sign is the phone's orientation and a
+  global-shutter camera has none.
 
 Physical limits (hard; ``Parameter.limits``)
 --------------------------------------------
@@ -79,7 +88,11 @@ Physical limits (hard; ``Parameter.limits``)
   :data:`SOFT_FLOOR_CONTACT_TIME_S` (50 ms), :func:`contact_time_limit_s`;
 * ``height_offset.offset_m``: -D to D + max(0.1 D, 5 mm): the tracked point lies on the ball
   (bottom 0, centre D/2, top D), give or take a mis-set floor line;
-* ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day).
+* ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day);
+* ``rolling_shutter.readout_s_per_m``: -0.1 to 0.1 s/m: a 40 ms readout (the slowest phone sensors [8])
+  over a 0.4 m frame (the smallest that holds a drop worth fitting), either way up. They are the
+  fitter's bounds too: beyond them the rows would be read slower than a fast ball moves (kappa v near 1)
+  and a sample would show the ball twice.
 
 The model of a ball exists over a range of its own (``Parameter.defined``), which caps both the
 fitter's bounds and the limits for that ball: ``buoyancy.air_density_kg_per_m3`` below the ball's own
@@ -196,6 +209,32 @@ class TrackedPointPrior:
 
     def describe(self, ball=None, unit=""):
         return "bottom, centre or top of the ball (mixture of normals at 0, D/2, D)"
+
+
+@dataclass(frozen=True)
+class NormalPrior:
+    """Normal prior density: x ~ N(mean, sd^2), for a parameter of either sign (``rolling_shutter``: the
+    phone upright or upside down, 0 for a global shutter); ``basis`` says where the numbers come from.
+
+    ``mean`` and ``sd`` are in the parameter's unit (sd > 0).
+    """
+
+    mean: float
+    sd: float
+    basis: str = ""
+
+    def pdf(self, x, ball=None):
+        """Density at ``x`` [1/parameter unit]."""
+        z = (np.asarray(x, dtype=float) - float(self.mean)) / float(self.sd)
+        return np.exp(-0.5 * z * z) / (float(self.sd) * math.sqrt(2.0 * math.pi))
+
+    def deviate(self, x, ball=None):
+        """The standard normal deviate ``(x - mean) / sd`` [1]: a posterior mode adds it to the residuals."""
+        return (np.asarray(x, dtype=float) - float(self.mean)) / float(self.sd)
+
+    def describe(self, ball=None, unit=""):
+        unit = "" if unit in ("", "1") else f" {unit}"
+        return f"normal, mean {self.mean:.3g}{unit}, sd {self.sd:.3g}{unit}"
 
 
 @dataclass(frozen=True)
@@ -481,6 +520,40 @@ def liftoff_time_s(impact_time_s, contact_time_s):
     a soft contact's dip is part of this effect, not a height offset.
     """
     return _out(np.asarray(impact_time_s, dtype=float) + np.asarray(contact_time_s, dtype=float))
+
+
+def sampled_time_s(t_s, height_m, readout_s_per_m):
+    """When a rolling-shutter camera saw a ball it shows at ``height_m`` in the frame stamped ``t_s`` [s].
+
+    Parameters
+    ----------
+    t_s : float or ndarray
+        the frame's time stamp [s]
+    height_m : float or ndarray
+        the ball's height in that frame (the tracked point's, above the floor line) [m]
+    readout_s_per_m : float or ndarray
+        kappa = R / H_frame [s/m]: the frame's readout time R [s] over the height H_frame [m] it spans;
+        > 0 when the rows are read from the top of the scene down (a phone held upright), < 0 upside
+        down, 0 for a global shutter or rows read across the fall
+
+    Returns
+    -------
+    t_s : float or ndarray
+        ``t - kappa y``: a frame's rows are read one after another [8], so a ball low in the frame is
+        read later than a ball high in it: row y is read at ``t + R (Y_top - y) / H_frame``, whose
+        constant part ``R Y_top / H_frame`` is the same for every sample (the release time takes it).
+        The ball seen is then ``y_obs(t) = y(t - kappa y_obs(t))`` (:meth:`vrcal.drop.simulate.Drops.height_m`
+        solves it).
+
+    Notes
+    -----
+    Not in [1], whose heights are taken at one instant. A readout of R = 20 ms over a 1.6 m frame
+    (kappa 0.0125 s/m) samples a ball 0.8 m up 10 ms before one on the floor: every fall looks
+    shorter and every rise longer by about kappa h, the asymmetry air drag gives a flight the other way
+    round; a constant-epsilon fit without it took a table-tennis ball of 0.90 for 0.82 and a speed law.
+    """
+    return _out(np.asarray(t_s, dtype=float) - np.asarray(readout_s_per_m, dtype=float)
+                * np.asarray(height_m, dtype=float))
 
 
 #: Typical gauge pressure of an inflated ball [Pa] (basketball 52-59 kPa, volleyball 29-32 kPa,
@@ -836,6 +909,24 @@ EFFECTS = {
         null_values={"air_density_kg_per_m3": 0.0},
         function=buoyant_gravity_m_per_s2,
         check="check the frame rate and the length scale (g from the flights)",
+    ),
+    "rolling_shutter": Effect(
+        name="rolling_shutter",
+        parameters=(
+            Parameter("readout_s_per_m", "s/m", 0.0125, (-0.1, 0.1), (-0.04, 0.04),
+                      "kappa = R / H_frame: the camera's readout time over the height its frame spans (20 ms over "
+                      "1.6 m: 0.0125); < 0 for a phone upside down, 0 for a global shutter",
+                      NormalPrior(0.0, 0.02, "phone CMOS readouts 5-35 ms over frames of 1-2 m, either way up "
+                                             "(Liang, Chang, Chen 2008)")),
+        ),
+        equation="y_observed(t) = y(t - kappa y_observed(t)),  kappa = R / H_frame",
+        description="the camera reads its rows one after another (a CMOS rolling shutter): a ball low in the "
+                    "frame is seen later than one high in it, so each fall looks shorter and each rise longer",
+        reference="Liang, Chang, Chen, IEEE Trans. Image Process. 17(8), 1323 (2008)",
+        kinds=("trajectory",),
+        null_values={"readout_s_per_m": 0.0},
+        function=sampled_time_s,
+        check="check the frame rate and whether the camera's rows were read across the fall (turn the phone)",
     ),
 }
 
