@@ -1507,10 +1507,16 @@ def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_ef
             break
         win = material[0]
         if max_effects is not None and len(named) - len(nuisance) + len(win.members) > max_effects:
-            # the cap stops the rounds, never silently: what it leaves out is material, said so and kept
-            cut = list(dict.fromkeys(m for c in material for m in c.members))
+            # the cap stops the rounds, never silently: what it leaves out is material, said so and kept -- the
+            # winner, and each other material candidate that stays material on top of it (one that only stands
+            # in for the winner, a rolling shutter's timing for missing drag, is not what the values lack)
+            stays = [win] + [c for c in material[1:] if not set(c.members) <= set(win.members) and _try(
+                problem, [*named, *win.members], tuple(m for m in c.members if m not in win.members), win.fit,
+                sigma_floor, th, rnd, floor_sd, nuisance).material]
+            cut = list(dict.fromkeys(m for c in stays for m in c.members))
             for c in material:
-                c.verdict = f"material, not named: at most {max_effects} effects are named (max_effects)"
+                c.verdict = f"material, not named: at most {max_effects} effects are named (max_effects)" + (
+                    "" if any(c is k for k in stays) else f"; not material once {win.name} is in")
             notes.append(f"round {rnd}: {', '.join(cut)} material but not named: at most {max_effects} effect(s) "
                          f"are named (max_effects = {max_effects}); the values found lack "
                          f"{'it' if len(cut) == 1 else 'them'}")
@@ -1709,7 +1715,13 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         a record that cannot be fitted as it is (:mod:`vrcal.measurements.plausibility`)
     """
     from vrcal.discovery.prepare import prepare
-    from vrcal.drop.effects import EFFECTS, check_surface, contact_time_limit_s, surface_of
+    from vrcal.drop.effects import (
+        EFFECTS,
+        check_surface,
+        contact_time_limit_s,
+        record_readout_limit_s_per_m,
+        surface_of,
+    )
     from vrcal.model.body import ball_properties
 
     th = thresholds or Thresholds()
@@ -1721,6 +1733,10 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     if not (math.isfinite(g_m_per_s2) and g_m_per_s2 > 0):
         raise UsageError(f"g must be a finite number > 0 [m/s^2], got {g_m_per_s2!r}")
     given_kind = res._runs_of(data)[0].kind
+    if given_kind == "trajectory":
+        # the rolling shutter a video can hold: a frame read within one frame interval, over the heights it held
+        ball = replace(ball, readout_limit_s_per_m=min(record_readout_limit_s_per_m(r.t_s, r.y_m)
+                                                       for r in res._runs_of(data)))
     if noise is not None:
         _check_noise_scale(data, noise)
     prepared = prepare(data, ball, g_m_per_s2, floor_m=floor_m, y_down=y_down,

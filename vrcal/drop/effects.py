@@ -92,7 +92,10 @@ Physical limits (hard; ``Parameter.limits``)
 * ``rolling_shutter.readout_s_per_m``: -0.1 to 0.1 s/m: a 40 ms readout (the slowest phone sensors [8])
   over a 0.4 m frame (the smallest that holds a drop worth fitting), either way up. They are the
   fitter's bounds too: beyond them the rows would be read slower than a fast ball moves (kappa v near 1)
-  and a sample would show the ball twice.
+  and a sample would show the ball twice. A record narrows them (``Parameter.record_limits``,
+  :func:`record_readout_limit_s_per_m`): a camera reads a frame within one frame interval dt, over a frame
+  at least as high as the heights the ball was seen at, so |kappa| <= dt / span (a 100 fps video of a
+  2.65 m drop: 0.0038 s/m).
 
 The model of a ball exists over a range of its own (``Parameter.defined``), which caps both the
 fitter's bounds and the limits for that ball: ``buoyancy.air_density_kg_per_m3`` below the ball's own
@@ -252,7 +255,10 @@ class Parameter:
     ``limits`` for that ball (:meth:`fit_bounds`, :meth:`physical_limits`); ``typical``: the prior density
     says what such balls measure (a sphere's C_d below the drag crisis), so that a value outside its 95 %
     range (:meth:`typical_range`), inside the hard limits, is physical but unusual, and said to be (False
-    where the prior is one model's: a speed exponent near 0, an inflated ball's, is common).
+    where the prior is one model's: a speed exponent near 0, an inflated ball's, is common);
+    ``record_limits``: None, or a function of the ball (a :class:`vrcal.model.body.BallProperties`, with what it
+    carries of the record: its camera's ``readout_limit_s_per_m``) giving the hard limits for that record, inside
+    ``limits`` (a rolling shutter reads a frame within one frame interval, :func:`record_readout_limit_s_per_m`).
     """
 
     name: str
@@ -265,6 +271,7 @@ class Parameter:
     limits: object = None
     defined: object = None
     typical: bool = False
+    record_limits: object = None
 
     def physical_limits(self, ball=None):
         """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
@@ -276,6 +283,9 @@ class Parameter:
             if ball is None:
                 raise UsageError(f"the limits of {self.name} depend on the ball: give its mass and diameter")
             lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)), surface_of(ball))
+        if self.record_limits is not None and ball is not None:
+            a, b = self.record_limits(ball)
+            lim = (max(float(lim[0]), a), min(float(lim[1]), b))
         return self._within_defined(lim, ball)
 
     def fit_bounds(self, ball=None):
@@ -554,6 +564,51 @@ def sampled_time_s(t_s, height_m, readout_s_per_m):
     """
     return _out(np.asarray(t_s, dtype=float) - np.asarray(readout_s_per_m, dtype=float)
                 * np.asarray(height_m, dtype=float))
+
+
+#: The largest rolling shutter of any camera, |kappa| [s/m]: a 40 ms readout (the slowest phone sensors) over a
+#: 0.4 m frame (the smallest that holds a drop worth fitting); ``rolling_shutter``'s hard limits and bounds.
+READOUT_LIMIT_S_PER_M = 0.1
+
+
+def record_readout_limit_s_per_m(t_s, height_m):
+    """The largest rolling shutter a video record can hold, |kappa| = R / H_frame [s/m].
+
+    Parameters
+    ----------
+    t_s : ndarray
+        the record's sample times [s] (one sample a frame, or fewer)
+    height_m : ndarray
+        the heights of its samples [m]
+
+    Returns
+    -------
+    float
+        ``dt / span``, at most :data:`READOUT_LIMIT_S_PER_M`: a camera reads a frame's rows within one frame
+        interval (R <= dt, the median step of the times: the next frame's readout follows), and its frame
+        holds every height the ball was seen at (H_frame >= span, their range). A 100 fps video of a 2.65 m
+        drop: 0.0038 s/m; 30 fps of 0.8 m: 0.042 s/m; 240 fps of 1 m: 0.0042 s/m. A record sampled every
+        k-th frame gets a limit k times wider (still a limit); :data:`READOUT_LIMIT_S_PER_M` without two
+        distinct times or heights.
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(height_m, dtype=float)
+    steps = np.diff(t[np.isfinite(t)])
+    steps = steps[steps > 0]
+    y = y[np.isfinite(y)]
+    span = float(np.ptp(y)) if y.size else 0.0
+    if not steps.size or not span > 0:
+        return READOUT_LIMIT_S_PER_M
+    return min(READOUT_LIMIT_S_PER_M, float(np.median(steps)) / span)
+
+
+def readout_limits(ball):
+    """The hard limits ``(lo, hi)`` [s/m] of ``rolling_shutter`` for a record: +- the ball's
+    ``readout_limit_s_per_m`` (:func:`record_readout_limit_s_per_m`, set by ``vrcal discover``), or
+    +- :data:`READOUT_LIMIT_S_PER_M` without one."""
+    lim = getattr(ball, "readout_limit_s_per_m", None)
+    lim = READOUT_LIMIT_S_PER_M if lim is None else min(float(lim), READOUT_LIMIT_S_PER_M)
+    return -lim, lim
 
 
 #: Typical gauge pressure of an inflated ball [Pa] (basketball 52-59 kPa, volleyball 29-32 kPa,
@@ -913,11 +968,13 @@ EFFECTS = {
     "rolling_shutter": Effect(
         name="rolling_shutter",
         parameters=(
-            Parameter("readout_s_per_m", "s/m", 0.0125, (-0.1, 0.1), (-0.04, 0.04),
+            Parameter("readout_s_per_m", "s/m", 0.0125, (-READOUT_LIMIT_S_PER_M, READOUT_LIMIT_S_PER_M),
+                      (-0.04, 0.04),
                       "kappa = R / H_frame: the camera's readout time over the height its frame spans (20 ms over "
                       "1.6 m: 0.0125); < 0 for a phone upside down, 0 for a global shutter",
                       NormalPrior(0.0, 0.02, "phone CMOS readouts 5-35 ms over frames of 1-2 m, either way up "
-                                             "(Liang, Chang, Chen 2008)")),
+                                             "(Liang, Chang, Chen 2008)"),
+                      record_limits=readout_limits),
         ),
         equation="y_observed(t) = y(t - kappa y_observed(t)),  kappa = R / H_frame",
         description="the camera reads its rows one after another (a CMOS rolling shutter): a ball low in the "
