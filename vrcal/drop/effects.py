@@ -331,7 +331,10 @@ class Parameter:
 class Effect:
     """One named candidate effect (see the module docstring). ``check`` says what to check in
     the input when the effect would fit only with an unphysical value; ``check_by_kind`` says it
-    for one data kind where that differs ({kind: text})."""
+    for one data kind where that differs ({kind: text}); ``every_flight``: the effect is the record's (a
+    camera's), alike in every frame, so a trajectory's flights after its first fall must need it too
+    (:func:`vrcal.discovery.ranking.later_flights_gain`): a first fall that alone departs from a free fall
+    is no camera's doing."""
 
     name: str
     parameters: tuple
@@ -344,6 +347,7 @@ class Effect:
     check: str = ""
     check_by_kind: dict = field(default_factory=dict, compare=False)
     check_rigid: str = ""
+    every_flight: bool = False
 
     def check_for(self, kind, surface="rigid"):
         """What to check in input of ``kind`` ("trajectory", "impacts", "apexes") when the effect would
@@ -984,6 +988,7 @@ EFFECTS = {
         null_values={"readout_s_per_m": 0.0},
         function=sampled_time_s,
         check="check the frame rate and whether the camera's rows were read across the fall (turn the phone)",
+        every_flight=True,
     ),
 }
 
