@@ -288,15 +288,8 @@ class Drops:
         rows = np.flatnonzero(kappa) if kappa is not None else ()
         if len(rows):
             # the rows of a rolling-shutter frame are read one after another: y_obs = y(t - kappa y_obs)
-            tr, kr = t[rows], kappa[rows][:, None]
-            yr = y[rows]
-            for _ in range(READOUT_MAX_PASSES):
-                new = self._height_at(sampled_time_s(tr, yr, kr), rows)
-                change = float(np.max(np.abs(new - yr))) if new.size else 0.0
-                yr = new
-                if not change > READOUT_TOLERANCE_M:
-                    break
-            y[rows] = yr
+            y[rows] = seen_through_rolling_shutter(lambda s: self._height_at(s, rows), t[rows],
+                                                   kappa[rows][:, None], y[rows])
         return y
 
     def _height_at(self, t, rows=None):
@@ -335,6 +328,39 @@ READOUT_TOLERANCE_M = 1e-12
 #: ... or after this many passes (at kappa v = 0.7, a 0.1 s/m readout and a 7 m/s ball, 1e-16 of the first
 #: correction is left after 100).
 READOUT_MAX_PASSES = 100
+
+
+def seen_through_rolling_shutter(height_at, t_s, readout_s_per_m, start_m=None):
+    """The heights a rolling-shutter camera shows in the frames stamped ``t_s`` [m]: the fixed point of
+    ``y = height_at(t - kappa y)`` (:func:`vrcal.drop.effects.sampled_time_s`).
+
+    Parameters
+    ----------
+    height_at : callable
+        ``height_at(times)`` -> the heights [m] of the observed point at those times [s] (same shape)
+    t_s : ndarray
+        the frames' time stamps [s]
+    readout_s_per_m : float or ndarray
+        kappa = R / H_frame [s/m], broadcast against ``t_s``
+    start_m : ndarray or None
+        the heights to start from [m] (default ``height_at(t_s)``, the instant picture)
+
+    Returns
+    -------
+    ndarray
+        the heights seen [m]: the iteration ``y <- height_at(t - kappa y)`` contracts by |kappa v| << 1 per
+        pass; it stops when no height changes by more than :data:`READOUT_TOLERANCE_M`, or after
+        :data:`READOUT_MAX_PASSES` passes
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(height_at(t) if start_m is None else start_m, dtype=float)
+    for _ in range(READOUT_MAX_PASSES):
+        new = np.asarray(height_at(sampled_time_s(t, y, readout_s_per_m)), dtype=float)
+        change = float(np.max(np.abs(new - y))) if new.size else 0.0
+        y = new
+        if not change > READOUT_TOLERANCE_M:
+            break
+    return y
 
 
 def _fallen(tau, g, k):
