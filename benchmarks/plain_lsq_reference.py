@@ -16,14 +16,12 @@ import sys
 import numpy as np
 from scipy.optimize import least_squares
 
+from vrcal.drop.effects import EFFECTS
 from vrcal.drop.simulate import simulate_drops
 from vrcal.model.body import BallProperties
 
-DEFAULTS = {"air_drag": ("drag_coefficient", 0.5, 0.0, 3.0),
-            "velocity_dependent_restitution": ("exponent", 0.2, -1.0, 2.0),
-            "contact_duration": ("contact_time_s", 0.005, 0.0, 0.05),
-            "height_offset": ("offset_m", 0.02, -0.5, 0.5),
-            "buoyancy": ("air_density_kg_per_m3", 1.204, 0.0, 2.0)}
+#: effect -> (its parameter, default, lower bound, upper bound), from the registry (one parameter each)
+DEFAULTS = {name: (p.name, p.default, *p.bounds) for name, e in EFFECTS.items() for p in e.parameters}
 
 
 def main(path, models_path):

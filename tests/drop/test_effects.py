@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from vrcal.drop.effects import (
     EFFECTS,
     KINDS,
+    NormalPrior,
     buoyant_gravity_m_per_s2,
     check_parameters,
     drag_constant_per_m,
@@ -19,6 +20,7 @@ from vrcal.drop.effects import (
     parse_effect_spec,
     resolve_effects,
     restitution_at_speed,
+    sampled_time_s,
     solid_contact_time_s,
 )
 from vrcal.drop.simulate import sample_measurement, simulate_drops
@@ -399,3 +401,57 @@ def test_only_a_typical_parameter_has_a_typical_range(name):
         else:
             assert got is None
     assert [p.name for e in EFFECTS.values() for p in e.parameters if p.typical] == ["drag_coefficient"]
+
+
+# --------------------------------------------------------------------------- rolling shutter
+
+
+def test_sampled_time_is_the_stamp_less_kappa_times_the_height():
+    assert sampled_time_s(1.0, 0.8, 0.0125) == pytest.approx(0.99)
+    assert np.allclose(sampled_time_s(np.array([0.0, 1.0]), np.array([0.0, 0.4]), -0.02), [0.0, 1.008])
+    assert sampled_time_s(2.0, 1.5, 0.0) == 2.0
+
+
+def test_the_readout_prior_is_a_normalised_symmetric_density():
+    prior = EFFECTS["rolling_shutter"].parameter("readout_s_per_m").density
+    assert isinstance(prior, NormalPrior) and prior.mean == 0.0
+    x = np.linspace(-0.2, 0.2, 40001)
+    assert float(np.sum(prior.pdf(x)) * (x[1] - x[0])) == pytest.approx(1.0, abs=1e-6)
+    assert prior.pdf(0.01) == pytest.approx(prior.pdf(-0.01))
+    assert prior.deviate(0.04) == pytest.approx(2.0)
+    assert EFFECTS["rolling_shutter"].parameter("readout_s_per_m").physical_limits() == (-0.1, 0.1)
+
+
+@pytest.mark.parametrize("kappa", [0.0125, -0.0125, 0.05])
+def test_a_rolling_shutter_shows_the_height_read_at_its_row(kappa):
+    """y_obs(t) = y(t - kappa y_obs(t)): every sample is the ball where its row was read, solved to the
+    iteration's tolerance, with drag, contacts and an offset; kappa 0 is the instant picture."""
+    fx = {"air_drag": {"drag_coefficient": 0.5}, "contact_duration": {"contact_time_s": 0.002},
+          "height_offset": {"offset_m": 0.02}}
+    plain = simulate_drops(0.8, 0.9, 8, TT, effects=fx, release_time_s=0.1)
+    seen = simulate_drops(0.8, 0.9, 8, TT, effects={**fx, "rolling_shutter": {"readout_s_per_m": kappa}},
+                          release_time_s=0.1)
+    t = np.arange(0.0, 3.0, 1.0 / 240.0)
+    y = seen.height_m(t)[0]
+    assert np.max(np.abs(y - plain.height_m(t - kappa * y)[0])) < 1e-10
+    assert np.max(np.abs(y - plain.height_m(t)[0])) > 0.01     # far from the instant picture
+    assert np.array_equal(seen.impact_times_s, plain.impact_times_s)   # the ball moves as it did
+    zero = simulate_drops(0.8, 0.9, 8, TT, effects={**fx, "rolling_shutter": {"readout_s_per_m": 0.0}},
+                          release_time_s=0.1)
+    assert np.array_equal(zero.height_m(t), plain.height_m(t))
+
+
+def test_a_rolling_shutter_matches_the_rows_read_one_after_another():
+    """The probe's construction: the frame's top row read at the stamp, row y at t + R (Y_top - y) / H_frame
+    (20 ms over 1.6 m), iterated 40 times; vrcal's effect with kappa = R / H_frame and the release R
+    earlier (the constant part) gives the same samples."""
+    R, top = 0.020, 1.6
+    plain = simulate_drops(0.8, 0.9, 8, TT, effects={"air_drag": {"drag_coefficient": 0.5}})
+    t = np.arange(0.0, 3.0, 1.0 / 30.0)
+    rows = np.full(t.size, 0.8)
+    for _ in range(40):
+        rows = plain.height_m(t + R * (top - rows) / top)[0]
+    seen = simulate_drops(0.8, 0.9, 8, TT, effects={"air_drag": {"drag_coefficient": 0.5},
+                                                   "rolling_shutter": {"readout_s_per_m": R / top}},
+                          release_time_s=-R)
+    assert np.max(np.abs(seen.height_m(t)[0] - rows)) < 1e-9

@@ -149,6 +149,18 @@ def test_the_discover_result_sets_body_drop_drag_and_release(write_discover):
     assert build_setup(None, "mujoco", from_json=path, epsilon=0.8).epsilon == 0.8
 
 
+def test_a_rolling_shutter_is_left_out_of_the_engine_with_a_note(write_discover):
+    """A camera reading its rows one after another is the record's, not the ball's: the engine gets epsilon
+    and the drag, and the notes say why the shutter is left out."""
+    path = write_discover(effects={"air_drag": {"drag_coefficient": 0.5},
+                                   "rolling_shutter": {"readout_s_per_m": 0.0125}}, drop_height_m=0.8)
+    setup = build_setup(None, "ode", from_json=path)
+    assert setup.drag_coefficient == 0.5 and setup.epsilon == 0.86
+    assert "rolling_shutter" not in setup.effects
+    assert any(n.startswith("rolling_shutter left out: the camera's rolling shutter") for n in setup.notes)
+    assert not any("not carried" in n for n in setup.notes)
+
+
 def test_tables_name_the_combine_modes_in_100_columns():
     text = export("tennis", "tables", against="football").text
     for word in ("PhysX", "Unity", "Box2D", "Multiply", "b2MixRestitution"):

@@ -34,11 +34,12 @@ PHRASES = {
     "contact_duration": ("the contact's duration", "tau_c"),
     "height_offset": ("a height offset (the tracked point is not the ball's bottom)", "offset"),
     "buoyancy": ("buoyancy and the air's added mass", "rho_air"),
+    "rolling_shutter": ("a camera's rolling shutter (rows read one after another)", "kappa"),
 }
 
 #: Short names of the effects in the --details tables (a legend is printed with them).
 SHORT = {"air_drag": "drag", "velocity_dependent_restitution": "eps(v)", "contact_duration": "contact",
-         "height_offset": "offset", "buoyancy": "buoyancy"}
+         "height_offset": "offset", "buoyancy": "buoyancy", "rolling_shutter": "shutter"}
 
 
 def _fmt_gap(value, unit):

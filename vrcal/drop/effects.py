@@ -26,6 +26,9 @@ References
 [7] K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in
     vibroimpact", J. Appl. Mech. 42, 440 (1975) (a Hertz contact whose damping force is
     proportional to the indentation to the same power: 1 - eps = (2/3) alpha v to first order).
+[8] C.-K. Liang, L.-W. Chang, H. H. Chen, "Analysis and compensation of rolling shutter effect",
+    IEEE Trans. Image Process. 17(8), 1323-1330 (2008) (a CMOS camera exposes its rows one after
+    another: each row is sampled at its own time).
 
 Prior densities
 ---------------
@@ -54,7 +57,13 @@ physics and the literature, not from the synthetic generator:
 * ``height_offset.offset_m``: the tracked point is the bottom (ITTF), the centre
   (video trackers) or the top (FIBA) of the ball: an equal mixture of normals at 0
   (sd 10 mm, a mis-set floor line), D/2 and D (sd max(0.1 D, 5 mm));
-* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range.
+* ``buoyancy.air_density_kg_per_m3``: uniform over its plausible range;
+* ``rolling_shutter.readout_s_per_m``: normal, mean 0, sd 0.02 s/m (:class:`NormalPrior`). A phone's
+  CMOS sensor reads its frame in R = 5-35 ms [8] and a drop test's frame spans 1-2 m of height, so
+  kappa = R / H_frame is 0.003-0.035 s/m for a phone held upright (minus that upside down; 0 for a
+  global shutter or rows read across the fall): 95 % of the density lies within +-0.04 s/m (a 30 ms
+  readout over a 0.75 m frame), centred on 0 because the sign is the phone's orientation and a
+  global-shutter camera has none.
 
 Physical limits (hard; ``Parameter.limits``)
 --------------------------------------------
@@ -79,7 +88,14 @@ Physical limits (hard; ``Parameter.limits``)
   :data:`SOFT_FLOOR_CONTACT_TIME_S` (50 ms), :func:`contact_time_limit_s`;
 * ``height_offset.offset_m``: -D to D + max(0.1 D, 5 mm): the tracked point lies on the ball
   (bottom 0, centre D/2, top D), give or take a mis-set floor line;
-* ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day).
+* ``buoyancy.air_density_kg_per_m3``: 0.8-1.4 kg/m^3 (air from 3000 m altitude to a cold day);
+* ``rolling_shutter.readout_s_per_m``: -0.1 to 0.1 s/m: a 40 ms readout (the slowest phone sensors [8])
+  over a 0.4 m frame (the smallest that holds a drop worth fitting), either way up. They are the
+  fitter's bounds too: beyond them the rows would be read slower than a fast ball moves (kappa v near 1)
+  and a sample would show the ball twice. A record narrows them (``Parameter.record_limits``,
+  :func:`record_readout_limit_s_per_m`): a camera reads a frame within one frame interval dt, over a frame
+  at least as high as the heights the ball was seen at, so |kappa| <= dt / span (a 100 fps video of a
+  2.65 m drop: 0.0038 s/m).
 
 The model of a ball exists over a range of its own (``Parameter.defined``), which caps both the
 fitter's bounds and the limits for that ball: ``buoyancy.air_density_kg_per_m3`` below the ball's own
@@ -199,6 +215,32 @@ class TrackedPointPrior:
 
 
 @dataclass(frozen=True)
+class NormalPrior:
+    """Normal prior density: x ~ N(mean, sd^2), for a parameter of either sign (``rolling_shutter``: the
+    phone upright or upside down, 0 for a global shutter); ``basis`` says where the numbers come from.
+
+    ``mean`` and ``sd`` are in the parameter's unit (sd > 0).
+    """
+
+    mean: float
+    sd: float
+    basis: str = ""
+
+    def pdf(self, x, ball=None):
+        """Density at ``x`` [1/parameter unit]."""
+        z = (np.asarray(x, dtype=float) - float(self.mean)) / float(self.sd)
+        return np.exp(-0.5 * z * z) / (float(self.sd) * math.sqrt(2.0 * math.pi))
+
+    def deviate(self, x, ball=None):
+        """The standard normal deviate ``(x - mean) / sd`` [1]: a posterior mode adds it to the residuals."""
+        return (np.asarray(x, dtype=float) - float(self.mean)) / float(self.sd)
+
+    def describe(self, ball=None, unit=""):
+        unit = "" if unit in ("", "1") else f" {unit}"
+        return f"normal, mean {self.mean:.3g}{unit}, sd {self.sd:.3g}{unit}"
+
+
+@dataclass(frozen=True)
 class Parameter:
     """One parameter of an effect.
 
@@ -213,7 +255,10 @@ class Parameter:
     ``limits`` for that ball (:meth:`fit_bounds`, :meth:`physical_limits`); ``typical``: the prior density
     says what such balls measure (a sphere's C_d below the drag crisis), so that a value outside its 95 %
     range (:meth:`typical_range`), inside the hard limits, is physical but unusual, and said to be (False
-    where the prior is one model's: a speed exponent near 0, an inflated ball's, is common).
+    where the prior is one model's: a speed exponent near 0, an inflated ball's, is common);
+    ``record_limits``: None, or a function of the ball (a :class:`vrcal.model.body.BallProperties`, with what it
+    carries of the record: its camera's ``readout_limit_s_per_m``) giving the hard limits for that record, inside
+    ``limits`` (a rolling shutter reads a frame within one frame interval, :func:`record_readout_limit_s_per_m`).
     """
 
     name: str
@@ -226,6 +271,7 @@ class Parameter:
     limits: object = None
     defined: object = None
     typical: bool = False
+    record_limits: object = None
 
     def physical_limits(self, ball=None):
         """Hard physical limits ``(lo, hi)`` [unit] of the parameter (for this ball where they
@@ -237,6 +283,9 @@ class Parameter:
             if ball is None:
                 raise UsageError(f"the limits of {self.name} depend on the ball: give its mass and diameter")
             lim = lim(float(np.mean(ball.mass_kg)), float(np.mean(ball.diameter_m)), surface_of(ball))
+        if self.record_limits is not None and ball is not None:
+            a, b = self.record_limits(ball)
+            lim = (max(float(lim[0]), a), min(float(lim[1]), b))
         return self._within_defined(lim, ball)
 
     def fit_bounds(self, ball=None):
@@ -282,7 +331,10 @@ class Parameter:
 class Effect:
     """One named candidate effect (see the module docstring). ``check`` says what to check in
     the input when the effect would fit only with an unphysical value; ``check_by_kind`` says it
-    for one data kind where that differs ({kind: text})."""
+    for one data kind where that differs ({kind: text}); ``every_flight``: the effect is the record's (a
+    camera's), alike in every frame, so a trajectory's flights after its first fall must need it too
+    (:func:`vrcal.discovery.ranking.later_flights_gain`): a first fall that alone departs from a free fall
+    is no camera's doing."""
 
     name: str
     parameters: tuple
@@ -295,6 +347,7 @@ class Effect:
     check: str = ""
     check_by_kind: dict = field(default_factory=dict, compare=False)
     check_rigid: str = ""
+    every_flight: bool = False
 
     def check_for(self, kind, surface="rigid"):
         """What to check in input of ``kind`` ("trajectory", "impacts", "apexes") when the effect would
@@ -481,6 +534,85 @@ def liftoff_time_s(impact_time_s, contact_time_s):
     a soft contact's dip is part of this effect, not a height offset.
     """
     return _out(np.asarray(impact_time_s, dtype=float) + np.asarray(contact_time_s, dtype=float))
+
+
+def sampled_time_s(t_s, height_m, readout_s_per_m):
+    """When a rolling-shutter camera saw a ball it shows at ``height_m`` in the frame stamped ``t_s`` [s].
+
+    Parameters
+    ----------
+    t_s : float or ndarray
+        the frame's time stamp [s]
+    height_m : float or ndarray
+        the ball's height in that frame (the tracked point's, above the floor line) [m]
+    readout_s_per_m : float or ndarray
+        kappa = R / H_frame [s/m]: the frame's readout time R [s] over the height H_frame [m] it spans;
+        > 0 when the rows are read from the top of the scene down (a phone held upright), < 0 upside
+        down, 0 for a global shutter or rows read across the fall
+
+    Returns
+    -------
+    t_s : float or ndarray
+        ``t - kappa y``: a frame's rows are read one after another [8], so a ball low in the frame is
+        read later than a ball high in it: row y is read at ``t + R (Y_top - y) / H_frame``, whose
+        constant part ``R Y_top / H_frame`` is the same for every sample (the release time takes it).
+        The ball seen is then ``y_obs(t) = y(t - kappa y_obs(t))`` (:meth:`vrcal.drop.simulate.Drops.height_m`
+        solves it).
+
+    Notes
+    -----
+    Not in [1], whose heights are taken at one instant. A readout of R = 20 ms over a 1.6 m frame
+    (kappa 0.0125 s/m) samples a ball 0.8 m up 10 ms before one on the floor: every fall looks
+    shorter and every rise longer by about kappa h, the asymmetry air drag gives a flight the other way
+    round; a constant-epsilon fit without it took a table-tennis ball of 0.90 for 0.82 and a speed law.
+    """
+    return _out(np.asarray(t_s, dtype=float) - np.asarray(readout_s_per_m, dtype=float)
+                * np.asarray(height_m, dtype=float))
+
+
+#: The largest rolling shutter of any camera, |kappa| [s/m]: a 40 ms readout (the slowest phone sensors) over a
+#: 0.4 m frame (the smallest that holds a drop worth fitting); ``rolling_shutter``'s hard limits and bounds.
+READOUT_LIMIT_S_PER_M = 0.1
+
+
+def record_readout_limit_s_per_m(t_s, height_m):
+    """The largest rolling shutter a video record can hold, |kappa| = R / H_frame [s/m].
+
+    Parameters
+    ----------
+    t_s : ndarray
+        the record's sample times [s] (one sample a frame, or fewer)
+    height_m : ndarray
+        the heights of its samples [m]
+
+    Returns
+    -------
+    float
+        ``dt / span``, at most :data:`READOUT_LIMIT_S_PER_M`: a camera reads a frame's rows within one frame
+        interval (R <= dt, the median step of the times: the next frame's readout follows), and its frame
+        holds every height the ball was seen at (H_frame >= span, their range). A 100 fps video of a 2.65 m
+        drop: 0.0038 s/m; 30 fps of 0.8 m: 0.042 s/m; 240 fps of 1 m: 0.0042 s/m. A record sampled every
+        k-th frame gets a limit k times wider (still a limit); :data:`READOUT_LIMIT_S_PER_M` without two
+        distinct times or heights.
+    """
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(height_m, dtype=float)
+    steps = np.diff(t[np.isfinite(t)])
+    steps = steps[steps > 0]
+    y = y[np.isfinite(y)]
+    span = float(np.ptp(y)) if y.size else 0.0
+    if not steps.size or not span > 0:
+        return READOUT_LIMIT_S_PER_M
+    return min(READOUT_LIMIT_S_PER_M, float(np.median(steps)) / span)
+
+
+def readout_limits(ball):
+    """The hard limits ``(lo, hi)`` [s/m] of ``rolling_shutter`` for a record: +- the ball's
+    ``readout_limit_s_per_m`` (:func:`record_readout_limit_s_per_m`, set by ``vrcal discover``), or
+    +- :data:`READOUT_LIMIT_S_PER_M` without one."""
+    lim = getattr(ball, "readout_limit_s_per_m", None)
+    lim = READOUT_LIMIT_S_PER_M if lim is None else min(float(lim), READOUT_LIMIT_S_PER_M)
+    return -lim, lim
 
 
 #: Typical gauge pressure of an inflated ball [Pa] (basketball 52-59 kPa, volleyball 29-32 kPa,
@@ -836,6 +968,27 @@ EFFECTS = {
         null_values={"air_density_kg_per_m3": 0.0},
         function=buoyant_gravity_m_per_s2,
         check="check the frame rate and the length scale (g from the flights)",
+    ),
+    "rolling_shutter": Effect(
+        name="rolling_shutter",
+        parameters=(
+            Parameter("readout_s_per_m", "s/m", 0.0125, (-READOUT_LIMIT_S_PER_M, READOUT_LIMIT_S_PER_M),
+                      (-0.04, 0.04),
+                      "kappa = R / H_frame: the camera's readout time over the height its frame spans (20 ms over "
+                      "1.6 m: 0.0125); < 0 for a phone upside down, 0 for a global shutter",
+                      NormalPrior(0.0, 0.02, "phone CMOS readouts 5-35 ms over frames of 1-2 m, either way up "
+                                             "(Liang, Chang, Chen 2008)"),
+                      record_limits=readout_limits),
+        ),
+        equation="y_observed(t) = y(t - kappa y_observed(t)),  kappa = R / H_frame",
+        description="the camera reads its rows one after another (a CMOS rolling shutter): a ball low in the "
+                    "frame is seen later than one high in it, so each fall looks shorter and each rise longer",
+        reference="Liang, Chang, Chen, IEEE Trans. Image Process. 17(8), 1323 (2008)",
+        kinds=("trajectory",),
+        null_values={"readout_s_per_m": 0.0},
+        function=sampled_time_s,
+        check="check the frame rate and whether the camera's rows were read across the fall (turn the phone)",
+        every_flight=True,
     ),
 }
 

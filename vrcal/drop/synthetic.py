@@ -61,13 +61,17 @@ DROP_RANGES_M = {
 #: air_drag: C_d of smooth to rough spheres below the drag crisis; velocity_dependent_restitution:
 #: around the viscoelastic 1/5; contact_duration: measured contact times (about 1 ms for table
 #: tennis on steel, 4-6 ms tennis, 6-12 ms for inflated large balls); height_offset: see
-#: :func:`_draw_offset`; buoyancy: air densities from 2000 m altitude to a cold sea-level day.
+#: :func:`_draw_offset`; buoyancy: air densities from 2000 m altitude to a cold sea-level day; rolling_shutter:
+#: kappa = R / H_frame of a 240 fps camera held upright, whose readout R is at most one frame (4.2 ms), over a
+#: frame that holds the drop (up to 1 m table tennis, 2.54 m tennis, 2 m the others): inside the record's limit
+#: (:func:`vrcal.drop.effects.record_readout_limit_s_per_m`).
 STRENGTH_RANGES = {
     "air_drag": {"*": (0.35, 0.6)},
     "velocity_dependent_restitution": {"*": (0.1, 0.4)},
     "contact_duration": {"table_tennis": (0.0008, 0.003), "tennis": (0.003, 0.006), "*": (0.006, 0.012)},
     "height_offset": {"*": (0.005, 0.02)},
     "buoyancy": {"*": (1.0, 1.3)},
+    "rolling_shutter": {"table_tennis": (0.0015, 0.004), "tennis": (0.0007, 0.0016), "*": (0.001, 0.002)},
 }
 
 

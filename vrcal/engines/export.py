@@ -59,6 +59,12 @@ from vrcal.textout import counted
 #: Effects of a discover result that an engine file carries; the others are named in the notes.
 CARRIED_EFFECTS = ("air_drag", "velocity_dependent_restitution", "height_offset")
 
+#: Effects of a discover result that are the record's, not the ball's: an engine gets epsilon and the ball's
+#: physics, and the note says why these are left out (a camera reading its rows one after another shifts the
+#: time each height was seen; the ball moved as the engine will move it).
+CAMERA_EFFECTS = {"rolling_shutter": "the camera's rolling shutter (when each row of a frame was read), not "
+                                     "the ball's motion"}
+
 
 @dataclass(frozen=True)
 class Export:
@@ -234,10 +240,12 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         elif isinstance(doc.get("floor_level_m"), (int, float)):
             offset = float(doc["floor_level_m"])   # a record without a floor: its contact level, for a replay
         release = float(doc["model"]["release_time_s"])
-        left = [e for e in effects if e not in CARRIED_EFFECTS and e != "buoyancy"]    # buoyancy: its own note
+        # buoyancy: its own note (air_left_out); a camera's artefact: what it is
+        left = [e for e in effects if e not in CARRIED_EFFECTS and e != "buoyancy" and e not in CAMERA_EFFECTS]
         notes.append(f"from {from_json}: {', '.join(effects) or 'no effect'} named by vrcal discover")
         if left:
             notes.append(f"not carried into the engine: {', '.join(left)} (no engine setting for it)")
+        notes.extend(f"{e} left out: {CAMERA_EFFECTS[e]}" for e in effects if e in CAMERA_EFFECTS)
         if not (0 <= drag <= 3):
             raise DataError(f"{from_json}: air_drag.drag_coefficient {drag:g} is outside [0, 3]")
         if not (-1 <= exponent <= 2):

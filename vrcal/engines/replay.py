@@ -326,7 +326,7 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
     -------
     Replay
     """
-    from vrcal.drop.simulate import simulate_drops
+    from vrcal.drop.simulate import seen_through_rolling_shutter, simulate_drops
     from vrcal.engines.export import AIR_LEFT_OUT, export, parse_exported
     from vrcal.engines.verify import _check_geom_options
     from vrcal.model.body import BallProperties, read_discover_json
@@ -390,6 +390,10 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
         notes.append("the constant-epsilon export misses --tolerance or --max-penetration at this step: "
                      "it is run anyway, for the comparison only")
     module = load(eng.name)
+    kappa = float(effects.get("rolling_shutter", {}).get("readout_s_per_m", 0.0))
+    if kappa:
+        notes.append(f"the engine's ball is shown as the record's camera saw it: its rows read one after another "
+                     f"(rolling shutter, kappa {kappa:.3g} s/m), which the engine leaves out")
     for name, (setup, runnable), release, offset in (
             ("engine", engine_run, float(model["release_time_s"]), engine_run[0].height_offset_m),
             ("constant", (ex0.setup, parse_exported(eng.name, ex0.text)), float(t0), level)):
@@ -401,8 +405,12 @@ def replay(from_json, against, engine="mujoco", *, dt_s=None, integrator=None, t
                              f"(limit {eng.max_steps:,}): use a larger --dt")
         z, _v = run_once(eng.name, module, runnable, setup, duration)
         tz = release + setup.dt_s * np.arange(z.size)
-        curve = np.where(t < release, setup.drop_height_m, np.interp(t, tz, z)) + offset
-        curves[name] = curve
+
+        def seen(s, tz=tz, z=z, setup=setup, release=release, offset=offset):
+            return np.where(s < release, setup.drop_height_m, np.interp(s, tz, z)) + offset
+
+        # the engine's ball as the record's camera saw it: its rolling shutter is the camera's, not the ball's
+        curves[name] = seen_through_rolling_shutter(seen, t, kappa) if kappa and name == "engine" else seen(t)
     gaps = {name: float(np.sqrt(np.mean((curve[i0:] - y[i0:]) ** 2))) for name, curve in curves.items()}
     notes = notes + [f"gap: RMS of model - data over the {t.size - i0} samples after release"]
     # the rest level: the tracked point with the ball on the floor; only rebounds that rise clearly

@@ -36,12 +36,17 @@ class BallProperties:
     surface : {"rigid", "soft"}
         the floor it bounces on (:data:`vrcal.drop.effects.SURFACES`): a soft one (paper, a mat, turf,
         sand) holds it longer, which widens the contact time's physical limits
+    readout_limit_s_per_m : float or None
+        the largest rolling shutter the record's camera can have, |kappa| [s/m]
+        (:func:`vrcal.drop.effects.record_readout_limit_s_per_m`: one frame interval over the heights the
+        frame held); None: any camera's (:data:`vrcal.drop.effects.READOUT_LIMIT_S_PER_M`)
     """
 
     mass_kg: float
     diameter_m: float
     name: str = "ball"
     surface: str = "rigid"
+    readout_limit_s_per_m: float | None = None
 
     @classmethod
     def from_ball(cls, ball):
