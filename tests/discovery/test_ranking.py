@@ -522,6 +522,13 @@ def test_a_floor_given_along_a_downward_axis_is_its_distance_below_the_origin(tm
         discover_file(str(path), "basketball", y_down=True, floor_m=-1.90)
     with pytest.raises(UsageError, match=r"--floor 1.9 m lies above \d+ % .* add --y-down"):
         discover_file(str(path), "basketball", floor_m=1.90)
+    # a floor the ball never comes near (0.5 m too low: a sign or a ruler read wrong) is refused too; it
+    # was fitted as an "unexplained" record whose offset would need 0.5 m, with a biased epsilon
+    with pytest.raises(UsageError, match=r"--floor 2.4 m lies 0.5\d\d m below the lowest sample after the "
+                                         r"release; a tracked point of this ball, sampled every 20 ms, comes "
+                                         r"within 0.\d\d\d m of a floor it bounces on"):
+        discover_file(str(path), "basketball", y_down=True, floor_m=2.40)
+    assert discover_file(str(path), "basketball", y_down=True, floor_m=1.93).effects in ([], ["height_offset"])
 
 
 def test_a_sample_deeper_than_any_contact_is_left_out(tmp_path):

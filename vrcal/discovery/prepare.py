@@ -152,7 +152,7 @@ def floor_referenced(data, floor_m=None, ball=None, y_down=False):
         shift = -float(floor_m) if y_down else float(floor_m)
         frame = f", the file's y pointing down: the floor at height {shift:+.4f} m" if y_down else ""
         note = f"heights shifted by {-shift:+.4f} m (--floor {float(floor_m):g} m{frame})"
-        _check_floor_below(data, shift, floor_m, ball, y_down)
+        _check_floor_given(data, shift, floor_m, ball, y_down)
     else:
         low = _lowest_after_release(data)
         lo, hi = floor_band(ball)
@@ -164,23 +164,43 @@ def floor_referenced(data, floor_m=None, ball=None, y_down=False):
     return dataclasses.replace(data, y_m=y - shift), note
 
 
-def _check_floor_below(data, floor_height_m, floor_m, ball, y_down):
-    """Raise when most samples after release lie below the floor at ``floor_height_m`` [m] beyond where a
-    tracked point of the ball can be (:func:`floor_referenced`): a bouncing ball spends most of its time
-    above the floor."""
-    y = np.asarray(data.y_m, dtype=float)[int(getattr(data, "release_index", 0) or 0):] - floor_height_m
-    y = y[np.isfinite(y)]
-    lo = floor_band(ball)[0]
-    if not y.size or float(np.median(y)) >= lo:
+def _check_floor_given(data, floor_height_m, floor_m, ball, y_down):
+    """Raise when the floor at ``floor_height_m`` [m] cannot be the one the ball bounced on: most samples
+    after release lie below it beyond where a tracked point of the ball can be (:func:`floor_band`; a
+    bouncing ball spends most of its time above the floor), or the lowest sample after release lies further
+    above it than a tracked point plus what one sampling interval can miss of a contact (the flight's
+    fastest speed times half the interval: the sample nearest a contact is at most that far from it)."""
+    t = np.asarray(data.t_s, dtype=float)
+    y = np.asarray(data.y_m, dtype=float) - floor_height_m
+    keep = np.arange(y.size) >= int(getattr(data, "release_index", 0) or 0)
+    keep &= np.isfinite(y) & np.isfinite(t)
+    t, y = t[keep], y[keep]
+    if not y.size:
         return
-    below = float(np.mean(y < lo))
+    lo, hi = floor_band(ball)
+    given = f"--floor {float(floor_m):g} m"
     axis = ("the file's y points down (--y-down or its format), so the floor is its distance below the file's "
             "origin, as a motion detector above the ball gives it" if y_down else
             "the file's y points up; with a y axis pointing down (a motion detector above the ball, image rows) "
             "add --y-down and give the floor's distance below the origin")
-    raise UsageError(f"--floor {float(floor_m):g} m lies above {100 * below:.0f} % of the samples after the release "
-                     f"(their median {float(np.median(y)):+.3f} m from it, their highest {float(np.max(y)):+.3f} m): "
-                     f"give the floor's height in the file's frame, in m; {axis}")
+    if float(np.median(y)) < lo:
+        below = float(np.mean(y < lo))
+        raise UsageError(f"{given} lies above {100 * below:.0f} % of the samples after the release "
+                         f"(their median {float(np.median(y)):+.3f} m from it, their highest "
+                         f"{float(np.max(y)):+.3f} m): "
+                         f"give the floor's height in the file's frame, in m; {axis}")
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    if not steps.size:
+        return
+    low = float(np.min(y))
+    fastest_m_per_s = math.sqrt(2.0 * STANDARD_GRAVITY_M_PER_S2 * max(float(np.max(y)) - low, 0.0))
+    reach_m = hi + 0.5 * fastest_m_per_s * float(np.median(steps))
+    if low > reach_m:
+        raise UsageError(f"{given} lies {low:.3f} m below the lowest sample after the release; a tracked point "
+                         f"of this ball, sampled every {1e3 * float(np.median(steps)):.3g} ms, comes within "
+                         f"{reach_m:.3f} m of a floor it bounces on: give the floor's height in the file's frame, in m "
+                         f"({axis}), or leave --floor out to fit the contact's level")
 
 
 def _lowest_after_release(run):
