@@ -88,13 +88,19 @@ def test_the_issue_cases_are_one_line_errors(args, message):
      "got 254; --drop-height is in m: 254 cm = 2.54"),
     (["export", "tennis", "--engine", "ode", "--against", "x=0.01,v=0.17"],
      "--against takes a second ball of the standards (a virtual body x=DEPTH,v=SPEED is a --floor): unknown ball"),
+    (["discover", "examples/data/apexes.csv", "--ball", "tennis", "--format", "json"],
+     "'json': --format names the layout of the input file; the result is written as JSON with --json FILE ('-' for "
+     "standard output)"),
+    (["discover", "examples/data/apexes.csv", "--ball", "tennis", "--format", "CSV"],
+     "'CSV': --format names the layout of the input file, which is detected in a CSV or text file: leave it out"),
     (["verify", "tennis", "--engine", "gazebo"],
      "--engine gazebo runs an SDF world (its surfaces combined as Gazebo classic does, in libode): give --file "
      "WORLD.sdf, e.g. vrcal export BALL --engine gazebo -o world.sdf && vrcal verify --engine gazebo --file "
      "world.sdf"),
 ])
 def test_unit_slips_and_wrong_engines_are_named_in_one_line(args, message):
-    """The probe's cases: ms typed for s, cm for m, a virtual body for --against, gazebo for verify."""
+    """The probe's cases: ms typed for s, cm for m, a virtual body for --against, gazebo for verify, discover's
+    --format (the input's layout) given the output's JSON or the file's type."""
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 2 and message in result.output, result.output
     assert len(result.output.strip().splitlines()) == 1

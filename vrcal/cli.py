@@ -610,7 +610,7 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
                    "--diameter.")
 @MASS_OPTION
 @DIAMETER_OPTION
-@click.option("--format", "fmt", type=click.Choice(opt.MEASUREMENT_FORMATS), default=None, metavar="FORMAT",
+@click.option("--format", "fmt", type=opt.MEASUREMENT_FORMAT, default=None, metavar="FORMAT",
               help=f"Format of DATA (default: detected from the file): {', '.join(opt.MEASUREMENT_FORMATS)} "
                    "(docs/measurements.md).")
 @click.option("--sheet", default=None, help="Sheet of an .xlsx/.xls workbook, table of a zip archive of CSV files "

@@ -406,3 +406,27 @@ ROTATION = click.Choice(["0", "90", "180", "270"])
 #: so that the CLI starts without importing the readers; a test keeps the two equal).
 MEASUREMENT_FORMATS = ("pixels-ref", "audacity-labels", "vernier", "mtrack2", "tracker", "phyphox-collision", "drops",
                        "apexes", "trajectory", "impacts", "sound", "video")
+
+
+class MeasurementFormat(NamedChoice):
+    """``discover --format``: the layout of the input file (:data:`MEASUREMENT_FORMATS`). Its refusal of an
+    output format ('json', 'yaml') or of a file type ('csv', 'txt') says what was probably meant: the result
+    is written with --json, and a CSV's layout is detected."""
+
+    #: What a refused value probably meant: {value: hint}.
+    MEANT = {**{name: "--format names the layout of the input file; the result is written as JSON with --json FILE "
+                      "('-' for standard output)" for name in ("json", "yaml", "yml", "text", "markdown")},
+             **{name: "--format names the layout of the input file, which is detected in a CSV or text file: "
+                      "leave it out, or name the layout" for name in ("csv", "txt", "tsv", "dat", "text/csv")}}
+
+    def __init__(self):
+        super().__init__(list(MEASUREMENT_FORMATS))
+
+    def convert(self, value, param, ctx):
+        hint = self.MEANT.get(str(value).strip().lower())
+        if hint is not None:
+            self.fail(f"{value!r}: {hint} ({', '.join(self.choices)})", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+MEASUREMENT_FORMAT = MeasurementFormat()

@@ -412,7 +412,39 @@ def test_a_voice_alone_is_no_drop_recording_and_says_so_in_one_line(tmp_path):
         read_measurement(path)
     msg = str(err.value)
     assert "\n" not in msg
-    assert "mm high" in msg and "voice" in msg and "is this a drop recording?" in msg and "near the floor" in msg
+    # caught before any chain is sought: every event belongs to a train of pitch pulses (it was caught after,
+    # by the chain's longest flight, "a bounce ... mm high", in 13 s)
+    assert "every sound event is a pitch pulse of a voice or a hum (198 of 198" in msg
+    assert "is this a drop recording?" in msg and "near the floor" in msg
+
+
+@pytest.mark.parametrize("H, eps, voice_gain, seed", [(0.8, 0.8, 0.05, 0), (0.8, 0.8, 0.2, 2), (0.5, 0.75, 0.1, 3),
+                                                      (1.0, 0.85, 0.15, 5), (0.6, 0.9, 0.1, 7)])
+def test_talking_through_a_drop_leaves_the_impacts(tmp_path, H, eps, voice_gain, seed):
+    """A voice through the whole drop (syllables every second, 26-14 dB under the first impact): each pitch pulse
+    was a sound event, and the longest chain through 340-490 of them mixed pulses with impacts (8 of 22
+    "impacts" a voice's at the quietest voice; the first impact missed at louder ones), in 15-60 s. The pulses'
+    trains (7 ms apart) are left out first with a note; every impact kept is one of the ball's, and epsilon
+    within 0.005."""
+    from vrcal.discovery.ranking import discover_file
+
+    fs = 44100
+    drops = simulate_drops(H, eps, 40, BallProperties(0.0577, 0.067, "tennis"), release_time_s=1.0)
+    t_true, v_true = drops.impact_times_s[0], drops.impact_speeds_m_per_s[0]
+    x = impact_sound(t_true, v_true, fs_hz=fs, duration_s=6.0, scene=SoundScene(noise_rms=0.001), seed=seed)[:, 0]
+    starts = tuple(np.cumsum(np.random.default_rng(seed).uniform(0.9, 1.2, 6)) - 0.7)
+    x = x + voice_gain * _speech(fs, duration_s=6.0, starts_s=starts, seed=seed)[:, 0]
+    path = tmp_path / "talking.wav"
+    write_wav(path, x[:, None], fs)
+    got = read_measurement(path)
+    assert any("pitch pulses of a voice or a hum" in n and "left out before the bounce sequence" in n
+               for n in got.notes)
+    off = np.array([np.min(np.abs(t_true - t)) for t in got.t_s])
+    # an impact on a pulse's heels is timed at the pulse's start, up to 3 ms early (the onset is the energy's
+    # change point in the 6 ms before the rise): no event is a voice's, few are that early
+    assert got.t_s.size >= 6 and np.all(off < 3e-3) and np.mean(off < 3e-4) >= 0.7, off
+    d = discover_file(str(path), "tennis")
+    assert d.epsilon == pytest.approx(eps, abs=0.005)
 
 
 def test_the_impacts_note_counts_both_drops_of_a_two_drop_recording(tmp_path):

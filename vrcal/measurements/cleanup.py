@@ -874,6 +874,77 @@ def bounce_height_m(flight_s, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2):
         return g_m_per_s2 * np.asarray(flight_s, dtype=float) ** 2 / 8.0
 
 
+def voice_pulses(t_s, level_db=None, *, periods_s=PULSE_PERIODS_S, min_intervals=3, tolerance=0.15, max_ratio=0.98,
+                 louder_db=5.0):
+    """Which sound events are a voice's (or a hum's) pitch pulses: a mask over ``t_s``.
+
+    A voiced sound is a train of pulses one pitch period apart (2.5-20 ms, :data:`PULSE_PERIODS_S`), the
+    period gliding slowly (a voice's 130 Hz pulses in a probe's recording: 6.9-8.7 ms, 1 % from one to the
+    next); each pulse is a sound event, hundreds in a few seconds of talking. An event is one when it
+    belongs to a run of at least ``min_intervals`` intervals in ``periods_s``, each within ``tolerance``
+    (relative) of the one before. A bouncing ball's last bounces can come that close, but their intervals
+    shrink by epsilon at each bounce: a run whose intervals all shrink, by ``max_ratio`` or more on average
+    (:func:`vrcal.measurements.sound.bounce_sequence`'s limit), is a ball's and not marked. An impact heard
+    through the talking can fall on a pulse's place; it is louder than the pulses about it (an impact 7 dB
+    over its train in a probe's recording), so an event ``louder_db`` over the median of the three events on
+    either side of it in its train is not marked.
+
+    Parameters
+    ----------
+    t_s : array_like
+        event times [s], increasing
+    level_db : array_like or None
+        the events' levels [dB] (None: every event of a train is marked)
+    periods_s : (float, float)
+        shortest and longest pitch period [s]
+    min_intervals : int
+        fewest intervals of a train
+    tolerance : float
+        largest relative change of one interval from the one before in a train
+    max_ratio : float
+        a run whose every interval is shorter than the one before, by this mean ratio or less, is a
+        ball's bounces
+    louder_db : float
+        an event of a train this much louder than the events about it is not marked [dB]
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    t = np.asarray(t_s, dtype=float)
+    mark = np.zeros(t.size, dtype=bool)
+    dt = np.diff(t)
+    if dt.size < min_intervals:
+        return mark
+    in_band = (dt >= periods_s[0]) & (dt <= periods_s[1])
+    ratio = dt[1:] / np.where(dt[:-1] > 0, dt[:-1], np.inf)
+    steady = (ratio >= 1.0 / (1.0 + tolerance)) & (ratio <= 1.0 + tolerance)
+    # link[i]: intervals i and i + 1 belong to one train
+    link = in_band[:-1] & in_band[1:] & steady
+    i = 0
+    while i < dt.size:
+        if not in_band[i]:
+            i += 1
+            continue
+        j = i
+        while j < link.size and link[j]:
+            j += 1
+        # intervals i..j form a run
+        if j - i + 1 >= min_intervals:
+            r = ratio[i:j]
+            ball = bool(np.all(r < 1.0)) and float(np.exp(np.mean(np.log(r)))) <= max_ratio
+            if not ball:
+                mark[i:j + 2] = True
+                if level_db is not None:
+                    lv = np.asarray(level_db, dtype=float)
+                    for k in range(i, j + 2):
+                        about = np.r_[lv[max(i, k - 3):k], lv[k + 1:min(j + 2, k + 4)]]
+                        if about.size and lv[k] > float(np.median(about)) + louder_db:
+                            mark[k] = False
+        i = j + 1
+    return mark
+
+
 def pulse_period(dt_s, *, periods_s=PULSE_PERIODS_S, max_multiple=12, tolerance=0.3):
     """``(period, multiples)`` when every interval is a whole multiple of one period of a voice or a hum
     (``dt_i = n_i P`` within ``tolerance`` of a period, ``n_i`` at most ``max_multiple``, ``P`` in

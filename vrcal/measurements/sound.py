@@ -46,6 +46,7 @@ The impact times kept are then screened like any impact-times file
 
 from __future__ import annotations
 
+import bisect
 import math
 import os
 import warnings
@@ -59,9 +60,11 @@ from vrcal.errors import DataError, UsageError, install_hint
 from vrcal.measurements.cleanup import (
     NOT_A_DROP,
     NOT_AN_IMPACT,
+    PULSE_PERIODS_S,
     detect_impact_anomalies,
     leading_intruder,
     no_recorded_drop,
+    voice_pulses,
 )
 from vrcal.measurements.types import ImpactTimes
 
@@ -576,33 +579,41 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     t = np.asarray(t_s, dtype=float)
     lv = np.asarray(level_db, dtype=float)
     n = t.size
+    # plain floats and bisect: the seeds are many (51,000 for a voice's 200 pulses) and each step looks at a
+    # few events, where numpy's per-call overhead took 13 s; the arithmetic is the same float64
+    tl, ll = t.tolist(), lv.tolist()
     best, best_key = [], None
     for i in range(n):
         for j in range(i + 1, n):
-            dt0 = t[j] - t[i]
+            dt0 = tl[j] - tl[i]
             if dt0 > max_interval_s:
                 break
-            if dt0 < min_interval_s or lv[j] > lv[i] + max_louder_db:
+            if dt0 < min_interval_s or ll[j] > ll[i] + max_louder_db:
                 continue
-            ks = np.flatnonzero((t > t[j] + 0.3 * dt0) & (t < t[j] + max_ratio * dt0))
-            for k in ks:
-                if lv[k] > lv[j] + max_louder_db:
+            # third impacts: t[j] + 0.3 dt0 < t < t[j] + max_ratio dt0
+            for k in range(bisect.bisect_right(tl, tl[j] + 0.3 * dt0), bisect.bisect_left(tl, tl[j] + max_ratio * dt0)):
+                if ll[k] > ll[j] + max_louder_db:
                     continue
-                chain = [i, j, int(k)]
-                ratios = [(t[k] - t[j]) / dt0]
+                chain = [i, j, k]
+                ratios = [(tl[k] - tl[j]) / dt0]
                 while True:
-                    r = float(np.median(ratios[-3:]))
-                    dt = t[chain[-1]] - t[chain[-2]]
-                    target = t[chain[-1]] + r * dt
+                    r = _median_of_few(ratios[-3:])
+                    last = chain[-1]
+                    dt = tl[last] - tl[chain[-2]]
+                    target = tl[last] + r * dt
                     width = tolerance * r * dt
-                    near = np.flatnonzero((np.abs(t - target) <= width) & (lv <= lv[chain[-1]] + max_louder_db)
-                                          & (t - t[chain[-1]] < max_ratio * dt))
-                    near = near[near > chain[-1]]
-                    if near.size == 0:
+                    m = None
+                    for q in range(max(bisect.bisect_left(tl, target - width) - 1, last + 1),
+                                   min(bisect.bisect_right(tl, target + width) + 1, n)):
+                        if (abs(tl[q] - target) <= width and ll[q] <= ll[last] + max_louder_db
+                                and tl[q] - tl[last] < max_ratio * dt and (m is None or ll[q] > ll[m])):
+                            m = q   # the loudest (the first of equals): an impact outshines voices and echoes
+                    if m is None:
                         break
-                    m = int(near[np.argmax(lv[near])])  # the loudest: an impact outshines voices and echoes
-                    ratios.append((t[m] - t[chain[-1]]) / dt)
+                    ratios.append((tl[m] - tl[last]) / dt)
                     chain.append(m)
+                if best_key is not None and len(chain) < best_key[0]:
+                    continue
                 spread = float(np.std(np.log(ratios))) if len(ratios) > 1 else 0.0
                 key = (len(chain), float(np.sum(lv[chain])), -spread)
                 if best_key is None or key > best_key:
@@ -622,6 +633,14 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
         return np.zeros(0, dtype=int), {i: why if i in set(chain.tolist()) else "no bouncing sequence"
                                         for i in range(n)}
     return chain, {**rejection_reasons(t, chain, tolerance), **intruders}
+
+
+def _median_of_few(values):
+    """The median of a short list of floats, as np.median gives it (the mean of the middle two of an even
+    count), without numpy's overhead on three numbers."""
+    s = sorted(values)
+    n = len(s)
+    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
 
 
 #: An event this soon after an impact [ms] is called its echo or ringing (a wall up to 10 m away).
@@ -699,7 +718,8 @@ def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM, highpass_
     return float(math.sqrt(chi2.isf(false_alarm / looks, m) / chi2.median(m)))
 
 
-def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_louder_db=6.0, max_ratio=0.98):
+def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_louder_db=6.0, max_ratio=0.98,
+                 voice_s=()):
     """The quiet impacts after a bounce chain, searched for only where the physics predicts them.
 
     The next impact lies near ``t_last + r dt_last`` (``r`` the median of the last three
@@ -710,8 +730,9 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
     ringing of the impact before decays and never rises); its largest peak in the window is
     timed by the same AIC change point as every onset. The chain stops at the first window with
-    nothing over the threshold, or a peak louder than the impact before by ``max_louder_db``:
-    the bounces after it are left out, not guessed.
+    nothing over the threshold, a peak louder than the impact before by ``max_louder_db``, or a voice's
+    pitch pulse in it or in the 6 ms the onset is sought before it (a pulse there is what the window
+    finds: 3-5 ms early in a probe's recording): the bounces after it are left out, not guessed.
 
     Parameters
     ----------
@@ -721,6 +742,8 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         times [s] and levels [dB] of the chain's impacts, increasing (at least three)
     tolerance, max_louder_db, max_ratio : float
         as in :func:`bounce_sequence`
+    voice_s : array_like
+        times of a voice's pitch pulses [s] (:func:`vrcal.measurements.cleanup.voice_pulses`)
 
     Returns
     -------
@@ -734,6 +757,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     t = list(np.asarray(t_s, dtype=float))
     lv = list(np.asarray(level_db, dtype=float))
     ratios = list(np.diff(t)[1:] / np.diff(t)[:-1])
+    voice = np.asarray(voice_s, dtype=float)
     added, worst = 0, 0.0
     while True:
         r = float(np.median(ratios[-3:]))
@@ -741,6 +765,8 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         if not 0.0 < r < max_ratio or r * dt < REFRACTORY_S:  # impacts closer than that are one sound
             break
         target, width = t[-1] + r * dt, max(tolerance * r * dt, 5e-4)
+        if np.any((voice >= target - width - 6e-3) & (voice <= target + width)):
+            break
         lo, hi = int(math.ceil((target - width) * fs)), int(math.floor((target + width) * fs)) + 1
         if hi > n or lo <= int(t[-1] * fs):
             break
@@ -825,6 +851,12 @@ def track_sound(path, *, progress=None):
     if onsets.t_s.size == 0:
         raise DataError(f"{path}: no impact sounds found (loudest transient below {SNR:g} x the noise level, "
                         f"peak {20 * math.log10(peak):.0f} dBFS); record closer to the floor or in a quieter room")
+    onsets, voiced, pulses_s = _without_voice(onsets)
+    if voiced and onsets.t_s.size == 0:
+        raise DataError(f"{path}: every sound event is a pitch pulse of a voice or a hum ({voiced}): {NOT_A_DROP}; "
+                        "is this a drop recording? record the whole drop, the phone near the floor")
+    if voiced:
+        notes.append(f"{voiced}: left out before the bounce sequence was sought")
     chain, reasons = bounce_sequence(onsets.t_s, onsets.snr_db)
     no_drop = [i for i, why in reasons.items() if why.startswith(NOT_A_DROP)]
     if no_drop:
@@ -836,7 +868,7 @@ def track_sound(path, *, progress=None):
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
                         "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
     n_heard = chain.size
-    t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain])
+    t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain], voice_s=pulses_s)
     if t_new.size:
         intruders = {float(onsets.t_s[i]): why for i, why in reasons.items() if why.startswith(NOT_AN_IMPACT)}
         onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
@@ -898,6 +930,23 @@ def track_sound(path, *, progress=None):
         progress(1.0, "done")
     return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what,
                       second=second)
+
+
+def _without_voice(onsets):
+    """``onsets`` without the pitch pulses of a voice or a hum (:func:`vrcal.measurements.cleanup.voice_pulses`),
+    what was left out ("k of n sound events are ...", or None) and the pulses' times [s]. Talking through a
+    drop gave hundreds of events; the longest chain through them mixed pulses with impacts (8 of 22
+    "impacts" a voice's, with the speech 26 dB below the first impact)."""
+    voice = voice_pulses(onsets.t_s, onsets.snr_db)
+    if not voice.any():
+        return onsets, None, onsets.t_s[voice]
+    t = onsets.t_s
+    dt = np.diff(t)
+    within = dt[voice[:-1] & voice[1:] & (dt >= PULSE_PERIODS_S[0]) & (dt <= PULSE_PERIODS_S[1])]
+    what = (f"{int(voice.sum())} of {t.size} sound events are pitch pulses of a voice or a hum "
+            f"({within.min() * 1e3:.1f}-{within.max() * 1e3:.1f} ms apart, t = {t[voice].min():.2f}-"
+            f"{t[voice].max():.2f} s)")
+    return Onsets(t_s=t[~voice], snr_db=onsets.snr_db[~voice], noise_level=onsets.noise_level), what, t[voice]
 
 
 def _second_drop(onsets, chain):
