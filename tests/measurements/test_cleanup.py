@@ -108,3 +108,27 @@ def test_no_bounce_is_taken_for_a_glitch(fs, ball, H, eps, ct):
     for seed in range(4):
         t, y = _track(fs=fs, noise=1e-3, seed=seed, ball=ball, H=H, eps=eps, ct=ct)
         assert tracker_glitches(t, y) == [], seed
+
+
+def test_a_voices_pitch_pulses_are_marked_and_a_balls_bounces_are_not():
+    """voice_pulses: a train of events one steady period apart (a 130 Hz voice gliding 7.7 -> 6.9 ms) is a
+    voice's; a ball's bounces, however close at the end (epsilon 0.95: intervals down to 5 ms), shrink by
+    epsilon at each and are not; an impact on a pulse's place, 7 dB over the pulses about it, is not a pulse."""
+    from vrcal.measurements.cleanup import voice_pulses
+
+    period = np.linspace(7.7e-3, 6.9e-3, 40)
+    t_voice = 1.0 + np.cumsum(period)
+    assert voice_pulses(t_voice).all()
+    for eps in (0.5, 0.8, 0.95):
+        t_ball = np.cumsum(0.4 * eps ** np.arange(80))
+        t_ball = t_ball[np.r_[0.0, np.diff(t_ball)] >= 2e-3]
+        assert not voice_pulses(t_ball).any(), eps
+    level = np.full(t_voice.size, 28.0)
+    level[20] = 35.0
+    marked = voice_pulses(t_voice, level)
+    assert not marked[20] and marked[:20].all() and marked[21:].all()
+    # two syllables and a ball: only the syllables' events are marked
+    t_ball = 0.5 + np.cumsum(0.4 * 0.8 ** np.arange(8))
+    t = np.sort(np.r_[t_ball, t_voice, 3.0 + np.cumsum(np.full(30, 8e-3))])
+    marked = voice_pulses(t)
+    assert not marked[np.isin(t, t_ball)].any() and marked[~np.isin(t, t_ball)].mean() > 0.95
