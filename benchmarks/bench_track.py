@@ -243,9 +243,9 @@ def bench_speed(tmp):
     w, c = time.perf_counter(), time.process_time()
     st = track_sound(path)
     wall, cpu = time.perf_counter() - w, time.process_time() - c
-    voiced = next((n.split(":")[0] for n in st.impacts.notes if "pitch pulses" in n), "no pitch pulses found")
-    print(f"   6-second WAV with a voice throughout ({voiced}; {st.impacts.t_s.size} impacts kept): {wall:.2f} s "
-          f"wall, {cpu:.2f} s CPU")
+    voiced = next((n.split(" are pitch")[0] for n in st.impacts.notes if "pitch pulses" in n), "none")
+    print(f"   6-second WAV with a voice throughout ({voiced} a voice's; {st.impacts.t_s.size} "
+          f"impacts kept): {wall:.2f} s wall, {cpu:.2f} s CPU")
     d = simulate_drops(1.0, 0.8, 12, BALL, release_time_s=0.5)
     path = tmp / "hd.mp4"
     scene = VideoScene(width=1920, height=1080, floor_row=1000.0, x_px=960.0, m_per_px=0.0011, noise_sd=2.0,

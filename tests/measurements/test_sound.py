@@ -414,7 +414,7 @@ def test_a_voice_alone_is_no_drop_recording_and_says_so_in_one_line(tmp_path):
     assert "\n" not in msg
     # caught before any chain is sought: every event belongs to a train of pitch pulses (it was caught after,
     # by the chain's longest flight, "a bounce ... mm high", in 13 s)
-    assert "every sound event is a pitch pulse of a voice or a hum (198 of 198" in msg
+    assert "every sound event is a voice's, a hum's or a beat's (198 of 198 sound events are pitch pulses" in msg
     assert "is this a drop recording?" in msg and "near the floor" in msg
 
 
@@ -459,3 +459,95 @@ def test_the_impacts_note_counts_both_drops_of_a_two_drop_recording(tmp_path):
     assert note.startswith(f"impacts: {got.t_s.size} of ")
     (a, b), (c, d) = got.chains
     assert f"({b - a} in the first drop, {d - c} in a second)" in note
+
+
+def _drop_sound(H, eps, seed, fs=48000, duration_s=8.0, n=30, release_s=1.0, level=0.5):
+    """A tennis ball's drop (the render's impacts) and its true impact times."""
+    drops = simulate_drops(H, eps, n, BallProperties(0.0577, 0.067, "tennis"), release_time_s=release_s)
+    t, v = drops.impact_times_s[0], drops.impact_speeds_m_per_s[0]
+    keep = t < duration_s - 0.05
+    x = impact_sound(t[keep], v[keep], fs_hz=fs, duration_s=duration_s,
+                     scene=SoundScene(noise_rms=0.001, level=level), seed=seed)[:, 0]
+    return x, t[keep]
+
+
+def test_a_noise_gated_recording_is_judged_at_its_own_rounding(tmp_path):
+    """A phone's noise suppression gates quiet stretches to exact zeros and leaves single samples one step
+    off: the median envelope was 0, the noise level -145 dBFS, and each stray step a 44 dB "impact" (24
+    "impacts", none the ball's, epsilon 0.906 "explained" for 0.75, in 21 s). The noise level is never below
+    the samples' own rounding (q / sqrt(12))."""
+    from vrcal.measurements.sound import quantization_noise
+
+    x, t_true = _drop_sound(1.0, 0.75, seed=3)
+    fs = 48000
+    step = 1.0 / 32768
+    env = np.convolve(np.abs(x), np.ones(int(0.04 * fs)) / int(0.04 * fs), mode="same")   # a 40 ms hold
+    gated = np.where(env > 0.006, x, 0.0)
+    strays = np.random.default_rng(3).choice(x.size, 300, replace=False)
+    gated[strays] = np.where(gated[strays] == 0.0, step * np.sign(np.random.default_rng(4).standard_normal(300)),
+                             gated[strays])
+    assert quantization_noise(np.round(gated / step) * step) == pytest.approx(step / np.sqrt(12))
+    path = tmp_path / "gated.wav"
+    write_wav(path, gated[:, None], fs)
+    got = read_measurement(path)
+    off = np.array([np.min(np.abs(t_true - t)) for t in got.t_s])
+    assert got.t_s.size >= 4 and np.all(off < 1e-3), off
+    assert "noise level -101 dBFS" in next(n for n in got.notes if n.startswith("impacts:"))
+
+
+def test_a_drums_beat_is_left_out_and_no_chain_steps_over_every_other_impact(tmp_path):
+    """Music through the drop (drum hits on every eighth note at 124 bpm, as loud as the first impacts): the
+    hits 4, 2 and 1 eighth notes apart shrink by 0.5 like a ball's flights and, with the ball's impacts
+    between them, made a chain of ratio 0.5 (epsilon 0.500 'explained' for 0.76); the beat left out, the
+    impacts it masked broke the true chain and the one through every other impact (ratio 0.76^2) won. The
+    beat's events are taken out with a note, and a chain that steps over every other impact is no
+    bounce sequence."""
+    from vrcal.discovery.ranking import discover_file
+
+    fs = 48000
+    x, t_true = _drop_sound(1.6, 0.76, seed=5, fs=fs)
+    grid = 0.13 + np.arange(33) * 60 / 124 / 2
+    drums = impact_sound(grid, np.full(grid.size, 4.0), fs_hz=fs, duration_s=8.0,
+                         scene=SoundScene(noise_rms=0.0, level=0.35), seed=6)[:, 0]
+    path = tmp_path / "music.wav"
+    write_wav(path, (x + drums)[:, None], fs)
+    got = read_measurement(path)
+    assert any("keep a steady beat (music, a clock: on a grid 242 ms apart" in n and "left out before" in n
+               for n in got.notes)
+    off = np.array([np.min(np.abs(t_true - t)) for t in got.t_s])
+    assert got.t_s.size >= 3 and np.all(off < 1e-3), off
+    kept = np.array([int(np.argmin(np.abs(t_true - t))) for t in got.t_s])
+    assert np.all(np.diff(kept) == 1), kept            # consecutive impacts, none stepped over
+    assert discover_file(str(path), "tennis").epsilon == pytest.approx(0.76, abs=0.01)
+
+
+def test_a_second_drop_must_shrink_like_the_first():
+    """A second 'drop' is the same ball's only with four impacts or more shrinking by the first drop's ratio
+    within 10 %: three footsteps or key clicks, or a drum's hits of ratio 0.5 after a tennis ball's 0.76,
+    were fitted as a second drop."""
+    from vrcal.measurements.sound import Onsets, _second_drop
+
+    first = 1.0 + np.cumsum(np.r_[0.0, 0.6 * 0.76 ** np.arange(8)])
+    for second, fitted in ((6.0 + np.cumsum(np.r_[0.0, 0.5 * 0.5 ** np.arange(4)]), False),   # ratio 0.5
+                           (6.0 + np.cumsum(np.r_[0.0, 0.5 * 0.76 ** np.arange(2)]), False),  # three events
+                           (6.0 + np.cumsum(np.r_[0.0, 0.5 * 0.78 ** np.arange(6)]), True)):  # the same ball
+        t = np.r_[first, second]
+        found = _second_drop(Onsets(t_s=t, snr_db=np.full(t.size, 30.0), noise_level=1e-4),
+                             np.arange(first.size))
+        assert (found.size > 0) == fitted, second
+
+
+def test_a_dull_recording_says_where_impacts_are_heard(tmp_path):
+    """A ball on carpet is dull: loud below 1 kHz, quiet above it, where vrcal listens; the refusal says so
+    and what to do (it asked only 'is this a drop recording?')."""
+    from scipy import signal
+
+    fs = 48000
+    x, _ = _drop_sound(0.5, 0.55, seed=1, fs=fs, duration_s=3.0, level=0.02)
+    sos = signal.butter(4, 400, "lowpass", fs=fs, output="sos")
+    dull = signal.sosfilt(sos, x) + 0.0005 * np.random.default_rng(1).standard_normal(x.size)
+    path = tmp_path / "carpet.wav"
+    write_wav(path, dull[:, None], fs)
+    with pytest.raises(DataError, match=r"Impacts are heard above 1 kHz, where a dull one \(a carpet, a mat, a soft "
+                                        r"ball\) is quiet: put the phone on the floor near where the ball lands"):
+        read_measurement(path)

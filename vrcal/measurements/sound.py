@@ -64,6 +64,7 @@ from vrcal.measurements.cleanup import (
     detect_impact_anomalies,
     leading_intruder,
     no_recorded_drop,
+    steady_beat,
     voice_pulses,
 )
 from vrcal.measurements.types import ImpactTimes
@@ -89,6 +90,10 @@ MIN_IMPACTS = 3          #: fewest impacts a recording must give
 #: 1 kHz high-pass (:data:`HIGHPASS_HZ`), where an impact's click lies; below 8 kHz little of that band is left
 #: (a phone records at 44.1 or 48 kHz).
 MIN_SAMPLE_RATE_HZ = 8000.0
+#: What a refusal of a recording with too few impacts adds (a ball on carpet: 43 dB over the noise across the
+#: band, 19 dB above 1 kHz, was refused with only "is this a drop recording?").
+DULL_IMPACTS = (f"Impacts are heard above {HIGHPASS_HZ / 1000:g} kHz, where a dull one (a carpet, a mat, a soft ball) "
+                "is quiet: put the phone on the floor near where the ball lands")
 MAX_LISTED = 6           #: rejected events listed one by one in the notes
 WINDOW_FALSE_ALARM = 1e-8  #: chance that noise alone crosses the threshold of one predicted-impact window
 PRE_ECHO_S = 6e-3        #: longest span a lossy codec smears an impact's noise before it (a 256-sample block) [s]
@@ -416,6 +421,18 @@ class OnsetSignals:
     pre_echo_s: float = 0.0
 
 
+def quantization_noise(x):
+    """RMS [full scale] of the rounding of samples ``x`` to their own step: q / sqrt(12), q the smallest
+    non-zero magnitude of a sample (one step of a 16-bit file, 1/32768: -101 dBFS); 0 for an all-zero signal.
+
+    The noise level of a recording cannot be below it: a phone's noise suppression gates the quiet stretches
+    to exact zeros, leaving single samples one step off, and the median envelope of such a file is 0.
+    """
+    a = np.abs(np.asarray(x, dtype=float))
+    a = a[a > 0]
+    return float(a.min()) / math.sqrt(12.0) if a.size else 0.0
+
+
 def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, pre_echo_s=0.0):
     """High-pass, envelope, noise level and rise of a recording (steps 1-2 of the module docstring).
 
@@ -446,6 +463,9 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, pre_echo_s=0.0):
     y[:skip] = 0.0
     e = envelope(y, fs_hz)
     noise = float(np.median(e[skip:])) if e.size > skip else 0.0
+    # never below the samples' own rounding (a phone's noise gate leaves exact zeros and stray 1-step samples:
+    # a median of 0 made each stray a 44 dB "impact")
+    noise = max(noise, quantization_noise(x))
     if not noise > 0:
         noise = max(float(np.max(e)) * 1e-6, 1e-12)
 
@@ -543,7 +563,8 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
     ``tolerance`` of the predicted next interval ``r dt`` (r the median of the last three
     ratios; the loudest candidate in that window is taken). An impact may not be louder
     than the one before it by more than ``max_louder_db`` (each bounce is slower). The
-    longest chain wins; among equally long ones the louder, then the more regular. Its first
+    longest chain wins (not one that steps over every other impact, :func:`_skips_every_other`); among
+    equally long ones the louder, then the more regular. Its first
     event is then left out while it is no impact of the sequence
     (:func:`vrcal.measurements.cleanup.leading_intruder`: a clap just before the release). A chain
     whose longest flight rises a few mm is no recorded drop (a voice's pulses,
@@ -614,6 +635,8 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
                     chain.append(m)
                 if best_key is not None and len(chain) < best_key[0]:
                     continue
+                if _skips_every_other(tl, ll, chain, ratios, max_louder_db=max_louder_db):
+                    continue
                 spread = float(np.std(np.log(ratios))) if len(ratios) > 1 else 0.0
                 key = (len(chain), float(np.sum(lv[chain])), -spread)
                 if best_key is None or key > best_key:
@@ -633,6 +656,46 @@ def bounce_sequence(t_s, level_db, *, tolerance=RATIO_TOLERANCE, min_interval_s=
         return np.zeros(0, dtype=int), {i: why if i in set(chain.tolist()) else "no bouncing sequence"
                                         for i in range(n)}
     return chain, {**rejection_reasons(t, chain, tolerance), **intruders}
+
+
+def _skips_every_other(t, level, chain, ratios, *, spread=0.03, max_louder_db=6.0, min_skipped=2):
+    """Whether a chain steps over every other impact: impacts lost under a louder sound (a drum's hit) break
+    the true chain, and the one through every other impact shrinks steadily too, by epsilon^2 (a tennis
+    ball's 0.76 gave 0.5776, "explained"). Such a chain's flights hold an event where the impact it stepped
+    over falls, a fraction 1 / (1 + sqrt(r)) into the flight (r the chain's median ratio; within ``spread``
+    of the flight, a ball's ratios scattering by a few per cent), as loud as an impact between its
+    neighbours can be (within ``max_louder_db``). Flights whose stepped-over impact would come within
+    :data:`ECHO_WITHIN_MS` of the impact before are not judged (an echo falls there). With at least
+    ``min_skipped`` and a third of the judged flights so, the chain is no bounce sequence.
+
+    Parameters
+    ----------
+    t, level : list of float
+        every event's time [s] (increasing) and level [dB]
+    chain : list of int
+        the chain's indices into ``t``
+    ratios : list of float
+        its interval ratios
+    spread : float
+        tolerance of the stepped-over impact's time, as a fraction of the flight
+    max_louder_db : float
+        as in :func:`bounce_sequence`
+    min_skipped : int
+        fewest flights stepping over an impact
+    """
+    root = math.sqrt(float(np.median(ratios)))
+    members = set(chain)
+    judged = skipped = 0
+    for a, b in zip(chain[:-1], chain[1:]):
+        flight = t[b] - t[a]
+        at = t[a] + flight / (1.0 + root)
+        if at - t[a] <= ECHO_WITHIN_MS * 1e-3:
+            continue
+        judged += 1
+        lo, hi = bisect.bisect_left(t, at - spread * flight), bisect.bisect_right(t, at + spread * flight)
+        skipped += any(q not in members and level[b] - max_louder_db <= level[q] <= level[a] + max_louder_db
+                       for q in range(lo, hi))
+    return skipped >= min_skipped and 3 * skipped >= judged
 
 
 def _median_of_few(values):
@@ -719,7 +782,7 @@ def window_threshold(n_samples, fs_hz, false_alarm=WINDOW_FALSE_ALARM, highpass_
 
 
 def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_louder_db=6.0, max_ratio=0.98,
-                 voice_s=()):
+                 others_s=()):
     """The quiet impacts after a bounce chain, searched for only where the physics predicts them.
 
     The next impact lies near ``t_last + r dt_last`` (``r`` the median of the last three
@@ -730,9 +793,10 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
     ringing of the impact before decays and never rises); its largest peak in the window is
     timed by the same AIC change point as every onset. The chain stops at the first window with
-    nothing over the threshold, a peak louder than the impact before by ``max_louder_db``, or a voice's
-    pitch pulse in it or in the 6 ms the onset is sought before it (a pulse there is what the window
-    finds: 3-5 ms early in a probe's recording): the bounces after it are left out, not guessed.
+    nothing over the threshold, a peak louder than the impact before by ``max_louder_db``, or an event known
+    to be no impact (a voice's pitch pulse, a beat) in it or in the 6 ms the onset is sought before it (a
+    pulse there is what the window finds: 3-5 ms early in a probe's recording): the bounces after it are left
+    out, not guessed.
 
     Parameters
     ----------
@@ -742,8 +806,9 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         times [s] and levels [dB] of the chain's impacts, increasing (at least three)
     tolerance, max_louder_db, max_ratio : float
         as in :func:`bounce_sequence`
-    voice_s : array_like
-        times of a voice's pitch pulses [s] (:func:`vrcal.measurements.cleanup.voice_pulses`)
+    others_s : array_like
+        times of events known to be no impact [s]: a voice's pitch pulses, a beat's
+        (:func:`vrcal.measurements.cleanup.voice_pulses`, :func:`vrcal.measurements.cleanup.steady_beat`)
 
     Returns
     -------
@@ -757,7 +822,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     t = list(np.asarray(t_s, dtype=float))
     lv = list(np.asarray(level_db, dtype=float))
     ratios = list(np.diff(t)[1:] / np.diff(t)[:-1])
-    voice = np.asarray(voice_s, dtype=float)
+    others = np.asarray(others_s, dtype=float)
     added, worst = 0, 0.0
     while True:
         r = float(np.median(ratios[-3:]))
@@ -765,7 +830,7 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         if not 0.0 < r < max_ratio or r * dt < REFRACTORY_S:  # impacts closer than that are one sound
             break
         target, width = t[-1] + r * dt, max(tolerance * r * dt, 5e-4)
-        if np.any((voice >= target - width - 6e-3) & (voice <= target + width)):
+        if np.any((others >= target - width - 6e-3) & (others <= target + width)):
             break
         lo, hi = int(math.ceil((target - width) * fs)), int(math.floor((target + width) * fs)) + 1
         if hi > n or lo <= int(t[-1] * fs):
@@ -850,13 +915,13 @@ def track_sound(path, *, progress=None):
         progress(0.8, "checking the bounce sequence")
     if onsets.t_s.size == 0:
         raise DataError(f"{path}: no impact sounds found (loudest transient below {SNR:g} x the noise level, "
-                        f"peak {20 * math.log10(peak):.0f} dBFS); record closer to the floor or in a quieter room")
-    onsets, voiced, pulses_s = _without_voice(onsets)
-    if voiced and onsets.t_s.size == 0:
-        raise DataError(f"{path}: every sound event is a pitch pulse of a voice or a hum ({voiced}): {NOT_A_DROP}; "
-                        "is this a drop recording? record the whole drop, the phone near the floor")
-    if voiced:
-        notes.append(f"{voiced}: left out before the bounce sequence was sought")
+                        f"peak {20 * math.log10(peak):.0f} dBFS); record closer to the floor or in a quieter room. "
+                        f"{DULL_IMPACTS}")
+    onsets, others, others_s = _without_voice_and_beat(onsets)
+    if others and onsets.t_s.size == 0:
+        raise DataError(f"{path}: every sound event is a voice's, a hum's or a beat's ({'; '.join(others)}): "
+                        f"{NOT_A_DROP}; is this a drop recording? record the whole drop, the phone near the floor")
+    notes.extend(f"{what}: left out before the bounce sequence was sought" for what in others)
     chain, reasons = bounce_sequence(onsets.t_s, onsets.snr_db)
     no_drop = [i for i, why in reasons.items() if why.startswith(NOT_A_DROP)]
     if no_drop:
@@ -866,9 +931,9 @@ def track_sound(path, *, progress=None):
                         "drop, the phone near the floor")
     if chain.size < MIN_IMPACTS:
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
-                        "sequence (intervals shrinking by a steady ratio); is this a drop recording?")
+                        f"sequence (intervals shrinking by a steady ratio); is this a drop recording? {DULL_IMPACTS}")
     n_heard = chain.size
-    t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain], voice_s=pulses_s)
+    t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain], others_s=others_s)
     if t_new.size:
         intruders = {float(onsets.t_s[i]): why for i, why in reasons.items() if why.startswith(NOT_AN_IMPACT)}
         onsets, chain = _with_impacts(onsets, chain, t_new, lv_new)
@@ -932,31 +997,62 @@ def track_sound(path, *, progress=None):
                       second=second)
 
 
-def _without_voice(onsets):
-    """``onsets`` without the pitch pulses of a voice or a hum (:func:`vrcal.measurements.cleanup.voice_pulses`),
-    what was left out ("k of n sound events are ...", or None) and the pulses' times [s]. Talking through a
-    drop gave hundreds of events; the longest chain through them mixed pulses with impacts (8 of 22
-    "impacts" a voice's, with the speech 26 dB below the first impact)."""
-    voice = voice_pulses(onsets.t_s, onsets.snr_db)
-    if not voice.any():
-        return onsets, None, onsets.t_s[voice]
-    t = onsets.t_s
-    dt = np.diff(t)
-    within = dt[voice[:-1] & voice[1:] & (dt >= PULSE_PERIODS_S[0]) & (dt <= PULSE_PERIODS_S[1])]
-    what = (f"{int(voice.sum())} of {t.size} sound events are pitch pulses of a voice or a hum "
-            f"({within.min() * 1e3:.1f}-{within.max() * 1e3:.1f} ms apart, t = {t[voice].min():.2f}-"
-            f"{t[voice].max():.2f} s)")
-    return Onsets(t_s=t[~voice], snr_db=onsets.snr_db[~voice], noise_level=onsets.noise_level), what, t[voice]
+def _without_voice_and_beat(onsets):
+    """``onsets`` without the pitch pulses of a voice or a hum (:func:`vrcal.measurements.cleanup.voice_pulses`)
+    and the events of a steady beat (music, a clock: :func:`vrcal.measurements.cleanup.steady_beat`), what was
+    left out (a list of "k of n sound events are ...") and the times left out [s]. Talking through a drop
+    gave hundreds of events; the longest chain through them mixed pulses with impacts (8 of 22 "impacts" a
+    voice's, with the speech 26 dB below the first impact); a drum's eighth notes with every other impact
+    made a chain of ratio 0.5."""
+    t, level = onsets.t_s, onsets.snr_db
+    said = []
+    voice = voice_pulses(t, level)
+    if voice.any():
+        dt = np.diff(t)
+        within = dt[voice[:-1] & voice[1:] & (dt >= PULSE_PERIODS_S[0]) & (dt <= PULSE_PERIODS_S[1])]
+        said.append(f"{int(voice.sum())} of {t.size} sound events are pitch pulses of a voice or a hum "
+                    f"({within.min() * 1e3:.1f}-{within.max() * 1e3:.1f} ms apart, t = {t[voice].min():.2f}-"
+                    f"{t[voice].max():.2f} s)")
+    beat = np.zeros(t.size, dtype=bool)
+    beat[~voice] = steady_beat(t[~voice])
+    if beat.any():
+        tb = t[beat]
+        period = float(np.min(np.diff(tb)))
+        said.append(f"{int(beat.sum())} of {t.size} sound events keep a steady beat (music, a clock: on a grid "
+                    f"{period * 1e3:.0f} ms apart, t = {tb.min():.2f}-{tb.max():.2f} s)")
+    out = voice | beat
+    kept = Onsets(t_s=t[~out], snr_db=level[~out], noise_level=onsets.noise_level) if out.any() else onsets
+    return kept, said, t[out]
+
+
+#: A second drop of the same ball (:func:`_second_drop`): at least this many impacts ...
+SECOND_DROP_MIN_IMPACTS = 4
+#: ... whose median interval ratio is within this (relative) of the first drop's: one ball, one epsilon
+#: (drag changes the ratio by a few per cent between heights: a tennis ball from 0.65 or 1.6 m).
+SECOND_DROP_RATIO_TOLERANCE = 0.10
 
 
 def _second_drop(onsets, chain):
     """Indices into ``onsets`` of a second bounce sequence heard after the first one's last impact (a
-    recording of two drops), or an empty array."""
+    recording of two drops), or an empty array.
+
+    It is the same ball's only with :data:`SECOND_DROP_MIN_IMPACTS` impacts or more, shrinking by the first
+    drop's ratio within :data:`SECOND_DROP_RATIO_TOLERANCE`: three footsteps or key clicks, or a drum's hits
+    4, 2 and 1 eighth notes apart (ratio 0.5 against a tennis ball's 0.76), were fitted as a second drop."""
     after = np.flatnonzero(onsets.t_s > onsets.t_s[chain[-1]] + 0.05)
-    if after.size < MIN_IMPACTS:
+    if after.size < SECOND_DROP_MIN_IMPACTS:
         return np.zeros(0, dtype=int)
     found, _ = bounce_sequence(onsets.t_s[after], onsets.snr_db[after])
-    return after[found] if found.size >= MIN_IMPACTS else np.zeros(0, dtype=int)
+    if found.size < SECOND_DROP_MIN_IMPACTS:
+        return np.zeros(0, dtype=int)
+    r1, r2 = (float(np.median(_interval_ratios(onsets.t_s[c]))) for c in (chain, after[found]))
+    return after[found] if abs(r2 / r1 - 1.0) <= SECOND_DROP_RATIO_TOLERANCE else np.zeros(0, dtype=int)
+
+
+def _interval_ratios(t_s):
+    """dt_{i+1} / dt_i of impact times ``t_s`` [s] (at least three)."""
+    dt = np.diff(np.asarray(t_s, dtype=float))
+    return dt[1:] / dt[:-1]
 
 
 def _with_impacts(onsets, chain, t_new, level_new, same_s=1e-3):
