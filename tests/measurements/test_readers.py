@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from helpers import EXAMPLES as EXAMPLES_ROOT
 from helpers import bottom_height, impact_times, shared_file
-from hypothesis import example, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from vrcal import measurements as rd
@@ -25,6 +25,7 @@ from vrcal.measurements import (
     impact_chains,
     read_measurement,
 )
+from vrcal.measurements.cleanup import tracker_glitches
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
 
 EXAMPLES = EXAMPLES_ROOT / "data"
@@ -754,6 +755,9 @@ def test_ty_csv_round_trip(tmp_path_factory, steps, y, t0):
     y = y + np.arange(t.size) * 1e-3  # no two consecutive equal heights (those could be duplicated frames)
     if np.any(np.diff(t) <= 0) or np.any(np.diff(y) == 0):
         return
+    # a sample alone off its neighbours' path is a tracker's glitch, left out on purpose (hypothesis found
+    # one: 1 m at the 16th of 20 samples on a line, read back as 19 samples): no round trip to test there
+    assume(not tracker_glitches(t, y))
     p = tmp_path_factory.mktemp("rt") / "ty.csv"
     p.write_text(ty_csv(t, y))
     data = read_measurement(p)

@@ -462,10 +462,12 @@ def onset_signals(x, fs_hz, *, highpass_hz=HIGHPASS_HZ, pre_echo_s=0.0):
     skip = int(0.005 * fs_hz)
     y[:skip] = 0.0
     e = envelope(y, fs_hz)
-    noise = float(np.median(e[skip:])) if e.size > skip else 0.0
-    # never below the samples' own rounding (a phone's noise gate leaves exact zeros and stray 1-step samples:
-    # a median of 0 made each stray a 44 dB "impact")
-    noise = max(noise, quantization_noise(x))
+    # the median envelope where the recording is not digitally silent, and never below the samples' own
+    # rounding: a phone's noise gate leaves exact zeros and stray 1-step samples (a median of 0 made each
+    # stray a 44 dB "impact"), and a file padded with zeros put its noise at -181 dBFS
+    rounding = quantization_noise(x)
+    live = e[skip:][e[skip:] > rounding]
+    noise = max(float(np.median(live)) if live.size else 0.0, rounding)
     if not noise > 0:
         noise = max(float(np.max(e)) * 1e-6, 1e-12)
 
