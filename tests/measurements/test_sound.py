@@ -567,3 +567,24 @@ def test_a_recording_padded_with_zeros_keeps_its_noise_level(tmp_path):
     note = next(n for n in read_measurement(path).notes if n.startswith("impacts:"))
     level = int(re.search(r"noise level (-?\d+) dBFS", note).group(1))
     assert -75 <= level <= -55, note
+
+
+def test_a_noisy_rooms_events_are_searched_among_the_loudest():
+    """Over MAX_CHAIN_EVENTS sound events (a minute of applause: 1,800, 41 s of search) the bounce sequence
+    is sought among the loudest, with a note: a drop's impacts are its loudest sounds. (Noise as dense as
+    applause, 15 events a second, still makes chance chains longer than a drop's: the note asks.)"""
+    from vrcal.measurements.sound import MAX_CHAIN_EVENTS, Onsets, _bounce_sequence_among_loudest
+
+    rng = np.random.default_rng(0)
+    drop = 20.0 + np.cumsum(np.r_[0.0, 0.8 * 0.78 ** np.arange(11)])
+    noise = rng.uniform(0.0, 300.0, MAX_CHAIN_EVENTS + 300)
+    t = np.r_[drop, noise]
+    level = np.r_[np.linspace(45.0, 30.0, drop.size), rng.uniform(5.0, 20.0, noise.size)]
+    order = np.argsort(t)
+    onsets = Onsets(t_s=t[order], snr_db=level[order], noise_level=1e-4)
+    notes = []
+    chain, reasons = _bounce_sequence_among_loudest(onsets, notes)
+    assert np.allclose(onsets.t_s[chain][:drop.size], drop)
+    assert len(reasons) == t.size - chain.size
+    assert notes == [f"{t.size} sound events: the bounce sequence was sought among the {MAX_CHAIN_EVENTS} loudest "
+                     f"(over {np.sort(level)[-MAX_CHAIN_EVENTS]:.0f} dB); a noisy room (applause, rain, a crowd)?"]

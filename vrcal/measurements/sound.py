@@ -924,7 +924,7 @@ def track_sound(path, *, progress=None):
         raise DataError(f"{path}: every sound event is a voice's, a hum's or a beat's ({'; '.join(others)}): "
                         f"{NOT_A_DROP}; is this a drop recording? record the whole drop, the phone near the floor")
     notes.extend(f"{what}: left out before the bounce sequence was sought" for what in others)
-    chain, reasons = bounce_sequence(onsets.t_s, onsets.snr_db)
+    chain, reasons = _bounce_sequence_among_loudest(onsets, notes)
     no_drop = [i for i, why in reasons.items() if why.startswith(NOT_A_DROP)]
     if no_drop:
         t0, t1 = onsets.t_s[no_drop[0]], onsets.t_s[no_drop[-1]]
@@ -1032,6 +1032,29 @@ SECOND_DROP_MIN_IMPACTS = 4
 #: ... whose median interval ratio is within this (relative) of the first drop's: one ball, one epsilon
 #: (drag changes the ratio by a few per cent between heights: a tennis ball from 0.65 or 1.6 m).
 SECOND_DROP_RATIO_TOLERANCE = 0.10
+
+
+#: The bounce sequence is sought among at most this many sound events, the loudest (:func:`bounce_sequence`
+#: tries every start, first interval and third impact: 1,800 events, a minute of applause, took 41 s).
+MAX_CHAIN_EVENTS = 600
+
+
+def _bounce_sequence_among_loudest(onsets, notes):
+    """:func:`bounce_sequence` of ``onsets`` (indices into it, and ``{index: reason}`` for every other event),
+    among the :data:`MAX_CHAIN_EVENTS` loudest when there are more, with a note appended to ``notes``: a
+    drop's first impacts are its loudest sounds, and its quiet end is searched for where the sequence
+    predicts it (:func:`extend_chain`)."""
+    n = onsets.t_s.size
+    if n <= MAX_CHAIN_EVENTS:
+        return bounce_sequence(onsets.t_s, onsets.snr_db)
+    sought = np.sort(np.argsort(-onsets.snr_db, kind="stable")[:MAX_CHAIN_EVENTS])
+    notes.append(f"{n} sound events: the bounce sequence was sought among the {MAX_CHAIN_EVENTS} loudest "
+                 f"(over {float(onsets.snr_db[sought].min()):.0f} dB); a noisy room (applause, rain, a crowd)?")
+    found, why = bounce_sequence(onsets.t_s[sought], onsets.snr_db[sought])
+    chain = sought[found]
+    reasons = rejection_reasons(onsets.t_s, chain) if chain.size else {i: "no bouncing sequence" for i in range(n)}
+    reasons.update({int(sought[i]): reason for i, reason in why.items()})
+    return chain, reasons
 
 
 def _second_drop(onsets, chain):
