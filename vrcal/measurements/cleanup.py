@@ -991,7 +991,7 @@ def steady_beat(t_s, *, periods_s=BEAT_PERIODS_S, tolerance_s=3e-3, min_events=8
                 k = np.round((t[free] - t[i]) / period)
                 on = free[np.abs(t[free] - t[i] - k * period) <= tolerance_s]
                 if on.size >= min_events and (best is None or on.size > best[0].size):
-                    # the grid refitted to its events (a tempo off by 0.1 % drifts out of the tolerance)
+                    # the slots from its first to its last event, of which min_filled must hold one
                     k_on = np.round((t[on] - t[i]) / period)
                     slots = int(k_on.max() - k_on.min()) + 1
                     if on.size >= min_filled * slots:

@@ -1027,13 +1027,6 @@ def _without_voice_and_beat(onsets):
     return kept, said, t[out]
 
 
-#: A second drop of the same ball (:func:`_second_drop`): at least this many impacts ...
-SECOND_DROP_MIN_IMPACTS = 4
-#: ... whose median interval ratio is within this (relative) of the first drop's: one ball, one epsilon
-#: (drag changes the ratio by a few per cent between heights: a tennis ball from 0.65 or 1.6 m).
-SECOND_DROP_RATIO_TOLERANCE = 0.10
-
-
 #: The bounce sequence is sought among at most this many sound events, the loudest (:func:`bounce_sequence`
 #: tries every start, first interval and third impact: 1,800 events, a minute of applause, took 41 s).
 MAX_CHAIN_EVENTS = 600
@@ -1055,6 +1048,13 @@ def _bounce_sequence_among_loudest(onsets, notes):
     reasons = rejection_reasons(onsets.t_s, chain) if chain.size else {i: "no bouncing sequence" for i in range(n)}
     reasons.update({int(sought[i]): reason for i, reason in why.items()})
     return chain, reasons
+
+
+#: A second drop of the same ball (:func:`_second_drop`): at least this many impacts ...
+SECOND_DROP_MIN_IMPACTS = 4
+#: ... whose median interval ratio is within this (relative) of the first drop's: one ball, one epsilon
+#: (drag changes the ratio by a few per cent between heights: a tennis ball from 0.65 or 1.6 m).
+SECOND_DROP_RATIO_TOLERANCE = 0.10
 
 
 def _second_drop(onsets, chain):
