@@ -588,3 +588,42 @@ def test_a_noisy_rooms_events_are_searched_among_the_loudest():
     assert len(reasons) == t.size - chain.size
     assert notes == [f"{t.size} sound events: the bounce sequence was sought among the {MAX_CHAIN_EVENTS} loudest "
                      f"(over {np.sort(level)[-MAX_CHAIN_EVENTS]:.0f} dB); a noisy room (applause, rain, a crowd)?"]
+
+
+def _drop_among_clicks(tmp_path, clicks_level, n_clicks=150, duration_s=20.0):
+    """A tennis ball's drop (epsilon 0.78) among random clicks (7.5 a second), and its true impact times."""
+    fs = 48000
+    x, t_true = _drop_sound(1.0, 0.78, seed=1, fs=fs, duration_s=duration_s, release_s=duration_s / 2)
+    rng = np.random.default_rng(2)
+    t_click = np.sort(rng.uniform(0.2, duration_s - 0.1, n_clicks))
+    clicks = impact_sound(t_click, rng.uniform(0.5, 1.5, n_clicks), fs_hz=fs, duration_s=duration_s,
+                          scene=SoundScene(noise_rms=0.0, level=clicks_level), seed=3)[:, 0]
+    path = tmp_path / f"clicks{clicks_level:g}.wav"
+    write_wav(path, (x + clicks)[:, None], fs)
+    return path, t_true
+
+
+def test_a_sequence_no_longer_than_chance_makes_is_suspect_and_stays_so_in_tracks_file(tmp_path):
+    """Among random clicks as loud as the impacts (7.5 a second) the longest chain was the clicks' (21
+    'impacts', none the ball's, 'explained'): shuffled in time the same events make chains as long, so the
+    record is suspect input, and vrcal track's file says so again when read. Quiet clicks leave the drop
+    found and not suspect."""
+    from vrcal.discovery.ranking import discover_file
+    from vrcal.measurements.recording import impacts_text
+    from vrcal.measurements.sound import track_sound
+
+    loud, _ = _drop_among_clicks(tmp_path, 0.12)
+    st = track_sound(loud)
+    assert len(st.impacts.suspect) == 1
+    assert re.match(r"the bounce sequence heard \(\d+ impacts among \d+ sound events\) is not 1.5 times as long as "
+                    r"chance makes among as many events: with their times shuffled, 3 tries gave \d+, \d+, \d+; "
+                    r"the impacts may be noise", st.impacts.suspect[0])
+    d = discover_file(str(loud), "tennis")
+    assert d.verdict == "suspect input" and st.impacts.suspect[0] in d.warnings
+    csv = tmp_path / "track.csv"
+    csv.write_text(impacts_text(st))
+    assert read_measurement(csv).suspect == st.impacts.suspect
+    quiet, t_true = _drop_among_clicks(tmp_path, 0.02)
+    got = read_measurement(quiet)
+    off = np.array([np.min(np.abs(t_true - t)) for t in got.t_s])
+    assert got.suspect == () and np.mean(off < 1e-3) > 0.8

@@ -146,7 +146,10 @@ def parse(text, *, scale_m_per_px=None, y_down=False, fs_hz=None):
                                      trajectory_hint=_trajectory_hint(table.cols))
     # vrcal track's file of a lossless recording says how well its onsets are timed
     instrument = meta_number(text, "instrument_sd_s", 0.1, "a time in s")
-    return dataclasses.replace(found, instrument_sd_s=instrument) if instrument else found
+    if instrument:
+        found = dataclasses.replace(found, instrument_sd_s=instrument)
+    # ... and what its tracking found suspect
+    return dataclasses.replace(found, suspect=(text.meta["suspect"][1],)) if "suspect" in text.meta else found
 
 
 #: Column names of the intervals between events (phyphox's Acoustic Stopwatch writes ``Interval (s)`` beside

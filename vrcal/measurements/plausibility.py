@@ -747,6 +747,8 @@ def _check_one(data, diameter_m, g, y_down, sigma_m, label, flights):
         chains = getattr(data, "chains", ()) or ((0, len(data.t_s)),)
         for a, b in chains:
             check_impact_times(np.asarray(data.t_s)[a:b], data.source)
-        return Checked(data, ())
+        said = tuple(Finding("warning", f"{label}: {text}" if label else text)
+                     for text in getattr(data, "suspect", ()))
+        return Checked(data, said)
     checked, findings = check_apexes(data, diameter_m, label)
     return Checked(checked, tuple(findings))

@@ -111,6 +111,8 @@ def impacts_text(st):
     head = _comments(f"vrcal track: impact times from {m.source} (level = peak over the noise)", m.notes)
     if m.instrument_sd_s:   # how well the onsets are timed, for the reader of this file (table.meta_number)
         head += f"# vrcal instrument_sd_s = {m.instrument_sd_s:.4g}\n"
+    if m.suspect:  # what the tracking found suspect, a warning again when the file is read (impacts.parse)
+        head += f"# vrcal suspect = {'; '.join(m.suspect)}\n"
     return head + "t (s),level (dB)\n" + "\n".join(rows) + "\n"
 
 

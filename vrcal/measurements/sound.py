@@ -935,6 +935,14 @@ def track_sound(path, *, progress=None):
         raise DataError(f"{path}: {onsets.t_s.size} sound event(s) but no {MIN_IMPACTS} of them form a bouncing "
                         f"sequence (intervals shrinking by a steady ratio); is this a drop recording? {DULL_IMPACTS}")
     n_heard = chain.size
+    suspect = ()
+    if onsets.t_s.size >= CHANCE_MIN_EVENTS:
+        lengths = chance_chain_lengths(onsets)
+        if n_heard < CHANCE_MARGIN * float(np.median(lengths)):
+            suspect = (f"the bounce sequence heard ({n_heard} impacts among {onsets.t_s.size} sound events) is not "
+                       f"{CHANCE_MARGIN:g} times as long as chance makes among as many events: with their times "
+                       f"shuffled, {CHANCE_SHUFFLES} tries gave {', '.join(str(k) for k in lengths)}; the impacts "
+                       "may be noise (record in a quiet room, the phone near the floor)",)
     t_new, lv_new, threshold = extend_chain(signals, onsets.t_s[chain], onsets.snr_db[chain], others_s=others_s)
     if t_new.size:
         intruders = {float(onsets.t_s[i]): why for i, why in reasons.items() if why.startswith(NOT_AN_IMPACT)}
@@ -992,7 +1000,7 @@ def track_sound(path, *, progress=None):
         notes.insert(impacts_note, f"impacts: {chain.size} of {onsets.t_s.size} sound events form the bounce "
                                    f"sequence {how}")
     impacts = ImpactTimes(t_s=t_all, source=path, notes=tuple(notes), rejected=rejected, chains=chains,
-                          instrument_sd_s=0.0 if lossy else LOSSLESS_TIMING_SD_S)
+                          instrument_sd_s=0.0 if lossy else LOSSLESS_TIMING_SD_S, suspect=suspect)
     if progress:
         progress(1.0, "done")
     return SoundTrack(impacts=impacts, onsets=onsets, chain=chain, reasons=reasons, fs_hz=fs, x=x, what=what,
@@ -1048,6 +1056,49 @@ def _bounce_sequence_among_loudest(onsets, notes):
     reasons = rejection_reasons(onsets.t_s, chain) if chain.size else {i: "no bouncing sequence" for i in range(n)}
     reasons.update({int(sought[i]): reason for i, reason in why.items()})
     return chain, reasons
+
+
+#: With this many sound events or more the bounce sequence is checked against chance
+#: (:func:`chance_chain_lengths`; fewer events make chance chains of a few, and a length test alone then
+#: doubts real drops: typing at 8 keys a second, 48 events, made chains of 7-10 beside a drop heard for 9
+#: impacts, which the search had still found right) ...
+CHANCE_MIN_EVENTS = 100
+#: ... in this many shuffles of the events' times; a sequence heard shorter than this many times the median
+#: length they give is suspect (a drop's is far longer: 12 impacts and more where chance makes 3-5; a
+#: minute of applause gave 24 where its shuffles gave 18-26).
+CHANCE_SHUFFLES = 3
+CHANCE_MARGIN = 1.5
+
+
+def chance_chain_lengths(onsets, *, shuffles=CHANCE_SHUFFLES, seed=0):
+    """Lengths of the bounce sequences found among ``onsets`` with their times shuffled: each time drawn at
+    random over the events' span, the levels kept (:func:`bounce_sequence`, among the loudest as
+    :func:`_bounce_sequence_among_loudest` seeks). A sequence found in the recording not much longer than
+    these (:data:`CHANCE_MARGIN`) is what chance makes among so many events: in a minute of applause (15
+    clicks a second) chains of 16-24 clicks formed, longer than the drop's 12 impacts.
+
+    Parameters
+    ----------
+    onsets : Onsets
+        the sound events the sequence was sought among
+    shuffles : int
+        how many shuffles
+    seed : int
+        of the random times (the result is the same at every run)
+
+    Returns
+    -------
+    list of int
+    """
+    rng = np.random.default_rng(seed)
+    t0, t1 = float(onsets.t_s[0]), float(onsets.t_s[-1])
+    lengths = []
+    for _ in range(shuffles):
+        t = np.sort(rng.uniform(t0, t1, onsets.t_s.size))
+        level = rng.permutation(onsets.snr_db)
+        chain, _ = _bounce_sequence_among_loudest(Onsets(t_s=t, snr_db=level, noise_level=onsets.noise_level), [])
+        lengths.append(int(chain.size))
+    return lengths
 
 
 #: A second drop of the same ball (:func:`_second_drop`): at least this many impacts ...

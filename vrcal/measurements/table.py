@@ -131,7 +131,7 @@ class Text:
 
 #: A comment line carrying what a reader of the file should know (``vrcal track`` writes the tracker's
 #: uncertainties so: ``# vrcal systematic_m = 0.00013``).
-_META = re.compile(r"^#\s*vrcal\s+([a-z_]+)\s*=\s*(\S+)")
+_META = re.compile(r"^#\s*vrcal\s+([a-z_]+)\s*=\s*(\S.*?)\s*$")
 
 
 def fail(path, line, what):

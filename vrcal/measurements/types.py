@@ -88,6 +88,10 @@ class ImpactTimes:
         the times alone cannot tell it: vrcal's own onsets in a lossless recording
         (:data:`vrcal.measurements.sound.LOSSLESS_TIMING_SD_S`); 0 when unknown (a phone app's times:
         ``vrcal.discovery.ranking.ASSUMED_NOISE``)
+    suspect : tuple of str
+        what the reader found suspect in the record, each a plausibility warning (verdict "suspect input"):
+        a bounce sequence no longer than chance makes among the recording's sound events
+        (:func:`vrcal.measurements.sound.chance_chain_lengths`)
     """
 
     t_s: np.ndarray
@@ -100,6 +104,7 @@ class ImpactTimes:
     lines: np.ndarray = None
     timing_sd_s: float = 0.0
     instrument_sd_s: float = 0.0
+    suspect: tuple = ()
 
 
 @dataclass(frozen=True)
