@@ -623,6 +623,10 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
               help="Frame rate [Hz] when the file has no time column (a video: overrides its time stamps).")
 @click.option("--rotate", type=opt.ROTATION, default=None,
               help="A video: turn the picture this many degrees clockwise first (filmed sideways, no rotation tag).")
+@click.option("--roi", default=None, metavar="X,Y,W,H",
+              help="A video: search the ball only in this region [px] (as vrcal track).")
+@click.option("--color", default=None,
+              help="A video: the ball's colour (a name like 'green', #RRGGBB or B,G,R) (as vrcal track).")
 @click.option("--floor", "floor_m", type=opt.FLOOR_M, default=None,
               help="Height of the floor along the file's y axis [m]: with --y-down its distance below the "
                    "file's origin (a motion detector above the ball: its distance to the floor) (default: the "
@@ -648,8 +652,9 @@ def simulate(ctx, ball, mass_kg, diameter_m, from_json, drop_m, bounces, epsilon
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @STANDARDS_OPTION
 @click.pass_context
-def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, rotate, floor_m,
-             surface, noise, drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir, quiet):
+def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y_down, fs_hz, rotate, roi, color,
+             floor_m, surface, noise, drop_measured_to, rebound_measured_to, g_m_per_s2, details, json_file, report_dir,
+             quiet):
     """Name the effect(s) a constant-epsilon model misses in DATA and give the epsilon to use.
 
     Fits the paper's baseline (constant epsilon), then each candidate effect on top, ranked
@@ -689,7 +694,8 @@ def discover(ctx, data, ball, mass_kg, diameter_m, fmt, sheet, scale_m_per_px, y
                                y_down=y_down, fs_hz=fs_hz, progress=progress, floor_m=floor_m, noise=noise,
                                sheet=sheet,
                                read_options={"progress": None if quiet else tracking_progress("discover"),
-                                             "rotate": None if rotate is None else int(rotate)},
+                                             "rotate": None if rotate is None else int(rotate),
+                                             **({"roi": roi} if roi else {}), **({"color": color} if color else {})},
                                drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to,
                                surface=surface)
 

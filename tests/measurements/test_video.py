@@ -479,3 +479,25 @@ def test_too_few_frames_name_frames_the_cause_and_the_remedy(tmp_path):
     msg = str(err.value)
     assert "the floor is not in the picture" in msg and "frame " in msg and "\n" not in msg
     assert ".avi:9" not in msg
+
+
+def test_discover_takes_tracks_roi_and_color_and_verify_tracks_the_same(hard, tmp_path):
+    """docs/track.md said 'vrcal discover VIDEO' tracks as 'vrcal track' does and that --color and --roi help
+    where the automatic search fails; discover had neither ('No such option'). It takes both, its result's
+    reader keeps them, and a replay of the record (verify --against) tracks it again with them."""
+    import json
+
+    from click.testing import CliRunner
+
+    from vrcal.cli import main
+    from vrcal.engines.replay import read_record
+
+    path, _ = hard
+    result = CliRunner().invoke(main, ["discover", str(path), "--ball", "tennis", "-q", "--color", "#28a028",
+                                       "--roi", "100,0,120,320", "--json", "-"])
+    assert result.exit_code == 0, result.output
+    found = json.loads(result.output)
+    assert abs(found["epsilon"] - 0.75) < 0.005
+    assert found["reader"]["color"] == "#28a028" and found["reader"]["roi"] == "100,0,120,320"
+    data, _ = read_record(str(path), doc=found)
+    assert any("region" in n or "roi" in n.lower() for n in data.notes), data.notes

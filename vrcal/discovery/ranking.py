@@ -2282,7 +2282,7 @@ def discover_file(path, ball, *, fmt=None, mass_kg=None, diameter_m=None, g_m_pe
     turned = bool(y_down) or any("y axis points down" in n for run in res._runs_of(data) for n in run.notes)
     reader = {"files": [str(p) for p in paths], "format": fmt, **options, "drop_measured_to": drop_measured_to,
               "rebound_measured_to": rebound_measured_to,
-              **({"rotate": recording["rotate"]} if recording.get("rotate") else {})}
+              **{key: recording[key] for key in ("rotate", "roi", "color") if recording.get(key)}}
     stated = drop_measured_to is not None or rebound_measured_to is not None
     candidates = [e for e in res.applicable_effects("apexes") if e != "height_offset"] if stated else None
     def run(g):

@@ -223,13 +223,17 @@ def read_record(path, *, fmt=None, scale_m_per_px=None, y_down=False, fs_hz=None
     given_in_file = floor_m is not None   # the user's, along the file's y axis; a saved shift is in heights
     if floor_m is None:
         floor_m = _saved_shift(saved, path)
-    data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz)
+    ball = (doc or {}).get("ball")
+    # a video is tracked again as discover tracked it (its picture turned, its region, its ball's colour and size)
+    recording = {key: saved[key] for key in ("rotate", "roi", "color") if saved.get(key)}
+    if isinstance(ball, dict) and ball.get("diameter_m"):
+        recording["diameter_m"] = float(ball["diameter_m"])
+    data = read_measurement(path, fmt, scale_m_per_px=scale_m_per_px, y_down=y_down, fs_hz=fs_hz, **recording)
     if data.kind != "trajectory":
         raise UsageError(f"--against replays a trajectory (heights against time); {path} holds {data.kind}: "
                          "leave out --against, and vrcal verify --from RESULT.json --engine ENGINE drops the ball "
                          "from the result's release height and compares each bounce's apex ratio with the "
                          "model discover fitted to these heights (its gap to them is in the discover report)")
-    ball = (doc or {}).get("ball")
     props = BallProperties(float(ball["mass_kg"]), float(ball["diameter_m"]), str(ball.get("name", "ball"))) \
         if isinstance(ball, dict) else None
     data, note = floor_referenced(data, floor_m, props, y_down=y_down and given_in_file)
