@@ -501,3 +501,22 @@ def test_discover_takes_tracks_roi_and_color_and_verify_tracks_the_same(hard, tm
     assert found["reader"]["color"] == "#28a028" and found["reader"]["roi"] == "100,0,120,320"
     data, _ = read_record(str(path), doc=found)
     assert any("region" in n or "roi" in n.lower() for n in data.notes), data.notes
+
+
+def test_a_ball_found_in_few_frames_blames_its_size_not_the_frame_rate():
+    """A grey ball on a grey wall was found in 32 of 120 frames at 18.6 px for its 25.5: the scale of that
+    size put g 37 % off, and the warning sent the user to --fps 25 (the frame rate was right). Found in fewer
+    than half the frames, the ball's size is the suspect: the warning asks for --color, --roi or --scale
+    first; found in most, it still suspects the frame rate."""
+    from vrcal.measurements.video import BounceFit, choose_scale
+
+    # flights whose curvature gives, with the scale of an 18.6 px ball 67 mm wide, g 37 % high
+    curvature_px_per_s2 = 0.5 * 1.37 * 9.80665 / (0.067 / 18.6)
+    fit = BounceFit(curvature_px_per_s2, 0.5, 400.0, 0.1, np.zeros(0), [], 0.3, 3)
+    for found, blamed in (((32, 120), "--color"), ((110, 120), "--fps")):
+        notes = []
+        _, _, why = choose_scale(0.067, 18.6, 0.3, fit, None, 30.0, False, notes, found=found)
+        assert blamed in why and why.startswith("the flights give g = "), why
+    notes = []
+    _, _, why = choose_scale(0.067, 18.6, 0.3, fit, None, 30.0, False, notes, found=(32, 120))
+    assert "found in only 32 of 120 frames" in why and "give --fps" not in why

@@ -928,6 +928,10 @@ def _frame_times(stamps, container_fps, fps, repeated):
     return t, notes
 
 
+#: A ball found in fewer than this share of a video's frames barely stands out from the background: its
+#: apparent size, not the frame rate, is then the suspect when the two disagree (:func:`choose_scale`).
+FOUND_WELL = 0.5
+
 #: A video shorter than this [s] cannot hold a drop and some bounces (a 0.5 m drop and its bounces last 2-3 s).
 MIN_VIDEO_S = 2.0
 
@@ -989,7 +993,7 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     try:
         scale, g_meas, rate_suspect = choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px,
                                                    fps if fps is not None else container_fps, fps is not None, notes,
-                                                   fall_g_px, g_m_per_s2)
+                                                   fall_g_px, g_m_per_s2, found=(idx.size, n))
     except UsageError as err:
         raise UsageError(f"{path}: {err}") from None
     if fit is not None and fit.n_flights >= 2:
@@ -1214,7 +1218,7 @@ NO_SCALE = ("the scale of this video (m per pixel) comes from the flights betwee
 
 
 def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, fps, fps_given, notes,
-                 fall_g_px=float("nan"), g_m_per_s2=STANDARD_GRAVITY):
+                 fall_g_px=float("nan"), g_m_per_s2=STANDARD_GRAVITY, found=None):
     """The length scale [m/px] of a video, and g [m/s^2] from the flights with the diameter's scale.
 
     Two measurements give the scale: the ball's apparent diameter (``diameter_m`` over
@@ -1252,6 +1256,9 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         twice the curvature of the fall [px/s^2], NaN when none
     g_m_per_s2 : float
         the local g [m/s^2] the flights' scale takes as known (default standard gravity)
+    found : (int, int) or None
+        frames the ball was found in, of all: below :data:`FOUND_WELL` of them the warning blames the
+        ball's apparent size (a ball barely standing out), not the frame rate
 
     Returns
     -------
@@ -1296,10 +1303,20 @@ def choose_scale(diameter_m, diameter_px, diameter_sd_px, fit, scale_m_per_px, f
         standard = standard_frame_rate(fps * k)
         give = (f"give --fps {standard:g} (the nearest standard rate), or check --diameter" if standard else
                 f"give --fps {fps * k:.0f}, or check --diameter")
-        suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and {clock}, "
-                   f"{abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: the frame "
-                   f"rate is suspect (a slow-motion video?); the motion fits a capture rate of about {fps * k:.0f} "
-                   f"fps: {give}")
+        if found is not None and found[0] < FOUND_WELL * found[1]:
+            # a ball found in few frames is a ball that barely stands out: its measured size is what is wrong (a
+            # grey ball on a grey wall, found in 32 of 120 frames at 18.6 px for 25.5, was sent to --fps 25)
+            suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and "
+                       f"{clock}, {abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f}, and the ball was found in only "
+                       f"{found[0]} of {found[1]} frames: it barely stands out from the background, and its "
+                       f"apparent size is likely wrong: give the ball's colour with --color and a region with "
+                       f"--roi, or the scale with --scale; if this is a slow-motion video, the motion fits "
+                       f"{fps * k:.0f} fps")
+        else:
+            suspect = (f"the {who} g = {g_meas:.2f} m/s^2 with the scale of the ball's apparent diameter and "
+                       f"{clock}, {abs(ratio - 1) * 100:.0f} % off {g_m_per_s2:.2f} -- no apparent size is that wrong: "
+                       f"the frame rate is suspect (a slow-motion video?); the motion fits a capture rate of about "
+                       f"{fps * k:.0f} fps: {give}")
         notes.append(f"WARNING: {suspect}")
         return scale_d, g_meas, suspect
     if not (math.isfinite(g_meas) and g_rel < G_TELLS):
