@@ -24,10 +24,14 @@ How the ball is found
    (:func:`ball_coverage`) is 1 inside and, along its edge, the projection of ``(pixel -
    background)`` on ``(ball - background)`` in BGR, with ``ball`` the colour of the
    nearest inside pixels -- so a ball lit from above (lighter on top, darker below) weighs
-   its halves alike, and a shadow beside it adds little. The centre is the centroid of
-   the coverage and the area its sum: sub-pixel, and the centre is unbiased under motion
-   blur (the edge band and the inside follow the streak, which is symmetric about the
-   centre at mid-exposure).
+   its halves alike, and a shadow beside it adds little. Where the ball's colour differs
+   from the background's in more than lightness, the coverage is instead the background's
+   share of each pixel (fitted on the background's and the ball's colours: shading scales
+   only the ball's), also in the tails of a motion-blurred streak up to half the ball's
+   travel in a frame interval (pass 1's centres) -- the tails only the ball's dark or lit
+   rim passes over, which the blob cuts short. The centre is the centroid of the coverage
+   and the area its sum: sub-pixel, and the centre of a blurred ball is the centre at
+   mid-exposure (the streak is symmetric about it).
 5. **Quality** (per frame, 0..1): the ball's area over its median area, inverted when
    larger, lowered when the blob touches the frame's edge. Frames below
    :data:`MIN_QUALITY` (ball lost, hidden by a hand, cut by the edge) are left out.
@@ -428,19 +432,26 @@ class _TiledMedian:
         return out
 
 
-def ball_coverage(cv2, crop, background, blob):
+def ball_coverage(cv2, crop, background, blob, travel_px=None):
     """Coverage (0..1) of the ball in each pixel of a crop (see the module docstring, step 4).
 
-    ``blob`` (uint8 0/1) is the ball's blob (:func:`ball_blob`). Its interior (the blob
-    eroded by 2 px) is covered: 1. A pixel of the edge band (the blob's edge, 2 px in and 3
-    px out) mixes ball and background, ``pixel = background + f (ball - background)``, where
-    ``ball`` is the colour of the nearest interior pixels (their Gaussian-weighted mean,
-    sigma 3 px): ``f`` is the projection on ``(ball - background)`` in BGR, clipped to 0..1;
-    pixels far off that line (a hand) count 0. Taking the ball's colour locally, not one
-    colour for the whole ball, keeps a ball lit from above (lighter on top, darker below)
-    from weighting one half more than the other: the centroid of the coverage is the centre
-    of the silhouette, and its sum the area. The band is narrow so that a shadow beside the
-    ball (which a dark ball's projection cannot tell from the ball's edge) adds little.
+    ``blob`` (uint8 0/1) is the ball's blob (:func:`ball_blob`); ``travel_px`` (rows, columns)
+    [px] the ball's travel in one frame interval, which bounds a motion-blurred streak (None:
+    unknown, no streak beyond the edge band). Where the ball's colour differs from the
+    background's in more than lightness, the coverage is :func:`_shading_free_coverage`: the
+    background's share of each pixel, which the ball's shading does not change, over the edge
+    band (the blob's edge, 2 px in and 3 px out) and the streak's tails beyond it along the
+    travel; the interior farther in than a streak's ramp is 1 (a seam or a highlight there is
+    ball), and a band pixel off that model falls back to the following. Otherwise (a grey ball
+    on a grey wall) the interior (the blob eroded by 2 px) is 1 and a pixel of the edge band
+    mixes ball and background, ``pixel = background + f (ball - background)``, where ``ball``
+    is the colour of the nearest interior pixels (their Gaussian-weighted mean, sigma 3 px):
+    ``f`` is the projection on ``(ball - background)`` in BGR, clipped to 0..1; pixels far off
+    that line (a hand) count 0. Either way a ball lit from above (lighter on top, darker
+    below) weighs its halves alike: the centroid of the coverage is the centre of the
+    silhouette (at mid-exposure for a blurred ball), and its sum the area. The band is narrow,
+    and the tails reach only along the travel, so that a shadow beside the ball (which a dark
+    ball's colour cannot tell from the ball's edge) adds little.
     """
     ys, xs = np.nonzero(blob)
     streak_x, streak_y = max(0, int(np.ptp(xs)) - int(np.ptp(ys))), max(0, int(np.ptp(ys)) - int(np.ptp(xs)))
@@ -461,7 +472,83 @@ def ball_coverage(cv2, crop, background, blob):
     band = cv2.dilate(blob, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7 + streak_x, 7 + streak_y)))
     f = np.where((band > 0) & (w > 1e-3), np.clip(f, 0.0, 1.0), 0.0)
     f[core > 0] = 1.0
+    shaded = _shading_free_coverage(cv2, img, back, core, blob, band, travel_px)
+    return f if shaded is None else np.where(np.isnan(shaded), f, shaded)
+
+
+#: Least sine of the angle between the ball's colour and the background's (BGR) for the coverage
+#: that shading does not change (:func:`_shading_free_coverage`); below it the two hardly differ
+#: but in lightness, and the ball's local colour is used.
+CHROMA_SIN = 0.15
+#: Least coverage counted in a blurred streak's tails beyond the edge band (noise is not ball).
+TAIL_COVERAGE = 0.04
+
+
+def _shading_free_coverage(cv2, img, back, core, blob, band, travel_px=None):
+    """Coverage (0..1) that the ball's shading does not change, or None where it cannot be told.
+
+    Shading scales the ball's colour (``ball = k c``, ``k`` brighter on top of a ball lit from
+    above), so a pixel is ``(1 - a) background + a k c``: fitted on the two colours (BGR, per
+    pixel), the background's share gives the coverage ``a`` whatever ``k`` -- also in the tails of
+    a motion-blurred streak, which only the ball's dark (or lit) rim passes over, and which the
+    blob (presence > 0.5) cuts short. ``c`` is the colour of the core's most ball-like pixels
+    (farthest in colour from the background: in a blurred streak the middle mixes in
+    background); a compressed video's duller colours are scaled so that the blob's deepest
+    pixels are covered. Counted are the edge band and, beyond it along the travel
+    (:func:`_streak_kernel`), the pixels whose coverage is at least :data:`TAIL_COVERAGE`,
+    each only where its implied ball brightness ``k`` is the ball's (a shadow, ``k`` about 0,
+    or a hand off both colours, count 0; a band pixel off the model is NaN, for the caller's
+    local colour); the interior farther in than the travel's half is 1. None when the
+    ball's colour is too near the background's (sine below :data:`CHROMA_SIN`) in most of the
+    core's surroundings: lightness alone cannot tell shading from coverage.
+    """
+    P = img[core > 0]
+    B = back[core > 0]
+    u = P / np.maximum(np.linalg.norm(P, axis=1, keepdims=True), 1.0)
+    b = B / np.maximum(np.linalg.norm(B, axis=1, keepdims=True), 1.0)
+    dist = np.linalg.norm(u - b, axis=1)
+    top = dist >= np.percentile(dist, 90)
+    chat = P[top].sum(axis=0)                   # brighter pixels weigh more (less rounded)
+    chat /= max(float(np.linalg.norm(chat)), 1e-6)
+    bc = back @ chat
+    bperp = back - bc[..., None] * chat
+    bb = np.sum(bperp * bperp, axis=2)
+    reliable = bb > (CHROMA_SIN ** 2) * np.maximum(np.sum(back * back, axis=2), 1.0)
+    if np.mean(reliable[core > 0]) < 0.9:
+        return None
+    pc = img @ chat
+    pperp = img - pc[..., None] * chat
+    beta = np.sum(pperp * bperp, axis=2) / np.maximum(bb, 1e-6)
+    gamma = pc - beta * bc                      # a k: the ball's share along its colour
+    # a compressed video's colours are a little duller than the ball's most saturated pixels: the
+    # core's best-covered pixels (the ball fully over them) are coverage 1
+    depth = cv2.distanceTransform(blob, cv2.DIST_L2, 3)
+    full = np.percentile(1.0 - beta[(core > 0) & (depth >= 0.8 * depth.max())], 75)
+    a = (1.0 - beta) / float(np.clip(full, 0.8, 1.25))
+    resid = np.linalg.norm(pperp - beta[..., None] * bperp, axis=2)
+    k = gamma / np.maximum(a, 1e-3)
+    k_hi = np.percentile(k[core > 0], 98)
+    fits = reliable & (resid < 0.3 * np.sqrt(bb) + 8.0) & (k >= 0.1 * k_hi) & (k <= 1.4 * k_hi)
+    kernel = _streak_kernel(cv2, travel_px)
+    tail = (cv2.dilate(band, kernel) > 0) & (band == 0) & (a >= TAIL_COVERAGE)
+    f = np.where(((band > 0) | tail) & fits, np.clip(a, 0.0, 1.0), 0.0)
+    f[(band > 0) & ~fits] = np.nan            # off the model (a compressed edge): the local colour's
+    f[cv2.erode(core, kernel) > 0] = 1.0      # farther inside than a streak's ramp: covered (a seam, a highlight)
     return f
+
+
+def _streak_kernel(cv2, travel_px):
+    """Structuring element (uint8) of a motion-blurred streak's reach: a line of half the ball's travel
+    in one frame interval, ``travel_px`` = (rows, columns) [px], either way about its centre (an
+    exposure lasts at most a frame interval, centred on the ball's centre), 3 px thick; a 3x3
+    square when the travel is unknown."""
+    if travel_px is None or not np.all(np.isfinite(travel_px)):
+        return np.ones((3, 3), np.uint8)
+    dy, dx = 0.5 * float(travel_px[0]), 0.5 * float(travel_px[1])
+    hy, hx = int(math.ceil(abs(dy))) + 1, int(math.ceil(abs(dx))) + 1
+    kernel = np.zeros((2 * hy + 1, 2 * hx + 1), np.uint8)
+    cv2.line(kernel, (int(round(hx - dx)), int(round(hy - dy))), (int(round(hx + dx)), int(round(hy + dy))), 1, 1)
+    return cv2.dilate(kernel, np.ones((3, 3), np.uint8))
 
 
 def ball_blob(cv2, presence):
@@ -499,6 +586,22 @@ def ball_presence(cv2, crop, background, ball_lab):
     return np.clip(alpha, 0.0, 1.0)
 
 
+def _travel(rows, cols, i, factor):
+    """The ball's travel in one frame interval at frame ``i`` [px at full size], (rows, columns): from
+    pass 1's centres of the nearest frames before and after it where the ball is elsewhere (a
+    repeated frame gets the travel of the frame it repeats); None when unknown."""
+    here = (rows[i], cols[i])
+
+    def nearest(idx):
+        return next((j for j in idx if np.isfinite(rows[j]) and (rows[j], cols[j]) != here), None)
+
+    a, b = nearest(range(i - 1, -1, -1)), nearest(range(i + 1, len(rows)))
+    if a is None and b is None:
+        return None
+    a, b = (i, b) if a is None else (a, i) if b is None else (a, b)
+    return ((rows[b] - rows[a]) * factor / (b - a), (cols[b] - cols[a]) * factor / (b - a))
+
+
 def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate=0):
     """Pass 2: alpha-weighted centroid at full size around each coarse detection."""
     rows, cols, areas = coarse
@@ -530,7 +633,7 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
         presence = ball_presence(cv2, crop, back, ball_lab)
         blob, stat = ball_blob(cv2, presence)
         if blob is not None:
-            a = ball_coverage(cv2, crop, back, blob)
+            a = ball_coverage(cv2, crop, back, blob, _travel(rows, cols, i, factor))
             total = float(a.sum())
             if total > 0:
                 yy, xx = np.mgrid[y0:y1, x0:x1]
