@@ -916,6 +916,7 @@ def voice_pulses(t_s, level_db=None, *, periods_s=PULSE_PERIODS_S, min_intervals
     dt = np.diff(t)
     if dt.size < min_intervals:
         return mark
+    lv = None if level_db is None else np.asarray(level_db, dtype=float)
     in_band = (dt >= periods_s[0]) & (dt <= periods_s[1])
     ratio = dt[1:] / np.where(dt[:-1] > 0, dt[:-1], np.inf)
     steady = (ratio >= 1.0 / (1.0 + tolerance)) & (ratio <= 1.0 + tolerance)
@@ -935,8 +936,7 @@ def voice_pulses(t_s, level_db=None, *, periods_s=PULSE_PERIODS_S, min_intervals
             ball = bool(np.all(r < 1.0)) and float(np.exp(np.mean(np.log(r)))) <= max_ratio
             if not ball:
                 mark[i:j + 2] = True
-                if level_db is not None:
-                    lv = np.asarray(level_db, dtype=float)
+                if lv is not None:
                     for k in range(i, j + 2):
                         about = np.r_[lv[max(i, k - 3):k], lv[k + 1:min(j + 2, k + 4)]]
                         if about.size and lv[k] > float(np.median(about)) + louder_db:

@@ -1121,14 +1121,9 @@ def _second_drop(onsets, chain):
     found, _ = bounce_sequence(onsets.t_s[after], onsets.snr_db[after])
     if found.size < SECOND_DROP_MIN_IMPACTS:
         return np.zeros(0, dtype=int)
-    r1, r2 = (float(np.median(_interval_ratios(onsets.t_s[c]))) for c in (chain, after[found]))
+    dt1, dt2 = np.diff(onsets.t_s[chain]), np.diff(onsets.t_s[after[found]])
+    r1, r2 = float(np.median(dt1[1:] / dt1[:-1])), float(np.median(dt2[1:] / dt2[:-1]))
     return after[found] if abs(r2 / r1 - 1.0) <= SECOND_DROP_RATIO_TOLERANCE else np.zeros(0, dtype=int)
-
-
-def _interval_ratios(t_s):
-    """dt_{i+1} / dt_i of impact times ``t_s`` [s] (at least three)."""
-    dt = np.diff(np.asarray(t_s, dtype=float))
-    return dt[1:] / dt[:-1]
 
 
 def _with_impacts(onsets, chain, t_new, level_new, same_s=1e-3):
