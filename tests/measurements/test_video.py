@@ -381,6 +381,8 @@ def test_discover_reads_a_sideways_video_with_rotate(plain, tmp_path):
     y = simulate_drops(0.6, 0.75, 4, BALL, release_time_s=0.2).height_m(t)[0]
     table.write_text("t,y\n" + "".join(f"{a:.4f},{b:.6f}\n" for a, b in zip(t, y)))
     assert "--rotate ignored: it applies to videos" in read_measurement(table, rotate=90).notes
+    # --roi and --color, which discover takes too, are noted alike (they were ignored without a word)
+    assert "--roi, --color ignored: they apply to videos" in read_measurement(table, roi="0,0,9,9", color="red").notes
 
 
 @pytest.fixture(scope="module")

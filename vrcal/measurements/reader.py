@@ -341,7 +341,8 @@ def read_measurement(path, fmt=None, **options):
     if name is not None and FORMATS[name].recording:
         passed = {k: v for k, v in options.items() if k not in ("y_down", "sheet") and v is not None}
         return FORMATS[name].parser(str(path), **passed)
-    rotate = options.get("rotate")
+    video_only = [flag for flag, key in (("--rotate", "rotate"), ("--roi", "roi"), ("--color", "color"))
+                  if options.get(key)]
     for key in RECORDING_OPTIONS:
         options.pop(key, None)
     sheet = options.pop("sheet", None)
@@ -365,8 +366,9 @@ def read_measurement(path, fmt=None, **options):
         data = dataclasses.replace(data, notes=tuple(data.notes) + (
             f"{', '.join(unused)} ignored: {'they apply' if len(unused) > 1 else 'it applies'} to trajectories, "
             f"and this file holds {kind}",))
-    if rotate:
-        data = dataclasses.replace(data, notes=tuple(data.notes) + ("--rotate ignored: it applies to videos",))
+    if video_only:
+        data = dataclasses.replace(data, notes=tuple(data.notes) + (
+            f"{', '.join(video_only)} ignored: {'they apply' if len(video_only) > 1 else 'it applies'} to videos",))
     said = [_title_note(title) if title is not None else None, units_note, *text.notes]
     if any(said):
         data = dataclasses.replace(data, notes=tuple(n for n in said if n) + tuple(data.notes))
