@@ -336,18 +336,23 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
               help="Point of the ball the drop height was read to (needs the ball's diameter).")
 @click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
               help="Point of the ball the rebound height was read to (needs the ball's diameter).")
+@click.option("--height-sd", "height_sd_m", type=opt.HEIGHT_SD_M, default=None,
+              show_default="H 2 mm; h the larger of 2 mm and 1 % of it",
+              help="Standard uncertainty of each height of your drop test [m]; gives the ± of epsilon.")
 @K_OPTION
 @click.option("--x", "x_m", type=opt.DEPTH_M, default=None, help="Fix the virtual body's depth x [m]; gives v.")
 @click.option("--v", "v_m_per_s", type=opt.SPEED_M_PER_S, default=None,
               help="Fix the virtual body's speed v [m/s]; gives x.")
 @click.option("--n", "n", type=opt.FAMILY_SIZE, default=11, show_default=True, help="Number of (x, v) family members.")
-@click.option("--as-paper", is_flag=True, help="Use the paper's Table 1 heights as printed (no point correction).")
+@click.option("--as-paper", is_flag=True,
+              help="Use the paper's Table 1 heights as printed (its typos corrected: 0.13 m is 1.3 m, 0.12 m is "
+                   "1.2 m; no point correction, no air drag).")
 @FORMAT_OPTION
 @click.option("-o", "--output", type=opt.OUTPUT_FILE, default=None, help="Write here instead of stdout.")
 @STANDARDS_OPTION
 @click.pass_context
 def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebound_height_m, drop_measured_to,
-        rebound_measured_to, K, x_m, v_m_per_s, n, as_paper, fmt, output):
+        rebound_measured_to, height_sd_m, K, x_m, v_m_per_s, n, as_paper, fmt, output):
     """Parameter file of a body: epsilon (Eq. 9), T (Eq. 7) and virtual bodies (x, v) (Eq. 10).
 
     The body is BALL (a ball of the standards: its drop test's epsilon window), or --mass and
@@ -376,7 +381,8 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
     body = None if own_test_alone else body_of(ctx, ball, mass_kg, diameter_m, from_json)
     result = fit_ball(body, DEFAULT_K_PER_S if K is None else K, x_m=x_m, v_m_per_s=v_m_per_s, n=n, as_paper=as_paper,
                       epsilon=epsilon, drop_height_m=drop_height_m, rebound_height_m=rebound_height_m,
-                      drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to)
+                      drop_measured_to=drop_measured_to, rebound_measured_to=rebound_measured_to,
+                      height_sd_m=height_sd_m)
     emit_result(result, fit_text, fmt, output)
 
 

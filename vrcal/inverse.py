@@ -63,7 +63,8 @@ class VirtualBody:
 
 
 def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, as_paper=False, epsilon=None,
-             drop_height_m=None, rebound_height_m=None, drop_measured_to=None, rebound_measured_to=None):
+             drop_height_m=None, rebound_height_m=None, drop_measured_to=None, rebound_measured_to=None,
+             height_sd_m=None):
     """The parameter set of a body: epsilon (a window, or one value), T, and its (x, v) family.
 
     Parameters
@@ -96,6 +97,9 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"}, optional
         the point of the ball H and h were read to (brought to the bottom with the body's diameter,
         :func:`vrcal.model.restitution.height_to_bottom_m`; default the bottom); a drop test's options
+    height_sd_m : float, optional
+        standard uncertainty of each height of one's own drop test [m] (``--height-sd``); default
+        :func:`assumed_height_sd_m`. Gives ``epsilon_uncertainty`` (:func:`epsilon_uncertainty_from_heights`)
 
     Returns
     -------
@@ -124,12 +128,20 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         if epsilon is not None:
             raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
         epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
-                                        rebound_measured_to or "bottom")
+                                        rebound_measured_to or "bottom", height_sd_m)
+    elif height_sd_m is not None:
+        raise UsageError("--height-sd is the uncertainty of your own drop test's heights: give --drop-height and "
+                         "--rebound-height with it")
     if body is None and drop_test is None:
         raise UsageError("no body: give a ball of the standards, or --mass and --diameter (one's own drop test, "
                          "--drop-height and --rebound-height, needs none)")
     if body is not None and epsilon is None and body.discovered is None and body.standard is not None:
         out = _window_fit(body, K, as_paper)
+        if not as_paper:   # the paper's Eq. 9 is drag-free: --as-paper reproduces it
+            drag = drop_test_drag(body.mass_kg, body.diameter_m, out["drop_height_m"], out["rebound_height_m"],
+                                  body.standard.key)
+            drag.pop("notes", None)   # fit_text gives it a row of the window's table
+            out.update(drag)
     else:
         out = _single_fit(body, K, as_paper, epsilon)
     if drop_test is not None:
@@ -142,11 +154,12 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
     out["T_s"] = _bounds(T)
     R = None if body is None else body.radius_m   # no radius, no family: --x or --v still gives its partner
     if R is not None and T["nominal"] == 0:
-        # epsilon = 1: T = 0 only at x = 0, a virtual body on the surface, to which [1] gives no speed
-        # (v = 0; Eq. 10 gives T = 0 at x = 0 for any v, as contact_time_single_s does)
+        # epsilon = 1: T = 0 only at x = 0, a virtual body on the surface. [1] gives it no speed ("x = 0
+        # therefore v = 0"), where Eq. 10 reads 0/0; x = 0 gives T = 0 for any v, as contact_time_single_s takes it
         out["family"] = [{"x_m": 0.0, "v_m_per_s": 0.0}]
-        out["notes"].append("ε = 1 gives T = 0: the only virtual body is x = 0, on the ball's surface, with no speed "
-                            "(v = 0, as the paper's lossless body); any v gives the same T = 0")
+        out["notes"].append("ε = 1 gives T = 0: the only virtual body is x = 0, on the ball's surface, and x = 0 "
+                            "gives T = x/(2v) = 0 for any speed v. The file writes v = 0, as the paper's lossless "
+                            "body, where x/(2v) reads 0/0: take T = 0 wherever x = 0 (vrcal does)")
         if x_m is not None:
             raise UsageError(f"--x {x_m:g}: ε = 1 gives T = 0, which only x = 0 has (v = x/(2T) would be infinite); "
                              "leave out --x, or give --v (x = 2vT = 0)")
@@ -174,9 +187,61 @@ NO_BODY_NOTE = ("no ball given: ε = √(h/H) needs none, but the air-drag check
                 "bodies (x, v) its radius")
 
 
-def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom"):
+#: Assumed standard uncertainty [m] of a height set or read against a ruler (:func:`assumed_height_sd_m`).
+HEIGHT_SD_FLOOR_M = 0.002
+#: ... and of a rebound's apex read by eye, relative to the height: the larger of the two is taken.
+REBOUND_READ_FRACTION = 0.01
+
+
+def assumed_height_sd_m(drop_height_m, rebound_height_m):
+    """Assumed standard uncertainties [m] of a drop test's heights when none is given: the drop height,
+    set against a ruler, :data:`HEIGHT_SD_FLOOR_M`; the rebound's apex, read by eye while the ball turns,
+    the larger of that and :data:`REBOUND_READ_FRACTION` of it (the same reading as ``vrcal discover``
+    assumes for a table's heights written to whole centimetres).
+
+    Parameters
+    ----------
+    drop_height_m, rebound_height_m : float or ndarray
+        H and h as read [m]
+
+    Returns
+    -------
+    (sd_H_m, sd_h_m) : float or ndarray
+    """
+    h = np.asarray(rebound_height_m, dtype=float)
+    sd_H = np.full_like(np.asarray(drop_height_m, dtype=float), HEIGHT_SD_FLOOR_M)
+    return eq._out(sd_H), eq._out(np.maximum(HEIGHT_SD_FLOOR_M, REBOUND_READ_FRACTION * h))
+
+
+def epsilon_uncertainty_from_heights(rebound_height_m, drop_height_m, rebound_sd_m, drop_sd_m):
+    """Standard uncertainty of Eq. (9)'s epsilon = sqrt(h/H) from those of the heights (first order, the two
+    readings independent): u = epsilon/2 * sqrt((u_h/h)^2 + (u_H/H)^2).
+
+    Parameters
+    ----------
+    rebound_height_m, drop_height_m : float or ndarray
+        h and H of the ball's bottom [m], 0 < h <= H
+    rebound_sd_m, drop_sd_m : float or ndarray
+        their standard uncertainties [m], >= 0
+
+    Returns
+    -------
+    u_epsilon : float or ndarray
+        [1]
+    """
+    h = np.asarray(rebound_height_m, dtype=float)
+    H = np.asarray(drop_height_m, dtype=float)
+    eps = np.asarray(eq.epsilon_from_heights(h, H))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.hypot(np.asarray(rebound_sd_m, dtype=float) / h, np.asarray(drop_sd_m, dtype=float) / H)
+    return eq._out(0.5 * eps * rel)
+
+
+def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom",
+               height_sd_m=None):
     """(epsilon, keys) of one's own drop test: Eq. (9) with both heights brought to the ball's bottom (``body``
-    None: heights of the bottom, no drag check)."""
+    None: heights of the bottom, no drag check), and its uncertainty from the heights' (``height_sd_m`` for
+    each, else :func:`assumed_height_sd_m`)."""
     if drop_height_m is None or rebound_height_m is None:
         raise UsageError("a drop test needs both --drop-height and --rebound-height [m]")
     D = None if body is None else body.diameter_m
@@ -197,26 +262,46 @@ def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom",
                              f"(the {point} of the ball resting on the floor)")
         heights[name] = float(eq.height_to_bottom_m(value, point, D))
     H, h = heights["--drop-height"], heights["--rebound-height"]
+    if h > H and (drop_measured_to, rebound_measured_to) != ("bottom", "bottom"):   # say what was converted
+        def said(what, value, point, bottom):
+            return f"{what} = {value:g} m" + ("" if point == "bottom" else
+                                              f" to the {point} ({bottom:.4g} m to the bottom)")
+        raise UsageError(f"rebound height {said('h', rebound_height_m, rebound_measured_to, h)} exceeds drop height "
+                         f"{said('H', drop_height_m, drop_measured_to, H)}: a ball cannot rebound higher than it fell")
     eps = float(eq.epsilon_from_heights(h, H))
     read = ", ".join(f"{what} {value:g} m to the {point}"
                      for what, point, value in (("H", drop_measured_to, drop_height_m),
                                                 ("h", rebound_measured_to, rebound_height_m)) if point != "bottom")
+    if height_sd_m is None:
+        sd_H, sd_h = assumed_height_sd_m(drop_height_m, rebound_height_m)
+        sd_source = (f"assumed: H to {sd_H * 1e3:g} mm (a ruler), h to {sd_h * 1e3:.2g} mm (the larger of "
+                     f"{HEIGHT_SD_FLOOR_M * 1e3:g} mm and {100 * REBOUND_READ_FRACTION:g} % of h, an apex read by "
+                     "eye; --height-sd gives them)")
+    else:
+        sd_H = sd_h = float(height_sd_m)
+        sd_source = "given (--height-sd)"
     keys = {
         "epsilon_source": f"your drop test, ε = √(h/H) (Eq. 9){'; ' + read if read else ''}",
         "drop_height_m": H,
         "rebound_height_m": h,
+        "epsilon_uncertainty": float(epsilon_uncertainty_from_heights(h, H, sd_h, sd_H)),
+        "height_sd_m": {"drop": float(sd_H), "rebound": float(sd_h)},
+        "height_sd_source": sd_source,
     }
+    u_note = (f"± of ε from the heights' standard uncertainties (u = ε/2 √((u_h/h)² + (u_H/H)²)), {sd_source}; "
+              "a drop repeated a few times measures their scatter")
     if body is None:
-        return eps, {**keys, "notes": [NO_BODY_NOTE]}
-    return eps, {**keys, **drop_test_drag(body.mass_kg, body.diameter_m, H, h)}
+        return eps, {**keys, "notes": [u_note, NO_BODY_NOTE]}
+    drag = drop_test_drag(body.mass_kg, body.diameter_m, H, h)
+    return eps, {**keys, **drag, "notes": [u_note, *drag.get("notes", [])]}
 
 
 #: Shift of epsilon [1] by a sphere's drag from which :func:`drop_test_drag` notes it.
 DRAG_NOTE_EPSILON = 0.005
 
 
-def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
-    """What a sphere's air drag makes of one's own drop test: ``{}`` when it moves epsilon by less than
+def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m, ball_key=None):
+    """What a sphere's air drag makes of a drop test: ``{}`` when it moves epsilon by less than
     :data:`DRAG_NOTE_EPSILON`, else ``epsilon_with_drag`` (:func:`vrcal.model.restitution.
     epsilon_from_heights_with_drag` at C_d :data:`vrcal.model.restitution.SPHERE_DRAG_COEFFICIENT`, with the
     added mass), ``drag_coefficient`` and a ``notes`` entry saying so. Eq. (9) stays the result: the
@@ -226,29 +311,40 @@ def drop_test_drag(mass_kg, diameter_m, drop_height_m, rebound_height_m):
     ----------
     mass_kg, diameter_m : float
         the ball [kg], [m]
-    drop_height_m, rebound_height_m : float
-        H and h to the ball's bottom [m]
+    drop_height_m : float
+        H to the ball's bottom [m]
+    rebound_height_m : float or dict
+        h to the ball's bottom [m]; a standard's window as ``{"min", "nominal", "max"}`` (then
+        ``epsilon_with_drag`` is such a dict too)
+    ball_key : str, optional
+        a ball of the standards, which the note's ``vrcal discover`` command names
     """
     cd = eq.SPHERE_DRAG_COEFFICIENT
     k = eq.drag_constant_per_m(cd, diameter_m, mass_kg, added_mass_kg=eq.added_mass_kg(diameter_m))
-    eps = float(eq.epsilon_from_heights(rebound_height_m, drop_height_m))
-    with_drag = float(eq.epsilon_from_heights_with_drag(rebound_height_m, drop_height_m, k,
-                                                        allow_above_one=True))
-    if abs(with_drag - eps) < DRAG_NOTE_EPSILON:
+    levels = rebound_height_m if isinstance(rebound_height_m, dict) else {"nominal": rebound_height_m}
+    eps = {key: float(eq.epsilon_from_heights(h, drop_height_m)) for key, h in levels.items()}
+    with_drag = {key: float(eq.epsilon_from_heights_with_drag(h, drop_height_m, k, allow_above_one=True))
+                 for key, h in levels.items()}
+    if abs(with_drag["nominal"] - eps["nominal"]) < DRAG_NOTE_EPSILON:
         return {}
-    table = (f"Drops from several heights (a table: vrcal discover TABLE --mass {mass_kg:.3g} --diameter "
-             f"{diameter_m:.3g}) measure the drag and the contact's ε")
+    body = f"--ball {ball_key}" if ball_key else f"--mass {mass_kg:.3g} --diameter {diameter_m:.3g}"
+    table = f"Drops from several heights (a table: vrcal discover TABLE {body}) measure the drag and the contact's ε"
     drag = f"a sphere's C_d {cd:g} slows it by k = {k:.3g} 1/m"
-    if with_drag > 1.0:
+    h, H = levels["nominal"], drop_height_m
+    if max(with_drag.values()) > 1.0:
         note = (f"air drag: this ball is light for its size ({drag}); with that drag no bounce "
-                f"rises {rebound_height_m:g} m from {drop_height_m:g} m (ε would be {with_drag:.3g} > 1): "
+                f"rises {h:g} m from {H:g} m (ε would be {max(with_drag.values()):.3g} > 1): "
                 f"check the mass, the diameter and the heights. {table}")
     else:
+        def shown(e):
+            return f"{e['nominal']:.3f}" + (f" ({e['min']:.3f} .. {e['max']:.3f})" if "min" in e else "")
+        what = "the rule's heights" if "min" in levels else "these heights"
         note = (f"air drag ({drag}): with it the contact's own ε is "
-                f"{with_drag:.3f}, not {eps:.3f} (Eq. 9 ignores drag): {with_drag:.3f} is for an engine that applies "
-                f"that drag too; an engine without air drag (MuJoCo, ODE, PyBullet as they come) reproduces these "
-                f"heights with {eps:.3f}. {table}")
-    return {"epsilon_with_drag": with_drag, "drag_coefficient": cd, "notes": [note]}
+                f"{shown(with_drag)}, not {shown(eps)} (Eq. 9 ignores drag): {with_drag['nominal']:.3f} is for an "
+                f"engine that applies that drag too; an engine without air drag (MuJoCo, ODE, PyBullet as they come) "
+                f"reproduces {what} with {eps['nominal']:.3f}. {table}")
+    return {"epsilon_with_drag": with_drag if "min" in levels else with_drag["nominal"], "drag_coefficient": cd,
+            "notes": [note]}
 
 
 #: Air displaced over the ball's mass, rho V / m, from which :func:`buoyancy_notes` warns.
@@ -303,8 +399,20 @@ def _window_fit(body, K, as_paper):
         "mass_kg": body.mass_kg,
         "diameter_m": body.diameter_m,
         "equations": "epsilon = exp(-K*T) (Eq. 7), T = x/(2*v) (Eq. 10), epsilon = sqrt(h/H) (Eq. 9)",
-        "notes": list(ball.departures),
+        "notes": _paper_notes(ball, window) if as_paper else list(ball.departures),
     }
+
+
+def _paper_notes(ball, window):
+    """The notes of ``--as-paper``: the paper's Table 1 row as printed and how vrcal read it (a ball's
+    ``departures`` describe vrcal's own reading, which ``--as-paper`` does not use)."""
+    lo, hi = window.rebound_m.min, window.rebound_m.max
+    h = f"{lo:g} m (the paper prints one rebound height)" if lo == hi else f"{lo:g}-{hi:g} m"
+    return [f"--as-paper: the paper's Table 1 as printed ({ball.paper.printed}), read as H = "
+            f"{window.drop_height_m:g} m and h = {h}, its typos corrected (docs/paper.md), both heights as the "
+            "paper takes them (no correction for the point of the ball they are measured to), no air drag",
+            f"without --as-paper, vrcal fit {ball.key} uses the rule's heights and says where they depart from the "
+            "paper"]
 
 
 def _single_fit(body, K, as_paper, epsilon):
@@ -385,7 +493,10 @@ def fit_text(result):
     if window:
         H, h = r["drop_height_m"], r["rebound_height_m"]
         rows = [
-            ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9)"],
+            ["ε", *(number(eps[k], 4) for k in levels), "drop test, ε = √(h/H) (Eq. 9), no drag"],
+            *([["ε, drag", *(number(r["epsilon_with_drag"][k], 4) for k in levels),
+                f"the contact's own, with air drag (C_d {r['drag_coefficient']:g})"]]
+              if isinstance(r.get("epsilon_with_drag"), dict) else []),
             ["T [ms]", *(_ms_or_inf(T[k]) for k in levels), model_time],
             ["H [m]", *(number(H, 4) for _ in levels), "drop height"],
             ["h [m]", *(number(h[k], 4) for k in levels), "rebound height"],
@@ -416,8 +527,10 @@ def fit_text(result):
                      *(number(eq.virtual_depth_m(v, T[k]) * 1e3, 4) for k in levels), "x = 2vT (Eq. 10)"])
     if window:
         rule = "official rule" if r["official_rule"] else "not an official rule"
-        answer = (f"{r['ball']}: ε = {epsilon_text(eps['nominal'])} ({epsilon_text(eps['min'])} .. "
-                  f"{epsilon_text(eps['max'])}), T = {_ms_or_inf(T['nominal'], 3)} ms at K = {K:g} 1/s")
+        spread = ("one value" if eps["min"] == eps["max"] else
+                  f"{epsilon_text(eps['min'])} .. {epsilon_text(eps['max'])}")
+        answer = (f"{r['ball']}: ε = {epsilon_text(eps['nominal'])} ({spread}), T = {_ms_or_inf(T['nominal'], 3)} ms "
+                  f"at K = {K:g} 1/s")
         text = wrap(answer) + wrap(f"{r['ball_name']}, {r['association']}, {rule}; heights: {r['convention']}")
         text += "\n" + table(rows, ["", "ε min", "nominal", "ε max", ""], align="lrrrl")
     elif r["ball"] is None:   # one's own drop test alone
@@ -528,10 +641,60 @@ def parse_body(spec, K_per_s, standards=None, as_paper=False, notes=None):
         if parts:
             raise UsageError(f"body '{spec}': unknown field(s) {sorted(parts)}; use x= and v=")
         body = VirtualBody(x, v)
-        return text, body, eq.epsilon_single(x, v, K_per_s)
-    body = describe_body(get_ball(text, standards).key, standards=standards)
+        eps = eq.epsilon_single(x, v, K_per_s)
+        if notes is not None:
+            notes.extend(virtual_body_notes(text, x, eps, standards))
+        return text, body, eps
+    ball = get_ball(text, standards)
+    body = describe_body(ball.key, standards=standards)
     vb, eps = ball_virtual_body(body, K_per_s, as_paper)
+    if notes is not None and not _rigid(ball.floor):
+        floor = ball.floor.split(";")[0].split(" (")[0].strip()
+        where = ("the floor of its drop test is not stated" if floor.lower().startswith("not stated") else
+                 f"its drop test is on a {floor}, not a rigid one")
+        notes.append(f"{ball.key}: {where} ({ball.association.split(' (')[0]}); the pair takes its ε as the "
+                     "ε against a rigid floor (Eq. 10)")
     return body.name, vb, eps
+
+
+def _rigid(floor):
+    """Whether a standard's test floor (its ``floor:`` text, up to the first ';' or '(') is rigid."""
+    own = floor.split(";")[0].split("(")[0].lower()
+    return any(word in own for word in ("steel", "rigid", "granite", "concrete"))
+
+
+#: Smallest epsilon [1] of a pair body 'x=..,v=..' below which :func:`virtual_body_notes` says it does not bounce.
+NO_BOUNCE_EPSILON = 1e-3
+
+
+def virtual_body_notes(name, x_m, epsilon, standards=None):
+    """Notes on a virtual body typed as 'x=..,v=..': a depth beyond every standard ball's radius (a virtual
+    body lies inside its ball: are x and v in cm, as the paper's Table 2 is likely printed?) and an epsilon
+    below :data:`NO_BOUNCE_EPSILON`.
+
+    Parameters
+    ----------
+    name : str
+        the body as typed
+    x_m : float
+        its depth [m]
+    epsilon : float
+        its epsilon against a rigid floor [1]
+    standards : dict, optional
+        the balls whose largest radius bounds a plausible x (the shipped ones when None)
+    """
+    from vrcal.model.standards import load_standards
+
+    balls = (standards or load_standards()).values()
+    largest = max(ball.diameter_m.max / 2.0 for ball in balls) if balls else math.inf
+    notes = []
+    if x_m > largest:
+        notes.append(f"{name}: x = {x_m:g} m is deeper than the radius of any ball of the standards "
+                     f"({largest * 1e3:.4g} mm at most), while a virtual body lies inside its ball: x is in metres "
+                     "and v in m/s (the paper's Table 2 prints them without units; vrcal table2 --compare-paper)")
+    if epsilon < NO_BOUNCE_EPSILON:
+        notes.append(f"{name}: ε = {epsilon:.3g}, no bounce a drop test could see")
+    return notes
 
 
 def depends_on_K(spec):

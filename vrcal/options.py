@@ -297,6 +297,8 @@ SPEED_M_PER_S = Real(0, 1e4, min_open=True, unit="m/s")
 FAMILY_SIZE = Count(1, 10_000)
 #: Drop height [m].
 HEIGHT_M = Real(1e-6, 1e4, unit="m")
+#: Standard uncertainty of a height read against a ruler [m] (0: exact).
+HEIGHT_SD_M = Real(0, 1, unit="m")
 #: Number of floor impacts of ``simulate`` (after a few hundred bounces a ball is at rest).
 BOUNCES = Count(1, 1000)
 #: Coefficient of restitution (below 0.001 a ball is dead: nothing to calibrate).

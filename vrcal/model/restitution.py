@@ -414,7 +414,7 @@ def epsilon_from_heights(rebound_height_m, drop_height_m):
     if np.any(h > H):
         i = np.flatnonzero(np.ravel(h > H))[0]
         raise UsageError(
-            f"rebound height h = {np.ravel(h)[i]:g} m exceeds drop height H = {np.ravel(H)[i]:g} m: "
+            f"rebound height h = {_show(np.ravel(h)[i])} m exceeds drop height H = {_show(np.ravel(H)[i])} m: "
             "a ball cannot rebound higher than it fell"
         )
     return _out(np.sqrt(h / H))
