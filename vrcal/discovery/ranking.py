@@ -464,8 +464,21 @@ class Discovery:
         (:attr:`epsilon_uncertainty_basis` says which)."""
         hetero = self.height_dependent_noise
         u = self.final.uncertainty("epsilon") if hetero is None else hetero["epsilon_uncertainty"]
+        u = math.hypot(u, self.epsilon_uncertainty_systematic or 0.0)
         spread = self.bounce_spread
         return u if spread is None else float(math.hypot(u, spread))
+
+    @functools.cached_property
+    def epsilon_uncertainty_systematic(self):
+        """The 1-sigma of ε from a video tracker's systematic error of the centres (the runs' ``systematic_m``)
+        taken as common to each flight's frames and independent from flight to flight
+        (:func:`vrcal.discovery.residuals.flight_offset_uncertainties`), which :attr:`epsilon_uncertainty`
+        adds in quadrature; None for records without it."""
+        systematic = ReaderErrors.of(self.runs).systematic_m if self.kind == "trajectory" else 0.0
+        if systematic <= 0:
+            return None
+        unc = res.flight_offset_uncertainties(self.final, systematic)
+        return float(unc[[p.key for p in self.final.layout].index("epsilon")])
 
     @functools.cached_property
     def height_dependent_noise(self):
@@ -718,6 +731,9 @@ class Discovery:
             # samples' worth of a sliver of it (a noise-free simulation is fitted far below its noise)
             if self.noise_floor and not gap_removed_enough(final.judged_gap, c.fit.judged_gap, self.noise_floor, th,
                                                            shrink=False):
+                continue
+            # nor what a tracker's systematic error of the centres can fake (:class:`ReaderErrors`)
+            if changes_heights_by(final.judged_gap, c.fit.judged_gap) < ReaderErrors.of(self.runs).systematic_m:
                 continue
             if (extra <= 0 and drop > th.indistinguishable_chi2) or (
                     extra > 0 and drop > 0 and chi2_sf(drop, extra) <= th.p_value):
@@ -1347,7 +1363,7 @@ def _limits_distance(cand):
     return z2
 
 
-def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, nuisance=()):
+def _try(problem, named, names, current, sigma_floor, th, rnd, reader=None, nuisance=()):
     """Fit and judge the current model plus ``names`` (one effect, or a pair): a :class:`Candidate`.
 
     When the unconstrained optimum puts a parameter (its own, or one of an effect named before) beyond its
@@ -1360,7 +1376,7 @@ def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, n
     checked = [n for n in named if n not in nuisance]
     fit = _fit_candidate(problem, named, names, current)
     cand = _judge(Candidate("+".join(names), rnd, fit, 0.0, 0.0, 1.0, False, False, members=tuple(names)),
-                  current, sigma_floor, th, floor_sd_m, checked)
+                  current, sigma_floor, th, reader, checked)
     if cand.in_prior or cand.delta_bic < th.delta_bic or cand.p_value > th.p_value or not cand.gap_ok:
         return cand   # inside them, or failing another test: held inside them it can only fit worse
     z2 = _limits_distance(cand)
@@ -1370,7 +1386,7 @@ def _try(problem, named, names, current, sigma_floor, th, rnd, floor_sd_m=0.0, n
     bounded = fit_physical(problem, (*named, *names), start=_start_from(current), limited=(*checked, *names),
                            free=fit)
     held = _judge(Candidate(cand.name, rnd, bounded, 0.0, 0.0, 1.0, False, False, members=cand.members, free=fit),
-                  current, sigma_floor, th, floor_sd_m, checked)
+                  current, sigma_floor, th, reader, checked)
     # at the noise floor, not at what a misfit leaves: a model that misses the record by 8 times its noise
     # cannot reject a limit at its own residuals (a tennis record's contact of 14.3 ms held at 13.4 ms,
     # "chi2 +0.2", stood in for what it misses)
@@ -1458,13 +1474,43 @@ def gap_removed_enough(gap_before, gap_after, sigma, th, shrink=True):
     return removed2 >= (th.removed_noise_fraction * sigma) ** 2 + (1.0 - th.gap_factor**2) * misfit2
 
 
+def changes_heights_by(gap_before, gap_after):
+    """The RMS change of the fitted heights [data unit] that takes the gap (RMS residual) from ``gap_before``
+    to ``gap_after``: sqrt(gap_before² - gap_after²) (for nested least-squares fits the drop of the residual
+    sum of squares is the sum of squares of the change of the fitted curve)."""
+    return math.sqrt(max(gap_before**2 - gap_after**2, 0.0))
+
+
+@dataclass(frozen=True)
+class ReaderErrors:
+    """What a reader knows of its own errors beyond the noise from datum to datum (a video tracker's,
+    :class:`vrcal.measurements.types.Trajectory`): the floor level's standard uncertainty ``floor_sd_m`` [m]
+    and the centres' systematic error ``systematic_m`` [m]. An error that is the same, or changes slowly, from
+    frame to frame (a blurred ball's centre pulled a little along its motion) is not averaged away by many
+    frames: an effect that changes the heights by less (RMS) than it may be that error, and is not named
+    (:func:`_judge`). A rolling shutter of 0.34 ms/m (0.11 mm RMS) stood in for a blurred ball's centre
+    errors of a clean render whose tracker was uncertain by 0.13 mm; a real 20 ms readout changes the
+    heights by millimetres."""
+
+    floor_sd_m: float = 0.0
+    systematic_m: float = 0.0
+
+    @classmethod
+    def of(cls, data):
+        """The largest of each over the runs of ``data`` (a run, Runs, or a sequence of runs; 0 for a reader
+        that gives none)."""
+        runs = tuple(data) if isinstance(data, (list, tuple)) else res._runs_of(data)
+        return cls(max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in runs),
+                   max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in runs))
+
+
 #: A fitted height offset is named only beyond this many standard uncertainties of the floor level
 #: when the reader estimated the floor (a video's contact row; ``Trajectory.floor_sd_m``): a smaller
 #: offset is the floor's own uncertainty, not a tracked point off the ball's bottom.
 FLOOR_SIGMAS = 3.0
 
 
-def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0, checked=()):
+def _judge(cand, current, sigma_floor, th, reader=None, checked=()):
     """Judge a candidate against ``current`` (the tests of the module docstring); ``checked``: the effects
     named before, whose parameters must stay inside their physical limits too when the candidate is added
     (a refit can push them out: drag named with C_d 0.46 went to 1.36 once buoyancy was added)."""
@@ -1506,15 +1552,21 @@ def _judge(cand, current, sigma_floor, th, floor_sd_m=0.0, checked=()):
         reasons.append(f"the flights after the first fall do not need it (chi2 {-gain:+.3g} there; "
                        f"{' and '.join(m for m in cand.members if _every_flight(m))} shows in every flight)")
     offset = fit.effect_values.get("height_offset", {}).get("offset_m")
+    reader = reader or ReaderErrors()
+    floor_sd_m = reader.floor_sd_m
     if offset is not None and floor_sd_m > 0 and abs(offset) <= FLOOR_SIGMAS * floor_sd_m:
         reasons.append(f"offset {offset * 1e3:+.2g} mm within the floor level's uncertainty "
                        f"({FLOOR_SIGMAS:g} x {floor_sd_m * 1e3:.2g} mm)")
+    change = changes_heights_by(current.judged_gap, fit.judged_gap)
+    if reader.systematic_m > 0 and change < reader.systematic_m:
+        reasons.append(f"it changes the heights by {change * 1e3:.2g} mm RMS, within the tracker's systematic "
+                       f"error of the centres ({reader.systematic_m * 1e3:.2g} mm)")
     cand.material = not reasons
     cand.verdict = "material" if cand.material else "not material: " + "; ".join(reasons)
     return cand
 
 
-def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects, progress):
+def _select(problem, baseline, pool, nuisance, th, sigma_floor, reader, max_effects, progress):
     """Forward selection with a backward check from ``baseline``: (final fit, named effects (the
     nuisances first), rounds of candidates, ambiguous namings, notes)."""
     from vrcal.drop.effects import EFFECTS
@@ -1537,10 +1589,10 @@ def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_ef
         for i, name in enumerate(pool):
             if progress is not None:
                 progress(rnd, i + 1, len(pool), name)
-            cands.append(_try(problem, named, (name,), current, sigma_floor, th, rnd, floor_sd, nuisance))
+            cands.append(_try(problem, named, (name,), current, sigma_floor, th, rnd, reader, nuisance))
         material = [c for c in cands if c.material]
         if not material and (max_effects is None or len(named) - len(nuisance) + 2 <= max_effects):
-            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, floor_sd, nuisance)
+            cands += _pairs(problem, named, pool, cands, current, sigma_floor, th, rnd, progress, reader, nuisance)
             material = [c for c in cands if c.material]
         rank_by_evidence(cands, current, sigma_floor)
         cands.sort(key=lambda c: c.score)
@@ -1555,7 +1607,7 @@ def _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_ef
             # in for the winner, a rolling shutter's timing for missing drag, is not what the values lack)
             stays = [win] + [c for c in material[1:] if not set(c.members) <= set(win.members) and _try(
                 problem, [*named, *win.members], tuple(m for m in c.members if m not in win.members), win.fit,
-                sigma_floor, th, rnd, floor_sd, nuisance).material]
+                sigma_floor, th, rnd, reader, nuisance).material]
             cut = list(dict.fromkeys(m for c in stays for m in c.members))
             for c in material:
                 c.verdict = f"material, not named: at most {max_effects} effects are named (max_effects)" + (
@@ -1800,7 +1852,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
                                  f"(it shows in: {', '.join(eff.kinds)}; usable here: {', '.join(usable)})")
             pool.append(name)
     sigma_floor, noise_source = chosen_noise(data, prepared, noise)
-    floor_sd = max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in res._runs_of(data))
+    reader_errors = ReaderErrors.of(data)
     notes = list(prepared.notes)
     if surface_of(ball) == "soft" and "contact_duration" in pool:
         limit = EFFECTS["contact_duration"].parameter("contact_time_s").physical_limits(ball)[1]
@@ -1826,7 +1878,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
     skipped = sorted(set(res.applicable_effects(kind)) ^ set(EFFECTS))
     if skipped:
         notes.append(f"not tried ({kind} data cannot show them): {', '.join(skipped)}")
-    selection = _select(problem, baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects, progress)
+    selection = _select(problem, baseline, pool, nuisance, th, sigma_floor, reader_errors, max_effects, progress)
     judged = None
     if kind == "impacts":
         # the bounces' own scatter beyond the selected model's changes of ratio and the timing noise; when
@@ -1837,7 +1889,7 @@ def discover(data, ball, *, g_m_per_s2=STANDARD_GRAVITY_M_PER_S2, candidates=Non
         if weights is not None:
             weighted = replace(problem, weights=weights)
             judged_baseline = res.fit_model(weighted, nuisance)
-            selection = _select(weighted, judged_baseline, pool, nuisance, th, sigma_floor, floor_sd, max_effects,
+            selection = _select(weighted, judged_baseline, pool, nuisance, th, sigma_floor, reader_errors, max_effects,
                                 progress)
             judged = (judged_baseline, selection[0])
             notes.append(f"the bounces scatter by {100 * own:.2g} % (each bounce's epsilon, beyond the timing "
@@ -2182,7 +2234,7 @@ def _backward(problem, named, added, current, th, rnd, notes, keep=()):
     return named, current
 
 
-def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress, floor_sd_m=0.0, nuisance=()):
+def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progress, reader=None, nuisance=()):
     """Pairs of effects, tried when no single effect is material but some improve the fit
     strongly (dBIC >= threshold) with an unphysical parameter: two effects can bend the
     record in opposite ways, so that each alone needs an unphysical value. A pair is
@@ -2201,7 +2253,7 @@ def _pairs(problem, named, pool, singles, current, sigma_floor, th, rnd, progres
     for j, (a, b) in enumerate(pairs):
         if progress is not None:
             progress(rnd, j + 1, len(pairs), f"{a}+{b}")
-        cand = _try(problem, named, (a, b), current, sigma_floor, th, rnd, floor_sd_m, nuisance)
+        cand = _try(problem, named, (a, b), current, sigma_floor, th, rnd, reader, nuisance)
         needed = min(by_name[a].fit.bic, by_name[b].fit.bic) - cand.fit.bic
         if cand.material and needed < th.delta_bic:
             cand.material = False

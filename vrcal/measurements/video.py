@@ -606,7 +606,7 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
     """Pass 2: alpha-weighted centroid at full size around each coarse detection."""
     rows, cols, areas = coarse
     row_f, col_f = np.full(n, np.nan), np.full(n, np.nan)
-    area_f, edge = np.full(n, np.nan), np.zeros(n, dtype=bool)
+    area_f, edge, blur_f = np.full(n, np.nan), np.zeros(n, dtype=bool), np.full(n, np.nan)
     cap = _open(cv2, path)
     half = 0.5 * diameter_small * factor
     i = 0
@@ -633,19 +633,44 @@ def _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, pro
         presence = ball_presence(cv2, crop, back, ball_lab)
         blob, stat = ball_blob(cv2, presence)
         if blob is not None:
-            a = ball_coverage(cv2, crop, back, blob, _travel(rows, cols, i, factor))
+            travel = _travel(rows, cols, i, factor)
+            a = ball_coverage(cv2, crop, back, blob, travel)
             total = float(a.sum())
             if total > 0:
                 yy, xx = np.mgrid[y0:y1, x0:x1]
                 row_f[i] = float((a * yy).sum() / total)
                 col_f[i] = float((a * xx).sum() / total)
                 area_f[i] = total
+                blur_f[i] = streak_length(a, yy - row_f[i], xx - col_f[i], travel)
                 bx, by, bw, bh = (int(v) for v in stat[:4])
                 edge[i] = (y0 + by <= 0) or (x0 + bx <= 0) or (y0 + by + bh >= H) or (x0 + bx + bw >= W)
         i += 1
         prog(0.55 + 0.4 * i / n, f"measuring the ball {i}/{n}")
     cap.release()
-    return row_f, col_f, area_f, edge
+    return row_f, col_f, area_f, edge, blur_f
+
+
+def streak_length(coverage, dy, dx, travel_px):
+    """Length [px] of a ball's motion-blurred streak from its coverage: a disc smeared by a box of length L
+    along the travel has the variance L²/12 along it beyond the variance across it (both r²/4 for the disc
+    alone), so L = sqrt(12 (var_along - var_across)), 0 when not positive.
+
+    Parameters
+    ----------
+    coverage : ndarray
+        the ball's coverage (0..1) in each pixel (:func:`ball_coverage`)
+    dy, dx : ndarray
+        each pixel's row and column less the coverage's centroid [px]
+    travel_px : tuple or None
+        the ball's travel in one frame interval (rows, columns) [px]; None or nil: along the rows
+    """
+    ty, tx = (1.0, 0.0) if travel_px is None or not np.all(np.isfinite(travel_px)) else travel_px
+    norm = math.hypot(ty, tx)
+    uy, ux = (ty / norm, tx / norm) if norm > 0 else (1.0, 0.0)
+    total = float(coverage.sum())
+    along = float((coverage * (dy * uy + dx * ux) ** 2).sum()) / total
+    across = float((coverage * (dx * uy - dy * ux) ** 2).sum()) / total
+    return math.sqrt(max(12.0 * (along - across), 0.0))
 
 
 #: Least prominence of a bounce in the rows: this many times the rows' noise from frame to frame
@@ -943,7 +968,8 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
     keys = sorted(full)
     bgmed = _TiledMedian([full[k] for k in keys])
     diameter_small = 2.0 * math.sqrt(np.nanmedian(coarse[2]) / math.pi)
-    row, col, area, edge = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n, rotate)
+    row, col, area, edge, blur = _refine(cv2, path, roi, factor, coarse, diameter_small, ball_lab, bgmed, prog, n,
+                                         rotate)
     # quality
     area_ref = float(np.nanmedian(area))
     ratio = area / area_ref
@@ -983,7 +1009,7 @@ def track_video(path, *, diameter_m, roi=None, color=None, fps=None, scale_m_per
             f"{'right' if turn == 90 else 'left'} edge): is the video rotated? {fix.capitalize()}"))
     bottom_px = roi[1] + roi[3] if roi else size[0]
     result = _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps,
-                     diameter_m, scale_m_per_px, g_m_per_s2, bottom_px)
+                     diameter_m, scale_m_per_px, g_m_per_s2, bottom_px, blur)
     result.background = bg
     result.scale_down = factor
     prog(1.0, "done", force=True)
@@ -1060,7 +1086,7 @@ def _too_few_frames(path, sel, good, n, t, row, diameter_px, bottom_px):
 
 
 def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, size, fps, container_fps, diameter_m,
-            scale_m_per_px, g_m_per_s2=STANDARD_GRAVITY, bottom_px=None):
+            scale_m_per_px, g_m_per_s2=STANDARD_GRAVITY, bottom_px=None, blur=None):
     idx = np.flatnonzero(good)
     tt, rr = t[idx], row[idx]
     # a frame-rate conversion: stamps of the frames left, or the frames evenly spaced over the same span
@@ -1163,9 +1189,11 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
     notes.append(f"ball measured in {good.sum()} of {n} frames; {sel.size} kept"
                  + (f"; {n_lost} frame(s) within the track left out (ball lost, hidden or cut by the edge; "
                     f"quality < {MIN_QUALITY})" if n_lost else ""))
-    notes.append(f"the centres are uncertain by about {CENTRE_SYSTEMATIC_PX} px "
-                 f"({CENTRE_SYSTEMATIC_PX * scale * 1e3:.2g} mm) beyond their noise from frame to frame (blur, "
-                 "compression, shading): smaller effects are not resolved")
+    streak = float(np.sqrt(np.nanmean(blur[sel] ** 2))) if blur is not None and np.any(np.isfinite(blur[sel])) else 0.0
+    systematic_px = centre_systematic_px(streak)
+    notes.append(f"the centres are uncertain by about {systematic_px:.2g} px ({systematic_px * scale * 1e3:.2g} mm) "
+                 f"beyond their noise from frame to frame (blur, compression, shading; the ball's streaks are "
+                 f"{streak:.1f} px long, RMS): smaller effects are not resolved")
     y_m = (contact_row - row[sel]) * scale
     x_m = (col[sel] - col[sel][0]) * scale
     traj = finish_trajectory(path, t[sel], y_m, sel + 1, notes, np.column_stack([y_m, x_m]))
@@ -1174,22 +1202,35 @@ def _finish(path, t, row, col, area, quality, good, repeated, lost, notes, n, si
         kept[np.asarray(traj.lines) - 1] = True
     # what the tracker knows of its own errors: the centres' systematic error, and the floor (the contact
     # row of the bounce fit) uncertain by its standard error and that systematic error
-    floor_sd_px = (math.hypot(fit.contact_row_sd_px, CENTRE_SYSTEMATIC_PX) if fit is not None and fit.n_flights >= 2
+    floor_sd_px = (math.hypot(fit.contact_row_sd_px, systematic_px) if fit is not None and fit.n_flights >= 2
                    else 0.0)
-    traj = replace(traj, systematic_m=CENTRE_SYSTEMATIC_PX * scale, floor_sd_m=floor_sd_px * scale)
+    traj = replace(traj, systematic_m=systematic_px * scale, floor_sd_m=floor_sd_px * scale)
     out = VideoTrack(t_s=t, row_px=row, col_px=col, quality=quality, kept=kept, repeated=repeated,
                      diameter_px=diameter_px, scale_m_per_px=scale, contact_row_px=contact_row,
                      g_measured=g_meas, fps=container_fps if fps is None else fps, size=size, notes=notes,
                      rate_suspect=rate_suspect,
-                     trajectory=traj, bounces=fit, systematic_m=CENTRE_SYSTEMATIC_PX * scale)
+                     trajectory=traj, bounces=fit, systematic_m=systematic_px * scale)
     return out
 
 
-#: Systematic error of a ball centre [px] beyond the frame-to-frame noise (motion blur,
-#: compression, shading): about the largest mean error of the centres in the synthetic
-#: videos of ``benchmarks/bench_track.py`` (0.01-0.05 px), the scale of the smallest effect
-#: a video can resolve.
-CENTRE_SYSTEMATIC_PX = 0.05
+def centre_systematic_px(streak_px):
+    """Systematic error [px] of the ball's centres beyond their noise from frame to frame, for streaks
+    ``streak_px`` [px] long (RMS over the frames kept; :func:`streak_length`): :data:`CENTRE_SYSTEMATIC_PX`
+    (a still ball's: shading, compression) and :data:`CENTRE_SYSTEMATIC_PER_STREAK` of the streak's length
+    (a blurred streak's tails are faint, and a little of the leading or trailing one is lost) in quadrature."""
+    return math.hypot(CENTRE_SYSTEMATIC_PX, CENTRE_SYSTEMATIC_PER_STREAK * streak_px)
+
+
+#: Systematic error of a still (unblurred) ball's centre [px] beyond the frame-to-frame noise
+#: (compression, shading): the mean error of the centres in the synthetic videos of
+#: ``benchmarks/bench_track.py`` is 0.01-0.05 px, and a speed-dependent pattern of about 0.01 px
+#: in the probe's unblurred renders (H.264 and MJPEG).
+CENTRE_SYSTEMATIC_PX = 0.03
+#: Systematic error of a blurred ball's centre per px of its streak's length (:func:`centre_systematic_px`):
+#: in the probe's renders lit from above (0.4-frame exposure, H.264, MJPEG, MPEG-4), the part of the
+#: centres' errors that follows the ball's speed and height was 0.02-0.09 px RMS for streaks of 2-15 px RMS
+#: (0.004-0.007 per px).
+CENTRE_SYSTEMATIC_PER_STREAK = 0.007
 #: Uncertainty of the ball's apparent diameter from where its edge is drawn [px] (gamma,
 #: compression, optical blur), added to the spread of the diameter over the frames.
 EDGE_PX = 0.5
