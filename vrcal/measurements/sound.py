@@ -25,7 +25,11 @@ How an impact is found
    clipping (which flattens the peak, not the start). A lossy codec (AAC, MP3, Vorbis, Opus)
    spreads each impact's quantisation noise over its transform block, up to a few ms before
    the impact (pre-echo, 10-35 dB over the noise): there the onset is the impact's own start,
-   the later change point where the energy jumps :data:`PRE_ECHO_JUMP_DB` over the pre-echo.
+   the later change point where the energy jumps :data:`PRE_ECHO_JUMP_DB` over the pre-echo. A phone's
+   noise gate does the opposite in lossless audio: it lets an impact's start through at a reduced gain and
+   opens later, a gain ramping up; the start, where the sound rose :data:`GATE_STEP_DB` from the noise, is
+   then the onset (:func:`_earlier_start`). No stretch's energy is taken below the samples' rounding (a
+   gate's exact zeros).
 4. **Physics.** A bouncing ball's impacts fall on a geometric-like sequence of intervals
    (``dt_{i+1} ~ r dt_i``, r ~ epsilon). :func:`bounce_sequence` keeps the longest chain of
    candidates whose successive interval ratios agree (within :data:`RATIO_TOLERANCE`, the
@@ -109,7 +113,10 @@ GATE_BEFORE_S = 1e-3
 #: Timing noise of an onset found in a lossless recording (WAV, FLAC) [s]: synthetic drops with room noise, hum
 #: and a reflection are timed to 0.005-0.02 ms, so 0.05 ms holds a real microphone's spread too (the ball's
 #: distance to it changes by a few cm between bounces: 0.03 ms per cm). A lossy codec's onsets are worse
-#: (0.2-2 ms, by its bit rate) and keep the phone apps' assumed 0.2 ms.
+#: (0.2-2 ms, by its bit rate) and keep the phone apps' assumed 0.2 ms. A probe's 32 lossless recordings (rooms
+#: and stairwells, claps, music, typing, AGC, noise gates, 8-48 kHz) gave 391 impacts timed to 0.030 ms RMS, the
+#: worst file's 0.10 ms (a carpet's dull impacts), once a noise gate's impacts were timed at their start
+#: (:func:`_earlier_start`: they were 1.8-2.9 ms off).
 LOSSLESS_TIMING_SD_S = 5e-5
 #: Decoders of lossless audio (PyAV's codec names); every other codec PyAV decodes is taken as lossy.
 LOSSLESS_CODECS = ("pcm_", "flac", "alac", "wavpack", "tta", "ape", "mlp", "truehd", "shorten")
