@@ -137,7 +137,8 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         **_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
         impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
         holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
-        others=others, unverified=unverified, pair=pair,
+        others=others, unverified=unverified, pair=pair, apex_goal=setup.apex_goal, apex_floor_m=setup.apex_floor_m,
+        from_record=bool(setup.drag_coefficient or setup.restitution_exponent or setup.apex_goal is not None),
     )
 
 
@@ -389,10 +390,21 @@ def _load_file(engine, text, ball, options, geoms=None):
         tolerance=tolerance,
         integrator=integrator, release_time_s=float(target.get("release_time_s", 0.0)),
         height_offset_m=float(target.get("height_offset_m", 0.0)),
+        apex_goal=_apex_goal(target.get("apex_goal")),
+        apex_floor_m=float(target.get("apex_floor_m") or 0.0) if target.get("apex_goal") is not None else 0.0,
     )
     if not (0 <= setup.drag_coefficient <= 3 and -1 <= setup.restitution_exponent <= 2 and setup.g_m_per_s2 > 0):
         raise DataError("the file's vrcal_* numbers are out of range (drag_coefficient, restitution_exponent, g)")
     return loaded, runnable, setup
+
+
+def _apex_goal(value):
+    """The file's ``apex_goal`` (a fraction in (0, 1)), None when it has none; DataError when it is no such number."""
+    if value is None:
+        return None
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0 < value < 1:
+        raise DataError(f"the file's apex_goal must be a fraction between 0 and 1, got {value!r}")
+    return float(value)
 
 
 def _refuse_other_engine(engine, text):
@@ -542,6 +554,14 @@ def format_report(result):
              f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
     if runs.height_ratio_text():
         text += runs.height_ratio_text() + " (the epsilon error is absolute)\n"
+    if r.apex_goal is not None:
+        text += (runs.apex_text(r.apex_goal, r.apex_floor_m)
+                 + " (judged: each bounce's error compounds in the heights)\n")
+    elif r.from_record:
+        text += "\n".join(textwrap.wrap(
+            f"{runs.apex_text()}, not judged: the verdict checks each bounce's epsilon (--tolerance), not the heights "
+            f"of a record, where each bounce's error compounds; judge those: vrcal verify --from RESULT.json "
+            f"--against RECORD --engine {r.engine} --file FILE", 100)) + "\n"
     if runs.gain is not None:
         text += runs.gain_text() + "\n"
     if r.others or r.unverified or r.pair is not None:
