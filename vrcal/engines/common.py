@@ -144,6 +144,10 @@ class DropSetup:
         in an engine that carries its law; None: not judged
     apex_floor_m : float
         ... or within this many metres of it: 3 sigmas of the record's noise (the same goal) [m]
+    substeps : int
+        PyBullet's ``numSubSteps`` (``--substeps``; 0: none): each ``stepSimulation()`` advances
+        ``substeps x dt_s``, the file's ``fixedTimeStep``, in that many steps of ``dt_s``, the step the
+        engine runs at and every check is made at
     """
 
     ball: str
@@ -167,6 +171,15 @@ class DropSetup:
     baseline_epsilon: float = None
     apex_goal: float = None
     apex_floor_m: float = 0.0
+    substeps: int = 0
+
+    @property
+    def step_options(self):
+        """The options that give this step, for a message: '--dt DT s' or, with PyBullet's substeps,
+        '--dt DT s --substeps N' (DT the stepSimulation() step, ``substeps x dt_s``)."""
+        if self.substeps:
+            return f"--dt {self.dt_s * self.substeps:g} s --substeps {self.substeps:d}"
+        return f"--dt {self.dt_s:g} s"
 
     @property
     def penetration_limit_m(self):

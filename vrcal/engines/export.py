@@ -156,7 +156,8 @@ def parse_impact_speed(text):
 def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None, standards=None,
                 K_per_s=None, *, mass_kg=None, diameter_m=None, drop_height_m=None,
                 impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
-                tolerance=None, max_penetration_m=None, n_bounces=None):
+                tolerance=None, max_penetration_m=None, n_bounces=None, substeps=None, rebound_height_m=None,
+                drop_measured_to=None, rebound_measured_to=None):
     """The :class:`DropSetup` of a body for an engine, from what a user types.
 
     Parameters
@@ -197,12 +198,22 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         largest accepted penetration (or hover) [m]; default a quarter of the radius
     n_bounces : int or None
         bounces to calibrate and verify (default 3, or as ``impact_speed`` needs)
+    substeps : int or None
+        PyBullet only: ``numSubSteps`` (``--substeps``): ``dt_s`` is the ``stepSimulation()`` step, the
+        engine runs (and is checked) at ``dt_s / substeps`` (:func:`check_substeps`)
+    rebound_height_m : float or None
+        one's own drop test (``--rebound-height``, with ``drop_height_m``): epsilon = sqrt(h/H), Eq. 9,
+        both heights brought to the ball's bottom as ``vrcal fit`` does
+        (:func:`vrcal.inverse._drop_test`); the export drops the ball from that bottom height
+    drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"} or None
+        the point of the ball each height of that drop test was read to (default the bottom)
 
     Returns
     -------
     DropSetup
     """
     eng = get_engine(engine)
+    substeps = check_substeps(substeps, eng.name)
     K_per_s = floor_K(floor, K_per_s)
     body = describe_body(ball, mass_kg=mass_kg, diameter_m=diameter_m, from_json=from_json, standards=standards)
     tolerance_given = tolerance is not None
@@ -216,6 +227,8 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         raise UsageError("give --drop-height or --impact-speed, not both")
     if drop_height_m is not None:
         drop_height_m = check_drop_height(drop_height_m)
+    epsilon, drop_height_m, own_test = _own_drop_test(body, epsilon, drop_height_m, rebound_height_m, drop_measured_to,
+                                                      rebound_measured_to, impact_speed)
     doc = body.discovered
     record = RecordDrops.of(doc) if doc and drop_height_m is None and impact_speed is None else None
     notes = []
@@ -251,7 +264,10 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
             raise DataError(f"{from_json}: air_drag.drag_coefficient {drag:g} is outside [0, 3]")
         if not (-1 <= exponent <= 2):
             raise DataError(f"{from_json}: velocity_dependent_restitution.exponent {exponent:g} is outside [-1, 2]")
-    if epsilon is not None:
+    if own_test:
+        eps_ball = check_epsilon(epsilon, "the drop test's epsilon")
+        notes.insert(0, f"epsilon {eps_ball:.4f}: {own_test}")
+    elif epsilon is not None:
         eps_ball = check_epsilon(epsilon, "--epsilon")
         notes.insert(0, f"epsilon {eps_ball:.4f} given with --epsilon")
     elif body.epsilon() is not None:
@@ -299,7 +315,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if eps_floor != 1.0:
         notes.append(f"floor {floor_name}: epsilon {eps_floor:.4f}; pair {eps_ball:.4f} x {eps_floor:.4f} = "
                      f"{target:.4f} (Eq. 6)")
-    dt = check_dt(eng.default_dt_s if dt_s is None else dt_s)
+    dt = check_dt(eng.default_dt_s if dt_s is None else dt_s) / max(substeps, 1)
     if eng.name == "mujoco":
         from vrcal.engines.mujoco import DEFAULT_INTEGRATOR, INTEGRATORS
 
@@ -311,7 +327,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
         epsilon=check_epsilon(target), dt_s=dt, g_m_per_s2=g, ball_epsilon=eps_ball, floor_epsilon=eps_floor,
         notes=tuple(notes), n_bounces=n, drag_coefficient=drag, restitution_exponent=exponent,
         tolerance=tolerance, max_penetration_m=max_penetration_m, integrator=integrator,
-        release_time_s=release, height_offset_m=offset, baseline_epsilon=baseline,
+        release_time_s=release, height_offset_m=offset, baseline_epsilon=baseline, substeps=substeps,
     )
     if impact_speed is not None:
         setup = _reach_lowest_speed(setup, lo, hi, n_bounces)
@@ -325,6 +341,50 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     if H is not None:
         _check_bounces_reachable(setup, whence)
     return replace(setup, notes=setup.notes + tuple(air_left_out(setup, doc)))
+
+
+#: The most substeps ``--substeps`` takes.
+MAX_SUBSTEPS_GIVEN = 1000
+
+
+def check_substeps(substeps, engine):
+    """``--substeps`` as an int (0 when not given); UsageError (one line) for an engine other than PyBullet, or a
+    count that is not a whole number from 1 to :data:`MAX_SUBSTEPS_GIVEN`."""
+    if substeps is None:
+        return 0
+    if engine != "bullet":
+        raise UsageError(f"--substeps is PyBullet's numSubSteps and applies to --engine bullet only, not to {engine}: "
+                         "give that engine's step with --dt")
+    if isinstance(substeps, bool) or not float(substeps).is_integer() or not 1 <= substeps <= MAX_SUBSTEPS_GIVEN:
+        raise UsageError(f"--substeps must be a whole number from 1 to {MAX_SUBSTEPS_GIVEN}, got {substeps!r}")
+    return int(substeps)
+
+
+def _own_drop_test(body, epsilon, drop_height_m, rebound_height_m, drop_measured_to, rebound_measured_to,
+                   impact_speed):
+    """(epsilon, drop height of the ball's bottom [m], the note's words) of one's own drop test given with
+    ``--rebound-height`` (:func:`vrcal.inverse._drop_test`, as ``vrcal fit`` reads it); the arguments as they
+    came, and '', without one. UsageError (one line) for what cannot go with it."""
+    if rebound_height_m is None:
+        given = [flag for flag, value in (("--drop-measured-to", drop_measured_to),
+                                          ("--rebound-measured-to", rebound_measured_to)) if value is not None]
+        if given:
+            raise UsageError(f"{' and '.join(given)} read{'s' if len(given) == 1 else ''} the heights of your own "
+                             "drop test: give --rebound-height with --drop-height (epsilon = sqrt(h/H))")
+        return epsilon, drop_height_m, ""
+    clash = [flag for flag, value in (("--epsilon", epsilon), ("--impact-speed", impact_speed)) if value is not None]
+    if clash or body.discovered:
+        names = " and ".join(clash + (["--from"] if body.discovered else []))
+        raise UsageError(f"--rebound-height gives epsilon = sqrt(h/H) from your drop test, and the drop: leave out "
+                         f"{names}")
+    if drop_height_m is None:
+        raise UsageError("--rebound-height needs the --drop-height it rebounded from (epsilon = sqrt(h/H))")
+    from vrcal.inverse import _drop_test
+
+    eps, keys = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
+                           rebound_measured_to or "bottom")
+    return eps, keys["drop_height_m"], (f"{keys['epsilon_source']}, H {keys['drop_height_m']:.4g} m, "
+                                        f"h {keys['rebound_height_m']:.4g} m of the ball's bottom")
 
 
 def _fitted_release(doc, from_json):
@@ -606,7 +666,8 @@ def second_setup(setup, name, mass_kg, radius_m, epsilon, ball_epsilon_rigid):
 def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, against=None, standards=None,
            K_per_s=None, tolerance=None, mass_kg=None, diameter_m=None,
            drop_height_m=None, impact_speed=None, g_m_per_s2=None, from_json=None, integrator=None,
-           max_penetration_m=None, stiffness=None, n_phases=N_PHASES, n_bounces=None):
+           max_penetration_m=None, stiffness=None, n_phases=N_PHASES, n_bounces=None, substeps=None,
+           rebound_height_m=None, drop_measured_to=None, rebound_measured_to=None):
     """Export a body's calibrated drop for ``engine``.
 
     Parameters
@@ -625,6 +686,10 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
         contact phases of MuJoCo's calibration runs
     n_bounces : int or None
         bounces to calibrate and verify (``--bounces``; default: see :func:`build_setup`)
+    substeps : int or None
+        PyBullet's ``numSubSteps`` (``--substeps``; see :func:`build_setup`)
+    rebound_height_m, drop_measured_to, rebound_measured_to
+        one's own drop test (see :func:`build_setup`)
 
     Returns
     -------
@@ -640,7 +705,9 @@ def export(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, a
     setup = build_setup(ball, eng.name, epsilon, dt_s, floor, standards, K_per_s, mass_kg=mass_kg,
                         diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                         g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator, tolerance=tolerance,
-                        max_penetration_m=max_penetration_m, n_bounces=n_bounces)
+                        max_penetration_m=max_penetration_m, n_bounces=n_bounces, substeps=substeps,
+                        rebound_height_m=rebound_height_m, drop_measured_to=drop_measured_to,
+                        rebound_measured_to=rebound_measured_to)
     if stiffness is not None and eng.name != "mujoco":
         raise UsageError(f"--stiffness applies to MuJoCo only, not to {eng.name}")
     pair = second = None
@@ -1126,7 +1193,8 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         fewer = (f" ({FEWER_PHASES} {CONFIRM_PHASES} phases: that many would pass the run limit of "
                  f"{run_in.max_steps:d} steps)"
                  if _phases(runs) < CONFIRM_PHASES else "")
-        return (f"step {setup.dt_s:g} s checked in {label} "
+        sub = f" ({setup.step_options})" if setup.substeps else ""
+        return (f"step {setup.dt_s:g} s{sub} checked in {label} "
                 f"({_phases(runs)} phases x {counted(setup.n_bounces, 'bounce')}): "
                 f"worst epsilon error {runs.worst_error:.3g}, the ball turns {_depth(runs) * 1e3:.3g} mm from the "
                 f"floor (limits {setup.tolerance:g}, {setup.penetration_limit_m * 1e3:.3g} mm){fewer}"
@@ -1177,6 +1245,9 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
     else:                                        # no drop test: the ball did not bounce as asked, or too long a run
         what = f"no drop test): {runs}"
         scale = min(setup.tolerance / bound, setup.penetration_limit_m / depth)
+    if setup.substeps:                           # a step of the user's: more substeps of it
+        how = _substeps_text(setup, engine, n_phases, label)
+        raise UsageError(f"{subject} at {setup.step_options} misses ({what}; {how}" + (f"; {keep}" if keep else ""))
     dt_ok, ok, tried = passing_step(setup, engine, setup.dt_s * min(1.25 * scale, STEP_RATIO), n_phases)
     missed = [dt for dt in tried if dt != dt_ok]
     above = (f"; {_steps_text(missed)} missed" if missed else "")
@@ -1188,7 +1259,51 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
         how = (f"none of the steps run in {label} met both ({_steps_text(tried)}): raise --tolerance or "
                "--max-penetration" + (", or give an epsilon further below 1" if isinstance(runs, DropRuns)
                                       and runs.gain is not None else ""))
-    raise UsageError(f"{subject} at --dt {setup.dt_s:g} s misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+    raise UsageError(f"{subject} at {setup.step_options} misses ({what}; {how}" + (f"; {keep}" if keep else ""))
+
+
+#: The most PyBullet substeps a refusal's search tries (:func:`passing_substeps`).
+MAX_SUBSTEPS = 256
+
+
+def passing_substeps(setup, engine, n_phases=N_PHASES, most=MAX_SUBSTEPS):
+    """The fewest PyBullet substeps of the setup's ``stepSimulation()`` step (``setup.substeps x setup.dt_s``)
+    at which the drop test passes in the engine: doubled from ``setup.substeps`` (which missed) until a count
+    passes, then bisected between the last that missed and it (:func:`_run_confirmed`, the check an export at
+    it runs). Returns (substeps, its DropRuns, the largest count run that missed) or (None, None, that count)."""
+    outer = setup.dt_s * setup.substeps
+
+    def run(count):
+        runs = _run_confirmed(replace(setup, substeps=count), engine, outer / count, n_phases)
+        return isinstance(runs, DropRuns) and _meets(setup, runs), runs
+
+    miss, count = setup.substeps, 2 * setup.substeps
+    while True:
+        ok, runs = run(count)
+        if ok:
+            break
+        miss, count = count, 2 * count
+        if count > most or runs is None:
+            return None, None, miss
+    while count - miss > 1:
+        mid = (miss + count) // 2
+        ok_mid, runs_mid = run(mid)
+        if ok_mid:
+            count, runs = mid, runs_mid
+        else:
+            miss = mid
+    return count, runs, miss
+
+
+def _substeps_text(setup, engine, n_phases, label):
+    """A refusal's clause naming the substeps of the user's step that meet the limits (:func:`passing_substeps`)."""
+    count, ok, miss = passing_substeps(setup, engine, n_phases)
+    outer = setup.dt_s * setup.substeps
+    if ok is None:
+        return (f"up to {miss:d} substeps of --dt {outer:g} s none met both in {label}: raise --tolerance or "
+                "--max-penetration")
+    return (f"--dt {outer:g} --substeps {count:d} meets both (run in {label}: step {outer / count:.3g} s, error "
+            f"{ok.worst_error:.3g}, {_depth(ok) * 1e3:.3g} mm; --substeps {miss:d} missed; {NOT_MONOTONIC})")
 
 
 def keep_limits(setup, worst_error, depth_m, margin=1.0):
@@ -1211,8 +1326,8 @@ def keep_limits(setup, worst_error, depth_m, margin=1.0):
                f"and {margin - 1:.0%} more, the margin a looser calibration needs, reaches its radius "
                f"{setup.radius_m * 1e3:.3g} mm")
         # what a user whose step is fixed gets there: both numbers, measured
-        return tolerance, None, (f"no --max-penetration keeps --dt {setup.dt_s:g} s: the ball turns "
-                                 f"{measured * 1e3:.3g} mm from the floor, {why}; at --dt {setup.dt_s:g} s "
+        return tolerance, None, (f"no --max-penetration keeps {setup.step_options}: the ball turns "
+                                 f"{measured * 1e3:.3g} mm from the floor, {why}; at {setup.step_options} "
                                  f"the drop test measured worst epsilon error {worst_error / margin:.3g}"
                                  + (f" (--tolerance {tolerance:g} accepts it)" if tolerance is not None else "")
                                  + " and that depth, which no limit accepts")
@@ -1233,7 +1348,7 @@ def keep_text(setup, tolerance, penetration, refusal):
     options = _limit_options(tolerance, penetration)
     if not options:
         return ""
-    return f"to keep --dt {setup.dt_s:g} s, accept what it achieves: {options}"
+    return f"to keep {setup.step_options}, accept what it achieves: {options}"
 
 
 def _steps_text(steps):
