@@ -37,6 +37,8 @@ def _named_step(message):
 def test_refine_step_bisects_to_its_resolution():
     """Between 0.0025 (passes) and 0.0031 (misses), a step that passes up to 0.003 s: 0.003, with 0.0031 the
     miss above it, at a resolution of 0.0001 s (at most 5 % of the step)."""
+    from vrcal.engines.common import refine_step, step_resolution_s
+
     assert step_resolution_s(0.0025) == pytest.approx(1e-4) and step_resolution_s(0.0019) == pytest.approx(1e-5)
     tried = []
 
@@ -183,7 +185,8 @@ def test_pybullets_substeps_are_run_as_the_file_sets_them(tmp_path):
     # verify runs the file's substeps, or others
     assert run("verify", "--engine", "bullet", "--file", sub, "--phases", 2, "--bounces", 1).exit_code == 0
     other = run("verify", "--engine", "bullet", "--file", sub, "--phases", 2, "--bounces", 1, "--substeps", 1)
-    assert "run with --substeps 1: a step of 0.00416667 s; the file's numSubSteps is 4" in " ".join(other.output.split())
+    said = " ".join(other.output.split())
+    assert "run with --substeps 1: a step of 0.00416667 s; the file's numSubSteps is 4" in said
 
 
 def test_too_few_substeps_are_refused_naming_a_count_that_passes(tmp_path):
