@@ -843,6 +843,9 @@ def _engine_options(f):
         g_option(),
         click.option("--dt", "dt_s", type=opt.TIME_STEP_S, default=None,
                      help=f"Engine time step [s] (default: the engine's: {default_steps_text()})."),
+        click.option("--substeps", "substeps", type=opt.Count(1, 1000), default=None,
+                     help="PyBullet's numSubSteps: each stepSimulation() advances --dt in this many steps of "
+                          "--dt/N, the step checked (default: none; verify --file: the file's)."),
         click.option("--integrator", type=click.Choice(["euler", "implicit", "implicitfast", "rk4"],
                                                        case_sensitive=False), default=None,
                      help="MuJoCo's integrator [default: euler, MuJoCo's own]."),
@@ -866,6 +869,13 @@ def _engine_options(f):
 @click.option("--engine", "engine", type=opt.NamedChoice(_ENGINE_NAMES, case_sensitive=False), required=True,
               help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
 @_engine_options
+@click.option("--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
+              help="Your own drop test: the rebound height h [m] from --drop-height H; epsilon = sqrt(h/H) (Eq. 9) "
+                   "with both heights of the ball's bottom, as vrcal fit reads them.")
+@click.option("--drop-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+              help="--rebound-height: point of the ball the drop height was read to.")
+@click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+              help="--rebound-height: point of the ball the rebound height was read to.")
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
 @click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
               show_default="3, or as --impact-speed needs",
@@ -881,8 +891,8 @@ def _engine_options(f):
 @STANDARDS_OPTION
 @click.pass_context
 def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
-               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, against, n_bounces, K, trade_off,
-               fmt, output):
+               dt_s, substeps, integrator, stiffness, tolerance, max_penetration_m, floor, rebound_height_m,
+               drop_measured_to, rebound_measured_to, against, n_bounces, K, trade_off, fmt, output):
     """Export a ball's calibrated bounce to a physics engine's own file.
 
     BALL is a ball of the standards; without it give --mass and --diameter (and --epsilon and
@@ -894,6 +904,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     Examples:
       vrcal export basketball --engine mujoco -o basketball.xml
       vrcal export --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
+      vrcal export --mass 0.058 --diameter 0.062 --drop-height 1.2 --rebound-height 0.71 --engine bullet
       vrcal export tennis --engine mujoco --trade-off
       vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
@@ -909,7 +920,9 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                    K_per_s=K, mass_kg=mass_kg, diameter_m=diameter_m,
                    drop_height_m=drop_height_m, impact_speed=impact_speed, g_m_per_s2=g_m_per_s2,
                    from_json=from_json, integrator=integrator,
-                   tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces)
+                   tolerance=tolerance, max_penetration_m=max_penetration_m, n_bounces=n_bounces,
+                   substeps=substeps, rebound_height_m=rebound_height_m, drop_measured_to=drop_measured_to,
+                   rebound_measured_to=rebound_measured_to)
     form = choose_format(fmt, None, default="text", allowed=("text", "json"))
     if output not in (None, "-"):
         from vrcal.engines import get_engine
@@ -977,8 +990,8 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @STANDARDS_OPTION
 @click.pass_context
 def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_height_m, impact_speed, g_m_per_s2,
-               dt_s, integrator, stiffness, tolerance, max_penetration_m, floor, file, ball_geom, floor_geom, against,
-               data_fmt, fs_hz, scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, K, fmt):
+               dt_s, substeps, integrator, stiffness, tolerance, max_penetration_m, floor, file, ball_geom, floor_geom,
+               against, data_fmt, fs_hz, scale_m_per_px, y_down, data_floor_m, plot_file, n_bounces, n_phases, K, fmt):
     """Load the exported settings into the real engine and run the drop test (or replay a record).
 
     Drops the ball --phases times with the impact moved across one time step and compares
@@ -1039,7 +1052,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
                     mass_kg=mass_kg, diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                     g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                     max_penetration_m=max_penetration_m, stiffness=stiffness, K_per_s=K, file_name=file,
-                    ball_geom=ball_geom, floor_geom=floor_geom)
+                    ball_geom=ball_geom, floor_geom=floor_geom, substeps=substeps)
     emit(format_report(result) if fmt == "text" else dumps(machine_document(result.as_dict()), "json"), None)
     if not result.passed:
         click.echo(f"vrcal: error: {result.failure()}", err=True)
@@ -1050,7 +1063,8 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 #: verify's options a replay (--from with --against) takes from the discover result or does not run.
 _NOT_IN_REPLAY = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diameter"), ("epsilon", "--epsilon"),
                   ("drop_height_m", "--drop-height"), ("impact_speed", "--impact-speed"), ("g_m_per_s2", "--g"),
-                  ("floor", "--floor"), ("n_bounces", "--bounces"), ("n_phases", "--phases"), ("K", "--K"))
+                  ("floor", "--floor"), ("n_bounces", "--bounces"), ("n_phases", "--phases"), ("K", "--K"),
+                  ("substeps", "--substeps"))
 
 
 def _refuse_in_replay(ctx, file):

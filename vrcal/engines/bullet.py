@@ -93,12 +93,17 @@ def export_params(setup, n_bounces=None, pair=None):
             "floor": {"restitution": setup.floor_epsilon},
         },
         "setPhysicsEngineParameter": {
-            "fixedTimeStep": setup.dt_s, "numSubSteps": 0,
+            "fixedTimeStep": setup.dt_s * max(setup.substeps, 1), "numSubSteps": int(setup.substeps),
             "restitutionVelocityThreshold": RESTITUTION_VELOCITY_THRESHOLD, "contactSlop": CONTACT_SLOP_M,
         },
         "setGravity": [0.0, 0.0, -setup.g_m_per_s2],
         "notes": [
             step_note(setup, "bullet"),
+            *([f"numSubSteps {setup.substeps:d}: each stepSimulation() advances fixedTimeStep "
+               f"{setup.dt_s * setup.substeps:g} s in {setup.substeps:d} steps of {setup.dt_s:g} s, the step it was "
+               f"checked at (the same positions as fixedTimeStep {setup.dt_s:g} s without substeps, measured); "
+               "a fixedTimeStep pasted without its numSubSteps runs the check's step, another than yours"]
+              if setup.substeps else []),
             "Bullet multiplies the two bodies' restitution: ball x floor = "
             f"{ball_eps:.6g} x {setup.floor_epsilon:.6g} = {setup.epsilon:.6g}",
             f"no bounce below restitutionVelocityThreshold (Bullet's default 0.2 m/s; set here to "
@@ -174,15 +179,29 @@ def version():
     return f"pybullet API {p.getAPIVersion()}"
 
 
+def substeps_of(params):
+    """The ``numSubSteps`` of a parameter set (0: none) and the step of each [s]: ``fixedTimeStep / numSubSteps``."""
+    eng = params["setPhysicsEngineParameter"]
+    n = int(eng.get("numSubSteps", 0) or 0)
+    return n, float(eng["fixedTimeStep"]) / max(n, 1)
+
+
 def run_drop(params, drop_height_m, duration_s):
-    """Drop the ball of an exported parameter set once in a DIRECT PyBullet client."""
+    """Drop the ball of an exported parameter set once in a DIRECT PyBullet client.
+
+    With ``numSubSteps`` N each ``stepSimulation()`` takes N steps of ``fixedTimeStep / N``; the run
+    takes them one by one (``fixedTimeStep / N``, no substeps) so that every step is sampled, its depth
+    too, and the snippet's ``vrcal_step`` holds its drag force and restitution over the N steps, as
+    PyBullet's substeps do (an external force acts in every substep of the call it was applied before):
+    the positions are PyBullet's own with the substeps (tests/engines/test_bullet.py)."""
     p = _pybullet()
     cid = p.connect(p.DIRECT)
     try:
         ball = params["ball"]
         R = float(ball["radius_m"])
         eng = dict(params["setPhysicsEngineParameter"])
-        dt = float(eng["fixedTimeStep"])
+        n_sub, dt = substeps_of(params)
+        eng.update(fixedTimeStep=dt, numSubSteps=0)
         p.setPhysicsEngineParameter(physicsClientId=cid, **eng)
         p.setGravity(*params["setGravity"], physicsClientId=cid)
         plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
@@ -193,15 +212,15 @@ def run_drop(params, drop_height_m, duration_s):
         p.changeDynamics(body, -1, physicsClientId=cid, **params["changeDynamics"]["ball"])
         p.changeDynamics(floor, -1, physicsClientId=cid, **params["changeDynamics"]["floor"])
         g = -float(params["setGravity"][2])
-        n = int(math.ceil(duration_s / dt))
+        n_outer = max(n_sub, 1)
+        n = int(math.ceil(duration_s / (dt * n_outer))) * n_outer
         z = np.empty(n + 1)
         v = np.empty(n + 1)
         z[0], v[0] = drop_height_m, 0.0
-        step = step_function(params, _Bound(p, cid))
-        for i in range(1, n + 1):
+        bound = _Substeps(p, cid, n_outer, body, R, z, v)
+        step = step_function(params, bound)
+        while bound.i < n:
             step(body)
-            z[i] = p.getBasePositionAndOrientation(body, physicsClientId=cid)[0][2] - R
-            v[i] = p.getBaseVelocity(body, physicsClientId=cid)[0][2]
         return z, v, dt, g
     finally:
         p.disconnect(cid)
@@ -245,8 +264,12 @@ def run_pair(params, pair, gap_m, n_steps):
 
 
 def pair_test(params, pair, n_phases):
-    """The two-ball collision test of an exported file's pair in PyBullet: a PairResult."""
-    pair = replace(pair, dt_s=float(params["setPhysicsEngineParameter"]["fixedTimeStep"]), contact_steps=2)
+    """The two-ball collision test of an exported file's pair in PyBullet: a PairResult (with ``numSubSteps``
+    N run at ``fixedTimeStep / N`` without substeps: the same positions, measured, :func:`run_drop`)."""
+    _, dt = substeps_of(params)
+    params = dict(params, setPhysicsEngineParameter=dict(params["setPhysicsEngineParameter"], fixedTimeStep=dt,
+                                                         numSubSteps=0))
+    pair = replace(pair, dt_s=dt, contact_steps=2)
     return PairResult("bullet", pair, stepped_pair_test(run_pair, params, pair, n_phases))
 
 
@@ -261,6 +284,35 @@ class _Bound:
         if callable(attr):
             return lambda *args, **kwargs: attr(*args, physicsClientId=self._cid, **kwargs)
         return attr
+
+
+class _Substeps(_Bound):
+    """:class:`_Bound` whose ``stepSimulation()`` is PyBullet's with ``numSubSteps`` N, taken step by step in a
+    world of ``fixedTimeStep / N`` without substeps: N steps, the external forces applied before the call
+    applied again before each (PyBullet applies them in every substep), each step's bottom height and
+    vertical velocity written to ``z`` and ``v`` at index ``i``."""
+
+    def __init__(self, module, cid, n_sub, body, radius_m, z, v):
+        super().__init__(module, cid)
+        self._n, self._body, self._R, self._z, self._v = n_sub, body, radius_m, z, v
+        self._forces, self.i = [], 0
+
+    def applyExternalForce(self, *args, **kwargs):       # noqa: N802 - pybullet's name
+        self._forces.append((args, kwargs))
+        return self._p.applyExternalForce(*args, physicsClientId=self._cid, **kwargs)
+
+    def stepSimulation(self):                            # noqa: N802 - pybullet's name
+        p, cid = self._p, self._cid
+        for k in range(self._n):
+            if k:
+                for args, kwargs in self._forces:
+                    p.applyExternalForce(*args, physicsClientId=cid, **kwargs)
+            p.stepSimulation(physicsClientId=cid)
+            self.i += 1
+            if self.i < len(self._z):
+                self._z[self.i] = p.getBasePositionAndOrientation(self._body, physicsClientId=cid)[0][2] - self._R
+                self._v[self.i] = p.getBaseVelocity(self._body, physicsClientId=cid)[0][2]
+        self._forces = []
 
 
 def step_function(params, p):

@@ -60,6 +60,7 @@ from vrcal.engines.common import (
     error_text,
     metadata,
     phase_shifts_m,
+    refine_step,
     round_down,
     sized_run,
     step_note,
@@ -922,14 +923,17 @@ def _calibrate_at(setup, n_phases, kind, w, margin):
 
 
 def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
-    """The largest time step (two significant digits) at which MuJoCo meets the tolerance and the
-    penetration limit, found by calibrating in MuJoCo at smaller and smaller steps.
+    """The largest time step at which MuJoCo meets the tolerance and the penetration limit, found by
+    calibrating in MuJoCo at smaller and smaller steps (a grid, two significant digits), then by
+    bisection between the largest that passed and the smallest above it that missed (the setup's own
+    step when the first passed) to :func:`vrcal.engines.common.step_resolution_s`
+    (:func:`vrcal.engines.common.refine_step`): each step is the calibration an export at it runs.
 
     Returns
     -------
-    (float, Calibration) or (None, None)
-        the step and the calibration that met both; None when no step down to a run of
-        :data:`MAX_STEPS` steps does
+    (float, Calibration, float) or (None, None, None)
+        the step [s], the calibration that met both there, and the smallest larger step that was
+        calibrated and missed [s]; None when no step down to a run of :data:`MAX_STEPS` steps does
     """
     kind = kind or default_kind(setup)
     V = setup.impact_speed_m_per_s
@@ -942,16 +946,26 @@ def suggest_dt(setup, n_phases=N_PHASES, kind=None, omega_per_s=None):
         w = omega_per_s or spring_omega(setup)
         candidates = [c / w for c in (0.4, 0.2, 0.1, 0.05, 0.025, 0.0125, 0.00625)]
         candidates = [round_down(dt) for dt in candidates if dt < setup.dt_s]
-    for dt in candidates:
+
+    def run(dt):
         trial = replace(setup, dt_s=dt)
+        check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
         try:
-            check_steps(trial, n_phases, "MuJoCo", MAX_STEPS)
+            cal = calibrate(trial, n_phases, kind, omega_per_s)
+        except StillBouncing:                    # no damping brings it down at this step: a miss
+            return False, None
+        return cal.ok, cal
+
+    missed = setup.dt_s
+    for dt in candidates:
+        try:
+            ok, cal = run(dt)
         except UsageError:
-            return None, None
-        cal = calibrate(trial, n_phases, kind, omega_per_s)
-        if cal.ok:
-            return dt, cal
-    return None, None
+            return None, None, None
+        if ok:
+            return refine_step(run, dt, cal, missed)
+        missed = dt
+    return None, None, None
 
 
 def trade_off_steps(dt_s):

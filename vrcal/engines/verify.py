@@ -42,7 +42,7 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
            tolerance=None, n_bounces=None, n_phases=DEFAULT_PHASES, exported_text=None,
            mass_kg=None, diameter_m=None, drop_height_m=None, impact_speed=None, g_m_per_s2=None,
            from_json=None, integrator=None, max_penetration_m=None, stiffness=None, K_per_s=None, file_name=None,
-           ball_geom=None, floor_geom=None):
+           ball_geom=None, floor_geom=None, substeps=None):
     """Run the drop test of a body in ``engine`` with the exported settings.
 
     Parameters
@@ -69,6 +69,9 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         MuJoCo, with ``exported_text``: the names of the ball's sphere geom and the floor's geom in
         a model of the user's (``--ball-geom``, ``--floor-geom``); default: 'ball' and 'floor', or the
         geoms of the model's one ``<pair>`` (:func:`vrcal.engines.mujoco.scene_of`)
+    substeps : int, optional
+        PyBullet's ``numSubSteps`` (``--substeps``): a fresh export's (see
+        :func:`vrcal.engines.export.build_setup`), or, with ``exported_text``, instead of the file's
 
     Returns
     -------
@@ -93,9 +96,13 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                    g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
                    max_penetration_m=max_penetration_m, K_per_s=K_per_s)
     if exported_text is not None:
+        from vrcal.engines.export import check_substeps
+
+        check_substeps(substeps, eng.name)
         try:
             loaded, runnable, setup = _load_file(eng.name, exported_text, ball,
-                                                 dict(options, stiffness=stiffness, tolerance=tolerance), geoms)
+                                                 dict(options, stiffness=stiffness, tolerance=tolerance,
+                                                      substeps=substeps), geoms)
         except DataError as exc:   # a file that is no export of this engine: say which file
             if file_name is None or str(exc).startswith(str(file_name)):
                 raise
@@ -110,9 +117,10 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
                           mass_kg=mass_kg,
                           diameter_m=diameter_m, drop_height_m=drop_height_m, impact_speed=impact_speed,
                           g_m_per_s2=g_m_per_s2, from_json=from_json, integrator=integrator,
-                          max_penetration_m=max_penetration_m, n_bounces=asked)
+                          max_penetration_m=max_penetration_m, n_bounces=asked, substeps=substeps)
         check_steps(pre, n_phases, run_in.label, run_in.max_steps)
-        ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, n_bounces=asked, **options)
+        ex = export(ball, eng.name, tolerance=export_tolerance, stiffness=stiffness, n_bounces=asked,
+                    substeps=substeps, **options)
         loaded = runnable = parse_exported(eng.name, ex.text)        # what a user loads: the file's text
         setup = ex.setup
     if asked is None:
@@ -137,7 +145,8 @@ def verify(ball=None, engine="mujoco", *, epsilon=None, dt_s=None, floor=None, s
         **_settings(eng.name, loaded, runnable, setup), notes=setup.notes, g_m_per_s2=setup.g_m_per_s2,
         impact_speeds_m_per_s=tuple(float(v) for v in setup.impact_speeds_m_per_s[:n_bounces]),
         holds_down_to_m_per_s=_holds_down_to(eng.name, loaded), drop_height_m=setup.drop_height_m,
-        others=others, unverified=unverified, pair=pair,
+        others=others, unverified=unverified, pair=pair, apex_goal=setup.apex_goal, apex_floor_m=setup.apex_floor_m,
+        from_record=bool(setup.drag_coefficient or setup.restitution_exponent or setup.apex_goal is not None),
     )
 
 
@@ -257,7 +266,8 @@ FIXED_BY_FILE = (("ball", "BALL"), ("mass_kg", "--mass"), ("diameter_m", "--diam
                  ("impact_speed", "--impact-speed"), ("K_per_s", "--K"))
 
 #: What applies with --file (named in the refusal).
-APPLY_TO_FILE = "--dt, --g, --drop-height, --epsilon, --tolerance, --max-penetration, --bounces and --phases"
+APPLY_TO_FILE = ("--dt, --g, --drop-height, --epsilon, --tolerance, --max-penetration, --bounces and --phases "
+                 "(and PyBullet's --substeps)")
 
 
 def _check_geom_options(engine, exported_text, ball_geom, floor_geom):
@@ -324,6 +334,12 @@ def _load_file(engine, text, ball, options, geoms=None):
     _refuse_fixed(options, [k for k, _ in FIXED_BY_FILE] if vrcal_file else ("integrator", "stiffness"))
     file_dt = check_dt(file_dt, "the file's time step")
     dt = file_dt if options["dt_s"] is None else check_dt(options["dt_s"])
+    file_sub = sub = 0
+    if engine == "bullet":           # numSubSteps N: the engine steps dt/N; the notes speak of stepSimulation's dt
+        from vrcal.engines.bullet import substeps_of
+
+        file_sub = substeps_of(loaded)[0]
+        sub = file_sub if options.get("substeps") is None else int(options["substeps"])
     runnable, file_g = _runnable(engine, loaded, geoms)
     if engine == "mujoco":
         from vrcal.engines.mujoco import ball_of
@@ -334,6 +350,11 @@ def _load_file(engine, text, ball, options, geoms=None):
     if dt != file_dt:
         what = "its contact is tuned to that step" if engine == "mujoco" else "it was checked at that step"
         notes.append(f"run at --dt {dt:g} s; the file is for {file_dt:g} s ({what})")
+    if sub != file_sub:
+        notes.append(f"run with --substeps {sub:d}: a step of {dt / max(sub, 1):g} s; the file's numSubSteps is "
+                     f"{file_sub:d} (it was checked at {file_dt / max(file_sub, 1):g} s)")
+    if sub:
+        runnable["setPhysicsEngineParameter"]["numSubSteps"] = sub
     if g != file_g:
         notes.append(f"run at --g {g:g} m/s^2; the file holds {file_g:g} m/s^2")
     _set_step_and_gravity(engine, runnable, dt, g)
@@ -341,7 +362,8 @@ def _load_file(engine, text, ball, options, geoms=None):
         from vrcal.engines.export import build_setup
 
         opts = {k: v for k, v in options.items() if k not in ("ball", "stiffness", "tolerance")}
-        opts.update(dt_s=dt, g_m_per_s2=g, integrator=integrator if engine == "mujoco" else None)
+        opts.update(dt_s=dt, g_m_per_s2=g, integrator=integrator if engine == "mujoco" else None,
+                    substeps=sub or None)
         if options.get("tolerance") is not None:
             opts["tolerance"] = options["tolerance"]
         if engine in ("mujoco", "gazebo"):
@@ -380,7 +402,7 @@ def _load_file(engine, text, ball, options, geoms=None):
         tolerance = float(target.get("tolerance", DEFAULT_TOLERANCE))
     setup = DropSetup(
         ball=name, mass_kg=float(mass), radius_m=float(radius), drop_height_m=float(H), epsilon=eps,
-        dt_s=dt, g_m_per_s2=g, ball_epsilon=eps,
+        dt_s=dt / max(sub, 1), g_m_per_s2=g, ball_epsilon=eps, substeps=sub,
         notes=tuple(notes), n_bounces=max(int(target.get("n_bounces", N_BOUNCES)), 1),
         drag_coefficient=float(target.get("drag_coefficient", 0.0)),
         restitution_exponent=float(target.get("restitution_exponent", 0.0)),
@@ -389,10 +411,21 @@ def _load_file(engine, text, ball, options, geoms=None):
         tolerance=tolerance,
         integrator=integrator, release_time_s=float(target.get("release_time_s", 0.0)),
         height_offset_m=float(target.get("height_offset_m", 0.0)),
+        apex_goal=_apex_goal(target.get("apex_goal")),
+        apex_floor_m=float(target.get("apex_floor_m") or 0.0) if target.get("apex_goal") is not None else 0.0,
     )
     if not (0 <= setup.drag_coefficient <= 3 and -1 <= setup.restitution_exponent <= 2 and setup.g_m_per_s2 > 0):
         raise DataError("the file's vrcal_* numbers are out of range (drag_coefficient, restitution_exponent, g)")
     return loaded, runnable, setup
+
+
+def _apex_goal(value):
+    """The file's ``apex_goal`` (a fraction in (0, 1)), None when it has none; DataError when it is no such number."""
+    if value is None:
+        return None
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0 < value < 1:
+        raise DataError(f"the file's apex_goal must be a fraction between 0 and 1, got {value!r}")
+    return float(value)
 
 
 def _refuse_other_engine(engine, text):
@@ -542,6 +575,14 @@ def format_report(result):
              f"(limit {r.max_penetration_m * 1e3:.3g} mm)\n")
     if runs.height_ratio_text():
         text += runs.height_ratio_text() + " (the epsilon error is absolute)\n"
+    if r.apex_goal is not None:
+        text += (runs.apex_text(r.apex_goal, r.apex_floor_m)
+                 + " (judged: each bounce's error compounds in the heights)\n")
+    elif r.from_record:
+        text += "\n".join(textwrap.wrap(
+            f"{runs.apex_text()}, not judged: the verdict checks each bounce's epsilon (--tolerance), not the heights "
+            f"of a record, where each bounce's error compounds; judge those: vrcal verify --from RESULT.json "
+            f"--against RECORD --engine {r.engine} --file FILE", 100)) + "\n"
     if runs.gain is not None:
         text += runs.gain_text() + "\n"
     if r.others or r.unverified or r.pair is not None:
