@@ -123,16 +123,16 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
         raise UsageError(f"--x must be a finite depth > 0 [m], got {x_m!r}")
     if v_m_per_s is not None and not (math.isfinite(v_m_per_s) and v_m_per_s > 0):
         raise UsageError(f"--v must be a finite speed > 0 [m/s], got {v_m_per_s!r}")
-    drop_test = None
+    own_test = None
     if any(a is not None for a in (drop_height_m, rebound_height_m, drop_measured_to, rebound_measured_to)):
         if epsilon is not None:
             raise UsageError("give --epsilon or the drop test's heights (--drop-height, --rebound-height), not both")
-        epsilon, drop_test = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
-                                        rebound_measured_to or "bottom", height_sd_m)
+        epsilon, own_test = drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
+                                      rebound_measured_to or "bottom", height_sd_m)
     elif height_sd_m is not None:
         raise UsageError("--height-sd is the uncertainty of your own drop test's heights: give --drop-height and "
                          "--rebound-height with it")
-    if body is None and drop_test is None:
+    if body is None and own_test is None:
         raise UsageError("no body: give a ball of the standards, or --mass and --diameter (one's own drop test, "
                          "--drop-height and --rebound-height, needs none)")
     if body is not None and epsilon is None and body.discovered is None and body.standard is not None:
@@ -144,9 +144,9 @@ def fit_ball(ball, K_per_s=DEFAULT_K_PER_S, *, x_m=None, v_m_per_s=None, n=11, a
             out.update(drag)
     else:
         out = _single_fit(body, K, as_paper, epsilon)
-    if drop_test is not None:
-        out["notes"] = list(out.get("notes", [])) + drop_test.pop("notes", [])
-        out.update(drop_test)
+    if own_test is not None:
+        out["notes"] = list(out.get("notes", [])) + own_test.pop("notes", [])
+        out.update(own_test)
     if body is not None:
         out["notes"] = list(out.get("notes", [])) + buoyancy_notes(body.mass_kg, body.diameter_m)
     eps = out["epsilon"]
@@ -237,7 +237,7 @@ def epsilon_uncertainty_from_heights(rebound_height_m, drop_height_m, rebound_sd
     return eq._out(0.5 * eps * rel)
 
 
-def _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom",
+def drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", rebound_measured_to="bottom",
                height_sd_m=None):
     """(epsilon, keys) of one's own drop test: Eq. (9) with both heights brought to the ball's bottom (``body``
     None: heights of the bottom, no drag check), and its uncertainty from the heights' (``height_sd_m`` for

@@ -204,7 +204,7 @@ def build_setup(ball=None, engine="mujoco", epsilon=None, dt_s=None, floor=None,
     rebound_height_m : float or None
         one's own drop test (``--rebound-height``, with ``drop_height_m``): epsilon = sqrt(h/H), Eq. 9,
         both heights brought to the ball's bottom as ``vrcal fit`` does
-        (:func:`vrcal.inverse._drop_test`); the export drops the ball from that bottom height
+        (:func:`vrcal.inverse.drop_test`); the export drops the ball from that bottom height
     drop_measured_to, rebound_measured_to : {"bottom", "centre", "top"} or None
         the point of the ball each height of that drop test was read to (default the bottom)
 
@@ -363,7 +363,7 @@ def check_substeps(substeps, engine):
 def _own_drop_test(body, epsilon, drop_height_m, rebound_height_m, drop_measured_to, rebound_measured_to,
                    impact_speed):
     """(epsilon, drop height of the ball's bottom [m], the note's words) of one's own drop test given with
-    ``--rebound-height`` (:func:`vrcal.inverse._drop_test`, as ``vrcal fit`` reads it); the arguments as they
+    ``--rebound-height`` (:func:`vrcal.inverse.drop_test`, as ``vrcal fit`` reads it); the arguments as they
     came, and '', without one. UsageError (one line) for what cannot go with it."""
     if rebound_height_m is None:
         given = [flag for flag, value in (("--drop-measured-to", drop_measured_to),
@@ -379,9 +379,9 @@ def _own_drop_test(body, epsilon, drop_height_m, rebound_height_m, drop_measured
                          f"{names}")
     if drop_height_m is None:
         raise UsageError("--rebound-height needs the --drop-height it rebounded from (epsilon = sqrt(h/H))")
-    from vrcal.inverse import _drop_test
+    from vrcal.inverse import drop_test
 
-    eps, keys = _drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
+    eps, keys = drop_test(body, drop_height_m, rebound_height_m, drop_measured_to or "bottom",
                            rebound_measured_to or "bottom")
     return eps, keys["drop_height_m"], (f"{keys['epsilon_source']}, H {keys['drop_height_m']:.4g} m, "
                                         f"h {keys['rebound_height_m']:.4g} m of the ball's bottom")
