@@ -321,3 +321,15 @@ def test_pair_says_when_a_virtual_body_cannot_be_a_balls_or_a_floor_is_not_rigid
     assert pair("x=0.01,v=0.1", "floor")["notes"] == []
     assert "playing floor, not a rigid one" in " ".join(pair("basketball", "floor")["notes"])
     assert "not stated" in " ".join(pair("volleyball", "tennis")["notes"])
+
+
+def test_a_height_sd_beyond_first_order_is_refused_and_zero_gives_no_plus_minus():
+    """A re-check: `--height-sd 1` for a 0.53 m rebound printed 0.7301 ± 0.7761 (first order far out of its
+    range); `--height-sd 0` dropped the ± but the note still explained it."""
+    with pytest.raises(UsageError, match=r"--height-sd 1 m is 188 % of a height .* does not hold beyond 10 %"):
+        fit_ball("tennis", drop_height_m=1.0, rebound_height_m=0.6, rebound_measured_to="top", height_sd_m=1.0)
+    exact = fit_ball(None, drop_height_m=1.0, rebound_height_m=0.64, height_sd_m=0.0)
+    assert exact["epsilon_uncertainty"] == 0.0 and "±" not in fit_text(exact).splitlines()[4]
+    assert "heights taken as exact (--height-sd 0): no ± of ε" in exact["notes"]
+    low = fit_ball(None, drop_height_m=1.0, rebound_height_m=0.01)      # an assumed 2 mm on 1 cm: given, not refused
+    assert low["epsilon_uncertainty"] == pytest.approx(0.1 / 2 * math.hypot(0.2, 0.002), rel=1e-9)

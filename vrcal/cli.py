@@ -956,8 +956,9 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
 @click.argument("ball", required=False)
 @click.option("--engine", "engine", type=opt.NamedChoice(["mujoco", "ode", "bullet", "pybullet", "gazebo"],
                                                         case_sensitive=False),
-              required=True, help="Engine to run the drop test in (gazebo: an SDF world given with --file, run in "
-                                  "libode with its surfaces combined as Gazebo classic does).")
+              default=None, help="Engine to run the drop test in (gazebo: an SDF world given with --file, run in "
+                                 "libode with its surfaces combined as Gazebo classic does); with --file, the file's "
+                                 "by default.")
 @_engine_options
 @click.option("--file", "file", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this file written by 'vrcal export' instead of a fresh export (--dt, --g, "
@@ -1013,6 +1014,13 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     from vrcal.fileio import dumps
     from vrcal.textout import machine_document
 
+    if engine is None:
+        from vrcal.engines.files import engine_of_file, read_file
+        from vrcal.errors import UsageError
+
+        if file is None:
+            raise UsageError("give --engine (mujoco, ode, bullet, gazebo): the engine to run the drop test in")
+        engine = engine_of_file(read_file(file), file)
     if against is not None:
         from vrcal.engines.replay import format_replay, replay, replay_figure
         from vrcal.errors import UsageError

@@ -191,6 +191,9 @@ NO_BODY_NOTE = ("no ball given: ε = √(h/H) needs none, but the air-drag check
 HEIGHT_SD_FLOOR_M = 0.002
 #: ... and of a rebound's apex read by eye, relative to the height: the larger of the two is taken.
 REBOUND_READ_FRACTION = 0.01
+#: Largest standard uncertainty of a height, relative to it, for which the first-order ± of Eq. (9) is given
+#: (:func:`epsilon_uncertainty_from_heights`; at 10 % its second-order term is under 1 % of epsilon).
+MAX_RELATIVE_HEIGHT_SD = 0.1
 
 
 def assumed_height_sd_m(drop_height_m, rebound_height_m):
@@ -288,7 +291,14 @@ def drop_test(body, drop_height_m, rebound_height_m, drop_measured_to="bottom", 
         "height_sd_m": {"drop": float(sd_H), "rebound": float(sd_h)},
         "height_sd_source": sd_source,
     }
-    u_note = (f"± of ε from the heights' standard uncertainties (u = ε/2 √((u_h/h)² + (u_H/H)²)), {sd_source}; "
+    worst = max(sd_h / h if h > 0 else math.inf, sd_H / H)
+    if height_sd_m is not None and worst > MAX_RELATIVE_HEIGHT_SD:
+        raise UsageError(f"--height-sd {sd_h:g} m is {100 * worst:.3g} % of a height (h = {h:.4g} m, H = {H:.4g} m of "
+                         f"the ball's bottom): a first-order ± of ε = √(h/H) does not hold beyond "
+                         f"{100 * MAX_RELATIVE_HEIGHT_SD:g} %; repeat the drop and fit the trials as a drop table "
+                         "(vrcal discover TABLE.csv --ball BALL)")
+    u_note = ("heights taken as exact (--height-sd 0): no ± of ε" if sd_h == sd_H == 0 else
+              f"± of ε from the heights' standard uncertainties (u = ε/2 √((u_h/h)² + (u_H/H)²)), {sd_source}; "
               "a drop repeated a few times measures their scatter")
     if body is None:
         return eps, {**keys, "notes": [u_note, NO_BODY_NOTE]}

@@ -644,3 +644,30 @@ def test_the_constant_offered_for_a_drag_free_engine_is_the_one_that_reproduces_
     assert out.exit_code == 0, out.output
     text = " ".join(out.output.split())
     assert f"without drag (--epsilon {offered:.4f})" in text and f"{baseline:.4f})" not in text
+
+
+@pytest.mark.parametrize("engine, name", [("ode", "b.json"), ("bullet", "b.json"), ("mujoco", "b.xml"),
+                                          ("gazebo", "b.sdf")])
+def test_verify_file_takes_the_engine_the_file_was_exported_for(engine, name, tmp_path):
+    """A re-check probe: `vrcal verify --file from_ode.json` asked for --engine although the file says
+    "engine": "ode". The file's own engine is taken; a file that says none names --engine."""
+    from vrcal.engines.files import engine_of_file, read_file
+
+    require_engine("bullet" if engine == "bullet" else "mujoco" if engine == "mujoco" else "ode")
+    path = tmp_path / name
+    runner = CliRunner()
+    step = ["--dt", "0.001"] if engine == "bullet" else []      # PyBullet's 1/240 s is refused for a tennis ball
+    made = runner.invoke(main, ["export", "tennis", "--engine", engine, *step, "-o", str(path)])
+    assert made.exit_code == 0, made.output
+    assert engine_of_file(read_file(str(path)), str(path)) == engine
+    checked = runner.invoke(main, ["verify", "--file", str(path), "--bounces", "2", "--phases", "2"])
+    assert checked.exit_code == 0 and "PASSED" in checked.output, checked.output
+
+
+def test_verify_without_an_engine_or_a_file_that_names_one_says_give_engine(tmp_path):
+    other = tmp_path / "x.json"
+    other.write_text('{"a": 1}')
+    runner = CliRunner()
+    for args in (["verify", "tennis"], ["verify", "--file", str(other)]):
+        result = runner.invoke(main, args)
+        assert result.exit_code == 2 and "give --engine" in result.output

@@ -1236,6 +1236,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
             misses.append(f"rebound {k}'s apex is {100 * err:+.1f} % off vrcal's model of the record (goal within "
                           f"{100 * setup.apex_goal:g} % or {setup.apex_floor_m * 1e3:.3g} mm, as vrcal verify "
                           f"--against judges it: each bounce's error compounds; no limit option widens it)")
+            keep = ""      # --tolerance and --max-penetration would be refused again on the apexes
         what = f"{_phases(wide)} phases x {counted(setup.n_bounces, 'bounce')}): {'; '.join(misses)}"
         scale = min(setup.tolerance / max(runs.worst_error, 1e-12),
                     setup.penetration_limit_m / max(_depth(runs), 1e-12))

@@ -169,6 +169,42 @@ def _check_target(data, engine):
         _number(value, f"{engine} export: target.{key}")
 
 
+def engine_of_file(text, path):
+    """The engine an exported file is for (``vrcal verify --file`` without ``--engine``): a JSON export's
+    ``engine`` ("ode" or "bullet"), an MJCF (root ``<mujoco>``) "mujoco", an SDF (root ``<sdf>``) "gazebo".
+
+    Parameters
+    ----------
+    text : str
+        the file's text (:func:`read_file`)
+    path : str
+        its name, for the error
+
+    Raises
+    ------
+    UsageError
+        when the file does not say: give --engine
+    """
+    import json
+
+    from vrcal.errors import UsageError
+
+    head = text.lstrip()[:4096]
+    if head.startswith("{"):
+        try:
+            engine = json.loads(text).get("engine")
+        except (ValueError, AttributeError, RecursionError):
+            engine = None
+        if engine in ("ode", "bullet"):
+            return engine
+    elif head.startswith("<"):
+        root = next((tag for tag in ("mujoco", "sdf") if f"<{tag}" in head), None)
+        if root is not None:
+            return {"mujoco": "mujoco", "sdf": "gazebo"}[root]
+    raise UsageError(f"{path}: no vrcal export of a known engine (a JSON 'engine' of ode or bullet, an MJCF <mujoco> "
+                     "or an SDF <sdf> root): give --engine")
+
+
 def _parse_xml(text, what):
     """The root element of an engine's XML file (``what``: "MJCF", "SDF"), parsed with a DTD, entities and
     external references refused unexpanded (defusedxml); :class:`DataError` naming ``what`` otherwise."""
