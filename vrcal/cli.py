@@ -291,6 +291,18 @@ MASS_OPTION = click.option("--mass", "mass_kg", type=opt.MASS_KG, default=None,
 DIAMETER_OPTION = click.option("--diameter", "diameter_m", type=opt.DIAMETER_M, default=None,
                                help="Ball diameter [m] (with --mass: a ball of your own; overrides a standard's).")
 
+# one's own drop test (vrcal.inverse.drop_test), read the same way by fit and export
+REBOUND_HEIGHT_OPTION = click.option(
+    "--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
+    help="Your own drop test: the rebound height h [m] from --drop-height H; epsilon = sqrt(h/H) (Eq. 9) with both "
+         "heights of the ball's bottom.")
+DROP_MEASURED_TO_OPTION = click.option(
+    "--drop-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+    help="Your own drop test: the point of the ball the drop height was read to (needs the ball's diameter).")
+REBOUND_MEASURED_TO_OPTION = click.option(
+    "--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
+    help="Your own drop test: the point of the ball the rebound height was read to (needs the ball's diameter).")
+
 
 def from_option(what):
     """``--from DISCOVER.json``: a ``vrcal discover --json`` result, of which the command takes ``what``."""
@@ -329,13 +341,9 @@ def body_of(ctx, ball=None, mass_kg=None, diameter_m=None, from_json=None, **lab
                    "result's); needed for a ball of your own.")
 @click.option("--drop-height", "drop_height_m", type=opt.HEIGHT_M, default=None,
               help="Your own drop test: the drop height H [m] (with --rebound-height), at most 20 m.")
-@click.option("--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
-              help="Your own drop test: the rebound height h [m]; epsilon = sqrt(h/H) (Eq. 9) with both heights "
-                   "of the ball's bottom.")
-@click.option("--drop-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
-              help="Point of the ball the drop height was read to (needs the ball's diameter).")
-@click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
-              help="Point of the ball the rebound height was read to (needs the ball's diameter).")
+@REBOUND_HEIGHT_OPTION
+@DROP_MEASURED_TO_OPTION
+@REBOUND_MEASURED_TO_OPTION
 @click.option("--height-sd", "height_sd_m", type=opt.HEIGHT_SD_M, default=None,
               show_default="H 2 mm; h the larger of 2 mm and 1 % of it",
               help="Standard uncertainty of each height of your drop test [m]; gives the ± of epsilon.")
@@ -869,13 +877,9 @@ def _engine_options(f):
 @click.option("--engine", "engine", type=opt.NamedChoice(_ENGINE_NAMES, case_sensitive=False), required=True,
               help="Engine to export for (pybullet = bullet; physx/unity/box2d = tables).")
 @_engine_options
-@click.option("--rebound-height", "rebound_height_m", type=opt.HEIGHT_M, default=None,
-              help="Your own drop test: the rebound height h [m] from --drop-height H; epsilon = sqrt(h/H) (Eq. 9) "
-                   "with both heights of the ball's bottom, as vrcal fit reads them.")
-@click.option("--drop-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
-              help="--rebound-height: point of the ball the drop height was read to.")
-@click.option("--rebound-measured-to", type=opt.BALL_POINT, default=None, show_default="bottom",
-              help="--rebound-height: point of the ball the rebound height was read to.")
+@REBOUND_HEIGHT_OPTION
+@DROP_MEASURED_TO_OPTION
+@REBOUND_MEASURED_TO_OPTION
 @click.option("--against", default=None, help="A second ball: export the pair value of Eq. 6 too.")
 @click.option("--bounces", "n_bounces", type=opt.POSITIVE_COUNT, default=None,
               show_default="3, or as --impact-speed needs",
