@@ -25,7 +25,7 @@ from vrcal.measurements import (
     impact_chains,
     read_measurement,
 )
-from vrcal.measurements.cleanup import tracker_glitches
+from vrcal.measurements.cleanup import toss_top_index, tracker_glitches
 from vrcal.model.restitution import STANDARD_GRAVITY_M_PER_S2 as G
 
 EXAMPLES = EXAMPLES_ROOT / "data"
@@ -758,6 +758,10 @@ def test_ty_csv_round_trip(tmp_path_factory, steps, y, t0):
     # a sample alone off its neighbours' path is a tracker's glitch, left out on purpose (hypothesis found
     # one: 1 m at the 16th of 20 samples on a line, read back as 19 samples): no round trip to test there
     assume(not tracker_glitches(t, y))
+    # nor a toss: the samples held, thrown and rising to its top are left out on purpose (hypothesis found one:
+    # a top 15 m up at the 34th of 35 samples, refused as "only 2 samples" before it said "tossed")
+    release = detect_release_index(y)
+    assume(not (release > 0 and toss_top_index(t, y, release) is not None))
     p = tmp_path_factory.mktemp("rt") / "ty.csv"
     p.write_text(ty_csv(t, y))
     data = read_measurement(p)
@@ -790,3 +794,14 @@ def test_an_interval_column_beside_the_times_is_named_and_checked_against_them(t
     zeros = '"Event time (s)","Interval (s)"\n' + "".join(f"{v:.9E},0\n" for v in t)
     assert "column 'Interval (s)' not read: the intervals follow from the times" in read_measurement(
         write(tmp_path, "zeros.csv", zeros)).notes
+
+
+def test_a_toss_whose_top_leaves_too_few_samples_says_so(tmp_path):
+    """Hypothesis found a record whose highest sample, near its end, was taken for the top of a toss: the
+    refusal said "only 2 samples" of a 35-sample file. It says now that the ball was tossed to that line."""
+    steps = [1.0] * 11 + [0.5] + [1.0] * 23
+    y = np.array([0.0, 0.00390625, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0] + [0.0] * 25 + [15.0, -5.0]) + np.arange(35) * 1e-3
+    p = write(tmp_path, "toss.csv", ty_csv(np.cumsum(steps), y))
+    with pytest.raises(DataError, match=r"toss\.csv:35: the ball was tossed up to its top here, and only 2 samples "
+                                        r"follow it"):
+        read_measurement(p)

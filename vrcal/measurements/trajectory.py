@@ -128,6 +128,10 @@ def finish_trajectory(path, t_s, y_m, line_numbers, notes, positions=None):
     top = toss_top_index(t_s, y_m, release) if release > 0 else None
     if top is not None:
         # tossed: held, thrown and rising are no drop from rest; the top of the toss is (at rest, in flight)
+        if t_s.size - top < MIN_TRAJECTORY_SAMPLES:
+            fail(path, int(line_numbers[top]),
+                 f"the ball was tossed up to its top here, and only {t_s.size - top} samples follow it; a trajectory "
+                 f"from the top of a toss (a drop from rest there) needs at least {MIN_TRAJECTORY_SAMPLES}")
         notes.append(f"the ball was tossed up: samples 0-{top - 1} (line {int(line_numbers[0])} to line "
                      f"{int(line_numbers[top - 1])}: held, thrown and rising) left out; the fit starts at the top "
                      f"of the toss (line {int(line_numbers[top])}), a drop from rest there")
