@@ -528,6 +528,41 @@ def test_an_impact_is_timed_at_its_start_not_at_a_noise_gates_opening(tmp_path):
         assert got.t_s.size >= 5 and np.all(off < 3e-4), (name, off)
 
 
+def test_the_quiet_end_behind_a_closed_noise_gate_is_judged_over_the_gated_floor(tmp_path):
+    """A hard noise gate leaves exact zeros between the sounds (the gated noise truncated to 16 bits): the noise
+    level, the median envelope where the file is not silent, is the open gate's noise (-60 dBFS). The quiet end's
+    window statistic, the quick rise over it, stayed under the threshold for an impact that opened the gate 10 dB
+    over that noise (the gate's 2 ms attack ramps its sound up) and for the impacts heard through the closed gate,
+    20-30 dB under the open gate's noise but far over the gated floor: 7 of 13 impacts kept (a probe's
+    recording: 6 of 11, the next bounce "not heard" at -50 dBFS over a -117 dBFS floor). The gate opening on
+    its noise alone where the next bounce is predicted is no impact."""
+    fs = 48000
+    step = 1.0 / 32767
+
+    def gated(n, burst_s=None):
+        x, t_true = _drop_sound(1.0, 0.75, seed=5, fs=fs, duration_s=6.0, n=n, release_s=0.7, level=0.3)
+        y = _noise_gated(x, fs, 0.006, 0.01)
+        if burst_s is not None:   # the gate opens on the noise alone (2 ms attack, 40 ms hold)
+            k, m = int(burst_s * fs), int(0.04 * fs)
+            y[k:k + m] = x[k:k + m] * (1.0 - np.exp(-np.arange(m) / (0.002 * fs)))
+        return np.trunc(y / step) * step, t_true
+
+    y, t_true = gated(30)
+    path = tmp_path / "hard_gate.wav"
+    write_wav(path, y[:, None], fs)
+    got = read_measurement(path)
+    off = np.array([np.min(np.abs(t_true - t)) for t in got.t_s])
+    assert got.t_s.size >= 12 and np.all(off < 3e-4), off
+    assert any("noise level -60 dBFS" in n for n in got.notes), got.notes
+
+    y, t_seven = gated(7, burst_s=t_true[7])
+    path = tmp_path / "gate_opens_on_noise.wav"
+    write_wav(path, y[:, None], fs)
+    got = read_measurement(path)
+    off = np.array([np.min(np.abs(t_seven - t)) for t in got.t_s])
+    assert got.t_s.size == 7 and np.all(off < 3e-4), (got.t_s, off)
+
+
 def test_a_drums_beat_is_left_out_and_no_chain_steps_over_every_other_impact(tmp_path):
     """Music through the drop (drum hits on every eighth note at 124 bpm, as loud as the first impacts): the
     hits 4, 2 and 1 eighth notes apart shrink by 0.5 like a ball's flights and, with the ball's impacts

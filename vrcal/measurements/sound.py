@@ -42,9 +42,10 @@ How an impact is found
    window around its predicted time (:func:`extend_chain`): there noise alone crosses a much
    lower threshold (about 2.7 times the noise, :func:`window_threshold`) only once in
    1/:data:`WINDOW_FALSE_ALARM` windows, so quiet impacts under the whole file's threshold
-   are found, timed like the others. The chain stops at the first window with nothing over
-   that threshold: the bounces after it are below the noise and are left out (a note gives
-   the time the next one was expected), not guessed.
+   are found, timed like the others. Behind a closed noise gate (exact zeros between the sounds, the noise
+   level that of the open gate) a sound is judged over the gated floor, or over the noise if it opens the
+   gate. The chain stops at the first window with nothing over that threshold: the bounces after it
+   are below the noise and are left out (a note gives the time the next one was expected), not guessed.
 
 The impact times kept are then screened like any impact-times file
 (:func:`vrcal.measurements.cleanup.detect_impact_anomalies`).
@@ -1010,7 +1011,9 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
     noise, against :data:`SNR` over the whole file, where claps and voices must not pass).
     The statistic is the quick rise (the envelope over its level 0.25-1.25 ms before: the
     ringing of the impact before decays and never rises); its largest peak in the window is
-    timed by the same AIC change point as every onset. The chain stops at the first window with
+    timed by the same AIC change point as every onset. Where a noise gate closed before the window (the
+    stretch before it far under the noise level), a sound is judged on its envelope over the gated floor, or
+    over the noise level if it reaches it (:func:`_over_the_gated_floor`). The chain stops at the first window with
     nothing over the threshold, a peak louder than the impact before by ``max_louder_db``, or an event known
     to be no impact (a voice's pitch pulse, a beat) in it or in the 6 ms the onset is sought before it (a
     pulse there is what the window finds: 3-5 ms early in a probe's recording): the bounces after it are left
@@ -1057,7 +1060,9 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         worst = max(worst, thr)
         p = lo + int(np.argmax(signals.quick_rise[lo:hi]))
         if signals.quick_rise[p] < thr:
-            break
+            p = _over_the_gated_floor(signals, lo, hi, thr, int(math.ceil((t[-1] + REFRACTORY_S) * fs)))
+            if p is None:
+                break
         found = _onset_at(signals, p, int(math.ceil((t[-1] + 1e-3) * fs)))
         if found is None or found[1] > lv[-1] + max_louder_db or not t[-1] < found[0]:
             break
@@ -1066,6 +1071,34 @@ def extend_chain(signals, t_s, level_db, *, tolerance=RATIO_TOLERANCE, max_loude
         lv.append(found[1])
         added += 1
     return np.asarray(t[len(t) - added:]), np.asarray(lv[len(lv) - added:]), worst
+
+
+def _over_the_gated_floor(signals, lo, hi, thr, since, before_s=0.02):
+    """The sample [index] where a sound in the window ``lo:hi`` [samples] first stands ``thr`` times over the level a
+    noise gate leaves there, or None: the window's statistic where the stretch before it (``before_s`` [s],
+    not before sample ``since``) is gated, its median envelope under the noise level by ``thr`` or more.
+
+    The noise level (the median envelope where the recording is not digitally silent) is the noise while the
+    gate is open: a gate that leaves exact zeros between the sounds keeps only the open stretches. Behind a
+    closed gate the noise is the gated floor, the stretch's median envelope, never below the samples' own
+    rounding (:func:`quantization_noise`); a sound under the noise level there is heard only because the gate
+    is closed, and is judged against that floor. A sound that reaches the noise level may be the gate opening
+    on the noise alone: it is judged against the noise level. Either way the sound rose out of the floor, so
+    the level is its envelope's peak in the window over that noise, not the quick rise, which the gate's
+    attack (a gain ramping up over milliseconds) keeps under the threshold: an impact 14 dB over the open
+    gate's noise, 65 dB over the gated floor, rose by 2.6 times within a millisecond in a probe's recording.
+    Whether a sound reached the noise level is judged on its envelope up to :data:`REFRACTORY_S` after the
+    window (a gate's opening ramps up after the window's end).
+    """
+    start = max(since, lo - int(round(before_s * signals.fs_hz)))
+    if lo - start < max(2, int(round(ENVELOPE_S * signals.fs_hz))):
+        return None
+    floor = max(float(np.median(signals.e[start:lo])), math.sqrt(signals.floor))
+    if floor * thr > signals.noise:
+        return None
+    sound = float(np.max(signals.e[lo:min(signals.e.size, hi + int(round(REFRACTORY_S * signals.fs_hz)))]))
+    over = signals.e[lo:hi] >= thr * (signals.noise if sound >= signals.noise else floor)
+    return lo + int(np.argmax(over)) if over.any() else None
 
 
 # --------------------------------------------------------------------------- the reader
