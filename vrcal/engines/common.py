@@ -482,8 +482,8 @@ def step_resolution_s(dt_s):
 
 def refine_step(run, dt_pass_s, passed, dt_miss_s):
     """The largest step between ``dt_pass_s`` (which passed, with result ``passed``) and the larger
-    ``dt_miss_s`` (which missed), found by bisection to :func:`step_resolution_s`: each step tried is
-    run by ``run(dt) -> (ok, result)``, the same check an export runs at its own step.
+    ``dt_miss_s`` (which missed), found by bisection (:func:`bisect_boundary`) to :func:`step_resolution_s`:
+    each step tried is run by ``run(dt) -> (ok, result)``, the same check an export runs at its own step.
 
     A coarse search (a grid of steps each 0.8 or 0.9 times the last) names a step up to 25 % below one
     that passes (a probe's ball in MuJoCo: 0.0025 s named where 0.003 s exports); the bisection
@@ -496,19 +496,32 @@ def refine_step(run, dt_pass_s, passed, dt_miss_s):
     (float, object, float)
         the step that passed [s], its result, and the smallest step above it that missed [s]
     """
-    unit = step_resolution_s(dt_pass_s)
-    lo, hi, best = dt_pass_s, dt_miss_s, passed
-    while hi - lo > unit * (1 + 1e-6):
+    return bisect_boundary(run, dt_pass_s, passed, dt_miss_s, step_resolution_s(dt_pass_s))
+
+
+def bisect_boundary(run, passing, passed, failing, unit=1.0):
+    """Bisection between ``passing`` (a value run that passed, with result ``passed``) and ``failing`` (one
+    run that missed), on either side of it, until they are at most ``unit`` apart: each value tried is a whole
+    multiple of ``unit`` strictly between them, run by ``run(value) -> (ok, result)``. Serves the largest
+    passing step (:func:`refine_step`) and the fewest passing PyBullet substeps (``unit`` 1).
+
+    Returns
+    -------
+    (float, object, float)
+        the passing value next to the boundary, its result, and the failing value next to it
+    """
+    while abs(failing - passing) > unit * (1 + 1e-6):
+        lo, hi = sorted((passing, failing))
         k = max(math.floor((lo + hi) / 2.0 / unit + 1e-9), math.floor(lo / unit + 1e-9) + 1)
         mid = float(f"{k * unit:.12g}")
         if not lo < mid < hi:
             break
         ok, result = run(mid)
         if ok:
-            lo, best = mid, result
+            passing, passed = mid, result
         else:
-            hi = mid
-    return lo, best, hi
+            failing = mid
+    return passing, passed, failing
 
 
 def phase_shifts_m(setup, n_phases):
@@ -888,30 +901,29 @@ class DropRuns:
         """(engine apex / model apex - 1) of each rebound, (n_phases, n_bounces)."""
         return self.apex_m[:, 1:] / self.target_apex_m[:, 1:] - 1.0
 
-    def worst_apex(self, floor_m=0.0):
+    def worst_apex(self, floor_m=0.0, goal=None):
         """(rebound number, relative error, share of its allowance) of the rebound apex farthest from the
-        model's, over the phases, judged against ``max(APEX_GOAL x its rise, floor_m)`` (the share: 1 at the
-        allowance): each bounce's epsilon error compounds in the heights (PyBullet's +0.002..+0.005 per bounce
-        put a record's 5th rebound 3 % high where every bounce was within 0.01)."""
+        model's, over the phases, judged against ``max(goal x its rise, floor_m)`` (``goal`` a fraction, None:
+        :data:`vrcal.model.restitution.APEX_GOAL`; the share: 1 at the allowance): each bounce's epsilon error
+        compounds in the heights (PyBullet's +0.002..+0.005 per bounce put a record's 5th rebound 3 % high
+        where every bounce was within 0.01)."""
         from vrcal.model.restitution import APEX_GOAL
 
         target = self.target_apex_m[:, 1:]
-        share = np.abs(self.apex_m[:, 1:] - target) / np.maximum(APEX_GOAL * target, floor_m)
+        allowed = np.maximum((APEX_GOAL if goal is None else goal) * target, floor_m)
+        share = np.abs(self.apex_m[:, 1:] - target) / allowed
         i, k = np.unravel_index(int(np.argmax(share)), share.shape)
         return int(k) + 1, float(self.apex_relative_errors[i, k]), float(share[i, k])
 
     def apex_miss(self, goal, floor_m=0.0):
         """Whether a rebound apex is off the model's by more than ``goal`` of its rise (a fraction; None: not
-        judged) and more than ``floor_m`` [m] (a record's noise)."""
-        if goal is None:
-            return False
-        target = self.target_apex_m[:, 1:]
-        return bool(np.any(np.abs(self.apex_m[:, 1:] - target) > np.maximum(goal * target, floor_m)))
+        judged) and more than ``floor_m`` [m] (a record's noise): :meth:`worst_apex` beyond its allowance."""
+        return goal is not None and self.worst_apex(floor_m, goal)[2] > 1.0
 
     def apex_text(self, goal=None, floor_m=0.0):
         """'rebound apexes -0.1..+3.0 % of vrcal's model's (worst: rebound 5)', and the goal when one is given."""
         err = 100.0 * self.apex_relative_errors
-        k = self.worst_apex(floor_m)[0]
+        k = self.worst_apex(floor_m, goal)[0]
         text = (f"rebound apexes {float(np.min(err)):+.1f}..{float(np.max(err)):+.1f} % of vrcal's model's "
                 f"(worst: rebound {k})")
         if goal is None:
@@ -1284,7 +1296,7 @@ class VerifyResult(RunsSummary):
             return (f"the ball turns {1e3 * self.depth_m:.3g} mm from the floor, more than --max-penetration "
                     f"{1e3 * self.max_penetration_m:.3g} mm")
         if self.runs.apex_miss(self.apex_goal, self.apex_floor_m):
-            k, err, _ = self.runs.worst_apex(self.apex_floor_m)
+            k, err, _ = self.runs.worst_apex(self.apex_floor_m, self.apex_goal)
             return (f"rebound {k}'s apex is {100 * err:+.1f} % off vrcal's model's (the file's goal: within "
                     f"{100 * self.apex_goal:g} % or {self.apex_floor_m * 1e3:.3g} mm, as vrcal verify --against "
                     f"judges a record): the per-bounce error compounds; a smaller --dt")

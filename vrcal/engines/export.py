@@ -36,6 +36,7 @@ from vrcal.engines.common import (
     DropRuns,
     DropSetup,
     _round_up,
+    bisect_boundary,
     check_dt,
     check_epsilon,
     check_max_penetration,
@@ -1232,7 +1233,7 @@ def check_step(setup, engine="ode", n_phases=N_PHASES):
                           f"(limit {setup.penetration_limit_m * 1e3:.3g} mm, --max-penetration)")
         apex_run = next((r for r in (wide, runs) if r.apex_miss(setup.apex_goal, setup.apex_floor_m)), None)
         if apex_run is not None:
-            k, err, _ = apex_run.worst_apex(setup.apex_floor_m)
+            k, err, _ = apex_run.worst_apex(setup.apex_floor_m, setup.apex_goal)
             misses.append(f"rebound {k}'s apex is {100 * err:+.1f} % off vrcal's model of the record (goal within "
                           f"{100 * setup.apex_goal:g} % or {setup.apex_floor_m * 1e3:.3g} mm, as vrcal verify "
                           f"--against judges it: each bounce's error compounds; no limit option widens it)")
@@ -1286,14 +1287,8 @@ def passing_substeps(setup, engine, n_phases=N_PHASES, most=MAX_SUBSTEPS):
         miss, count = count, 2 * count
         if count > most or runs is None:
             return None, None, miss
-    while count - miss > 1:
-        mid = (miss + count) // 2
-        ok_mid, runs_mid = run(mid)
-        if ok_mid:
-            count, runs = mid, runs_mid
-        else:
-            miss = mid
-    return count, runs, miss
+    count, runs, miss = bisect_boundary(lambda mid: run(int(mid)), count, runs, miss)
+    return int(count), runs, int(miss)
 
 
 def _substeps_text(setup, engine, n_phases, label):
