@@ -733,7 +733,7 @@ class Discovery:
                                                            shrink=False):
                 continue
             # nor what a tracker's systematic error of the centres can fake (:class:`ReaderErrors`)
-            if changes_heights_by(final.judged_gap, c.fit.judged_gap) < ReaderErrors.of(self.runs).systematic_m:
+            if ReaderErrors.of(self.runs).fakes(final.judged_gap, c.fit.judged_gap):
                 continue
             if (extra <= 0 and drop > th.indistinguishable_chi2) or (
                     extra > 0 and drop > 0 and chi2_sf(drop, extra) <= th.p_value):
@@ -1503,6 +1503,16 @@ class ReaderErrors:
         return cls(max(float(getattr(r, "floor_sd_m", 0.0) or 0.0) for r in runs),
                    max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in runs))
 
+    def fakes(self, gap_before, gap_after):
+        """Why a model that takes the gap (RMS residual) from ``gap_before`` to ``gap_after`` may be the
+        centres' systematic error rather than an effect (its change of the heights, :func:`changes_heights_by`,
+        is smaller), else ''."""
+        change = changes_heights_by(gap_before, gap_after)
+        if self.systematic_m > 0 and change < self.systematic_m:
+            return (f"it changes the heights by {change * 1e3:.2g} mm RMS, within the tracker's systematic error of "
+                    f"the centres ({self.systematic_m * 1e3:.2g} mm)")
+        return ""
+
 
 #: A fitted height offset is named only beyond this many standard uncertainties of the floor level
 #: when the reader estimated the floor (a video's contact row; ``Trajectory.floor_sd_m``): a smaller
@@ -1557,10 +1567,9 @@ def _judge(cand, current, sigma_floor, th, reader=None, checked=()):
     if offset is not None and floor_sd_m > 0 and abs(offset) <= FLOOR_SIGMAS * floor_sd_m:
         reasons.append(f"offset {offset * 1e3:+.2g} mm within the floor level's uncertainty "
                        f"({FLOOR_SIGMAS:g} x {floor_sd_m * 1e3:.2g} mm)")
-    change = changes_heights_by(current.judged_gap, fit.judged_gap)
-    if reader.systematic_m > 0 and change < reader.systematic_m:
-        reasons.append(f"it changes the heights by {change * 1e3:.2g} mm RMS, within the tracker's systematic "
-                       f"error of the centres ({reader.systematic_m * 1e3:.2g} mm)")
+    faked = reader.fakes(current.judged_gap, fit.judged_gap)
+    if faked:
+        reasons.append(faked)
     cand.material = not reasons
     cand.verdict = "material" if cand.material else "not material: " + "; ".join(reasons)
     return cand
@@ -2137,7 +2146,7 @@ def chosen_noise(data, prepared, noise=None):
             elif kind == "apexes":
                 sigma, source = reading_noise(fitted)
     timing = max(float(getattr(r, "timing_sd_s", 0.0) or 0.0) for r in read_runs)
-    systematic = max(float(getattr(r, "systematic_m", 0.0) or 0.0) for r in read_runs)
+    systematic = ReaderErrors.of(read_runs).systematic_m
     if kind == "impacts" and timing > sigma:
         return timing, GRID_SOURCE
     if kind == "trajectory" and systematic > 0:
