@@ -380,6 +380,7 @@ def fit(ctx, ball, mass_kg, diameter_m, from_json, epsilon, drop_height_m, rebou
       vrcal fit --mass 0.0577 --diameter 0.067 --drop-height 1 --rebound-height 0.55
       vrcal fit --drop-height 1 --rebound-height 0.64
       vrcal fit tennis --drop-height 1.07 --rebound-height 0.63 --drop-measured-to top
+      vrcal fit tennis --drop-height 1 --rebound-height 0.6 --height-sd 0.005
       vrcal fit --from result.json
     """
     from vrcal.inverse import DEFAULT_K_PER_S, fit_ball, fit_text
@@ -1012,6 +1013,7 @@ def verify_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
       vrcal verify tennis --engine ode --dt 2e-4 --tolerance 0.002
       vrcal export basketball --engine bullet --dt 1e-3 -o b.json && vrcal verify --engine bullet --file b.json
       vrcal verify --engine bullet --file b.json --dt 5e-4
+      vrcal verify --file b.json --bounces 5
       vrcal verify --engine mujoco --file robot.xml --ball-geom toy --epsilon 0.7 --drop-height 1
       vrcal verify --from pp.json --against raw.txt --fs 100 --engine mujoco --dt 0.001 --plot pp.png
     """
