@@ -909,7 +909,7 @@ def export_cmd(ctx, ball, engine, mass_kg, diameter_m, from_json, epsilon, drop_
     Examples:
       vrcal export basketball --engine mujoco -o basketball.xml
       vrcal export --mass 0.0459 --diameter 0.0427 --epsilon 0.78 --drop-height 1 --engine mujoco
-      vrcal export --mass 0.058 --diameter 0.062 --drop-height 1.2 --rebound-height 0.71 --engine bullet
+      vrcal export --mass 0.058 --diameter 0.062 --drop-height 1.2 --rebound-height 0.71 --engine bullet --substeps 4
       vrcal export tennis --engine mujoco --trade-off
       vrcal export --from pp.json --engine mujoco --dt 0.001 -o pp.xml
       vrcal export tennis --engine ode --dt 2e-4 -o tennis-ode.json
